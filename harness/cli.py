@@ -1,0 +1,72 @@
+"""The ``harness`` command.
+
+Each subcommand lives next to the code it drives, in a module exposing
+``add_arguments(parser)`` and ``run(args) -> int``; this module only dispatches, importing a
+subcommand's module when that subcommand runs, so ``harness --version`` stays instant.
+Any :class:`~harness.errors.HarnessError` becomes one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+from typing import NamedTuple
+
+from harness._version import __version__
+from harness.errors import HarnessError
+
+__all__ = ["main"]
+
+
+class Command(NamedTuple):
+    module: str
+    help: str
+
+
+# One line per subcommand: name -> (module with add_arguments/run, one-line help).
+COMMANDS: dict[str, Command] = {
+    "demo": Command("harness.demo", "run the embedded demo end to end"),
+    "inspect-model": Command("harness.models._cli", "links, joints and frames of a robot model"),
+}
+
+
+def _build_parser() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
+    parser = argparse.ArgumentParser(
+        prog="harness",
+        description="Deterministic record-replay simulation tests for ROS robot software.",
+    )
+    parser.add_argument("--version", action="version", version=f"harness {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    subparsers = {
+        name: sub.add_parser(name, help=cmd.help, description=cmd.help)
+        for name, cmd in COMMANDS.items()
+    }
+    return parser, subparsers
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``harness`` console script; returns the exit code."""
+    parser, subparsers = _build_parser()
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    name = next((a for a in args_list if not a.startswith("-")), None)
+    if name in COMMANDS:
+        module = importlib.import_module(COMMANDS[name].module)
+        module.add_arguments(subparsers[name])
+    args = parser.parse_args(args_list)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    module = importlib.import_module(COMMANDS[args.command].module)
+    try:
+        return int(module.run(args))
+    except HarnessError as exc:
+        print(f"harness {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

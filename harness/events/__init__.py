@@ -1,0 +1,1 @@
+"""harness.events (see ARCHITECTURE.md)."""

@@ -1,0 +1,1 @@
+"""harness.recording (see ARCHITECTURE.md)."""

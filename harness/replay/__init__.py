@@ -1,0 +1,1 @@
+"""harness.replay (see ARCHITECTURE.md)."""

@@ -1,0 +1,1 @@
+"""harness.rosbridge (see ARCHITECTURE.md)."""

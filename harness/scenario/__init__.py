@@ -1,0 +1,1 @@
+"""harness.scenario (see ARCHITECTURE.md)."""

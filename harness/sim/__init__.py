@@ -1,0 +1,1 @@
+"""harness.sim (see ARCHITECTURE.md)."""
