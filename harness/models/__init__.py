@@ -1,6 +1,8 @@
 """Robot descriptions: URDF, SDF and MJCF into one `RobotModel` and a compiled MuJoCo model."""
 
 from harness.models.description import (
+    CONTROL_MODES,
+    ControlMode,
     Geometry,
     Inertial,
     Joint,
@@ -14,6 +16,8 @@ from harness.models.description import (
 )
 
 __all__ = [
+    "CONTROL_MODES",
+    "ControlMode",
     "Geometry",
     "Inertial",
     "Joint",

@@ -17,6 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "CONTROL_MODES",
+    "ControlMode",
     "Geometry",
     "Inertial",
     "Joint",
@@ -36,6 +38,12 @@ Quat = tuple[float, float, float, float]
 JointType = Literal[
     "revolute", "continuous", "prismatic", "fixed", "floating", "planar", "ball", "screw"
 ]
+ControlMode = Literal["kinematic", "position", "velocity", "effort"]
+"""How a controllable joint is driven: ``kinematic`` (qpos written before each step, qvel by
+finite difference) or dynamic through an actuator (``position`` servo, ``velocity`` servo,
+``effort`` motor)."""
+CONTROL_MODES: tuple[ControlMode, ...] = ("kinematic", "position", "velocity", "effort")
+
 GeometryKind = Literal["box", "cylinder", "sphere", "capsule", "ellipsoid", "plane", "mesh"]
 
 
