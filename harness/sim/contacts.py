@@ -37,7 +37,7 @@ class ContactSet(NamedTuple):
     normal: npt.NDArray[np.float64]
 
     @property
-    def count(self) -> int:
+    def size(self) -> int:
         """Number of contacts."""
         return int(self.geom1.shape[0])
 
