@@ -7,7 +7,7 @@ NODE_DIR := tests/node
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test bench lint install node-deps clean
+.PHONY: demo test bench lint install node-deps system-deps clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +30,19 @@ $(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json
 
 node-deps: $(NODE_STAMP)
 
+# Debian packages some tests use as independent oracles or viewers: headless Chromium (HTML
+# report) and libsdformat (SDF oracle). Installed when we are root with apt-get; otherwise
+# those tests skip and say why.
+SYSTEM_PKGS := chromium libsdformat-dev g++ pkg-config
+system-deps:
+	@missing=""; for p in $(SYSTEM_PKGS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian packages:$$missing"; \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing >/dev/null) \
+			|| echo "could not install$$missing: the tests that need them will skip"; \
+	else echo "not root or no apt-get: tests needing$$missing will skip"; fi
+
 demo: install
 	$(VENV)/bin/harness demo
 
@@ -37,7 +50,7 @@ lint: install
 	$(VENV)/bin/ruff check harness tests bench conftest.py
 	$(VENV)/bin/mypy
 
-test: install node-deps lint
+test: install node-deps system-deps lint
 	$(PY) -m pytest -n 2 $(PYTEST_ARGS)
 
 bench: install

@@ -1,5 +1,6 @@
 """Robot descriptions: URDF, SDF and MJCF into one `RobotModel` and a compiled MuJoCo model."""
 
+from harness.models.build import DEMO_URDF, SCENES, LoadedRobot, load_description, load_robot
 from harness.models.description import (
     CONTROL_MODES,
     ControlMode,
@@ -17,15 +18,20 @@ from harness.models.description import (
 
 __all__ = [
     "CONTROL_MODES",
+    "DEMO_URDF",
+    "SCENES",
     "ControlMode",
     "Geometry",
     "Inertial",
     "Joint",
     "JointLimits",
     "Link",
+    "LoadedRobot",
     "Mimic",
     "ModelFrame",
     "Pose",
     "RobotModel",
     "Shape",
+    "load_description",
+    "load_robot",
 ]

@@ -1,1 +1,44 @@
-"""harness.recording (see ARCHITECTURE.md)."""
+"""Recording to MCAP (profile ``ros2``, every channel CDR) and reading recordings back.
+
+Write with :class:`Recorder`, read with :class:`Recording`, build the metadata and
+attachments of a run with :func:`describe_run`. Layout: :mod:`harness.recording.layout`.
+"""
+
+from __future__ import annotations
+
+from harness.recording.describe import LoadedRobotLike, RunDescription, describe_run
+from harness.recording.errors import (
+    RecordingDamagedWarning,
+    RecordingFormatError,
+    RecordingWriteError,
+)
+from harness.recording.layout import FORMAT_VERSION
+from harness.recording.recorder import FlushInfo, Recorder, RecorderStats
+from harness.recording.recording import Recording, TopicInfo
+from harness.recording.records import (
+    AppliedInput,
+    BridgeFrame,
+    CollisionEvent,
+    PhysicsState,
+    RecordedMessage,
+)
+
+__all__ = [
+    "FORMAT_VERSION",
+    "AppliedInput",
+    "BridgeFrame",
+    "CollisionEvent",
+    "FlushInfo",
+    "LoadedRobotLike",
+    "PhysicsState",
+    "RecordedMessage",
+    "Recorder",
+    "RecorderStats",
+    "Recording",
+    "RecordingDamagedWarning",
+    "RecordingFormatError",
+    "RecordingWriteError",
+    "RunDescription",
+    "TopicInfo",
+    "describe_run",
+]

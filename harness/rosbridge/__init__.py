@@ -1,1 +1,43 @@
-"""harness.rosbridge (see ARCHITECTURE.md)."""
+"""The rosbridge v2 layer: a sans-I/O protocol core, the asyncio WebSocket server, rosapi,
+ROS 2 message validation and a client for external rosbridge servers. Knows nothing of MuJoCo.
+
+- :class:`Bridge` (``protocol.py``): the shared graph and per-connection state;
+  ``receive(connection, frame, now_ns) -> list[Output]``; in-process publishers,
+  subscribers, service and action servers; the frame tap.
+- :class:`BridgeServer` (``server.py``): WebSocket I/O, immediate or queued ingestion.
+- :class:`TypeRegistry` (``types.py``): message/service/action definitions.
+- :class:`BridgeClient` (``client.py``): client mode with reconnect.
+"""
+
+from harness.rosbridge.client import BridgeClient
+from harness.rosbridge.protocol import (
+    DEFERRED,
+    DIRECTION_IN,
+    DIRECTION_OUT,
+    ActionGoal,
+    Bridge,
+    FrameTap,
+    Message,
+    Output,
+    ServiceCall,
+    TapRecord,
+)
+from harness.rosbridge.server import BridgeServer, ConnectionMetrics
+from harness.rosbridge.types import TypeRegistry
+
+__all__ = [
+    "DEFERRED",
+    "DIRECTION_IN",
+    "DIRECTION_OUT",
+    "ActionGoal",
+    "Bridge",
+    "BridgeClient",
+    "BridgeServer",
+    "ConnectionMetrics",
+    "FrameTap",
+    "Message",
+    "Output",
+    "ServiceCall",
+    "TapRecord",
+    "TypeRegistry",
+]

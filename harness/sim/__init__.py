@@ -1,1 +1,43 @@
-"""harness.sim (see ARCHITECTURE.md)."""
+"""The deterministic simulation core: fixed-step stepping, control modes per joint, state
+capture and restore, applied inputs, contacts and joint-behaviour metrics."""
+
+from harness.sim.contacts import ContactSet, extract_contacts
+from harness.sim.errors import (
+    CommandError,
+    ControlConfigError,
+    InstabilityError,
+    StateError,
+    TimestepError,
+)
+from harness.sim.inputs import AppliedInput, advance, replay
+from harness.sim.simulation import (
+    STATE_SPEC,
+    CommandField,
+    KinematicLimits,
+    Notice,
+    Observer,
+    RobotLike,
+    Simulation,
+    warning_names,
+)
+
+__all__ = [
+    "STATE_SPEC",
+    "AppliedInput",
+    "CommandError",
+    "CommandField",
+    "ContactSet",
+    "ControlConfigError",
+    "InstabilityError",
+    "KinematicLimits",
+    "Notice",
+    "Observer",
+    "RobotLike",
+    "Simulation",
+    "StateError",
+    "TimestepError",
+    "advance",
+    "extract_contacts",
+    "replay",
+    "warning_names",
+]

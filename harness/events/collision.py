@@ -1,0 +1,201 @@
+"""The collision logger: begin/end per body pair (debounced), filters, optional near misses.
+
+The tracking itself is :mod:`harness.sim.collisions` (ids, no names); this logger turns its
+transitions into :class:`CollisionBegin`/:class:`CollisionEnd`/:class:`NearMiss` events with
+body and geom names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import mujoco
+
+from harness.events.errors import LoggerConfigError
+from harness.events.events import CollisionBegin, CollisionEnd, Event, NearMiss
+from harness.events.logger import StepContext
+from harness.sim.collisions import (
+    CollisionTracker,
+    CollisionTransition,
+    NearMissRecord,
+    NearMissTracker,
+    allowed_pairs,
+    near_miss_candidates,
+    subtree_bodies,
+)
+
+__all__ = ["CollisionLogger", "body_names", "geom_names"]
+
+
+def body_names(model: mujoco.MjModel) -> list[str]:
+    """Body names by id (``body<id>`` for unnamed bodies; body 0 is ``world``)."""
+    return [model.body(i).name or f"body{i}" for i in range(model.nbody)]
+
+
+def geom_names(model: mujoco.MjModel) -> list[str]:
+    """Geom names by id (``geom<id>`` for unnamed geoms)."""
+    return [model.geom(i).name or f"geom{i}" for i in range(model.ngeom)]
+
+
+class CollisionLogger:
+    """Collision begin/end events per body pair, observed every step.
+
+    The robot's bodies are ``robot_bodies`` (names) and/or the subtree of ``robot_root``;
+    they decide what counts as a self-collision (``self_collision``) and what
+    ``robot_vs_world_only`` keeps (only pairs of one robot body and one other body).
+    ``ignore``: body-name pairs never reported (either order). ``min_force``: contacts below
+    this normal force (N) do not count. ``debounce_steps``: steps without contact before a
+    pair ends. ``near_miss_distance`` (m): also report pairs that come this close without
+    touching (``mj_geomDistance``; the physics is not changed).
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        *,
+        robot_root: str | None = None,
+        robot_bodies: Iterable[str] = (),
+        self_collision: bool = True,
+        robot_vs_world_only: bool = False,
+        ignore: Iterable[tuple[str, str]] = (),
+        min_force: float = 0.0,
+        debounce_steps: int = 5,
+        near_miss_distance: float | None = None,
+        name: str = "collisions",
+    ) -> None:
+        self._name = name
+        self._bodies = body_names(model)
+        self._geoms = geom_names(model)
+        index = {n: i for i, n in enumerate(self._bodies)}
+
+        def body(what: str, body_name: str) -> int:
+            if body_name not in index:
+                raise LoggerConfigError(
+                    f"collision logger {name!r}: {what}: no body named {body_name!r}"
+                )
+            return index[body_name]
+
+        robot: set[int] = set()
+        if robot_root is not None:
+            robot |= subtree_bodies(model, body("robot_root", robot_root))
+        robot |= {body(f"robot_bodies[{i}]", b) for i, b in enumerate(robot_bodies)}
+        robot.discard(0)
+        if robot_vs_world_only and not robot:
+            raise LoggerConfigError(
+                f"collision logger {name!r}: robot_vs_world_only needs robot_root or robot_bodies"
+            )
+        pairs = []
+        for i, pair in enumerate(ignore):
+            if len(pair) != 2:
+                raise LoggerConfigError(
+                    f"collision logger {name!r}: ignore[{i}] must be two body names"
+                )
+            pairs.append((body(f"ignore[{i}]", pair[0]), body(f"ignore[{i}]", pair[1])))
+        if min_force < 0:
+            raise LoggerConfigError(f"collision logger {name!r}: min_force must be >= 0")
+        if debounce_steps < 1:
+            raise LoggerConfigError(f"collision logger {name!r}: debounce_steps must be >= 1")
+        self.robot_bodies = frozenset(robot)
+        allowed = allowed_pairs(
+            model.nbody,
+            robot_bodies=robot,
+            self_collision=self_collision,
+            robot_vs_world_only=robot_vs_world_only,
+            ignore=pairs,
+        )
+        self._tracker = CollisionTracker(
+            debounce_steps=debounce_steps, min_force=min_force, allowed=allowed
+        )
+        self._near: NearMissTracker | None = None
+        if near_miss_distance is not None:
+            if not near_miss_distance > 0:
+                raise LoggerConfigError(
+                    f"collision logger {name!r}: near_miss_distance must be > 0"
+                )
+            self._near = NearMissTracker(
+                model,
+                near_miss_candidates(model, allowed),
+                distance=near_miss_distance,
+                debounce_steps=debounce_steps,
+            )
+
+    @property
+    def name(self) -> str:
+        return self._name
+
+    @property
+    def period_ns(self) -> int:
+        """Every step (debouncing counts steps)."""
+        return 0
+
+    def observe(self, ctx: StepContext) -> Sequence[Event]:
+        """Ends and begins caused by this step's contacts, then near misses that closed."""
+        transitions = self._tracker.update(ctx.step, ctx.sim_time_ns, ctx.contacts)
+        events: list[Event] = [self._collision(t, ctx.robot) for t in transitions]
+        if self._near is not None:
+            records = self._near.update(
+                ctx.model, ctx.data, ctx.step, ctx.sim_time_ns, self._tracker.open_pairs
+            )
+            events.extend(self._near_miss(r, ctx.robot) for r in records)
+        return events
+
+    def finish(self, ctx: StepContext) -> Sequence[Event]:
+        """End every open contact and report every open untouched approach."""
+        events: list[Event] = [
+            self._collision(t, ctx.robot) for t in self._tracker.finish(ctx.step, ctx.sim_time_ns)
+        ]
+        if self._near is not None:
+            records = self._near.finish(ctx.step, ctx.sim_time_ns)
+            events.extend(self._near_miss(r, ctx.robot) for r in records)
+        return events
+
+    def _collision(self, t: CollisionTransition, robot: str) -> Event:
+        if t.kind == "begin":
+            return CollisionBegin(
+                step=t.step,
+                sim_time_ns=t.sim_time_ns,
+                robot=robot,
+                body1=self._bodies[t.body1],
+                body2=self._bodies[t.body2],
+                geom1=self._geoms[t.geom1],
+                geom2=self._geoms[t.geom2],
+                position=t.position,
+                normal=t.normal,
+                penetration=t.penetration,
+                normal_force=t.normal_force,
+            )
+        return CollisionEnd(
+            step=t.step,
+            sim_time_ns=t.sim_time_ns,
+            robot=robot,
+            body1=self._bodies[t.body1],
+            body2=self._bodies[t.body2],
+            geom1=self._geoms[t.geom1],
+            geom2=self._geoms[t.geom2],
+            position=t.position,
+            normal=t.normal,
+            penetration=t.penetration,
+            normal_force=t.normal_force,
+            begin_step=t.begin_step,
+            end_step=t.end_step,
+            duration_ns=t.duration_ns,
+            at_finish=t.at_finish,
+        )
+
+    def _near_miss(self, r: NearMissRecord, robot: str) -> NearMiss:
+        return NearMiss(
+            step=r.step,
+            sim_time_ns=r.sim_time_ns,
+            robot=robot,
+            body1=self._bodies[r.body1],
+            body2=self._bodies[r.body2],
+            geom1=self._geoms[r.geom1],
+            geom2=self._geoms[r.geom2],
+            position=r.position,
+            normal=r.normal,
+            distance=r.distance,
+            closest_step=r.closest_step,
+            begin_step=r.begin_step,
+            end_step=r.end_step,
+            at_finish=r.at_finish,
+        )

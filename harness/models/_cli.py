@@ -1,0 +1,100 @@
+"""``harness inspect-model FILE [--json]``: links, joints and frames of a robot model.
+
+Every pose is in the model frame at the zero configuration, as ``[x, y, z, qw, qx, qy, qz]``
+(metres, unit quaternion). The JSON layout is a stable contract (see :func:`to_json`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from harness.models.description import RobotModel
+
+__all__ = ["add_arguments", "run", "to_json"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``harness inspect-model``."""
+    parser.add_argument("file", help='a .urdf, .sdf/.world or MJCF file, or "demo"')
+    parser.add_argument("--json", action="store_true", help="print the JSON contract")
+
+
+def to_json(model: RobotModel) -> dict[str, Any]:
+    """``{"model", "links": [{"name", "pose"}], "joints": [{"name", "type", "parent",
+    "child", "pose", "axis", "limits": {"lower", "upper", "velocity", "effort"}}],
+    "frames": [{"name", "attached_to", "pose"}]}``; absent limits are ``null``."""
+    return {
+        "model": model.name,
+        "links": [{"name": link.name, "pose": link.pose.as_list()} for link in model.links],
+        "joints": [
+            {
+                "name": j.name,
+                "type": j.type,
+                "parent": j.parent,
+                "child": j.child,
+                "pose": j.pose.as_list(),
+                "axis": list(j.axis),
+                "limits": {
+                    "lower": j.limits.lower,
+                    "upper": j.limits.upper,
+                    "velocity": j.limits.velocity,
+                    "effort": j.limits.effort,
+                },
+            }
+            for j in model.joints
+        ],
+        "frames": [
+            {"name": f.name, "attached_to": f.attached_to, "pose": f.pose.as_list()}
+            for f in model.frames
+        ],
+    }
+
+
+def _num(value: float | None) -> str:
+    return "-" if value is None else f"{value:.4g}"
+
+
+def _pose(values: list[float]) -> str:
+    return " ".join(f"{v:8.4f}" for v in values)
+
+
+def format_table(model: RobotModel) -> str:
+    """The human-readable listing."""
+    lines = [
+        f"model {model.name} ({model.format}, {model.source})",
+        "",
+        "links (pose in model frame: x y z qw qx qy qz)",
+    ]
+    width = max((len(link.name) for link in model.links), default=4)
+    for link in model.links:
+        mass = f"  mass {link.inertial.mass:.4g}" if link.inertial else ""
+        lines.append(f"  {link.name:<{width}}  {_pose(link.pose.as_list())}{mass}")
+    lines += ["", "joints (axis in model frame; limits lower upper velocity effort)"]
+    width = max((len(j.name) for j in model.joints), default=4)
+    for j in model.joints:
+        lim = j.limits
+        mimic = f"  mimic {j.mimic.joint}" if j.mimic else ""
+        lines.append(
+            f"  {j.name:<{width}}  {j.type:<10} {j.parent} -> {j.child}  "
+            f"axis {_pose(list(j.axis))}  limits {_num(lim.lower)} {_num(lim.upper)} "
+            f"{_num(lim.velocity)} {_num(lim.effort)}{mimic}"
+        )
+    if model.frames:
+        lines += ["", "frames"]
+        for f in model.frames:
+            lines.append(f"  {f.name} (on {f.attached_to})  {_pose(f.pose.as_list())}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the description of ``args.file``."""
+    from harness.models.build import load_description
+
+    model = load_description(args.file)
+    if args.json:
+        print(json.dumps(to_json(model), indent=2))
+    else:
+        print(format_table(model))
+    return 0

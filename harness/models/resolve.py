@@ -1,0 +1,162 @@
+"""Resolve the file references of robot descriptions to local paths.
+
+``package://pkg/rest`` (ROS), ``model://name/rest`` (Gazebo / SDFormat), ``file://path`` and
+plain paths (absolute, or relative to the referencing file's folder). Nothing is fetched
+from the network; a reference that cannot be resolved is a :class:`ResolveError` naming what
+was searched.
+
+Package search order: the explicit ``packages`` map, then ``ROS_PACKAGE_PATH``, then the
+folders above the referencing file (a folder named like the package, a child folder named
+like it, or a folder whose ``package.xml`` declares that name). ``model://`` searches the
+explicit ``search_paths``, then ``GZ_SIM_RESOURCE_PATH``, ``SDF_PATH``,
+``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from urllib.parse import unquote
+
+from harness.models.errors import ResolveError, UnknownPackageError
+
+__all__ = [
+    "MODEL_PATH_VARIABLES",
+    "PackageMap",
+    "find_model",
+    "find_package",
+    "resolve_uri",
+]
+
+PackageMap = Mapping[str, "str | os.PathLike[str]"]
+"""Package (or ``model://`` model) name -> folder."""
+
+MODEL_PATH_VARIABLES: tuple[str, ...] = (
+    "GZ_SIM_RESOURCE_PATH",
+    "SDF_PATH",
+    "IGN_GAZEBO_RESOURCE_PATH",
+    "GAZEBO_MODEL_PATH",
+)
+
+
+def _env_paths(variables: Iterable[str]) -> list[Path]:
+    paths: list[Path] = []
+    for var in variables:
+        paths.extend(Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p)
+    return paths
+
+
+def _declares_package(folder: Path, name: str) -> bool:
+    manifest = folder / "package.xml"
+    if not manifest.is_file():
+        return False
+    try:
+        text = manifest.read_text(errors="replace")
+    except OSError:
+        return False
+    match = re.search(r"<name>\s*([^<\s]+)\s*</name>", text)
+    return match is not None and match.group(1) == name
+
+
+def _search(name: str, roots: Sequence[Path], start: Path | None) -> Path | None:
+    for root in roots:
+        if root.name == name and root.is_dir():
+            return root
+        if (root / name).is_dir():
+            return root / name
+    if start is not None:
+        for folder in (start, *start.parents):
+            if folder.name == name or _declares_package(folder, name):
+                return folder
+            if (folder / name).is_dir():
+                return folder / name
+    return None
+
+
+def _tried(explicit: Mapping[str, object], roots: Sequence[Path], start: Path | None) -> str:
+    parts = [f"packages map {sorted(explicit)}" if explicit else "no packages map"]
+    parts.append(f"search paths {[str(r) for r in roots]}" if roots else "no search paths set")
+    if start is not None:
+        parts.append(f"the folders above {start}")
+    return "; ".join(parts)
+
+
+def find_package(
+    name: str, *, packages: PackageMap | None = None, start: str | Path | None = None
+) -> Path:
+    """The folder of ROS package ``name`` (see the module docstring for the search order)."""
+    explicit = dict(packages or {})
+    if name in explicit:
+        return Path(explicit[name])
+    roots = _env_paths(["ROS_PACKAGE_PATH"])
+    begin = Path(start).resolve() if start is not None else None
+    found = _search(name, roots, begin)
+    if found is None:
+        raise UnknownPackageError(
+            f"unknown package {name!r} (tried {_tried(explicit, roots, begin)})"
+        )
+    return found
+
+
+def find_model(
+    name: str, *, search_paths: Sequence[str | Path] | None = None, start: str | Path | None = None
+) -> Path:
+    """The folder of Gazebo model ``name`` for ``model://name/...`` URIs."""
+    roots = [Path(p) for p in search_paths or ()] + _env_paths(MODEL_PATH_VARIABLES)
+    begin = Path(start).resolve() if start is not None else None
+    found = _search(name, roots, begin)
+    if found is None:
+        raise UnknownPackageError(f"unknown model {name!r} (tried {_tried({}, roots, begin)})")
+    return found
+
+
+def resolve_uri(
+    uri: str,
+    *,
+    base_dir: str | Path,
+    packages: PackageMap | None = None,
+    search_paths: Sequence[str | Path] | None = None,
+    context: str = "",
+    what: str = "file",
+) -> Path:
+    """Resolve ``uri`` to an existing local file.
+
+    ``base_dir``: the folder of the referencing file (relative paths and the upward search
+    start there); ``packages``: explicit package map for ``package://``; ``search_paths``:
+    extra roots for ``model://``; ``context`` prefixes error messages (file and element);
+    ``what`` names the kind of file in them ("mesh", "include", ...).
+    """
+    prefix = f"{context}: " if context else ""
+    base = Path(base_dir)
+    try:
+        if uri.startswith("package://"):
+            # package:///pkg/x (seen in real files) means package://pkg/x
+            name, _, rest = uri[len("package://") :].lstrip("/").partition("/")
+            if not name:
+                raise ResolveError("empty package name")
+            path = find_package(name, packages=packages, start=base) / unquote(rest)
+        elif uri.startswith("model://"):
+            name, _, rest = uri[len("model://") :].lstrip("/").partition("/")
+            if not name:
+                raise ResolveError("empty model name")
+            if packages and name in packages:
+                path = Path(packages[name]) / unquote(rest)
+            else:
+                path = find_model(name, search_paths=search_paths, start=base) / unquote(rest)
+        elif uri.startswith("file://"):
+            path = Path(unquote(uri[len("file://") :]))
+            if not path.is_absolute():
+                path = base / path
+        elif "://" in uri:
+            raise ResolveError(f"unsupported URI scheme in {uri!r}")
+        else:
+            path = Path(uri).expanduser()
+            if not path.is_absolute():
+                path = base / path
+    except ResolveError as exc:
+        raise type(exc)(f"{prefix}{exc} in {uri!r}") from None
+    if not path.is_file():
+        raise ResolveError(f"{prefix}{what} not found: {str(path)!r} (from {uri!r})")
+    return path

@@ -1,0 +1,61 @@
+"""Safe XML parsing for every model format (URDF, SRDF, SDF, MJCF scenes).
+
+Entities are never resolved and the network is never touched; any document that declares
+entities is refused outright (libxml2 expands entities in attribute values even with
+``resolve_entities=False``, so a billion-laughs file must not reach the parser).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from lxml import etree  # type: ignore[import-untyped,unused-ignore]
+
+from harness.models.errors import XMLError
+
+__all__ = ["describe", "parse_xml", "read_xml_file"]
+
+
+def _parser() -> etree.XMLParser:
+    return etree.XMLParser(
+        resolve_entities=False,
+        no_network=True,
+        huge_tree=False,
+        remove_comments=True,
+        remove_pis=True,
+        load_dtd=False,
+    )
+
+
+def parse_xml(data: bytes, source: str) -> etree._Element:
+    """Parse ``data`` (named ``source`` in errors) and return the root element.
+
+    Raises :class:`XMLError` with the line for malformed XML, and refuses documents that
+    declare entities.
+    """
+    if b"<!ENTITY" in data:
+        raise XMLError(f"{source}: entity declarations are not allowed (unsafe XML refused)")
+    try:
+        root = etree.fromstring(data, _parser())
+    except etree.XMLSyntaxError as exc:
+        raise XMLError(f"{source}:{exc.lineno}: malformed XML: {exc.msg}") from None
+    dtd = root.getroottree().docinfo.internalDTD
+    if dtd is not None and any(True for _ in dtd.iterentities()):
+        raise XMLError(f"{source}: entity declarations are not allowed (unsafe XML refused)")
+    return root
+
+
+def read_xml_file(path: str | Path) -> tuple[etree._Element, bytes]:
+    """Read and safely parse the file at ``path``: ``(root element, raw bytes)``."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise XMLError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    return parse_xml(data, str(path)), data
+
+
+def describe(element: etree._Element) -> str:
+    """``line N: <tag name="...">`` for error messages."""
+    name = element.get("name")
+    tag = f'<{element.tag} name="{name}">' if name is not None else f"<{element.tag}>"
+    return f"line {element.sourceline}: {tag}" if element.sourceline else tag

@@ -1,0 +1,24 @@
+"""Errors and warnings of :mod:`harness.recording` (all :class:`~harness.errors.RecordingError`)."""
+
+from __future__ import annotations
+
+from harness.errors import RecordingError
+
+__all__ = [
+    "RecordingDamagedWarning",
+    "RecordingFormatError",
+    "RecordingWriteError",
+]
+
+
+class RecordingWriteError(RecordingError):
+    """A recording could not be written (file, arguments, time going backwards, writer failure)."""
+
+
+class RecordingFormatError(RecordingError):
+    """A file is not a recording this harness can read (empty, not MCAP, wrong profile,
+    missing ``harness`` metadata, newer format version, unusable damage)."""
+
+
+class RecordingDamagedWarning(UserWarning):
+    """A recording is truncated or corrupted: it was opened up to the last good chunk."""

@@ -1,0 +1,110 @@
+"""``inspect``: what a recording holds and whether it is sound, as a report (text or JSON)."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from typing import Any
+
+from harness.recording.errors import RecordingDamagedWarning
+from harness.recording.recording import Recording
+
+__all__ = ["VERDICT_DAMAGED", "VERDICT_OK", "VERDICT_TRUNCATED", "format_report", "inspect"]
+
+VERDICT_OK = "ok"
+VERDICT_TRUNCATED = "truncated"
+VERDICT_DAMAGED = "damaged"
+
+
+def inspect(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A JSON-ready report of the recording at ``path``: duration, topics, metadata,
+    attachments, validation and a verdict (``ok``, ``truncated``: cut short, e.g. a killed
+    recorder; ``damaged``: corrupt bytes or an inconsistent summary). Unreadable files raise
+    :class:`~harness.recording.errors.RecordingFormatError`."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RecordingDamagedWarning)
+        recording = Recording(path)
+    with recording:
+        s = recording.scan
+        problems = [{"offset": p.offset, "message": p.message} for p in s.problems]
+        if not problems:
+            verdict = VERDICT_OK
+        elif all(p.message.startswith("truncated") for p in s.problems):
+            verdict = VERDICT_TRUNCATED
+        else:
+            verdict = VERDICT_DAMAGED
+        start, end = s.start_time, s.end_time
+        return {
+            "path": str(recording.path),
+            "size_bytes": s.size,
+            "verdict": verdict,
+            "problems": problems,
+            "readable_up_to_byte": s.truncated_at,
+            "profile": recording.profile,
+            "library": recording.library,
+            "duration": {
+                "first_step": recording.first_step if start >= 0 else None,
+                "last_step": recording.last_step if end >= 0 else None,
+                "steps": recording.last_step - recording.first_step + 1 if end >= 0 else 0,
+                "start_sim_time_ns": start if start >= 0 else None,
+                "end_sim_time_ns": end if end >= 0 else None,
+                "sim_time_s": (end - start) / 1e9 if end >= 0 else 0.0,
+            },
+            "messages": recording.message_count,
+            "topics": [t._asdict() for t in recording.topics.values()],
+            "metadata": recording.all_metadata,
+            "attachments": [
+                {"name": a.name, "media_type": a.media_type, "bytes": a.data_length}
+                for a in s.attachments
+            ],
+            "validation": {
+                "chunks": len(s.chunks),
+                "chunk_crcs_checked": len(s.chunks),
+                "data_section_crc_checked": s.data_crc_checked,
+                "summary_present": s.has_summary,
+                "summary_crc_checked": s.summary_crc_checked,
+                "summary_consistency_checks": s.summary_checks,
+            },
+        }
+
+
+def format_report(report: dict[str, Any]) -> str:
+    """The report as text for a terminal."""
+    d = report["duration"]
+    v = report["validation"]
+    lines = [
+        f"{report['path']}  ({report['size_bytes']} bytes, profile {report['profile']}, "
+        f"{report['library']})",
+        f"duration: {d['steps']} steps (step {d['first_step']} to {d['last_step']}), "
+        f"{d['sim_time_s']:.6f} s sim time",
+        f"messages: {report['messages']}",
+        "topics:",
+    ]
+    width = max((len(t["topic"]) for t in report["topics"]), default=0)
+    lines += [
+        f"  {t['topic']:<{width}}  {t['messages']:>9}  {t['msgtype']}" for t in report["topics"]
+    ]
+    for name, record in report["metadata"].items():
+        lines.append(f"metadata {name!r}:")
+        lines += [f"  {key} = {value}" for key, value in record.items()]
+    lines.append("attachments:")
+    lines += [
+        f"  {a['name']}  ({a['media_type']}, {a['bytes']} bytes)" for a in report["attachments"]
+    ]
+    lines.append(
+        f"validation: {v['chunk_crcs_checked']} chunk CRCs checked; data section CRC "
+        f"{'checked' if v['data_section_crc_checked'] else 'not checked'}; summary "
+        + (
+            f"CRC {'checked' if v['summary_crc_checked'] else 'not checked'}, "
+            f"{v['summary_consistency_checks']} consistency checks"
+            if v["summary_present"]
+            else "missing"
+        )
+    )
+    for p in report["problems"]:
+        lines.append(f"problem at byte {p['offset']}: {p['message']}")
+    verdict = report["verdict"].upper()
+    if report["readable_up_to_byte"] is not None:
+        verdict += f": readable up to byte {report['readable_up_to_byte']}"
+    lines.append(f"verdict: {verdict}")
+    return "\n".join(lines)

@@ -1,0 +1,568 @@
+"""``Recorder``: writes one run to an MCAP file (profile ``ros2``, every channel CDR).
+
+Writes are synchronous and serialised under a lock (callers may be the simulation thread and
+the bridge's event loop): nothing is queued, so nothing can be dropped; the cost is visible
+in ``bench/bench_recording.py``. Crash safety: a daemon thread closes the open chunk and
+flushes the file every ``flush_interval_s`` (``mcap.Writer.flush()``: finalises the chunk in
+progress with its CRC and message indexes, then flushes the stream), so a killed process loses
+at most the last interval; the file then lacks only its summary and footer, and
+:class:`~harness.recording.Recording` opens it up to the last complete chunk. A flush that
+fails (disk full) is raised by the next ``write_*`` call.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import threading
+import time
+from collections.abc import Callable, Mapping, Sequence
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import IO, Any, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+from mcap.writer import CompressionType, Writer
+
+from harness._version import __version__
+from harness.recording.convert import from_rosbridge
+from harness.recording.errors import RecordingWriteError
+from harness.recording.layout import (
+    FORMAT_VERSION,
+    METADATA_NAME,
+    METADATA_REQUIRED,
+    PROFILE,
+    TOPIC_BRIDGE,
+    TOPIC_COLLISIONS,
+    TOPIC_INPUTS,
+    TOPIC_ROSOUT,
+    TOPIC_STATE,
+    TYPE_APPLIED_INPUT,
+    TYPE_BRIDGE_FRAME,
+    TYPE_COLLISION_EVENT,
+    TYPE_PHYSICS_STATE,
+    channel_metadata,
+    schema_text,
+    typestore,
+)
+
+__all__ = ["FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
+
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
+_MEDIA_TYPES = {
+    ".xml": "application/xml",
+    ".urdf": "application/xml",
+    ".sdf": "application/xml",
+    ".xacro": "application/xml",
+    ".srdf": "application/xml",
+    ".yaml": "application/yaml",
+    ".yml": "application/yaml",
+    ".json": "application/json",
+    ".toml": "application/toml",
+    ".txt": "text/plain",
+    ".msg": "text/plain",
+}
+# Keys the recorder itself writes; a caller giving one is an error.
+_RESERVED = (
+    "format_version",
+    "harness_version",
+    "mujoco_version",
+    "numpy_version",
+    "python_version",
+    "platform",
+    "state_every",
+    "compression",
+)
+_EMPTY_F64: npt.NDArray[np.float64] = np.zeros(0, np.float64)
+_EMPTY_U32: npt.NDArray[np.uint32] = np.zeros(0, np.uint32)
+_EMPTY_U8: npt.NDArray[np.uint8] = np.zeros(0, np.uint8)
+
+
+class FlushInfo(NamedTuple):
+    """What a flush made durable: every message up to ``sim_time_ns`` (``-1``: none yet)."""
+
+    sim_time_ns: int
+    messages: int
+    file_bytes: int
+    seconds: float
+
+
+class RecorderStats(NamedTuple):
+    """Counters of a recorder; ``flush_seconds_max`` is the longest a flush held writers up."""
+
+    messages: int
+    flushes: int
+    file_bytes: int
+    flush_seconds_total: float
+    flush_seconds_max: float
+
+
+def _package_version(name: str) -> str:
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def build_metadata(
+    metadata: Mapping[str, str], *, state_every: int, compression: str
+) -> dict[str, str]:
+    """The ``harness`` metadata record: the caller's keys (validated) plus versions/platform."""
+    for key, value in metadata.items():
+        if not isinstance(key, str) or not isinstance(value, str):
+            raise RecordingWriteError(
+                f"metadata: key {key!r} must map a string to a string, got {type(value).__name__}"
+            )
+        if key in _RESERVED:
+            raise RecordingWriteError(f"metadata: key {key!r} is written by the recorder")
+    missing = [key for key in METADATA_REQUIRED if key not in metadata]
+    if missing:
+        raise RecordingWriteError(
+            f"metadata: missing required key {missing[0]!r} (required: "
+            f"{', '.join(METADATA_REQUIRED)})"
+        )
+    try:
+        timestep = float(metadata["timestep"])
+    except ValueError:
+        timestep = -1.0
+    if not timestep > 0:
+        raise RecordingWriteError(
+            f"metadata: 'timestep' must be a positive number of seconds, "
+            f"got {metadata['timestep']!r}"
+        )
+    out = dict(metadata)
+    timestep_ns = out.setdefault("timestep_ns", str(round(timestep * 1e9)))
+    if not timestep_ns.isdigit() or int(timestep_ns) <= 0:
+        raise RecordingWriteError(
+            f"metadata: 'timestep_ns' must be a positive integer, got {timestep_ns!r}"
+        )
+    out.update(
+        format_version=str(FORMAT_VERSION),
+        harness_version=__version__,
+        mujoco_version=_package_version("mujoco"),
+        numpy_version=np.__version__,
+        python_version=platform.python_version(),
+        platform=f"{sys.platform} {platform.machine()} {platform.platform()}",
+        state_every=str(state_every),
+        compression=compression,
+    )
+    return dict(sorted(out.items()))
+
+
+def _media_type(name: str) -> str:
+    return _MEDIA_TYPES.get(os.path.splitext(name)[1].lower(), "application/octet-stream")
+
+
+def _f64(value: Sequence[float] | npt.ArrayLike, where: str) -> npt.NDArray[np.float64]:
+    try:
+        # serialize_cdr needs C-contiguous arrays (model slices and reversed views are not).
+        array = np.ascontiguousarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise RecordingWriteError(f"{where}: expected a sequence of numbers") from None
+    return array.reshape(-1) if array.ndim != 1 else array
+
+
+def _u32(value: Sequence[int] | npt.ArrayLike, where: str) -> npt.NDArray[np.uint32]:
+    try:
+        array = np.asarray(value)
+        if array.size and (array.dtype.kind not in "iu" or array.min() < 0):
+            raise ValueError
+        return np.ascontiguousarray(array, dtype=np.uint32).reshape(-1)
+    except (TypeError, ValueError):
+        raise RecordingWriteError(f"{where}: expected non-negative integers") from None
+
+
+class Recorder:
+    """Writes one run to ``path`` (a context manager; ``close()`` writes the summary).
+
+    ``metadata`` must hold the keys in ``layout.METADATA_REQUIRED`` (``timestep`` in seconds,
+    ``integrator``, ``seed``, ``model_sha256``, ``control_modes``), all strings; versions and
+    platform are added. ``attachments`` maps names to bytes (compiled MJCF, sources,
+    scenario; see :func:`harness.recording.describe_run`); at least one is always written.
+    ``state_every``: ``write_physics_state`` keeps steps that are multiples of it.
+    ``library``: the header's library string (fix it for byte-identical files).
+    ``on_flush``: called (from the flushing thread) after each flush.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        metadata: Mapping[str, str],
+        attachments: Mapping[str, bytes] = {},
+        compression: str = "zstd",
+        state_every: int = 1,
+        flush_interval_s: float = 1.0,
+        chunk_size: int = 1024 * 1024,
+        library: str | None = None,
+        on_flush: Callable[[FlushInfo], None] | None = None,
+    ) -> None:
+        if compression not in _COMPRESSION:
+            raise RecordingWriteError(
+                f"compression must be one of {', '.join(_COMPRESSION)}, got {compression!r}"
+            )
+        if not isinstance(state_every, int) or state_every < 1:
+            raise RecordingWriteError(f"state_every must be an integer >= 1, got {state_every!r}")
+        if not flush_interval_s > 0:
+            raise RecordingWriteError(f"flush_interval_s must be > 0, got {flush_interval_s!r}")
+        self.path = Path(path)
+        self.metadata = build_metadata(metadata, state_every=state_every, compression=compression)
+        for name, blob in attachments.items():
+            if not isinstance(blob, bytes | bytearray | memoryview):
+                raise RecordingWriteError(f"attachment {name!r}: expected bytes")
+        self._state_every = state_every
+        self._store = typestore()
+        self._types = self._store.types
+        self._on_flush = on_flush
+        self._lock = threading.Lock()
+        self._channels: dict[str, tuple[int, str]] = {}
+        self._schemas: dict[str, int] = {}
+        self._seq: dict[int, int] = {}
+        self._last_time = -1
+        self._messages = 0
+        self._dirty = False
+        self._closed = False
+        self._failure: BaseException | None = None
+        self._flushes = 0
+        self._flush_total = 0.0
+        self._flush_max = 0.0
+        try:
+            self._stream: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 (closed in close())
+        except OSError as exc:
+            raise RecordingWriteError(
+                f"{self.path}: cannot create recording: {exc.strerror}"
+            ) from None
+        self._writer = Writer(
+            self._stream,
+            chunk_size=chunk_size,
+            compression=_COMPRESSION[compression],
+            enable_crcs=True,
+            enable_data_crcs=True,
+        )
+        self._writer.start(
+            profile=PROFILE,
+            library=library or f"harness/{__version__} mcap-python/{_package_version('mcap')}",
+        )
+        self._writer.add_metadata(METADATA_NAME, self.metadata)
+        if not attachments:
+            # An MCAP without attachments gets empty index groups that strict doctors flag.
+            attachments = {"harness_msgs.txt": _definitions_text()}
+        for name, blob in attachments.items():
+            self._writer.add_attachment(0, 0, name, _media_type(name), bytes(blob))
+        self._writer.flush()  # type: ignore[no-untyped-call]
+        self._stop = threading.Event()
+        self._thread = threading.Thread(
+            target=self._flush_loop, args=(flush_interval_s,), name="harness-recorder", daemon=True
+        )
+        self._thread.start()
+
+    # -- context manager -------------------------------------------------------------------
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- writing ---------------------------------------------------------------------------
+
+    def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
+        """Record ``msg`` on ``topic``: a dict in rosbridge JSON form or a rosbags object."""
+        if isinstance(msg, Mapping):
+            msg = from_rosbridge(self._store, msgtype, msg, where=f"{topic} ({msgtype})")
+        elif getattr(msg, "__msgtype__", msgtype) != msgtype:
+            raise RecordingWriteError(f"{topic}: message is a {msg.__msgtype__}, not a {msgtype}")
+        self._write(topic, msgtype, msg, sim_time_ns)
+
+    def write_bridge_frame(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        direction: int,
+        connection: int,
+        seq: int,
+        op: str,
+        topic: str,
+        text: str | None = None,
+        data: bytes | None = None,
+    ) -> None:
+        """Record one rosbridge frame: exactly one of ``text`` (text frame) or ``data`` (binary)."""
+        if (text is None) == (data is None):
+            raise RecordingWriteError(
+                f"{TOPIC_BRIDGE} seq {seq}: give exactly one of text= or data="
+            )
+        if direction not in (0, 1):
+            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {seq}: direction must be 0 or 1")
+        msg = self._types[TYPE_BRIDGE_FRAME](
+            step=step,
+            sim_time_ns=sim_time_ns,
+            direction=direction,
+            connection=connection,
+            seq=seq,
+            op=op,
+            topic=topic,
+            binary=data is not None,
+            text=text or "",
+            data=_EMPTY_U8 if data is None else np.frombuffer(data, np.uint8),
+        )
+        self._write(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, msg, sim_time_ns)
+
+    def write_applied_input(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        ctrl: npt.ArrayLike,
+        kinematic_joints: Sequence[str] = (),
+        qpos_index: npt.ArrayLike = (),
+        qpos_value: npt.ArrayLike = (),
+        qvel_index: npt.ArrayLike = (),
+        qvel_value: npt.ArrayLike = (),
+        mocap_pos: npt.ArrayLike = (),
+        mocap_quat: npt.ArrayLike = (),
+        qfrc_applied: npt.ArrayLike = (),
+        xfrc_applied: npt.ArrayLike = (),
+    ) -> None:
+        """Record the physics input applied before ``step`` (fields as in AppliedInput.msg)."""
+        where = f"{TOPIC_INPUTS} step {step}"
+        qpos_i = _u32(qpos_index, f"{where}: qpos_index")
+        qpos_v = _f64(qpos_value, f"{where}: qpos_value")
+        qvel_i = _u32(qvel_index, f"{where}: qvel_index")
+        qvel_v = _f64(qvel_value, f"{where}: qvel_value")
+        if qpos_i.shape != qpos_v.shape or qvel_i.shape != qvel_v.shape:
+            raise RecordingWriteError(f"{where}: index and value arrays differ in length")
+        msg = self._types[TYPE_APPLIED_INPUT](
+            step=step,
+            sim_time_ns=sim_time_ns,
+            ctrl=_f64(ctrl, f"{where}: ctrl"),
+            kinematic_joints=list(kinematic_joints),
+            qpos_index=qpos_i,
+            qpos_value=qpos_v,
+            qvel_index=qvel_i,
+            qvel_value=qvel_v,
+            mocap_pos=_f64(mocap_pos, f"{where}: mocap_pos"),
+            mocap_quat=_f64(mocap_quat, f"{where}: mocap_quat"),
+            qfrc_applied=_f64(qfrc_applied, f"{where}: qfrc_applied"),
+            xfrc_applied=_f64(xfrc_applied, f"{where}: xfrc_applied"),
+        )
+        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, sim_time_ns)
+
+    def write_physics_state(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None:
+        """Record the state after ``step`` if ``step`` is a multiple of ``state_every``."""
+        if step % self._state_every:
+            return
+        where = f"{TOPIC_STATE} step {step}"
+        msg = self._types[TYPE_PHYSICS_STATE](
+            step=step,
+            sim_time_ns=sim_time_ns,
+            state_spec=state_spec,
+            state=_f64(state, f"{where}: state"),
+            qpos=_f64(qpos, f"{where}: qpos"),
+            qvel=_f64(qvel, f"{where}: qvel"),
+        )
+        self._write(TOPIC_STATE, TYPE_PHYSICS_STATE, msg, sim_time_ns)
+
+    def write_collision_event(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        kind: int,
+        robot: str,
+        body1: str,
+        body2: str,
+        geom1: str,
+        geom2: str,
+        penetration: float,
+        normal_force: float,
+        position: Sequence[float],
+        normal: Sequence[float],
+        duration_ns: int = 0,
+        distance: float = 0.0,
+    ) -> None:
+        """Record a collision begin (0), end (1) or near miss (2) (fields as in the .msg)."""
+        if len(position) != 3 or len(normal) != 3:
+            raise RecordingWriteError(
+                f"{TOPIC_COLLISIONS} step {step}: position and normal need 3 components"
+            )
+        point = self._types["geometry_msgs/msg/Point"]
+        vector = self._types["geometry_msgs/msg/Vector3"]
+        msg = self._types[TYPE_COLLISION_EVENT](
+            step=step,
+            sim_time_ns=sim_time_ns,
+            kind=kind,
+            robot=robot,
+            body1=body1,
+            body2=body2,
+            geom1=geom1,
+            geom2=geom2,
+            penetration=float(penetration),
+            normal_force=float(normal_force),
+            position=point(x=float(position[0]), y=float(position[1]), z=float(position[2])),
+            normal=vector(x=float(normal[0]), y=float(normal[1]), z=float(normal[2])),
+            duration_ns=duration_ns,
+            distance=float(distance),
+        )
+        self._write(TOPIC_COLLISIONS, TYPE_COLLISION_EVENT, msg, sim_time_ns)
+
+    def write_rosout(
+        self,
+        *,
+        sim_time_ns: int,
+        level: int,
+        name: str,
+        msg: str,
+        file: str = "",
+        function: str = "",
+        line: int = 0,
+    ) -> None:
+        """Record a ``rcl_interfaces/msg/Log`` on ``/rosout`` (levels 10/20/30/40/50)."""
+        sec, nanosec = divmod(sim_time_ns, 1_000_000_000)
+        log = self._types["rcl_interfaces/msg/Log"](
+            stamp=self._types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
+            level=level,
+            name=name,
+            msg=msg,
+            file=file,
+            function=function,
+            line=line,
+        )
+        self._write(TOPIC_ROSOUT, "rcl_interfaces/msg/Log", log, sim_time_ns)
+
+    def _write(self, topic: str, msgtype: str, msg: Any, sim_time_ns: int) -> None:
+        try:
+            data = self._store.serialize_cdr(msg, msgtype)
+        except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
+            raise RecordingWriteError(f"{topic} ({msgtype}): cannot serialise: {exc}") from None
+        with self._lock:
+            if self._closed or self._failure is not None:
+                self._raise_closed()
+            known = self._channels.get(topic)
+            if known is None:
+                known = self._register(topic, msgtype)
+            elif known[1] != msgtype:
+                raise RecordingWriteError(
+                    f"{topic}: already recorded as {known[1]}, cannot also record {msgtype}"
+                )
+            if sim_time_ns < self._last_time or sim_time_ns < 0:
+                raise RecordingWriteError(
+                    f"{topic}: sim_time_ns {sim_time_ns} is before the last recorded "
+                    f"{self._last_time}: recorded time must not go backwards"
+                )
+            channel_id = known[0]
+            seq = self._seq[channel_id]
+            self._seq[channel_id] = seq + 1
+            self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+            self._last_time = sim_time_ns
+            self._messages += 1
+            self._dirty = True
+
+    def _register(self, topic: str, msgtype: str) -> tuple[int, str]:
+        schema_id = self._schemas.get(msgtype)
+        if schema_id is None:
+            schema_id = self._writer.register_schema(msgtype, "ros2msg", schema_text(msgtype))
+            self._schemas[msgtype] = schema_id
+        channel_id = self._writer.register_channel(
+            topic, "cdr", schema_id, channel_metadata(msgtype)
+        )
+        self._channels[topic] = (channel_id, msgtype)
+        self._seq[channel_id] = 0
+        return channel_id, msgtype
+
+    def _raise_closed(self) -> None:
+        if self._failure is not None:
+            raise RecordingWriteError(
+                f"{self.path}: recording failed: {self._failure}"
+            ) from self._failure
+        raise RecordingWriteError(f"{self.path}: recorder is closed")
+
+    # -- flushing and closing --------------------------------------------------------------
+
+    def flush(self) -> None:
+        """Close the open chunk and flush the file now (the flush thread does this on its own)."""
+        info = None
+        with self._lock:
+            if self._closed or self._failure is not None:
+                self._raise_closed()
+            info = self._flush_locked()
+        if info is not None and self._on_flush is not None:
+            self._on_flush(info)
+
+    def _flush_locked(self) -> FlushInfo | None:
+        if not self._dirty:
+            return None
+        start = time.perf_counter()
+        self._writer.flush()  # type: ignore[no-untyped-call]
+        seconds = time.perf_counter() - start
+        self._dirty = False
+        self._flushes += 1
+        self._flush_total += seconds
+        self._flush_max = max(self._flush_max, seconds)
+        return FlushInfo(self._last_time, self._messages, self._stream.tell(), seconds)
+
+    def _flush_loop(self, interval: float) -> None:
+        while not self._stop.wait(interval):
+            info = None
+            with self._lock:
+                if self._closed or self._failure is not None:
+                    return
+                try:
+                    info = self._flush_locked()
+                except Exception as exc:
+                    self._failure = exc
+                    return
+            if info is not None and self._on_flush is not None:
+                self._on_flush(info)
+
+    @property
+    def stats(self) -> RecorderStats:
+        """Messages written, flushes and their cost, bytes on disk so far."""
+        with self._lock:
+            size = self._stream.tell() if not self._stream.closed else self.path.stat().st_size
+            return RecorderStats(
+                self._messages, self._flushes, size, self._flush_total, self._flush_max
+            )
+
+    def close(self) -> None:
+        """Write the last chunk, the summary and the footer; close the file (idempotent)."""
+        self._stop.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join()
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            try:
+                self._writer.finish()  # type: ignore[no-untyped-call]
+                self._stream.close()
+            except OSError as exc:
+                raise RecordingWriteError(
+                    f"{self.path}: cannot finish recording: {exc.strerror}"
+                ) from None
+        if self._failure is not None:
+            raise RecordingWriteError(
+                f"{self.path}: recording failed: {self._failure}"
+            ) from self._failure
+
+
+def _definitions_text() -> bytes:
+    from harness.msgs import message_definitions
+
+    parts = [f"# {name}\n{text}" for name, text in message_definitions().items()]
+    return "\n".join(parts).encode("utf-8")

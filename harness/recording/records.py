@@ -1,0 +1,108 @@
+"""Typed records read back from a recording (one per ``harness_msgs`` message, plus any message).
+
+Arrays are numpy arrays exactly as recorded (float64 bit for bit). Records hold arrays, so they
+compare by identity; compare fields with numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "AppliedInput",
+    "BridgeFrame",
+    "CollisionEvent",
+    "PhysicsState",
+    "RecordedMessage",
+]
+
+F64 = npt.NDArray[np.float64]
+U32 = npt.NDArray[np.uint32]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RecordedMessage:
+    """One message as stored: ``data`` is its CDR bytes; ``msg`` the decoded rosbags object
+    (``None`` unless decoding was asked for). ``sim_time_ns`` is the MCAP log time."""
+
+    topic: str
+    msgtype: str
+    sim_time_ns: int
+    sequence: int
+    data: bytes
+    msg: Any = None
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class BridgeFrame:
+    """A rosbridge frame in (``direction`` 0) or out (1), exactly as it crossed the socket."""
+
+    step: int
+    sim_time_ns: int
+    direction: int
+    connection: int
+    seq: int
+    op: str
+    topic: str
+    binary: bool
+    text: str
+    data: bytes
+
+    @property
+    def payload(self) -> str | bytes:
+        """The frame as it was sent: ``data`` for binary frames, ``text`` otherwise."""
+        return self.data if self.binary else self.text
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class AppliedInput:
+    """The physics input applied before ``step`` (holds until the next one)."""
+
+    step: int
+    sim_time_ns: int
+    ctrl: F64
+    kinematic_joints: tuple[str, ...]
+    qpos_index: U32
+    qpos_value: F64
+    qvel_index: U32
+    qvel_value: F64
+    mocap_pos: F64
+    mocap_quat: F64
+    qfrc_applied: F64
+    xfrc_applied: F64
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PhysicsState:
+    """The physics state after ``step``: ``state`` is ``mj_getState(..., state_spec)``."""
+
+    step: int
+    sim_time_ns: int
+    state_spec: int
+    state: F64
+    qpos: F64
+    qvel: F64
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class CollisionEvent:
+    """A contact beginning (``kind == 0``), ending (``1``) or a near miss (``2``)."""
+
+    step: int
+    sim_time_ns: int
+    kind: int
+    robot: str
+    body1: str
+    body2: str
+    geom1: str
+    geom2: str
+    penetration: float
+    normal_force: float
+    position: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    duration_ns: int
+    distance: float

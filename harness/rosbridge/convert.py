@@ -1,0 +1,304 @@
+"""JSON <-> ROS message conversion with rosbridge's encoding rules.
+
+A *canonical* message is a plain dict in definition order with every field present: ints,
+floats (non-finite allowed), bools, strings, nested dicts, lists, ``bytes`` for
+``uint8[]``/``char[]`` and ``{"sec", "nanosec"}`` for time and duration. It is what the
+in-process API hands out and takes, and what the encoders below turn into JSON text
+(base64 bytes, NaN/Inf as null), CBOR (typed arrays) or CDR.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import cbor2
+import numpy as np
+
+from harness.rosbridge.errors import ConversionError
+from harness.rosbridge.types import FLOAT_TYPES, INT_RANGES, Field, TypeRegistry
+
+__all__ = [
+    "default_message",
+    "dumps",
+    "from_json",
+    "to_cbor",
+    "to_cdr",
+]
+
+_TIME_TYPES = frozenset({"builtin_interfaces/msg/Time", "builtin_interfaces/msg/Duration"})
+_HEADER = "std_msgs/msg/Header"
+_BYTE_TYPES = frozenset({"uint8", "char"})
+_CBOR_TAGS = {
+    "uint16": (69, "<u2"),
+    "uint32": (70, "<u4"),
+    "uint64": (71, "<u8"),
+    "int8": (72, "i1"),
+    "int16": (77, "<i2"),
+    "int32": (78, "<i4"),
+    "int64": (79, "<i8"),
+    "float32": (85, "<f4"),
+    "float64": (86, "<f8"),
+}
+_NUMPY = {
+    **{k: v[1] for k, v in _CBOR_TAGS.items()},
+    "uint8": "u1",
+    "char": "u1",
+    "byte": "u1",
+    "bool": "?",
+}
+
+
+def _describe(value: object) -> str:
+    names = {bool: "a bool", int: "an int", float: "a float", str: "a string", list: "a list"}
+    kind = names.get(type(value), "an object" if isinstance(value, dict) else "null")
+    text = json.dumps(value, default=str)
+    if len(text) > 40:
+        text = text[:37] + "..."
+    return f"{kind} ({text})"
+
+
+def _fail(msg_type: str, expected: str, path: str, value: object) -> ConversionError:
+    return ConversionError(
+        f"{msg_type} message requires {expected} for field {path}, but got {_describe(value)}"
+    )
+
+
+def _zero(registry: TypeRegistry, f: Field) -> Any:
+    if f.length is not None:
+        if not f.fixed:
+            return b"" if f.type in _BYTE_TYPES else []
+        if f.type in _BYTE_TYPES:
+            return bytes(f.length)
+        return [_zero_scalar(registry, f) for _ in range(f.length)]
+    return _zero_scalar(registry, f)
+
+
+def _zero_scalar(registry: TypeRegistry, f: Field) -> Any:
+    if f.is_message:
+        return default_message(registry, f.type)
+    if f.type in INT_RANGES:
+        return 0
+    if f.type in FLOAT_TYPES:
+        return 0.0
+    if f.type == "bool":
+        return False
+    return ""
+
+
+def default_message(registry: TypeRegistry, msg_type: str) -> dict[str, Any]:
+    """The canonical message of ``msg_type`` with every field at its default."""
+    return {f.name: _zero(registry, f) for f in registry.message(msg_type).fields}
+
+
+def from_json(
+    registry: TypeRegistry, msg_type: str, value: object, now_ns: int, path: str = ""
+) -> dict[str, Any]:
+    """Validate a JSON value against ``msg_type`` and return the canonical message.
+
+    Missing fields take defaults; an unknown field or a wrong field type raises
+    :class:`ConversionError` naming the field path and the types; a ``std_msgs/Header``
+    given without ``stamp`` gets ``now_ns``."""
+    if not isinstance(value, dict):
+        where = f" for field {path}" if path else ""
+        raise ConversionError(
+            f"{msg_type} message requires an object{where}, but got {_describe(value)}"
+        )
+    if msg_type in _TIME_TYPES:
+        return _time_from_json(msg_type, value, path)
+    definition = registry.message(msg_type)
+    known = {f.name for f in definition.fields}
+    for key in value:
+        if key not in known:
+            raise ConversionError(f"Message type {msg_type} does not have a field {path}{key}")
+    out: dict[str, Any] = {}
+    for f in definition.fields:
+        fpath = f"{path}{f.name}"
+        if f.name not in value:
+            if msg_type == _HEADER and f.name == "stamp":
+                out["stamp"] = {"sec": now_ns // 1_000_000_000, "nanosec": now_ns % 1_000_000_000}
+            else:
+                out[f.name] = _zero(registry, f)
+            continue
+        v = value[f.name]
+        if f.length is None:
+            out[f.name] = _scalar(registry, msg_type, f, v, fpath, now_ns)
+        else:
+            out[f.name] = _array(registry, msg_type, f, v, fpath, now_ns)
+    return out
+
+
+def _time_from_json(msg_type: str, value: Mapping[str, Any], path: str) -> dict[str, Any]:
+    sec = value.get("sec", value.get("secs", 0))
+    nanosec = value.get("nanosec", value.get("nsecs", 0))
+    for key in value:
+        if key not in ("sec", "nanosec", "secs", "nsecs"):
+            raise ConversionError(f"Message type {msg_type} does not have a field {path}{key}")
+    for name, v, lo, hi in (("sec", sec, -(2**31), 2**31 - 1), ("nanosec", nanosec, 0, 2**32 - 1)):
+        if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
+            kind = "an int32" if name == "sec" else "a uint32"
+            raise _fail(msg_type, kind, f"{path}{name}", v)
+    return {"sec": sec, "nanosec": nanosec}
+
+
+def _scalar(
+    registry: TypeRegistry, msg_type: str, f: Field, v: object, path: str, now_ns: int
+) -> Any:
+    t = f.type
+    if f.is_message:
+        return from_json(registry, t, v, now_ns, path + ".")
+    if t in INT_RANGES:
+        if not isinstance(v, int) or isinstance(v, bool):
+            raise _fail(msg_type, f"an int ({t})", path, v)
+        lo, hi = INT_RANGES[t]
+        if not lo <= v <= hi:
+            raise ConversionError(f"{msg_type} field {path} value {v} is out of range for {t}")
+        return v
+    if t in FLOAT_TYPES:
+        if v is None:
+            return math.nan
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            raise _fail(msg_type, f"a number ({t})", path, v)
+        return float(v)
+    if t == "bool":
+        if not isinstance(v, bool):
+            raise _fail(msg_type, "a bool", path, v)
+        return v
+    if not isinstance(v, str):
+        raise _fail(msg_type, "a string" if t == "string" else f"a string ({t})", path, v)
+    if f.string_bound and len(v) > f.string_bound:
+        raise ConversionError(f"{msg_type} field {path} is longer than {t}<={f.string_bound}")
+    return v
+
+
+def _array(
+    registry: TypeRegistry, msg_type: str, f: Field, v: object, path: str, now_ns: int
+) -> Any:
+    items: Any
+    if f.type in _BYTE_TYPES:
+        if isinstance(v, (bytes, bytearray)):
+            items = bytes(v)
+        elif isinstance(v, str):
+            try:
+                items = base64.b64decode(v, validate=True)
+            except (binascii.Error, ValueError):
+                raise _fail(msg_type, "a base64 string or a list of ints", path, v) from None
+        elif isinstance(v, list):
+            if not all(isinstance(x, int) and not isinstance(x, bool) and 0 <= x < 256 for x in v):
+                raise _fail(msg_type, "a base64 string or a list of ints 0..255", path, v)
+            items = bytes(v)
+        else:
+            raise _fail(msg_type, "a base64 string or a list of ints", path, v)
+    elif not isinstance(v, list):
+        raise _fail(msg_type, f"a list ({f.type}[])", path, v)
+    else:
+        scalar = f._replace(length=None)
+        items = [
+            _scalar(registry, msg_type, scalar, x, f"{path}[{i}]", now_ns) for i, x in enumerate(v)
+        ]
+    if f.fixed and len(items) != f.length:
+        raise ConversionError(
+            f"{msg_type} field {path} needs exactly {f.length} elements, but got {len(items)}"
+        )
+    if not f.fixed and f.length and len(items) > f.length:
+        raise ConversionError(
+            f"{msg_type} field {path} allows at most {f.length} elements, but got {len(items)}"
+        )
+    return items
+
+
+# -- JSON out -------------------------------------------------------------------------------
+
+
+def _json_default(value: object) -> object:
+    if isinstance(value, (bytes, bytearray)):
+        return base64.b64encode(value).decode("ascii")
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
+def dumps(value: Any) -> str:
+    """Compact JSON text of a canonical value: bytes as base64, NaN/Inf as null, keys in
+    the order they were built (definition order), non-ASCII kept as UTF-8."""
+    try:
+        return json.dumps(
+            value, separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
+        )
+    except ValueError:
+        return json.dumps(
+            _finite(value), separators=(",", ":"), ensure_ascii=False, default=_json_default
+        )
+
+
+# -- CBOR and CDR out -----------------------------------------------------------------------
+
+
+def _cbor_value(registry: TypeRegistry, msg_type: str, msg: Mapping[str, Any]) -> dict[str, Any]:
+    if msg_type in _TIME_TYPES:
+        return dict(msg)
+    out: dict[str, Any] = {}
+    for f in registry.message(msg_type).fields:
+        v = msg[f.name]
+        if f.length is not None and f.type in _CBOR_TAGS:
+            tag, dtype = _CBOR_TAGS[f.type]
+            out[f.name] = cbor2.CBORTag(tag, np.asarray(v, dtype=dtype).tobytes())
+        elif f.is_message and f.length is not None:
+            out[f.name] = [_cbor_value(registry, f.type, x) for x in v]
+        elif f.is_message:
+            out[f.name] = _cbor_value(registry, f.type, v)
+        else:
+            out[f.name] = v
+    return out
+
+
+def to_cbor(registry: TypeRegistry, msg_type: str, topic: str, msg: Mapping[str, Any]) -> bytes:
+    """The binary ``cbor`` publish frame: numeric arrays as RFC 8746 typed arrays
+    (little-endian), ``uint8[]`` as a byte string."""
+    frame = {"op": "publish", "topic": topic, "msg": _cbor_value(registry, msg_type, msg)}
+    return bytes(cbor2.dumps(frame))
+
+
+def _rosbags_object(registry: TypeRegistry, msg_type: str, msg: Mapping[str, Any]) -> Any:
+    store = registry.store
+    cls = store.types[msg_type]
+    _, raw_fields = store.fielddefs[msg_type]
+    by_name = {f.name: f for f in registry.message(msg_type).fields}
+    kwargs: dict[str, Any] = {}
+    for fname, _desc in raw_fields:
+        f = by_name.get(fname)
+        if f is None:  # the member ROS 2 adds to empty structures
+            kwargs[fname] = 0
+            continue
+        v = msg[fname]
+        if f.is_message:
+            if f.length is None:
+                kwargs[fname] = _rosbags_object(registry, f.type, v)
+            else:
+                kwargs[fname] = [_rosbags_object(registry, f.type, x) for x in v]
+        elif f.length is not None and f.type in _NUMPY:
+            if isinstance(v, (bytes, bytearray)):
+                kwargs[fname] = np.frombuffer(v, dtype=np.uint8).copy()
+            else:
+                kwargs[fname] = np.asarray(v, dtype=_NUMPY[f.type])
+        else:
+            kwargs[fname] = v
+    return cls(**kwargs)
+
+
+def to_cdr(registry: TypeRegistry, msg_type: str, msg: Mapping[str, Any]) -> bytes:
+    """The CDR bytes (with encapsulation header) of a canonical message, for ``cbor-raw``."""
+    obj = _rosbags_object(registry, msg_type, msg)
+    return bytes(registry.store.serialize_cdr(obj, msg_type))

@@ -1,0 +1,224 @@
+"""rosapi: the graph-introspection services under ``/rosapi`` (types ``rosapi_msgs/srv/*``),
+answered in-process from the bridge's own graph, type registry and parameters.
+
+Clients are not ROS nodes; the graph has three: ``/rosbridge_websocket`` (publishes what
+clients advertise, subscribes to what they subscribe, provides their services),
+``/rosapi`` and ``/harness`` (the simulation side).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+from harness.rosbridge.errors import TypeNameError, UnknownTypeError
+from harness.rosbridge.types import FLOAT_TYPES, TypeRegistry
+
+if TYPE_CHECKING:
+    from harness.rosbridge.protocol import Bridge, ServiceCall
+
+__all__ = ["NODES", "install", "typedefs"]
+
+NODES = ("/harness", "/rosapi", "/rosbridge_websocket")
+
+
+def _node(connection: int) -> str:
+    return "/harness" if connection == 0 else "/rosbridge_websocket"
+
+
+def _example(type_: str, is_message: bool, count: int | None) -> str:
+    if count is not None:
+        return "[]"
+    if is_message:
+        return "{}"
+    if type_ in FLOAT_TYPES:
+        return "0.0"
+    if type_ == "bool":
+        return "False"
+    if type_ in ("string", "wstring"):
+        return ""
+    return "0"
+
+
+def typedefs(registry: TypeRegistry, name: str) -> list[dict[str, Any]]:
+    """rosapi ``TypeDef``s of a message and every message it contains."""
+    out = []
+    for dep in registry.dependencies(name):
+        d = registry.message(dep)
+        out.append(
+            {
+                "type": dep,
+                "fieldnames": [f.name for f in d.fields],
+                "fieldtypes": [f.type for f in d.fields],
+                "fieldarraylen": [
+                    -1 if f.length is None else (f.length if f.fixed else 0) for f in d.fields
+                ],
+                "examples": [_example(f.type, f.is_message, f.length) for f in d.fields],
+                "constnames": [c[0] for c in d.constants],
+                "constvalues": [str(c[2]) for c in d.constants],
+            }
+        )
+    return out
+
+
+def install(bridge: Bridge) -> None:
+    """Advertise every rosapi service on ``bridge`` (in-process)."""
+    reg = bridge.registry
+
+    def topics(call: ServiceCall) -> Mapping[str, Any]:
+        pairs = list(bridge.topics())
+        return {"topics": [p[0] for p in pairs], "types": [p[1] for p in pairs]}
+
+    def topics_for_type(call: ServiceCall) -> Mapping[str, Any]:
+        want = _resolve(reg.resolve_message, call.args["type"])
+        return {"topics": [n for n, t in bridge.topics() if t == want]}
+
+    def topics_and_raw_types(call: ServiceCall) -> Mapping[str, Any]:
+        pairs = list(bridge.topics())
+        return {
+            "topics": [p[0] for p in pairs],
+            "types": [p[1] for p in pairs],
+            "typedefs_full_text": [reg.definition_text(p[1]) for p in pairs],
+        }
+
+    def topic_type(call: ServiceCall) -> Mapping[str, Any]:
+        return {"type": bridge.topic_type(call.args["topic"]) or ""}
+
+    def services(call: ServiceCall) -> Mapping[str, Any]:
+        return {"services": [s[0] for s in bridge.services()]}
+
+    def services_for_type(call: ServiceCall) -> Mapping[str, Any]:
+        want = _resolve(reg.resolve_service, call.args["type"])
+        return {"services": [s[0] for s in bridge.services() if s[1] == want]}
+
+    def service_type(call: ServiceCall) -> Mapping[str, Any]:
+        name = _abs(call.args["service"])
+        return {"type": next((s[1] for s in bridge.services() if s[0] == name), "")}
+
+    def service_providers(call: ServiceCall) -> Mapping[str, Any]:
+        name = _abs(call.args["service"])
+        return {"providers": [_node(s[2]) for s in bridge.services() if s[0] == name]}
+
+    def service_node(call: ServiceCall) -> Mapping[str, Any]:
+        name = _abs(call.args["service"])
+        return {"node": next((_node(s[2]) for s in bridge.services() if s[0] == name), "")}
+
+    def nodes(call: ServiceCall) -> Mapping[str, Any]:
+        return {"nodes": list(NODES)}
+
+    def node_details(call: ServiceCall) -> Mapping[str, Any]:
+        node = call.args["node"]
+        if node not in NODES:
+            return {"subscribing": [], "publishing": [], "services": []}
+        if node == "/rosapi":
+            return {
+                "subscribing": [],
+                "publishing": [],
+                "services": [s[0] for s in bridge.services() if s[0].startswith("/rosapi/")],
+            }
+        local = node == "/harness"
+
+        def mine(conns: list[int]) -> bool:
+            return any((c == 0) == local for c in conns)
+
+        return {
+            "subscribing": [n for n, _ in bridge.topics() if mine(bridge.subscribers_of(n))],
+            "publishing": [n for n, _ in bridge.topics() if mine(bridge.publishers_of(n))],
+            "services": [
+                s[0]
+                for s in bridge.services()
+                if (s[2] == 0) == local and not s[0].startswith("/rosapi/")
+            ],
+        }
+
+    def action_servers(call: ServiceCall) -> Mapping[str, Any]:
+        return {"action_servers": [a[0] for a in bridge.actions()]}
+
+    def publishers(call: ServiceCall) -> Mapping[str, Any]:
+        return {"publishers": sorted({_node(c) for c in bridge.publishers_of(call.args["topic"])})}
+
+    def subscribers(call: ServiceCall) -> Mapping[str, Any]:
+        return {
+            "subscribers": sorted({_node(c) for c in bridge.subscribers_of(call.args["topic"])})
+        }
+
+    def message_details(call: ServiceCall) -> Mapping[str, Any]:
+        return {"typedefs": typedefs(reg, _resolve(reg.resolve_message, call.args["type"]))}
+
+    def request_details(call: ServiceCall) -> Mapping[str, Any]:
+        srv = reg.service(_resolve(reg.resolve_service, call.args["type"]))
+        return {"typedefs": typedefs(reg, srv.request)}
+
+    def response_details(call: ServiceCall) -> Mapping[str, Any]:
+        srv = reg.service(_resolve(reg.resolve_service, call.args["type"]))
+        return {"typedefs": typedefs(reg, srv.response)}
+
+    def get_param(call: ServiceCall) -> Mapping[str, Any]:
+        return {"value": bridge.params.get(call.args["name"], call.args["default_value"])}
+
+    def set_param(call: ServiceCall) -> Mapping[str, Any]:
+        value = call.args["value"]
+        try:
+            json.loads(value)
+        except ValueError:
+            raise ValueError(f"parameter value is not JSON text: {value[:40]!r}") from None
+        bridge.params[call.args["name"]] = value
+        return {}
+
+    def has_param(call: ServiceCall) -> Mapping[str, Any]:
+        return {"exists": call.args["name"] in bridge.params}
+
+    def delete_param(call: ServiceCall) -> Mapping[str, Any]:
+        bridge.params.pop(call.args["name"], None)
+        return {}
+
+    def get_param_names(call: ServiceCall) -> Mapping[str, Any]:
+        return {"names": sorted(bridge.params)}
+
+    def get_time(call: ServiceCall) -> Mapping[str, Any]:
+        now = bridge.now_ns
+        return {"time": {"sec": now // 1_000_000_000, "nanosec": now % 1_000_000_000}}
+
+    def get_ros_version(call: ServiceCall) -> Mapping[str, Any]:
+        return {"version": 2, "distro": bridge.distro}
+
+    table: dict[str, tuple[str, Callable[[ServiceCall], Mapping[str, Any]]]] = {
+        "topics": ("Topics", topics),
+        "topics_for_type": ("TopicsForType", topics_for_type),
+        "topics_and_raw_types": ("TopicsAndRawTypes", topics_and_raw_types),
+        "topic_type": ("TopicType", topic_type),
+        "services": ("Services", services),
+        "services_for_type": ("ServicesForType", services_for_type),
+        "service_type": ("ServiceType", service_type),
+        "service_providers": ("ServiceProviders", service_providers),
+        "service_node": ("ServiceNode", service_node),
+        "nodes": ("Nodes", nodes),
+        "node_details": ("NodeDetails", node_details),
+        "action_servers": ("ActionServers", action_servers),
+        "publishers": ("Publishers", publishers),
+        "subscribers": ("Subscribers", subscribers),
+        "message_details": ("MessageDetails", message_details),
+        "service_request_details": ("ServiceRequestDetails", request_details),
+        "service_response_details": ("ServiceResponseDetails", response_details),
+        "get_param": ("GetParam", get_param),
+        "set_param": ("SetParam", set_param),
+        "has_param": ("HasParam", has_param),
+        "delete_param": ("DeleteParam", delete_param),
+        "get_param_names": ("GetParamNames", get_param_names),
+        "get_time": ("GetTime", get_time),
+        "get_ros_version": ("GetROSVersion", get_ros_version),
+    }
+    for name, (srv, fn) in table.items():
+        bridge.advertise_service(f"/rosapi/{name}", f"rosapi_msgs/srv/{srv}", fn)
+
+
+def _abs(name: str) -> str:
+    return name if name.startswith("/") else "/" + name
+
+
+def _resolve(resolve: Callable[[str], str], text: str) -> str:
+    try:
+        return resolve(text)
+    except (TypeNameError, UnknownTypeError) as exc:
+        raise ValueError(str(exc)) from None

@@ -1,0 +1,316 @@
+"""The asyncio rosbridge v2 WebSocket server: a thin I/O loop around :class:`Bridge`.
+
+Two ingestion modes: *immediate* (each frame is processed when it arrives, for standalone
+use) and *queued* (``queued=True``: frames, with their connection, wait in arrival order
+until the owner calls :meth:`BridgeServer.process_pending` between simulation steps; frames
+of several connections interleave in arrival order). Each connection has a bounded send
+queue: subscription frames beyond their ``queue_length`` (or the bridge default) are dropped
+oldest first, counted in :attr:`BridgeServer.metrics` and reported to the client as a
+``warning`` status; a client whose unsendable backlog exceeds ``send_queue_bytes`` is closed.
+Everything runs on one event loop; call the bridge's in-process API from that loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import contextlib
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Any
+
+from websockets.asyncio.server import Server, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
+
+from harness.rosbridge.errors import FrameError
+from harness.rosbridge.protocol import Bridge, Output
+
+__all__ = ["BridgeServer", "ConnectionMetrics"]
+
+_CLOSE = object()
+_TIMEOUT = object()
+
+
+@dataclass
+class ConnectionMetrics:
+    """Counters of one connection: frames received, sent, dropped (per topic)."""
+
+    received: int = 0
+    sent: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+
+
+class _Entry:
+    __slots__ = ("alive", "data", "key")
+
+    def __init__(self, data: str | bytes, key: str | None) -> None:
+        self.data = data
+        self.key = key
+        self.alive = True
+
+
+class _Peer:
+    def __init__(self, cid: int, ws: ServerConnection) -> None:
+        self.cid = cid
+        self.ws = ws
+        self.queue: collections.deque[_Entry] = collections.deque()
+        self.by_key: dict[str, collections.deque[_Entry]] = {}
+        self.bytes = 0
+        self.wake = asyncio.Event()
+        self.unreported: dict[str, int] = {}
+        self.metrics = ConnectionMetrics()
+        self.writer: asyncio.Task[None] | None = None
+
+
+class BridgeServer:
+    """Serve ``bridge`` over WebSocket on ``host:port`` (port 0: any free port, see
+    :attr:`url`). ``clock`` returns the ``now_ns`` passed to the bridge in immediate mode
+    (default: wall time, for standalone use; the session passes sim time)."""
+
+    def __init__(
+        self,
+        bridge: Bridge | None = None,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        queued: bool = False,
+        clock: Callable[[], int] | None = None,
+        max_size: int = 16 * 2**20,
+        ping_interval: float | None = 20.0,
+        ping_timeout: float | None = 20.0,
+        send_queue_bytes: int = 256 * 2**20,
+        max_pending: int = 100_000,
+    ) -> None:
+        self.bridge = bridge if bridge is not None else Bridge()
+        self.host = host
+        self.port = port
+        self.queued = queued
+        self.clock = clock if clock is not None else time.time_ns
+        self.max_size = max_size
+        self.ping_interval = ping_interval
+        self.ping_timeout = ping_timeout
+        self.send_queue_bytes = send_queue_bytes
+        self.max_pending = max_pending
+        self.metrics: dict[int, ConnectionMetrics] = {}
+        self.pending_event = asyncio.Event()
+        """Set when queued input waits for :meth:`process_pending`."""
+        self._pending: collections.deque[tuple[int, Any]] = collections.deque()
+        self._room = asyncio.Event()
+        self._room.set()
+        self._peers: dict[int, _Peer] = {}
+        self._server: Server | None = None
+        self._flush_scheduled = False
+        self._timers: set[asyncio.TimerHandle] = set()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._closers: set[asyncio.Future[None]] = set()
+
+    # -- lifecycle ----------------------------------------------------------------------
+
+    async def start(self) -> str:
+        """Bind and start serving; returns :attr:`url`."""
+        self._loop = asyncio.get_running_loop()
+        self.bridge.on_pending = self._schedule_flush
+        self.bridge.on_call_started = self._start_timer
+        self._server = await serve(
+            self._handle,
+            self.host,
+            self.port,
+            max_size=self.max_size,
+            ping_interval=self.ping_interval,
+            ping_timeout=self.ping_timeout,
+            compression=None,
+        )
+        self.port = self._server.sockets[0].getsockname()[1]
+        return self.url
+
+    @property
+    def url(self) -> str:
+        """``ws://host:port`` actually bound."""
+        return f"ws://{self.host}:{self.port}"
+
+    async def stop(self) -> None:
+        """Close every connection and stop listening."""
+        for handle in self._timers:
+            handle.cancel()
+        self._timers.clear()
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+            self._server = None
+
+    async def __aenter__(self) -> BridgeServer:
+        await self.start()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.stop()
+
+    # -- input --------------------------------------------------------------------------
+
+    async def _handle(self, ws: ServerConnection) -> None:
+        peer_name = "{}:{}".format(*ws.remote_address[:2]) if ws.remote_address else ""
+        cid = self.bridge.connect(peer_name)
+        peer = _Peer(cid, ws)
+        self._peers[cid] = peer
+        self.metrics[cid] = peer.metrics
+        peer.writer = asyncio.create_task(self._write(peer))
+        try:
+            async for message in ws:
+                peer.metrics.received += 1
+                if self.queued:
+                    self._pending.append((cid, message))
+                    self.pending_event.set()
+                    if len(self._pending) >= self.max_pending:
+                        self._room.clear()
+                        await self._room.wait()
+                else:
+                    self._dispatch(self.bridge.receive(cid, message, self.clock()))
+        except ConnectionClosed:
+            pass
+        finally:
+            if self.queued:
+                self._pending.append((cid, _CLOSE))
+                self.pending_event.set()
+            else:
+                self._close(cid)
+            peer.writer.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await peer.writer
+
+    def _close(self, cid: int) -> None:
+        self._peers.pop(cid, None)
+        self._dispatch(self.bridge.disconnect(cid))
+
+    def process_pending(self, now_ns: int) -> int:
+        """Queued mode: process every waiting frame (and disconnects, call timeouts) in
+        arrival order at sim time ``now_ns``; returns how many frames were processed."""
+        count = 0
+        self.pending_event.clear()
+        while self._pending:
+            cid, item = self._pending.popleft()
+            if item is _CLOSE:
+                self._close(cid)
+            elif item is _TIMEOUT:
+                self._dispatch(self.bridge.time_out_call(cid))
+            elif cid in self._peers:
+                count += 1
+                self._dispatch(self.bridge.receive(cid, item, now_ns))
+        self._room.set()
+        return count
+
+    def pending(self) -> list[tuple[int, str | bytes]]:
+        """Queued mode: the frames waiting for :meth:`process_pending`, in arrival order."""
+        return [(cid, item) for cid, item in self._pending if isinstance(item, (str, bytes))]
+
+    def _start_timer(self, key: int, timeout_s: float) -> None:
+        assert self._loop is not None
+        handle: asyncio.TimerHandle | None = None
+
+        def fire() -> None:
+            if handle is not None:
+                self._timers.discard(handle)
+            if self.queued:
+                self._pending.append((key, _TIMEOUT))
+                self.pending_event.set()
+            else:
+                self._dispatch(self.bridge.time_out_call(key))
+
+        handle = self._loop.call_later(timeout_s, fire)
+        self._timers.add(handle)
+
+    # -- output -------------------------------------------------------------------------
+
+    def _schedule_flush(self) -> None:
+        if not self._flush_scheduled and self._loop is not None:
+            self._flush_scheduled = True
+            self._loop.call_soon(self.flush)
+
+    def flush(self) -> None:
+        """Send whatever the bridge produced outside :meth:`process_pending` (in-process
+        publishes, deferred answers); called automatically on the server's loop."""
+        self._flush_scheduled = False
+        self._dispatch(self.bridge.drain())
+
+    def _dispatch(self, outputs: list[Output]) -> None:
+        for out in outputs:
+            peer = self._peers.get(out.connection)
+            if peer is not None:
+                self._enqueue(peer, out)
+
+    def _enqueue(self, peer: _Peer, out: Output) -> None:
+        entry = _Entry(out.data, out.name if out.queue_limit else None)
+        if out.queue_limit:
+            same = peer.by_key.setdefault(out.name, collections.deque())
+            while len(same) >= out.queue_limit:
+                self._drop(peer, same.popleft())
+            same.append(entry)
+        peer.queue.append(entry)
+        peer.bytes += len(out.data)
+        if peer.bytes > self.send_queue_bytes and entry.key is not None:
+            same = peer.by_key[entry.key]
+            while peer.bytes > self.send_queue_bytes and len(same) > 1:
+                self._drop(peer, same.popleft())
+        if peer.bytes > self.send_queue_bytes:
+            peer.queue.clear()
+            peer.by_key.clear()
+            peer.bytes = 0
+            self._closers.add(asyncio.ensure_future(peer.ws.close(1008, "send queue overflow")))
+            return
+        peer.wake.set()
+
+    def _drop(self, peer: _Peer, entry: _Entry) -> None:
+        entry.alive = False
+        peer.bytes -= len(entry.data)
+        assert entry.key is not None
+        peer.metrics.dropped[entry.key] = peer.metrics.dropped.get(entry.key, 0) + 1
+        peer.unreported[entry.key] = peer.unreported.get(entry.key, 0) + 1
+
+    async def _write(self, peer: _Peer) -> None:
+        ws = peer.ws
+        while True:
+            if not peer.queue:
+                if peer.unreported:
+                    for key, n in sorted(peer.unreported.items()):
+                        self.bridge.status(
+                            peer.cid,
+                            "warning",
+                            f"dropped {n} messages on {key}: the client reads slower than "
+                            "they are published (raise queue_length to keep more)",
+                        )
+                    peer.unreported.clear()
+                    self.flush()
+                    continue
+                peer.wake.clear()
+                await peer.wake.wait()
+                continue
+            entry = peer.queue.popleft()
+            if not entry.alive:
+                continue
+            if entry.key is not None:
+                peer.by_key[entry.key].popleft()
+            peer.bytes -= len(entry.data)
+            try:
+                await ws.send(entry.data)
+            except ConnectionClosed:
+                return
+            peer.metrics.sent += 1
+
+    # -- convenience --------------------------------------------------------------------
+
+    def connection_ids(self) -> list[int]:
+        """Ids of the open WebSocket connections."""
+        return list(self._peers)
+
+    def close_connection(self, connection: int) -> None:
+        """Close one client's WebSocket (the bridge forgets it when the socket closes)."""
+        peer = self._peers.get(connection)
+        if peer is None:
+            raise FrameError(f"no open connection {connection}")
+        self._closers.add(asyncio.ensure_future(peer.ws.close()))

@@ -1,0 +1,316 @@
+"""The type registry: ROS 2 message, service and action definitions by name.
+
+Messages come from a rosbags typestore (Humble by default, any :class:`Stores` selectable);
+services and actions, which rosbags' stores lack, are parsed from ``.srv``/``.action`` text
+(bundled ones in ``interfaces/``, ``harness_msgs`` and whatever the user registers). Each
+definition is compiled once into :class:`MessageDef` records the converters walk.
+"""
+
+from __future__ import annotations
+
+import re
+from importlib import resources
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from rosbags.interfaces import Nodetype
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from harness.rosbridge.errors import TypeNameError, UnknownTypeError
+
+__all__ = [
+    "FLOAT_TYPES",
+    "INT_RANGES",
+    "ActionDef",
+    "Field",
+    "MessageDef",
+    "ServiceDef",
+    "TypeRegistry",
+    "parse_type_name",
+]
+
+INT_RANGES: dict[str, tuple[int, int]] = {
+    "byte": (0, 255),
+    "char": (0, 255),
+    "uint8": (0, 2**8 - 1),
+    "uint16": (0, 2**16 - 1),
+    "uint32": (0, 2**32 - 1),
+    "uint64": (0, 2**64 - 1),
+    "int8": (-(2**7), 2**7 - 1),
+    "int16": (-(2**15), 2**15 - 1),
+    "int32": (-(2**31), 2**31 - 1),
+    "int64": (-(2**63), 2**63 - 1),
+}
+FLOAT_TYPES = frozenset({"float32", "float64"})
+# The member ROS 2 adds to empty structures; it never appears in JSON.
+_EMPTY_MEMBER = "structure_needs_at_least_one_member"
+_IDENT = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+_KINDS = ("msg", "srv", "action")
+
+
+class Field(NamedTuple):
+    """One field: ``type`` is a primitive name or a full message name (``is_message``);
+    ``length`` is None for a scalar, else the array length (``fixed``) or sequence bound
+    (0 = unbounded); ``string_bound`` bounds ``string<=N``."""
+
+    name: str
+    type: str
+    is_message: bool
+    length: int | None
+    fixed: bool
+    string_bound: int
+
+
+class MessageDef(NamedTuple):
+    """A compiled message definition: fields in definition order and constants."""
+
+    name: str
+    fields: tuple[Field, ...]
+    constants: tuple[tuple[str, str, Any], ...]
+
+
+class ServiceDef(NamedTuple):
+    """A service: the message names of its request and response."""
+
+    name: str
+    request: str
+    response: str
+
+
+class ActionDef(NamedTuple):
+    """An action: the message names of its goal, result and feedback."""
+
+    name: str
+    goal: str
+    result: str
+    feedback: str
+
+
+def parse_type_name(text: object, kind: str = "msg") -> tuple[str, str]:
+    """``(package, Type)`` from ``pkg/Type``, ``pkg/<kind>/Type`` or with stray slashes
+    (``/std_msgs//String/``), as the reference accepts; :class:`TypeNameError` otherwise."""
+    if not isinstance(text, str):
+        raise TypeNameError(f"Invalid {kind} type {text!r}: expected a string")
+    parts = [p for p in text.split("/") if p]
+    if len(parts) == 3 and parts[1] == kind:
+        parts = [parts[0], parts[2]]
+    if len(parts) != 2 or not all(_IDENT.match(p) for p in parts):
+        raise TypeNameError(f"Invalid {kind} type {text!r}: expected pkg/Type or pkg/{kind}/Type")
+    return parts[0], parts[1]
+
+
+def _split_sections(text: str, count: int, what: str) -> list[str]:
+    sections: list[list[str]] = [[]]
+    for line in text.splitlines():
+        if line.strip() == "---":
+            sections.append([])
+        else:
+            sections[-1].append(line)
+    if len(sections) != count:
+        raise TypeNameError(f"{what}: expected {count} sections separated by '---'")
+    return ["\n".join(s) + "\n" for s in sections]
+
+
+class TypeRegistry:
+    """Message, service and action definitions known to one bridge.
+
+    ``store`` selects the rosbags typestore; the bundled ``std_srvs``, ``example_interfaces``
+    and ``rosapi_msgs`` interfaces and ``harness_msgs`` are registered unless disabled.
+    """
+
+    def __init__(
+        self, store: Stores = Stores.ROS2_HUMBLE, *, bundled: bool = True, harness_msgs: bool = True
+    ) -> None:
+        self.store = get_typestore(store)
+        self._compiled: dict[str, MessageDef] = {}
+        self._services: dict[str, ServiceDef] = {}
+        self._actions: dict[str, ActionDef] = {}
+        self._texts: dict[str, str] = {}
+        if bundled:
+            root = resources.files("harness.rosbridge") / "interfaces"
+            for pkg in sorted(root.iterdir(), key=lambda e: e.name):
+                if not pkg.is_dir():
+                    continue
+                for kind in _KINDS:
+                    folder = pkg / kind
+                    if not folder.is_dir():
+                        continue
+                    # messages first: services of the same package refer to them
+                    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+                        stem, _, ext = entry.name.rpartition(".")
+                        if ext == kind:
+                            self.register(f"{pkg.name}/{kind}/{stem}", entry.read_text("utf-8"))
+        if harness_msgs:
+            from harness.msgs import message_definitions, service_definitions
+
+            for name, text in {**message_definitions(), **service_definitions()}.items():
+                self.register(name, text)
+
+    # -- registration -------------------------------------------------------------------
+
+    def register(self, name: str, text: str) -> str:
+        """Register ``pkg/msg/T``, ``pkg/srv/T`` or ``pkg/action/T`` from its definition
+        text; returns the full name."""
+        parts = [p for p in name.split("/") if p]
+        if len(parts) != 3 or parts[1] not in _KINDS:
+            raise TypeNameError(f"Cannot register {name!r}: expected pkg/msg|srv|action/Type")
+        pkg, kind, typ = parts
+        full = f"{pkg}/{kind}/{typ}"
+        if kind == "msg":
+            self._add_msg(f"{pkg}/msg/{typ}", text, full)
+        elif kind == "srv":
+            req, resp = _split_sections(text, 2, full)
+            self._add_msg(f"{pkg}/msg/{typ}_Request", req, f"{full}_Request")
+            self._add_msg(f"{pkg}/msg/{typ}_Response", resp, f"{full}_Response")
+            self._services[full] = ServiceDef(full, f"{full}_Request", f"{full}_Response")
+        else:
+            goal, result, feedback = _split_sections(text, 3, full)
+            self._add_msg(f"{pkg}/msg/{typ}_Goal", goal, f"{full}_Goal")
+            self._add_msg(f"{pkg}/msg/{typ}_Result", result, f"{full}_Result")
+            self._add_msg(f"{pkg}/msg/{typ}_Feedback", feedback, f"{full}_Feedback")
+            self._actions[full] = ActionDef(
+                full, f"{full}_Goal", f"{full}_Result", f"{full}_Feedback"
+            )
+        self._texts[full] = text
+        return full
+
+    def register_file(self, path: str | Path) -> str:
+        """Register ``<pkg>/<msg|srv|action>/<Type>.<ext>`` (the package is the grandparent
+        folder's name, as in a ROS package)."""
+        p = Path(path)
+        kind = p.suffix.lstrip(".")
+        if kind not in _KINDS:
+            raise TypeNameError(f"{p}: expected a .msg, .srv or .action file")
+        return self.register(f"{p.parent.parent.name}/{kind}/{p.stem}", p.read_text("utf-8"))
+
+    def _add_msg(self, parse_name: str, text: str, full: str) -> None:
+        # rosbags resolves relative field types against the name's package; parse as
+        # pkg/msg/X so that works for .srv/.action sections too, then store under `full`.
+        try:
+            ((_, (consts, fields)),) = get_types_from_msg(text, parse_name).items()
+        except Exception as exc:  # rosbags raises its own parse error types
+            raise TypeNameError(f"{full}: cannot parse definition: {exc}") from None
+        self.store.register({full: (consts, fields)})
+        self._compiled.pop(full, None)
+        self._texts[full] = text
+
+    # -- lookup -------------------------------------------------------------------------
+
+    def resolve_message(self, text: object) -> str:
+        """Full ``pkg/msg/Type`` for any accepted spelling; raises if invalid or unknown."""
+        pkg, typ = parse_type_name(text, "msg")
+        full = f"{pkg}/msg/{typ}"
+        if full not in self.store.fielddefs:
+            raise UnknownTypeError(f"Unknown message type {full}")
+        return full
+
+    def resolve_service(self, text: object) -> str:
+        """Full ``pkg/srv/Type`` for any accepted spelling; raises if invalid or unknown."""
+        pkg, typ = parse_type_name(text, "srv")
+        full = f"{pkg}/srv/{typ}"
+        if full not in self._services:
+            raise UnknownTypeError(f"Unknown service type {full}")
+        return full
+
+    def resolve_action(self, text: object) -> str:
+        """Full ``pkg/action/Type`` for any accepted spelling; raises if invalid or unknown."""
+        pkg, typ = parse_type_name(text, "action")
+        full = f"{pkg}/action/{typ}"
+        if full not in self._actions:
+            raise UnknownTypeError(f"Unknown action type {full}")
+        return full
+
+    def message(self, name: str) -> MessageDef:
+        """The compiled definition of a full message name (or a service/action part)."""
+        found = self._compiled.get(name)
+        if found is not None:
+            return found
+        try:
+            consts, raw_fields = self.store.fielddefs[name]
+        except KeyError:
+            raise UnknownTypeError(f"Unknown message type {name}") from None
+        fields = []
+        for fname, desc in raw_fields:
+            if fname == _EMPTY_MEMBER:
+                continue
+            node: Any = desc[0]
+            rest: Any = desc[1]
+            count: int | None = None
+            fixed = node == Nodetype.ARRAY
+            if node in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+                (node, rest), count = rest
+            if node == Nodetype.NAME:
+                fields.append(Field(fname, str(rest), True, count, fixed, 0))
+            else:
+                typ, bound = rest
+                fields.append(Field(fname, str(typ), False, count, fixed, int(bound)))
+        compiled = MessageDef(name, tuple(fields), tuple((c[0], c[1], c[2]) for c in consts))
+        self._compiled[name] = compiled
+        return compiled
+
+    def service(self, name: str) -> ServiceDef:
+        """The service definition of a full service name."""
+        try:
+            return self._services[name]
+        except KeyError:
+            raise UnknownTypeError(f"Unknown service type {name}") from None
+
+    def action(self, name: str) -> ActionDef:
+        """The action definition of a full action name."""
+        try:
+            return self._actions[name]
+        except KeyError:
+            raise UnknownTypeError(f"Unknown action type {name}") from None
+
+    def message_names(self) -> list[str]:
+        """Every message name (services' and actions' parts included), sorted."""
+        return sorted(self.store.fielddefs)
+
+    def service_names(self) -> list[str]:
+        """Every service name, sorted."""
+        return sorted(self._services)
+
+    def action_names(self) -> list[str]:
+        """Every action name, sorted."""
+        return sorted(self._actions)
+
+    def dependencies(self, name: str) -> list[str]:
+        """``name`` and every message type it contains, depth first, each once."""
+        seen: list[str] = []
+
+        def visit(n: str) -> None:
+            if n in seen:
+                return
+            seen.append(n)
+            for f in self.message(n).fields:
+                if f.is_message:
+                    visit(f.type)
+
+        visit(name)
+        return seen
+
+    def definition_text(self, name: str) -> str:
+        """The full definition text of a message, nested definitions appended after
+        ``====`` separators as in ROS 2's ``typedefs_full_text``."""
+        parts = []
+        for dep in self.dependencies(name):
+            text = self._texts.get(dep)
+            if text is None:
+                text = "".join(
+                    f"{_field_type_text(f)} {f.name}\n" for f in self.message(dep).fields
+                )
+            if dep != name:
+                text = "=" * 80 + f"\nMSG: {dep}\n" + text
+            parts.append(text if text.endswith("\n") else text + "\n")
+        return "".join(parts)
+
+
+def _field_type_text(f: Field) -> str:
+    base = f.type
+    if f.string_bound:
+        base += f"<={f.string_bound}"
+    if f.length is None:
+        return base
+    if f.fixed:
+        return f"{base}[{f.length}]"
+    return f"{base}[<={f.length}]" if f.length else f"{base}[]"

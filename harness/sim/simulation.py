@@ -1,0 +1,859 @@
+"""`Simulation`: a MuJoCo model stepped at a fixed ``dt``, one control mode per joint.
+
+Simulation time is the only clock: the state after ``step_index`` steps is at
+``sim_time_ns == step_index * dt_ns`` (an integer product, never a float sum). Commands take
+effect at the next step boundary. Everything the simulation writes into MuJoCo before a step is
+captured as an :class:`~harness.sim.inputs.AppliedInput` (``last_input``), so the model, the
+initial state and those inputs are enough to re-simulate a run bit for bit.
+
+Kinematic joints, and how they report exactly the commanded position
+--------------------------------------------------------------------
+Before every step the commanded position of each kinematic joint is written to ``qpos`` and the
+finite difference of successive commands ``(q_cmd[k] - q_cmd[k-1]) / dt`` to ``qvel`` (mimic
+followers of kinematic joints get the mimic law's value). ``mj_step`` then integrates the whole
+world: contacts and constraint forces see the kinematic links where they were commanded, moving
+at that velocity. Integration moves the kinematic joints too, so *after* ``mj_step`` the same
+qpos/qvel are written again. The state after the step therefore holds the commanded position bit
+for bit, and it is that state which is recorded, restored and replayed (the rewrite is part of
+the applied input's meaning, see :func:`harness.sim.inputs.advance`).
+
+What observers read after a step: ``joint_positions``/``joint_velocities`` and ``get_state``
+come from the post-step state; ``link_poses`` runs forward kinematics on that state (in a scratch
+``MjData``, so the simulation's own data is never touched between steps); ``contacts`` and
+``joint_efforts`` are what MuJoCo computed during the step (the pre-integration state of that
+step, MuJoCo's convention).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from types import MappingProxyType
+from typing import Literal, NamedTuple, Protocol
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.errors import SimulationError
+from harness.models.description import CONTROL_MODES, ControlMode, RobotModel
+from harness.sim.contacts import ContactSet, extract_contacts
+from harness.sim.errors import (
+    CommandError,
+    ControlConfigError,
+    InstabilityError,
+    StateError,
+    TimestepError,
+)
+from harness.sim.inputs import AppliedInput
+
+__all__ = [
+    "STATE_SPEC",
+    "CommandField",
+    "KinematicLimits",
+    "Notice",
+    "Observer",
+    "RobotLike",
+    "Simulation",
+    "warning_names",
+]
+
+F64 = npt.NDArray[np.float64]
+
+STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+"""The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
+warmstart and does not restore bit-exactly."""
+
+KinematicLimits = Literal["clamp", "allow"]
+CommandField = Literal["position", "velocity", "effort"]
+Observer = Callable[["Simulation"], None]
+
+_FIELD_OF_MODE: dict[str, CommandField] = {
+    "kinematic": "position",
+    "position": "position",
+    "velocity": "velocity",
+    "effort": "effort",
+}
+_WARNING_MEANING = {
+    "INERTIA": "invalid inertia",
+    "CONTACTFULL": "too many contacts, some dropped",
+    "CNSTRFULL": "constraint buffer full, some dropped",
+    "BADQPOS": "bad position, MuJoCo auto-reset the state",
+    "BADQVEL": "bad velocity, MuJoCo auto-reset the state",
+    "BADQACC": "bad acceleration, MuJoCo auto-reset the state",
+    "BADCTRL": "bad control value",
+}
+_mj_step = mujoco.mj_step
+_EMPTY_F = np.zeros(0, dtype=np.float64)
+_EMPTY_U = np.zeros(0, dtype=np.uint32)
+
+
+def warning_names() -> tuple[str, ...]:
+    """MuJoCo's warning names by index (``"BADQACC"``, ...), as in ``data.warning``."""
+    members = mujoco.mjtWarning.__members__
+    by_index = {int(v): k.removeprefix("mjWARN_") for k, v in members.items() if k != "mjNWARNING"}
+    return tuple(by_index[i] for i in sorted(by_index))
+
+
+class RobotLike(Protocol):
+    """What :class:`Simulation` needs from a loaded robot (``harness.models.LoadedRobot``)."""
+
+    @property
+    def description(self) -> RobotModel: ...
+
+    @property
+    def model(self) -> mujoco.MjModel: ...
+
+    @property
+    def control(self) -> Mapping[str, ControlMode]: ...
+
+
+class Notice(NamedTuple):
+    """Something a command did not do as asked: ``kind`` is ``"clamped"`` (``applied`` is the
+    value used) or ``"ignored"`` (the field does not apply to the joint's mode; ``applied`` is
+    NaN). The session turns notices into warning events."""
+
+    joint: str
+    kind: Literal["clamped", "ignored"]
+    field: CommandField
+    requested: float
+    applied: float
+    message: str
+
+
+class _Mimic(NamedTuple):
+    leader_row: int  # index into the kinematic leaders
+    qpos_adr: int
+    dof_adr: int
+    name: str
+    coef: tuple[float, float, float, float, float]
+    follower_ref: float
+    leader_ref: float
+
+
+def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:
+    """The control mode an actuator implements, or None when it is not one of the three."""
+    if int(model.actuator_dyntype[act]) != int(mujoco.mjtDyn.mjDYN_NONE):
+        return None
+    if int(model.actuator_gaintype[act]) != int(mujoco.mjtGain.mjGAIN_FIXED):
+        return None
+    gain = float(model.actuator_gainprm[act][0])
+    bias = model.actuator_biasprm[act]
+    biastype = int(model.actuator_biastype[act])
+    if biastype == int(mujoco.mjtBias.mjBIAS_NONE):
+        return "effort"
+    if biastype == int(mujoco.mjtBias.mjBIAS_AFFINE) and gain != 0.0 and bias[0] == 0.0:
+        if bias[1] == -gain:
+            return "position"
+        if bias[1] == 0.0 and bias[2] == -gain:
+            return "velocity"
+    return None
+
+
+def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
+    return mujoco.mj_id2name(model, obj, index) or ""
+
+
+class Simulation:
+    """A MuJoCo model stepped deterministically, with a control mode per controllable joint.
+
+    Build it from a loaded robot (``Simulation(load_robot(...))``) or from a compiled model
+    (:meth:`from_model`). ``kinematic_limits`` decides what a kinematic joint does with a command
+    beyond its position limits: ``"clamp"`` to the limit (reported as a :class:`Notice`) or
+    ``"allow"`` it, reproducing the original framework's teleport "jumping". Dynamic modes always
+    clamp to the model's and the description's limits. The initial state is the model's
+    ``keyframe`` (default ``"home"``, used when the model has one, as the demo robot does:
+    its zero configuration is outside joint 4's range), else ``qpos0``.
+
+    The model must not be edited while the simulation runs; write inputs only through the
+    command methods (never into ``data`` directly), or they are not recorded.
+    """
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    dt_ns: int
+    description: RobotModel | None
+    kinematic_limits: KinematicLimits
+    state_spec: int
+
+    def __init__(
+        self,
+        robot: RobotLike,
+        *,
+        kinematic_limits: KinematicLimits = "clamp",
+        keyframe: str | None = "home",
+    ) -> None:
+        self._setup(robot.model, robot.control, robot.description, kinematic_limits, keyframe)
+
+    @classmethod
+    def from_model(
+        cls,
+        model: mujoco.MjModel,
+        *,
+        control: Mapping[str, ControlMode],
+        description: RobotModel | None = None,
+        kinematic_limits: KinematicLimits = "clamp",
+        keyframe: str | None = "home",
+    ) -> Simulation:
+        """A simulation of a compiled model: ``control`` maps each controllable joint (hinge or
+        slide) to its mode; dynamic joints need exactly one joint actuator of the matching kind,
+        kinematic joints none. ``description`` adds limits MuJoCo ignores (URDF velocity)."""
+        sim = cls.__new__(cls)
+        sim._setup(model, control, description, kinematic_limits, keyframe)
+        return sim
+
+    # ----------------------------------------------------------------------------- set-up
+
+    def _setup(
+        self,
+        model: mujoco.MjModel,
+        control: Mapping[str, ControlMode],
+        description: RobotModel | None,
+        kinematic_limits: KinematicLimits,
+        keyframe: str | None,
+    ) -> None:
+        if kinematic_limits not in ("clamp", "allow"):
+            raise ControlConfigError(
+                f"kinematic_limits must be 'clamp' or 'allow', not {kinematic_limits!r}"
+            )
+        dt = float(model.opt.timestep)
+        dt_ns = round(dt * 1e9)
+        if dt_ns <= 0 or dt_ns / 1e9 != dt:
+            raise TimestepError(
+                f"model timestep {dt!r} s is not a whole number of nanoseconds "
+                f"(sim_time_ns = step * dt_ns needs one; e.g. {max(dt_ns, 1) / 1e9!r})"
+            )
+        if int(model.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_SLEEP):
+            raise ControlConfigError(
+                "the model enables sleeping (option/flag sleep): sleeping bodies break state "
+                "restore, disable it"
+            )
+        self._keyframe = -1
+        if keyframe is not None:
+            self._keyframe = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+            if self._keyframe < 0 and keyframe != "home":
+                raise ControlConfigError(f"the model has no keyframe {keyframe!r}")
+            if self._keyframe >= 0 and float(model.key_time[self._keyframe]) != 0.0:
+                raise ControlConfigError(
+                    f"keyframe {keyframe!r} has time {float(model.key_time[self._keyframe])!r}: "
+                    "the initial state must be at time 0"
+                )
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.dt_ns = dt_ns
+        self.description = description
+        self.kinematic_limits = kinematic_limits
+        self.state_spec = STATE_SPEC
+        self._dt = dt
+        self._half_dt = dt / 2
+        self._state_size = int(mujoco.mj_stateSize(model, STATE_SPEC))
+        self._warnings = self.data.warning.number  # a live view of the counters
+        self._no_warnings = bytes(self._warnings.nbytes)
+        self._warning_names = warning_names()
+        self._observers: list[Observer] = []
+        self._scratch: mujoco.MjData | None = None
+
+        actuators: dict[int, list[int]] = {}
+        for act in range(model.nu):
+            if int(model.actuator_trntype[act]) == int(mujoco.mjtTrn.mjTRN_JOINT):
+                actuators.setdefault(int(model.actuator_trnid[act][0]), []).append(act)
+        mimics = self._mimic_equalities(model)
+
+        names: list[str] = []
+        modes: list[ControlMode] = []
+        qadr: list[int] = []
+        dadr: list[int] = []
+        act_of: list[int] = []
+        lows: list[float] = []
+        highs: list[float] = []
+        for name, mode in control.items():
+            if mode not in CONTROL_MODES:
+                raise ControlConfigError(
+                    f"joint {name!r}: control mode {mode!r} is not one of "
+                    f"{', '.join(CONTROL_MODES)}"
+                )
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if jid < 0:
+                raise ControlConfigError(f"control names joint {name!r}, which the model lacks")
+            jtype = int(model.jnt_type[jid])
+            if jtype not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                raise ControlConfigError(
+                    f"joint {name!r} is not a hinge or slide joint: it cannot be controlled"
+                )
+            if jid in mimics:
+                lead = _name(model, mujoco.mjtObj.mjOBJ_JOINT, mimics[jid][0])
+                raise ControlConfigError(
+                    f"joint {name!r} mimics {lead!r} (joint equality): command {lead!r}"
+                )
+            acts = actuators.get(jid, [])
+            act_names = ", ".join(repr(_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a)) for a in acts)
+            if mode == "kinematic":
+                if acts:
+                    raise ControlConfigError(
+                        f"joint {name!r} is kinematic but actuator {act_names} drives it: "
+                        "build the model without an actuator on kinematic joints"
+                    )
+                act_of.append(-1)
+            else:
+                if len(acts) != 1:
+                    raise ControlConfigError(
+                        f"joint {name!r} ({mode}) needs exactly one joint actuator, "
+                        f"the model has {len(acts)}{': ' + act_names if acts else ''}"
+                    )
+                kind = _actuator_kind(model, acts[0])
+                if kind is not None and kind != mode:
+                    raise ControlConfigError(
+                        f"joint {name!r} is to be {mode}-controlled but its actuator "
+                        f"{act_names} is a {kind} actuator"
+                    )
+                act_of.append(acts[0])
+            lo, hi = self._command_range(model, jid, acts[0] if acts else -1, name, mode)
+            names.append(name)
+            modes.append(mode)
+            qadr.append(int(model.jnt_qposadr[jid]))
+            dadr.append(int(model.jnt_dofadr[jid]))
+            lows.append(lo)
+            highs.append(hi)
+
+        self._names = tuple(names)
+        self._index = {n: i for i, n in enumerate(names)}
+        self._modes = tuple(modes)
+        self._qadr = np.array(qadr, dtype=np.intp)
+        self._dadr = np.array(dadr, dtype=np.intp)
+        self._lo = np.array(lows, dtype=np.float64)
+        self._hi = np.array(highs, dtype=np.float64)
+        self._cmd: F64 = np.zeros(len(names), dtype=np.float64)
+        self._is_kin = np.array([m == "kinematic" for m in modes], dtype=bool)
+        self._dyn_rows = np.flatnonzero(~self._is_kin)
+        self._dyn_act = np.array([act_of[r] for r in self._dyn_rows], dtype=np.intp)
+        self._kin_rows = np.flatnonzero(self._is_kin)
+        self._has_kin = bool(self._kin_rows.size)
+
+        # Kinematic writes: the kinematic joints, then the mimic followers of those joints.
+        leader_row = {int(self._qadr[r]): i for i, r in enumerate(self._kin_rows)}
+        followers: list[_Mimic] = []
+        for follower, (leader, coef) in sorted(mimics.items()):
+            row = leader_row.get(int(model.jnt_qposadr[leader]))
+            if row is not None:
+                followers.append(
+                    _Mimic(
+                        leader_row=row,
+                        qpos_adr=int(model.jnt_qposadr[follower]),
+                        dof_adr=int(model.jnt_dofadr[follower]),
+                        name=_name(model, mujoco.mjtObj.mjOBJ_JOINT, follower),
+                        coef=coef,
+                        follower_ref=float(model.qpos0[model.jnt_qposadr[follower]]),
+                        leader_ref=float(model.qpos0[model.jnt_qposadr[leader]]),
+                    )
+                )
+        self._followers = tuple(followers)
+        self._kin_names = tuple(self._names[r] for r in self._kin_rows) + tuple(
+            f.name for f in followers
+        )
+        self._kin_qadr = np.array(
+            [*self._qadr[self._kin_rows], *(f.qpos_adr for f in followers)], dtype=np.uint32
+        )
+        self._kin_dadr = np.array(
+            [*self._dadr[self._kin_rows], *(f.dof_adr for f in followers)], dtype=np.uint32
+        )
+        self._bodies = tuple(
+            (b, n)
+            for b in range(1, model.nbody)
+            if (n := _name(model, mujoco.mjtObj.mjOBJ_BODY, b))
+        )
+        self.reset()
+
+    @staticmethod
+    def _mimic_equalities(
+        model: mujoco.MjModel,
+    ) -> dict[int, tuple[int, tuple[float, float, float, float, float]]]:
+        """follower joint id -> (leader joint id, polynomial coefficients), from the active
+        joint equalities (URDF ``<mimic>`` becomes one)."""
+        out: dict[int, tuple[int, tuple[float, float, float, float, float]]] = {}
+        for e in range(model.neq):
+            if int(model.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT):
+                continue
+            if not model.eq_active0[e] or int(model.eq_obj2id[e]) < 0:
+                continue
+            c = [float(v) for v in model.eq_data[e][:5]]
+            out[int(model.eq_obj1id[e])] = (int(model.eq_obj2id[e]), (c[0], c[1], c[2], c[3], c[4]))
+        return out
+
+    def _command_range(
+        self, model: mujoco.MjModel, jid: int, act: int, name: str, mode: ControlMode
+    ) -> tuple[float, float]:
+        lo, hi = -math.inf, math.inf
+        limits = None
+        if self.description is not None:
+            try:
+                limits = self.description.joint(name).limits
+            except KeyError:
+                limits = None
+        if mode == "position" or (mode == "kinematic" and self.kinematic_limits == "clamp"):
+            if model.jnt_limited[jid]:
+                lo, hi = float(model.jnt_range[jid][0]), float(model.jnt_range[jid][1])
+        elif mode == "velocity":
+            if limits is not None and limits.velocity:
+                lo, hi = -abs(limits.velocity), abs(limits.velocity)
+        elif mode == "effort":
+            if model.jnt_actfrclimited[jid]:
+                lo, hi = (float(v) for v in model.jnt_actfrcrange[jid])
+            if limits is not None and limits.effort:
+                lo, hi = max(lo, -abs(limits.effort)), min(hi, abs(limits.effort))
+        if act >= 0 and model.actuator_ctrllimited[act]:
+            lo = max(lo, float(model.actuator_ctrlrange[act][0]))
+            hi = min(hi, float(model.actuator_ctrlrange[act][1]))
+        return lo, hi
+
+    # ----------------------------------------------------------------------------- state
+
+    def reset(self) -> None:
+        """Back to the initial state at step 0 (the keyframe, else the model's ``qpos0``);
+        every joint holds its initial position (position servos target it, velocity and effort
+        commands are 0)."""
+        if self._keyframe >= 0:
+            mujoco.mj_resetDataKeyframe(self.model, self.data, self._keyframe)
+        else:
+            mujoco.mj_resetData(self.model, self.data)
+        for r, mode in enumerate(self._modes):
+            q = float(self.data.qpos[self._qadr[r]])
+            if mode == "kinematic":
+                self._cmd[r] = q
+            elif mode == "position":
+                self._cmd[r] = min(max(q, self._lo[r]), self._hi[r])
+            else:
+                self._cmd[r] = 0.0
+        self.data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
+        self._restart(0)
+
+    def get_state(self) -> F64:
+        """The full ``mjSTATE_INTEGRATION`` state (a new array)."""
+        state = np.empty(self._state_size, dtype=np.float64)
+        mujoco.mj_getState(self.model, self.data, state, STATE_SPEC)
+        return state
+
+    def set_state(self, state: npt.ArrayLike, step_index: int) -> None:
+        """Restore a state captured by :meth:`get_state` at ``step_index``. Commands are taken
+        from it: positions held, ctrl as in the state."""
+        arr = np.asarray(state, dtype=np.float64)
+        if arr.shape != (self._state_size,):
+            raise StateError(
+                f"state has shape {arr.shape}, the model's INTEGRATION state has "
+                f"({self._state_size},)"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise StateError("state holds non-finite values")
+        if step_index < 0:
+            raise StateError(f"step_index must be >= 0, not {step_index}")
+        # mjSTATE_TIME is the first component of every state.
+        if abs(float(arr[0]) - step_index * self._dt) > self._half_dt:
+            raise StateError(
+                f"state time {float(arr[0])!r} s does not match step {step_index} "
+                f"(step * dt = {step_index * self.dt_ns / 1e9!r} s)"
+            )
+        mujoco.mj_setState(self.model, self.data, arr, STATE_SPEC)
+        self._cmd[self._kin_rows] = self.data.qpos[self._qadr[self._kin_rows]]
+        self._cmd[self._dyn_rows] = self.data.ctrl[self._dyn_act]
+        self._restart(step_index)
+
+    def _restart(self, step_index: int) -> None:
+        self._step = step_index
+        self._failed: str | None = None
+        self._xfrc = np.array(self.data.xfrc_applied, dtype=np.float64)
+        self._kin_prev = np.array(self.data.qpos[self._kin_qadr], dtype=np.float64)
+        self._kin_pos = self._kin_prev
+        self._kin_vel = np.zeros(self._kin_qadr.size, dtype=np.float64)
+        self._kin_moving = False
+        self._dirty = True
+        self._fast = False
+        self._changed = False
+        self._applied: AppliedInput | None = None
+        # Derived quantities (contacts, poses) for observers at this step; mj_forward reads
+        # the state but writes none of it.
+        mujoco.mj_forward(self.model, self.data)
+
+    # ----------------------------------------------------------------------------- stepping
+
+    @property
+    def step_index(self) -> int:
+        """Steps taken since step 0 (the initial state)."""
+        return self._step
+
+    @property
+    def sim_time_ns(self) -> int:
+        """``step_index * dt_ns``."""
+        return self._step * self.dt_ns
+
+    @property
+    def dt(self) -> float:
+        """The timestep in seconds (``dt_ns / 1e9`` exactly)."""
+        return self._dt
+
+    @property
+    def state_size(self) -> int:
+        """Length of :meth:`get_state`'s array."""
+        return self._state_size
+
+    def add_observer(self, fn: Observer) -> Callable[[], None]:
+        """Call ``fn(sim)`` after every step, in registration order; returns its remover."""
+        self._observers.append(fn)
+        self._fast = False
+
+        def remove() -> None:
+            if fn in self._observers:
+                self._observers.remove(fn)
+            self._update_fast()
+
+        return remove
+
+    def step(self, n: int = 1) -> None:
+        """Take ``n`` steps. Raises :class:`~harness.sim.errors.InstabilityError` naming the step
+        when MuJoCo warns (BADQACC, ...) or time does not match ``step * dt``."""
+        if n == 1 and self._fast:
+            # The common case (dynamic joints, no observer, input unchanged), kept lean: the
+            # overhead over a bare mj_step is what bench_sim measures.
+            _mj_step(self.model, self.data)
+            step = self._step = self._step + 1
+            self._changed = False
+            if (
+                self._warnings.tobytes() != self._no_warnings
+                or abs(self.data.time - step * self._dt) > self._half_dt
+            ):
+                self._fail(step)
+            return
+        if n < 0:
+            raise SimulationError(f"step count must be >= 0, not {n}")
+        if self._failed is not None:
+            raise SimulationError(self._failed)
+        if n > 1 and not self._observers and not self._has_kin:
+            self._step_batch(n)
+            return
+        for _ in range(n):
+            self._step_one()
+            if self._observers:
+                for fn in tuple(self._observers):
+                    fn(self)
+
+    def _update_fast(self) -> None:
+        self._fast = not (self._dirty or self._has_kin or self._observers or self._failed)
+
+    def _step_one(self) -> None:
+        data = self.data
+        if self._dirty or self._kin_moving:
+            self._prepare_input()
+        else:
+            self._changed = False
+        if self._has_kin:
+            data.qpos[self._kin_qadr] = self._kin_pos
+            data.qvel[self._kin_dadr] = self._kin_vel
+            mujoco.mj_step(self.model, data)
+            data.qpos[self._kin_qadr] = self._kin_pos
+            data.qvel[self._kin_dadr] = self._kin_vel
+        else:
+            mujoco.mj_step(self.model, data)
+        step = self._step + 1
+        self._step = step
+        if (
+            self._warnings.tobytes() != self._no_warnings
+            or abs(data.time - step * self._dt) > self._half_dt
+        ):
+            self._fail(step)
+
+    def _step_batch(self, n: int) -> None:
+        if self._dirty or self._kin_moving:
+            self._prepare_input()
+        start = self._step
+        saved = self.get_state()
+        mujoco.mj_step(self.model, self.data, nstep=n)
+        self._step = start + n
+        self._changed = False
+        if (
+            self._warnings.tobytes() != self._no_warnings
+            or abs(self.data.time - self._step * self._dt) > self._half_dt
+        ):
+            # Deterministic: replay the batch one step at a time to name the failing step.
+            mujoco.mj_setState(self.model, self.data, saved, STATE_SPEC)
+            self.data.warning.number[:] = 0
+            self._step = start
+            for _ in range(n):
+                self._step_one()
+            self._fail(self._step)
+
+    def _prepare_input(self) -> None:
+        """Write the pending commands into MuJoCo and capture them as the applied input."""
+        data = self.data
+        if self._dirty:
+            data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
+            data.xfrc_applied[:] = self._xfrc
+            if self._has_kin:
+                self._kin_pos = self._kinematic_targets()
+        if self._has_kin:
+            self._kin_vel = (self._kin_pos - self._kin_prev) / self._dt
+            self._kin_prev = self._kin_pos
+            self._kin_moving = bool(self._kin_vel.any())
+        self._dirty = False
+        self._update_fast()
+        nmocap = self.model.nmocap
+        qfrc = data.qfrc_applied
+        xfrc = data.xfrc_applied
+        applied = AppliedInput(
+            step=self._step + 1,
+            sim_time_ns=(self._step + 1) * self.dt_ns,
+            ctrl=np.array(data.ctrl, dtype=np.float64),
+            kinematic_joints=self._kin_names,
+            qpos_index=self._kin_qadr if self._has_kin else _EMPTY_U,
+            qpos_value=self._kin_pos.copy() if self._has_kin else _EMPTY_F,
+            qvel_index=self._kin_dadr if self._has_kin else _EMPTY_U,
+            qvel_value=self._kin_vel.copy() if self._has_kin else _EMPTY_F,
+            mocap_pos=np.array(data.mocap_pos, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
+            mocap_quat=np.array(data.mocap_quat, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
+            qfrc_applied=np.array(qfrc, dtype=np.float64) if qfrc.any() else _EMPTY_F,
+            xfrc_applied=np.array(xfrc, dtype=np.float64).ravel() if xfrc.any() else _EMPTY_F,
+        )
+        self._changed = self._applied is None or not applied.same_physics(self._applied)
+        self._applied = applied
+
+    def _kinematic_targets(self) -> F64:
+        leaders: F64 = self._cmd[self._kin_rows]  # fancy indexing: already a copy
+        if not self._followers:
+            return leaders
+        out = np.empty(self._kin_qadr.size, dtype=np.float64)
+        out[: leaders.size] = leaders
+        for i, f in enumerate(self._followers):
+            x = float(leaders[f.leader_row]) - f.leader_ref
+            c = f.coef
+            out[leaders.size + i] = (
+                f.follower_ref + c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * c[4])))
+            )
+        return out
+
+    def _fail(self, step: int) -> None:
+        counts = self._warnings
+        nonzero = np.flatnonzero(counts)
+        if nonzero.size:
+            index = int(nonzero[0])
+            warning = self._warning_names[index]
+            info = int(self.data.warning.lastinfo[index])
+            where = ""
+            if warning in ("BADQACC", "BADQVEL") and 0 <= info < self.model.nv:
+                joint = _name(
+                    self.model, mujoco.mjtObj.mjOBJ_JOINT, int(self.model.dof_jntid[info])
+                )
+                where = f" at dof {info} (joint {joint!r})"
+            message = (
+                f"step {step} (sim time {step * self.dt_ns} ns): MuJoCo warning {warning}"
+                f"{where}: {_WARNING_MEANING.get(warning, 'see MuJoCo docs')}; the run is no "
+                "longer valid (lower gains or the timestep, or check masses and forces)"
+            )
+        else:
+            warning = "TIME"
+            message = (
+                f"step {step}: simulation time {self.data.time!r} s does not match "
+                f"step * dt = {step * self.dt_ns / 1e9!r} s (time jumped: did MuJoCo reset?)"
+            )
+        self._failed = f"the simulation failed at {message}; reset() or set_state() first"
+        self._fast = False
+        raise InstabilityError(message, step=step, warning=warning)
+
+    @property
+    def last_input(self) -> AppliedInput | None:
+        """The physics input applied at the last step (None before the first step after a
+        reset or restore). It holds until changed: its ``step`` is the last step taken."""
+        if self._applied is None or self._step == 0:
+            return None
+        return self._applied._replace(step=self._step, sim_time_ns=self.sim_time_ns)
+
+    @property
+    def input_changed(self) -> bool:
+        """Whether the last step's input differs from the step before's (True for the first
+        step after a reset or restore)."""
+        return self._changed
+
+    # ----------------------------------------------------------------------------- commands
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The controllable joints, in the order of every per-joint array."""
+        return self._names
+
+    @property
+    def control(self) -> Mapping[str, ControlMode]:
+        """Joint name -> control mode."""
+        return MappingProxyType(dict(zip(self._names, self._modes, strict=True)))
+
+    def command(
+        self,
+        joint: str,
+        *,
+        position: float | None = None,
+        velocity: float | None = None,
+        effort: float | None = None,
+    ) -> list[Notice]:
+        """Command one joint: the field matching its mode applies (``position`` for kinematic
+        and position joints, ``velocity`` for velocity, ``effort`` for effort); others are
+        reported as ignored when nothing applies. Unknown joint or non-finite value: raises
+        :class:`~harness.sim.errors.CommandError` and nothing changes."""
+        given = {"position": position, "velocity": velocity, "effort": effort}
+        entries = [(joint, f, v) for f, v in given.items() if v is not None]
+        return self._apply(self._validate(entries))
+
+    def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
+        """Position commands for several joints (all validated before any applies)."""
+        return self._apply(self._validate([(j, "position", v) for j, v in positions.items()]))
+
+    def set_velocities(self, velocities: Mapping[str, float]) -> list[Notice]:
+        """Velocity commands for several joints (all validated before any applies)."""
+        return self._apply(self._validate([(j, "velocity", v) for j, v in velocities.items()]))
+
+    def set_efforts(self, efforts: Mapping[str, float]) -> list[Notice]:
+        """Effort commands for several joints (all validated before any applies)."""
+        return self._apply(self._validate([(j, "effort", v) for j, v in efforts.items()]))
+
+    def command_joint_state(
+        self,
+        name: Sequence[str],
+        position: Sequence[float] = (),
+        velocity: Sequence[float] = (),
+        effort: Sequence[float] = (),
+    ) -> list[Notice]:
+        """A ``sensor_msgs/JointState``-style command (the original framework's
+        JointStateSubscriber): for each ``name[i]``, ``effort[i]``, ``velocity[i]`` and
+        ``position[i]`` apply where that index exists, per the joint's mode. Unlike the
+        original, unknown names are refused, not skipped."""
+        entries: list[tuple[str, str, object]] = []
+        for field, values in (("effort", effort), ("velocity", velocity), ("position", position)):
+            if len(values) > len(name):
+                raise CommandError(
+                    f"joint state command has {len(values)} {field} values for {len(name)} names"
+                )
+            entries.extend((name[i], field, values[i]) for i in range(len(values)))
+        return self._apply(self._validate(entries))
+
+    def apply_wrench(
+        self, body: str, force: Sequence[float], torque: Sequence[float] = (0.0, 0.0, 0.0)
+    ) -> None:
+        """Apply a world-frame force and torque at ``body``'s centre of mass from the next step
+        on (it holds until changed; zero to stop)."""
+        bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, body)
+        if bid <= 0:
+            raise CommandError(f"unknown body {body!r} for apply_wrench")
+        wrench = np.array([*force, *torque], dtype=np.float64)
+        if wrench.shape != (6,) or not np.all(np.isfinite(wrench)):
+            raise CommandError(f"body {body!r}: force and torque must be 3 finite values each")
+        self._xfrc[bid] = wrench
+        self._dirty = True
+        self._fast = False
+
+    def joint_commands(self) -> F64:
+        """The current command per joint, in the unit of its mode's field."""
+        commands: F64 = self._cmd.copy()
+        return commands
+
+    def _validate(self, entries: Iterable[tuple[str, str, object]]) -> list[tuple[int, str, float]]:
+        out: list[tuple[int, str, float]] = []
+        for joint, field, raw in entries:
+            row = self._index.get(joint)
+            if row is None:
+                known = ", ".join(self._names) or "none"
+                raise CommandError(f"unknown joint {joint!r} (controllable joints: {known})")
+            try:
+                value = float(raw)  # type: ignore[arg-type]
+            except (TypeError, ValueError):
+                raise CommandError(f"joint {joint!r}: {field} {raw!r} is not a number") from None
+            if not math.isfinite(value):
+                raise CommandError(f"joint {joint!r}: {field} {value!r} is not finite")
+            out.append((row, field, value))
+        return out
+
+    def _apply(self, entries: list[tuple[int, str, float]]) -> list[Notice]:
+        notices: list[Notice] = []
+        by_row: dict[int, dict[str, float]] = {}
+        for row, field, value in entries:
+            by_row.setdefault(row, {})[field] = value
+        for row, fields in by_row.items():
+            name = self._names[row]
+            mode = self._modes[row]
+            wanted = _FIELD_OF_MODE[mode]
+            if wanted not in fields:
+                for field, value in fields.items():
+                    notices.append(
+                        Notice(
+                            name,
+                            "ignored",
+                            field,  # type: ignore[arg-type]
+                            value,
+                            math.nan,
+                            f"joint {name!r} is {mode}-controlled: {field} command ignored",
+                        )
+                    )
+                continue
+            value = fields[wanted]
+            lo, hi = float(self._lo[row]), float(self._hi[row])
+            applied = min(max(value, lo), hi)
+            if applied != value:
+                notices.append(
+                    Notice(
+                        name,
+                        "clamped",
+                        wanted,
+                        value,
+                        applied,
+                        f"joint {name!r}: {wanted} {value:g} is beyond its limits "
+                        f"[{lo:g}, {hi:g}]: clamped to {applied:g}",
+                    )
+                )
+            self._cmd[row] = applied
+            self._dirty = True
+            self._fast = False
+        return notices
+
+    # ----------------------------------------------------------------------------- reads
+
+    @property
+    def kinematic_joints(self) -> tuple[str, ...]:
+        """Joints written kinematically each step (mimic followers of kinematic joints too)."""
+        return self._kin_names
+
+    def joint_positions(self) -> F64:
+        """Positions of :attr:`joint_names` (rad or m)."""
+        return np.array(self.data.qpos[self._qadr], dtype=np.float64)
+
+    def joint_velocities(self) -> F64:
+        """Velocities of :attr:`joint_names`."""
+        return np.array(self.data.qvel[self._dadr], dtype=np.float64)
+
+    def joint_efforts(self) -> F64:
+        """Generalised force per joint: the actuator's (after the joint's force limit) for
+        dynamic joints, the applied generalised force (``qfrc_applied``) for kinematic ones."""
+        efforts: F64 = np.where(
+            self._is_kin, self.data.qfrc_applied[self._dadr], self.data.qfrc_actuator[self._dadr]
+        )
+        return efforts
+
+    def link_poses(self) -> dict[str, tuple[F64, F64]]:
+        """Every named body's world pose as ``(xyz, quat w-x-y-z)``, for the current state."""
+        if self._scratch is None:
+            self._scratch = mujoco.MjData(self.model)
+        scratch = self._scratch
+        scratch.qpos[:] = self.data.qpos
+        if self.model.nmocap:
+            scratch.mocap_pos[:] = self.data.mocap_pos
+            scratch.mocap_quat[:] = self.data.mocap_quat
+        mujoco.mj_kinematics(self.model, scratch)
+        return {n: (scratch.xpos[b].copy(), scratch.xquat[b].copy()) for b, n in self._bodies}
+
+    def contacts(self) -> ContactSet:
+        """The contacts of the last step (see :func:`harness.sim.contacts.extract_contacts`)."""
+        return extract_contacts(self.model, self.data)
+
+    def body_name(self, body_id: int) -> str:
+        """A body's name (``"body<id>"`` when unnamed)."""
+        return _name(self.model, mujoco.mjtObj.mjOBJ_BODY, body_id) or f"body{body_id}"
+
+    def geom_name(self, geom_id: int) -> str:
+        """A geom's name (``"geom<id>"`` when unnamed)."""
+        return _name(self.model, mujoco.mjtObj.mjOBJ_GEOM, geom_id) or f"geom{geom_id}"
+
+    def warning_counts(self) -> dict[str, int]:
+        """MuJoCo's warning counters by name (all zero while the run is valid)."""
+        return {n: int(c) for n, c in zip(self._warning_names, self._warnings, strict=True)}
