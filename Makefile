@@ -16,7 +16,7 @@ $(PY):
 # Reinstall only when the dependency pins change; constraints.txt pins the whole environment
 # because MuJoCo and numpy versions change simulation results.
 $(STAMP): pyproject.toml constraints.txt | $(PY)
-	$(PY) -m pip install --quiet -c constraints.txt -e '.[test]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,dask]'
 	touch $(STAMP)
 
 install: $(STAMP)

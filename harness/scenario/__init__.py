@@ -1,1 +1,78 @@
-"""harness.scenario (see ARCHITECTURE.md)."""
+"""Scenarios and the runner: scenario files (a superset of the original scene config), runner
+configs (the original ``sim_runner`` format), iterations on local or Dask workers, and reports
+(JUnit XML, JSON, self-contained HTML).
+
+The runner machinery talks to whatever runs one iteration through :class:`IterationRunner`;
+:func:`session_iteration_runner` is where the session-backed one is wired in.
+"""
+
+from harness.scenario.client import BridgeHost, run_client, stop_group
+from harness.scenario.errors import RunnerError, RunnerUnavailableError, ScenarioError
+from harness.scenario.reports import render_html, write_reports
+from harness.scenario.results import (
+    ClientOutcome,
+    CollisionSummary,
+    IterationResult,
+    IterationRunner,
+    IterationSpec,
+    JointLimitSummary,
+    JointTrace,
+    Traces,
+    Verdict,
+    judge,
+)
+from harness.scenario.runfile import RunConfig, SimulationPlan, load_run_file
+from harness.scenario.runner import (
+    Backend,
+    DaskBackend,
+    LocalBackend,
+    iteration_specs,
+    judge_determinism,
+    run_iterations,
+    session_iteration_runner,
+)
+from harness.scenario.scenario import (
+    BUILTIN_MAPS,
+    BUILTIN_ROBOTS,
+    ClientSpec,
+    Criteria,
+    RobotSpec,
+    Scenario,
+)
+
+__all__ = [
+    "BUILTIN_MAPS",
+    "BUILTIN_ROBOTS",
+    "Backend",
+    "BridgeHost",
+    "ClientOutcome",
+    "ClientSpec",
+    "CollisionSummary",
+    "Criteria",
+    "DaskBackend",
+    "IterationResult",
+    "IterationRunner",
+    "IterationSpec",
+    "JointLimitSummary",
+    "JointTrace",
+    "LocalBackend",
+    "RobotSpec",
+    "RunConfig",
+    "RunnerError",
+    "RunnerUnavailableError",
+    "Scenario",
+    "ScenarioError",
+    "SimulationPlan",
+    "Traces",
+    "Verdict",
+    "iteration_specs",
+    "judge",
+    "judge_determinism",
+    "load_run_file",
+    "render_html",
+    "run_client",
+    "run_iterations",
+    "session_iteration_runner",
+    "stop_group",
+    "write_reports",
+]

@@ -1,0 +1,236 @@
+"""Running every iteration of a run file: planning, local or Dask workers, determinism.
+
+The runner machinery does not know how an iteration runs: it hands :class:`IterationSpec`\\ s
+to an :class:`~harness.scenario.results.IterationRunner` on a :class:`Backend` and collects
+:class:`~harness.scenario.results.IterationResult`\\ s. :func:`session_iteration_runner` is
+the one place where the product's (session-backed) runner is wired in.
+"""
+
+from __future__ import annotations
+
+import importlib
+import multiprocessing
+import re
+import traceback
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Protocol
+
+from harness.scenario.errors import RunnerError, RunnerUnavailableError
+from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict
+from harness.scenario.runfile import RunConfig
+
+__all__ = [
+    "Backend",
+    "DaskBackend",
+    "LocalBackend",
+    "iteration_specs",
+    "judge_determinism",
+    "run_iterations",
+    "session_iteration_runner",
+]
+
+OnResult = Callable[[IterationResult], None]
+
+
+def session_iteration_runner() -> IterationRunner:
+    """The iteration runner ``harness run`` uses: one :class:`harness.Session` per iteration.
+
+    This is the single wiring point for the session-backed runner; until the Session exists it
+    refuses rather than pretend to run anything.
+    """
+    raise RunnerUnavailableError(
+        "the session-backed iteration runner is not available yet (harness.Session is not "
+        "built); nothing was run"
+    )
+
+
+def _slug(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "-", name).strip("-") or "simulation"
+
+
+def iteration_specs(
+    config: RunConfig, out_dir: Path, iterations: int | None = None
+) -> list[IterationSpec]:
+    """One spec per iteration: each with a free port (0), its own folder
+    ``<out>/<simulation>/iteration-NNN/`` and recording ``recording.mcap`` in it; every
+    iteration of a simulation uses the scenario's seed, so iterations are comparable."""
+    specs: list[IterationSpec] = []
+    for plan in config.simulations:
+        count = iterations if iterations is not None else plan.iterations
+        for i in range(1, count + 1):
+            folder = out_dir.resolve() / _slug(plan.name) / f"iteration-{i:03d}"
+            specs.append(
+                IterationSpec(
+                    simulation=plan.name,
+                    iteration=i,
+                    scenario=plan.scenario,
+                    client=plan.client,
+                    sim_time_limit=plan.sim_time_limit,
+                    seed=plan.scenario.seed,
+                    host=plan.scenario.bridge.ip,
+                    port=0,
+                    out_dir=folder,
+                    recording_path=folder / "recording.mcap",
+                )
+            )
+    return specs
+
+
+def _failed(spec: IterationSpec, error: str) -> IterationResult:
+    return IterationResult(
+        simulation=spec.simulation,
+        iteration=spec.iteration,
+        verdicts=(),
+        sim_time=0.0,
+        steps=0,
+        error=error,
+    )
+
+
+def run_one(runner: IterationRunner, spec: IterationSpec) -> IterationResult:
+    """Run ``spec`` in this process; an exception becomes a failed result with its reason."""
+    spec.out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        return runner(spec)
+    except Exception as exc:
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        return _failed(
+            spec,
+            f"runner raised {type(exc).__name__}: {exc} "
+            f"({Path(where.filename).name}:{where.lineno})",
+        )
+
+
+class Backend(Protocol):
+    """Where iterations run."""
+
+    def run(
+        self, runner: IterationRunner, specs: Sequence[IterationSpec], on_result: OnResult
+    ) -> list[IterationResult]:
+        """Run every spec; call ``on_result`` as each finishes; return results in spec order."""
+        ...
+
+
+@dataclass(frozen=True)
+class LocalBackend:
+    """``workers`` local processes (spawned, so no state leaks from the parent)."""
+
+    workers: int = 1
+
+    def run(
+        self, runner: IterationRunner, specs: Sequence[IterationSpec], on_result: OnResult
+    ) -> list[IterationResult]:
+        """Run every spec in the process pool; a dead worker fails its iterations."""
+        results: dict[int, IterationResult] = {}
+        context = multiprocessing.get_context("spawn")
+        workers = max(1, min(self.workers, len(specs)))
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            futures: dict[Future[IterationResult], int] = {
+                pool.submit(run_one, runner, spec): index for index, spec in enumerate(specs)
+            }
+            try:
+                for future in as_completed(futures):
+                    index = futures[future]
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool:
+                        result = _failed(specs[index], "the worker process running it died")
+                    results[index] = result
+                    on_result(result)
+            except BaseException:
+                pool.shutdown(wait=True, cancel_futures=True)
+                raise
+        return [results[i] for i in range(len(specs))]
+
+
+@dataclass(frozen=True)
+class DaskBackend:
+    """An existing Dask distributed scheduler at ``address`` (``pip install distributed``)."""
+
+    address: str
+
+    def run(
+        self, runner: IterationRunner, specs: Sequence[IterationSpec], on_result: OnResult
+    ) -> list[IterationResult]:
+        """Submit every spec to the cluster; results come back as they finish."""
+        try:
+            distributed: Any = importlib.import_module("distributed")
+        except ImportError:
+            raise RunnerError(
+                "--backend dask needs the 'distributed' package (pip install dask distributed)"
+            ) from None
+        try:
+            client = distributed.Client(self.address, set_as_default=False, timeout=30)
+        except OSError as exc:
+            raise RunnerError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
+        results: dict[int, IterationResult] = {}
+        try:
+            futures: dict[Any, int] = {
+                client.submit(run_one, runner, spec, pure=False): index
+                for index, spec in enumerate(specs)
+            }
+            for future in distributed.as_completed(list(futures), loop=client.loop):
+                index = futures[future]
+                try:
+                    result = future.result()
+                except Exception as exc:  # the worker died or the task was lost
+                    result = _failed(specs[index], f"Dask task failed: {type(exc).__name__}: {exc}")
+                results[index] = result
+                on_result(result)
+        finally:
+            client.close()
+        return [results[i] for i in range(len(specs))]
+
+
+def judge_determinism(results: Sequence[IterationResult]) -> list[IterationResult]:
+    """Add a ``determinism`` verdict to every result: within a simulation, every iteration's
+    state-stream digest must equal the first iteration's."""
+    first: dict[str, IterationResult] = {}
+    counts: dict[str, int] = {}
+    for r in results:
+        first.setdefault(r.simulation, r)
+        counts[r.simulation] = counts.get(r.simulation, 0) + 1
+    judged = []
+    for r in results:
+        ref = first[r.simulation]
+        if counts[r.simulation] < 2:
+            verdict = Verdict("determinism", False, "needs at least 2 iterations to compare")
+        elif r.state_digest is None or ref.state_digest is None:
+            verdict = Verdict("determinism", False, "no state stream to compare")
+        elif r.state_digest == ref.state_digest:
+            verdict = Verdict(
+                "determinism",
+                True,
+                f"state stream identical to iteration {ref.iteration} "
+                f"(sha256 {r.state_digest[:12]})",
+            )
+        else:
+            verdict = Verdict(
+                "determinism",
+                False,
+                f"state stream differs from iteration {ref.iteration} "
+                f"({r.state_digest[:12]} != {ref.state_digest[:12]})",
+            )
+        judged.append(replace(r, verdicts=(*r.verdicts, verdict)))
+    return judged
+
+
+def run_iterations(
+    runner: IterationRunner,
+    specs: Sequence[IterationSpec],
+    backend: Backend,
+    check_determinism: bool = False,
+    on_result: OnResult | None = None,
+) -> list[IterationResult]:
+    """Run ``specs`` on ``backend``; judge determinism when asked or when a scenario's
+    criteria ask for it. Results come back in spec order."""
+    results = backend.run(runner, specs, on_result or (lambda _r: None))
+    wanted = {s.simulation for s in specs if check_determinism or s.scenario.criteria.deterministic}
+    if wanted:
+        judged = iter(judge_determinism([r for r in results if r.simulation in wanted]))
+        results = [next(judged) if r.simulation in wanted else r for r in results]
+    return results

@@ -1,0 +1,519 @@
+"""Scenario files: a superset of the original framework's scene config, as frozen dataclasses.
+
+A scenario is JSON or YAML. The shipped JSON Schema (``scenario.schema.json``) is the single
+description of the keys; :meth:`Scenario.load` validates against it (every problem reported,
+each with its key path and value, unknown keys with a "did you mean"), then checks what a
+schema cannot (files exist, built-in names, per-logger options) and builds the dataclasses.
+Relative paths resolve against the scenario file's folder.
+
+Compatibility with the original scene config: ``environment.map`` may be ``""`` (= ``empty``);
+``weather`` and ``time`` are kept as metadata; ``ros.bridge.port`` may be a string; controller
+``mode: dynamic`` means ``position`` (the original's dynamic mode drove position motors);
+``JointStateSubscriber`` keeps the original default topic ``/joint/states``. Unlike the
+original, ``position`` is in metres (not Unreal centimetres) and ``orientation`` (roll, pitch,
+yaw in radians) is honoured.
+"""
+
+from __future__ import annotations
+
+import difflib
+import shlex
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from harness.models.description import ControlMode
+from harness.scenario._validation import format_path, load_document, schema_problems
+from harness.scenario.errors import ScenarioError
+
+__all__ = [
+    "BUILTIN_MAPS",
+    "BUILTIN_ROBOTS",
+    "Bridge",
+    "ClientSpec",
+    "Clock",
+    "CollisionLoggerSpec",
+    "Controller",
+    "Criteria",
+    "Destination",
+    "Environment",
+    "JointLoggerSpec",
+    "LoggerSpec",
+    "LoggingConfig",
+    "Recording",
+    "RobotSpec",
+    "Scenario",
+    "SceneObject",
+    "Subscriber",
+]
+
+BUILTIN_ROBOTS: tuple[str, ...] = ("demo",)
+"""Robot names ``robots[].robot`` accepts besides a file path."""
+BUILTIN_MAPS: tuple[str, ...] = ("empty", "table")
+"""Scene names ``environment.map`` accepts besides a world file."""
+ROBOT_SUFFIXES = (".urdf", ".sdf", ".xml", ".mjcf")
+WORLD_SUFFIXES = (".xml", ".mjcf", ".sdf", ".world")
+
+Vector3 = tuple[float, float, float]
+ClockMode = Literal["lockstep", "fast", "realtime"]
+
+
+@dataclass(frozen=True)
+class Environment:
+    """``map`` is a built-in scene name or the resolved world file; the rest is metadata."""
+
+    map: str | Path = "empty"
+    weather: str | None = None
+    time: str | None = None
+
+
+@dataclass(frozen=True)
+class Subscriber:
+    """A command input of a robot: the original's JointStateSubscriber, or a trajectory topic."""
+
+    type: Literal["JointStateSubscriber", "JointTrajectorySubscriber"]
+    topic: str
+
+
+@dataclass(frozen=True)
+class Controller:
+    """Control mode for ``joints`` (empty = every joint of the robot)."""
+
+    mode: ControlMode
+    joints: tuple[str, ...] = ()
+    beyond_limits: Literal["clamp", "allow"] = "clamp"
+
+
+@dataclass(frozen=True)
+class CollisionLoggerSpec:
+    """Options of a CollisionLogger (see harness.events)."""
+
+    debounce_steps: int = 0
+    ignore_pairs: tuple[tuple[str, str], ...] = ()
+    self_collision: bool = True
+    robot_vs_world_only: bool = False
+    min_force: float = 0.0
+    near_miss_distance: float | None = None
+
+
+@dataclass(frozen=True)
+class JointLoggerSpec:
+    """Options of a JointLogger: ``rate`` samples per simulation second (None: every step)."""
+
+    rate: float | None = None
+    joints: tuple[str, ...] = ()
+
+
+LoggerSpec = CollisionLoggerSpec | JointLoggerSpec
+
+_LOGGER_KEYS: dict[str, tuple[str, ...]] = {
+    "CollisionLogger": (
+        "debounce_steps",
+        "ignore_pairs",
+        "self_collision",
+        "robot_vs_world_only",
+        "min_force",
+        "near_miss_distance",
+    ),
+    "JointLogger": ("rate", "joints"),
+}
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """One robot: ``robot`` is a built-in name or the resolved model file."""
+
+    robot: str | Path
+    name: str
+    position: Vector3 = (0.0, 0.0, 0.0)
+    orientation: Vector3 = (0.0, 0.0, 0.0)
+    initial_joint_positions: Mapping[str, float] = field(default_factory=dict)
+    subscribers: tuple[Subscriber, ...] = ()
+    controllers: tuple[Controller, ...] = ()
+    loggers: tuple[LoggerSpec, ...] = ()
+
+
+@dataclass(frozen=True)
+class Bridge:
+    """Where ``harness serve`` listens; ``harness run`` gives every iteration a free port."""
+
+    ip: str = "127.0.0.1"
+    port: int = 9090
+
+
+@dataclass(frozen=True)
+class Destination:
+    """A log sink of the original ``logging`` section (type Seq) or one of ours."""
+
+    type: Literal["Seq", "JsonLines", "Logging"]
+    endpoint: str | None = None
+    api_key: str | None = None
+    path: Path | None = None
+    logger: str | None = None
+
+
+@dataclass(frozen=True)
+class LoggingConfig:
+    """The original ``logging`` section: ``frequency`` is the joint log rate in sim Hz."""
+
+    enable: bool = False
+    frequency: float = 1.0
+    destination: Destination | None = None
+
+
+@dataclass(frozen=True)
+class Clock:
+    """Clock mode of the run; ``rate`` is the real-time factor in ``realtime`` mode."""
+
+    mode: ClockMode = "realtime"
+    rate: float = 1.0
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    """A primitive added to the world; without ``mass`` it is fixed."""
+
+    name: str
+    shape: Literal["box", "sphere", "cylinder"]
+    size: tuple[float, ...]
+    position: Vector3 = (0.0, 0.0, 0.0)
+    orientation: Vector3 = (0.0, 0.0, 0.0)
+    mass: float | None = None
+    rgba: tuple[float, float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Recording:
+    """What each iteration records to its MCAP file."""
+
+    enabled: bool = True
+    state_every: int = 1
+    bridge_frames: bool = True
+
+
+@dataclass(frozen=True)
+class Criteria:
+    """Pass/fail criteria judged on every iteration."""
+
+    no_collisions: bool = True
+    allowed_collisions: tuple[tuple[str, str], ...] = ()
+    joint_limits: bool = True
+    joint_limit_tolerance: float = 0.0
+    deterministic: bool = False
+
+
+@dataclass(frozen=True)
+class ClientSpec:
+    """The client under test: ``command`` runs in ``cwd`` with ``env`` added to the environment
+    (plus ``HARNESS_ROSBRIDGE_URL``); it must connect within ``readiness_timeout`` wall seconds;
+    a run still going after ``wall_timeout`` wall seconds is stopped and failed."""
+
+    command: tuple[str, ...]
+    cwd: Path
+    env: Mapping[str, str] = field(default_factory=dict)
+    readiness_timeout: float = 30.0
+    wall_timeout: float = 600.0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario. Build it with :meth:`load` or :meth:`from_mapping`."""
+
+    name: str
+    robots: tuple[RobotSpec, ...]
+    environment: Environment = Environment()
+    description: str = ""
+    bridge: Bridge = Bridge()
+    logging: LoggingConfig = LoggingConfig()
+    timestep: float = 0.002
+    duration: float = 10.0
+    seed: int = 0
+    clock: Clock = Clock()
+    objects: tuple[SceneObject, ...] = ()
+    recording: Recording = Recording()
+    criteria: Criteria = Criteria()
+    client: ClientSpec | None = None
+    source: Path | None = None
+
+    @classmethod
+    def load(cls, path: str | Path) -> Scenario:
+        """Read and validate a scenario file (JSON or YAML); raises :class:`ScenarioError`
+        listing every problem found."""
+        path = Path(path).resolve()
+        return cls.from_mapping(load_document(path), base_dir=path.parent, source=path)
+
+    @classmethod
+    def from_mapping(
+        cls, data: Any, *, base_dir: Path | None = None, source: Path | None = None
+    ) -> Scenario:
+        """Validate an already parsed document; relative paths resolve against ``base_dir``."""
+        where = str(source) if source is not None else "<scenario>"
+        problems = schema_problems(data, "scenario", where)
+        builder = _Builder(where, base_dir or Path.cwd())
+        if problems:
+            # Still report the missing files and unknown names, so one pass shows everything.
+            builder.references(data)
+            raise ScenarioError(problems + builder.problems)
+        scenario = builder.scenario(data, source)
+        if builder.problems:
+            raise ScenarioError(builder.problems)
+        return scenario
+
+
+def _resolve_choice(
+    value: str, base: Path, builtins: tuple[str, ...], suffixes: tuple[str, ...]
+) -> str | Path:
+    """A built-in name stays a str; anything that looks like a path becomes a resolved Path."""
+    if value in builtins:
+        return value
+    if "/" in value or "\\" in value or Path(value).suffix.lower() in suffixes:
+        return (base / value).resolve()
+    return value
+
+
+class _Builder:
+    """Builds dataclasses from a schema-valid document, collecting the semantic problems."""
+
+    def __init__(self, where: str, base: Path) -> None:
+        self.where = where
+        self.base = base
+        self.problems: list[str] = []
+
+    def problem(self, path: list[str | int], value: Any, text: str) -> None:
+        self.problems.append(f"{self.where}: {format_path(path)}: {value!r} {text}")
+
+    def scenario(self, data: dict[str, Any], source: Path | None) -> Scenario:
+        env = data.get("environment", {})
+        ros_bridge = data.get("ros", {}).get("bridge", {})
+        crit = data.get("criteria", {})
+        clock = data.get("clock", {})
+        rec = data.get("recording", {})
+        default_name = source.stem if source is not None else "scenario"
+        robots = tuple(self.robot(r, i) for i, r in enumerate(data["robots"]))
+        objects = tuple(self.object(o, i) for i, o in enumerate(data.get("objects", [])))
+        self.unique("robots", [r.name for r in robots])
+        self.unique("objects", [o.name for o in objects])
+        return Scenario(
+            name=data.get("name", default_name),
+            description=data.get("description", ""),
+            robots=robots,
+            environment=Environment(
+                map=self.map(env.get("map", "")),
+                weather=env.get("weather"),
+                time=env.get("time"),
+            ),
+            bridge=Bridge(
+                ip=ros_bridge.get("ip", "127.0.0.1"),
+                port=self.port(ros_bridge.get("port", 9090)),
+            ),
+            logging=self.logging(data.get("logging", {})),
+            timestep=float(data.get("timestep", 0.002)),
+            duration=float(data.get("duration", 10.0)),
+            seed=int(data.get("seed", 0)),
+            clock=Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
+            objects=objects,
+            recording=Recording(
+                enabled=rec.get("enabled", True),
+                state_every=rec.get("state_every", 1),
+                bridge_frames=rec.get("bridge_frames", True),
+            ),
+            criteria=Criteria(
+                no_collisions=crit.get("no_collisions", True),
+                allowed_collisions=tuple((a, b) for a, b in crit.get("allowed_collisions", [])),
+                joint_limits=crit.get("joint_limits", True),
+                joint_limit_tolerance=float(crit.get("joint_limit_tolerance", 0.0)),
+                deterministic=crit.get("deterministic", False),
+            ),
+            client=self.client(data["client"], ["client"]) if "client" in data else None,
+            source=source,
+        )
+
+    def references(self, data: Any) -> None:
+        """Check the robot and world references of a document that failed the schema."""
+        if not isinstance(data, dict):
+            return
+        env = data.get("environment")
+        if isinstance(env, dict) and isinstance(env.get("map"), str):
+            self.map(env["map"])
+        robots = data.get("robots")
+        for index, robot in enumerate(robots if isinstance(robots, list) else []):
+            if isinstance(robot, dict) and isinstance(robot.get("robot"), str) and robot["robot"]:
+                self.robot_source(robot["robot"], ["robots", index, "robot"])
+
+    def robot_source(self, value: str, path: list[str | int]) -> str | Path:
+        robot = _resolve_choice(value, self.base, BUILTIN_ROBOTS, ROBOT_SUFFIXES)
+        if isinstance(robot, Path):
+            if not robot.is_file():
+                self.problem(path, value, f"not found (looked for {robot})")
+        elif robot not in BUILTIN_ROBOTS:
+            self.problem(
+                path, value, self.not_builtin("robot", robot, BUILTIN_ROBOTS, ROBOT_SUFFIXES)
+            )
+        return robot
+
+    def unique(self, key: str, names: list[str]) -> None:
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                self.problem(
+                    [key, i, "name"], name, f"is already the name of {key}[{names.index(name)}]"
+                )
+
+    def map(self, value: str) -> str | Path:
+        path: list[str | int] = ["environment", "map"]
+        if value == "":
+            return "empty"
+        resolved = _resolve_choice(value, self.base, BUILTIN_MAPS, WORLD_SUFFIXES)
+        if isinstance(resolved, Path):
+            if not resolved.is_file():
+                self.problem(path, value, f"not found (looked for {resolved})")
+            return resolved
+        if resolved not in BUILTIN_MAPS:
+            self.problem(
+                path, value, self.not_builtin("scene", resolved, BUILTIN_MAPS, WORLD_SUFFIXES)
+            )
+        return resolved
+
+    @staticmethod
+    def not_builtin(
+        kind: str, value: str, builtins: tuple[str, ...], suffixes: tuple[str, ...]
+    ) -> str:
+        guess = difflib.get_close_matches(value, builtins, n=1)
+        hint = f"did you mean {guess[0]!r}? " if guess else ""
+        return (
+            f"is not a built-in {kind} ({hint}built-ins: {', '.join(builtins)}) "
+            f"nor a file path (use a {'/'.join(suffixes)} file)"
+        )
+
+    def port(self, value: int | str) -> int:
+        port = int(value)
+        if not 0 <= port <= 65535:
+            self.problem(["ros", "bridge", "port"], value, "is not a TCP port (0-65535)")
+        return port
+
+    def robot(self, data: dict[str, Any], index: int) -> RobotSpec:
+        path: list[str | int] = ["robots", index]
+        robot = self.robot_source(data["robot"], [*path, "robot"])
+        default_name = "robot" if index == 0 else f"robot{index}"
+        return RobotSpec(
+            robot=robot,
+            name=data.get("name", default_name),
+            position=_vec3(data.get("position")),
+            orientation=_vec3(data.get("orientation")),
+            initial_joint_positions={
+                k: float(v) for k, v in data.get("initial_joint_positions", {}).items()
+            },
+            subscribers=tuple(
+                Subscriber(
+                    type=s["type"],
+                    topic=s.get(
+                        "topic",
+                        "/joint/states"
+                        if s["type"] == "JointStateSubscriber"
+                        else "/joint_trajectory",
+                    ),
+                )
+                for s in data.get("subscribers", [])
+            ),
+            controllers=tuple(
+                Controller(
+                    mode="position" if c["mode"] == "dynamic" else c["mode"],
+                    joints=tuple(c.get("joints", ())),
+                    beyond_limits=c.get("beyond_limits", "clamp"),
+                )
+                for c in data.get("controllers", [])
+            ),
+            loggers=tuple(
+                self.logger(lg, [*path, "loggers", i])
+                for i, lg in enumerate(data.get("loggers", []))
+            ),
+        )
+
+    def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:
+        kind = data["type"]
+        for key in data:
+            if key != "type" and key not in _LOGGER_KEYS[kind]:
+                self.problem(
+                    [*path, key],
+                    data[key],
+                    f"is not an option of {kind} (its options: {', '.join(_LOGGER_KEYS[kind])})",
+                )
+        if kind == "JointLogger":
+            rate = data.get("rate")
+            return JointLoggerSpec(
+                rate=None if rate is None else float(rate), joints=tuple(data.get("joints", ()))
+            )
+        near = data.get("near_miss_distance")
+        return CollisionLoggerSpec(
+            debounce_steps=data.get("debounce_steps", 0),
+            ignore_pairs=tuple((a, b) for a, b in data.get("ignore_pairs", [])),
+            self_collision=data.get("self_collision", True),
+            robot_vs_world_only=data.get("robot_vs_world_only", False),
+            min_force=float(data.get("min_force", 0.0)),
+            near_miss_distance=None if near is None else float(near),
+        )
+
+    def logging(self, data: dict[str, Any]) -> LoggingConfig:
+        dest = data.get("destination")
+        destination = None
+        if dest is not None:
+            needs = {"Seq": "endpoint", "JsonLines": "path", "Logging": None}[dest["type"]]
+            if needs is not None and needs not in dest:
+                self.problem(
+                    ["logging", "destination"], dest, f"needs {needs!r} for type {dest['type']}"
+                )
+            destination = Destination(
+                type=dest["type"],
+                endpoint=dest.get("endpoint"),
+                api_key=dest.get("api_key"),
+                path=(self.base / dest["path"]).resolve() if "path" in dest else None,
+                logger=dest.get("logger"),
+            )
+        return LoggingConfig(
+            enable=data.get("enable", False),
+            frequency=float(data.get("frequency", 1.0)),
+            destination=destination,
+        )
+
+    def object(self, data: dict[str, Any], index: int) -> SceneObject:
+        counts = {"box": 3, "sphere": 1, "cylinder": 2}
+        want = counts[data["shape"]]
+        if len(data["size"]) != want:
+            self.problem(
+                ["objects", index, "size"],
+                data["size"],
+                f"needs {want} number(s) for a {data['shape']}",
+            )
+        mass = data.get("mass")
+        rgba = data.get("rgba")
+        return SceneObject(
+            name=data["name"],
+            shape=data["shape"],
+            size=tuple(float(s) for s in data["size"]),
+            position=_vec3(data.get("position")),
+            orientation=_vec3(data.get("orientation")),
+            mass=None if mass is None else float(mass),
+            rgba=None
+            if rgba is None
+            else (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3])),
+        )
+
+    def client(self, data: dict[str, Any], path: list[str | int]) -> ClientSpec:
+        return ClientSpec(
+            command=command_tuple(data["command"]),
+            cwd=self.base,
+            env=dict(data.get("env", {})),
+            readiness_timeout=float(data.get("readiness_timeout", 30.0)),
+            wall_timeout=float(data.get("wall_timeout", 600.0)),
+        )
+
+
+def command_tuple(value: str | list[str]) -> tuple[str, ...]:
+    """A command given as a string (split like a POSIX shell, no shell features) or a list."""
+    return tuple(shlex.split(value)) if isinstance(value, str) else tuple(value)
+
+
+def _vec3(value: list[float] | None) -> Vector3:
+    if value is None:
+        return (0.0, 0.0, 0.0)
+    return (float(value[0]), float(value[1]), float(value[2]))
