@@ -12,12 +12,21 @@ from typing import Any
 from harness._version import __version__
 from harness.errors import HarnessError
 
-__all__ = ["HarnessError", "RobotModel", "Scenario", "Simulation", "__version__", "load_robot"]
+__all__ = [
+    "HarnessError",
+    "RobotModel",
+    "Scenario",
+    "Session",
+    "Simulation",
+    "__version__",
+    "load_robot",
+]
 
 _LAZY = {
     "RobotModel": "harness.models",
     "load_robot": "harness.models",
     "Simulation": "harness.sim",
+    "Session": "harness.session",
     "Scenario": "harness.scenario",
 }
 

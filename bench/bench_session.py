@@ -1,0 +1,170 @@
+"""The session's lockstep loop against the bare Simulation loop, and session start-up.
+
+Lockstep at a 1 kHz sim rate (the demo arm with ``timestep = 0.001``): a client in its own
+process (like robot software) publishes one forward position command per step and then calls
+``/harness/step`` for that one step, waiting for the answer; it also subscribes to
+``/joint_states`` (100 Hz). Measured: steps/s as the client sees them, without and with
+recording, against the bare loop (``sim.set_positions(...)``, ``sim.step()``) in the same run.
+A cProfile of the session's thread during the recorded run says where the time goes (printed).
+
+Start-up + teardown (``Session(...)`` then ``close()``, demo robot, recording on): fresh (the
+session loads the robot) and warm (a loaded robot passed in); the limit is the original
+framework's fastest simulator start-up (Gazebo, 3.0 s, thesis Table 5.4).
+"""
+
+from __future__ import annotations
+
+import cProfile
+import io
+import pstats
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import Row
+
+from harness.models import LoadedRobot, load_robot
+from harness.session import Session
+from harness.sim import Simulation
+
+_CLIENT = r"""
+import json, sys, time
+from websockets.sync.client import connect
+url, steps = sys.argv[1], int(sys.argv[2])
+with connect(url, compression=None) as ws:
+    ws.send(json.dumps({"op": "subscribe", "topic": "/joint_states",
+                        "type": "sensor_msgs/msg/JointState"}))
+    cmd = {"op": "publish", "topic": "/forward_position_controller/commands",
+           "msg": {"data": [0.0] * 8}}
+    call = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}, "id": "s"}
+    def run(n):
+        for k in range(n):
+            cmd["msg"]["data"] = [0.1 * (k % 10) / 10, -0.78, 0.0, -2.35, 0.0, 1.57, 0.78, 0.02]
+            ws.send(json.dumps(cmd))
+            ws.send(json.dumps(call))
+            while json.loads(ws.recv())["op"] != "service_response":
+                pass
+    run(200)  # warm-up
+    start = time.perf_counter()
+    run(steps)
+    print(time.perf_counter() - start, flush=True)
+"""
+
+_GAZEBO_STARTUP_S = 3.0
+
+
+def _robot_1khz() -> LoadedRobot:
+    robot = load_robot("demo", control="position")
+    robot.model.opt.timestep = 0.001
+    return robot
+
+
+def _bare(robot: LoadedRobot, steps: int) -> float:
+    sim = Simulation(robot)
+    names = sim.joint_names
+    start = time.perf_counter()
+    for k in range(steps):
+        values = [0.1 * (k % 10) / 10, -0.78, 0.0, -2.35, 0.0, 1.57, 0.78, 0.02]
+        sim.set_positions(dict(zip(names, values, strict=True)))
+        sim.step()
+    return steps / (time.perf_counter() - start)
+
+
+def _lockstep(
+    robot: LoadedRobot, steps: int, record: Path | None, profile: cProfile.Profile | None
+) -> float:
+    with Session(robot, record_to=record) as session:
+        if profile is not None:
+            session.call(profile.enable)
+        out = subprocess.run(
+            [sys.executable, "-c", _CLIENT, session.url, str(steps)],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        if profile is not None:
+            session.call(profile.disable)
+    return steps / float(out.stdout.strip())
+
+
+_FRESH = r"""
+import sys, time
+start = time.perf_counter()
+from harness.session import Session
+Session("demo", record_to=sys.argv[1]).close()
+print(time.perf_counter() - start)
+"""
+
+
+def _startup_warm(robot: LoadedRobot, folder: Path, repeats: int) -> float:
+    best = float("inf")
+    for i in range(repeats):
+        start = time.perf_counter()
+        Session(robot, record_to=folder / f"startup{i}.mcap").close()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _startup_fresh(folder: Path, repeats: int) -> float:
+    """A new process: imports, robot loading (mesh cache as left by earlier runs), start,
+    close."""
+    best = float("inf")
+    for i in range(repeats):
+        out = subprocess.run(
+            [sys.executable, "-c", _FRESH, str(folder / f"fresh{i}.mcap")],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        best = min(best, float(out.stdout.strip()))
+    return best
+
+
+def run(quick: bool) -> list[Row]:
+    steps = 1_000 if quick else 5_000
+    robot = _robot_1khz()
+    rows: list[Row] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        bare = max(_bare(robot, steps) for _ in range(3))
+        plain = _lockstep(robot, steps, None, None)
+        recorded = _lockstep(robot, steps, folder / "bench.mcap", None)
+        profile = cProfile.Profile()
+        _lockstep(robot, steps // 2, folder / "profiled.mcap", profile)
+        bare_again = max(_bare(robot, steps) for _ in range(3))
+        bare = max(bare, bare_again)
+        note = "client in its own process: publish + /harness/step per step"
+        for name, value in (("no recording", plain), ("recording", recorded)):
+            rows.append(
+                Row(
+                    f"session lockstep 1 kHz, {name}",
+                    value,
+                    bare,
+                    "st/s",
+                    "report",
+                    True,
+                    note=note,
+                )
+            )
+        fresh = _startup_fresh(folder, 2 if quick else 3)
+        warm = _startup_warm(load_robot("demo", control="position"), folder, 3 if quick else 5)
+        for name, seconds in (("fresh", fresh), ("warm", warm)):
+            rows.append(
+                Row(
+                    f"session start-up + teardown, {name}, recording on",
+                    seconds,
+                    _GAZEBO_STARTUP_S,
+                    "s",
+                    "< 1 s (Gazebo 3 s)",
+                    seconds < 1.0,
+                    higher_is_better=False,
+                )
+            )
+    text = io.StringIO()
+    stats = pstats.Stats(profile, stream=text).sort_stats("tottime")
+    stats.print_stats(18)
+    print("where the session thread's time goes (recorded lockstep run, by own time):")
+    print("\n".join(text.getvalue().splitlines()[:40]))
+    return rows

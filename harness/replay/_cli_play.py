@@ -1,0 +1,42 @@
+"""``harness play FILE``: serve a recording's frames to rosbridge clients on its schedule."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+from pathlib import Path
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``play`` subcommand's options."""
+    parser.add_argument("file", type=Path, help="the recording (.mcap)")
+    parser.add_argument("--port", type=int, default=9090, help="WebSocket port (0: any free)")
+    parser.add_argument("--rate", type=float, default=1.0, help="sim time per wall time")
+    parser.add_argument(
+        "--start-paused", action="store_true", help="wait for /harness/step or /harness/resume"
+    )
+    parser.add_argument("--loop-forever", action="store_true", help="keep serving at the end")
+
+
+async def _main(args: argparse.Namespace) -> int:
+    from harness.replay.play import Player
+
+    player = Player(args.file, port=args.port, rate=args.rate, start_paused=args.start_paused)
+    url = await player.start()
+    print(f"playing {args.file} on {url} ({len(player.items)} messages, steps "
+          f"{player.first_step}..{player.last_step}, rate {args.rate:g})", flush=True)  # fmt: skip
+    try:
+        await player.run()
+        print(f"finished at step {player.step}", flush=True)
+        if args.loop_forever:
+            await asyncio.Event().wait()
+    finally:
+        await player.stop()
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Serve until the recording ends (Ctrl-C stops)."""
+    return asyncio.run(_main(args))

@@ -1,0 +1,84 @@
+"""``harness replay FILE.mcap``: verify that a recording replays (exit 0), or re-simulate it
+with the other control mode (``--mode``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``replay`` subcommand's options."""
+    parser.add_argument("file", type=Path, help="the recording (.mcap)")
+    parser.add_argument("--atol", type=float, default=0.0, help="absolute tolerance (0: exact)")
+    parser.add_argument("--rtol", type=float, default=0.0, help="relative tolerance (0: exact)")
+    parser.add_argument(
+        "--level",
+        choices=("physics", "full"),
+        default="physics",
+        help="physics: states from inputs; full: also the bridge pipeline",
+    )
+    parser.add_argument(
+        "--mode",
+        choices=("kinematic", "dynamic"),
+        default=None,
+        help="re-simulate the recorded joint commands with every joint in this mode",
+    )
+    parser.add_argument("--report", type=Path, default=None, help="write the report as JSON")
+    parser.add_argument(
+        "--allow-damaged", action="store_true", help="replay what precedes damage in the file"
+    )
+    parser.add_argument("--max-tracking-error", type=float, default=None, metavar="RAD")
+    parser.add_argument("--max-limit-violation", type=float, default=None, metavar="RAD")
+    parser.add_argument("--max-velocity-ratio", type=float, default=None, metavar="RATIO")
+    parser.add_argument("--max-penetration", type=float, default=None, metavar="M")
+    parser.add_argument("--max-energy-jump", type=float, default=None, metavar="J")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Exit 0: reproduced (or no threshold exceeded with --mode); 1: diverged (exceeded)."""
+    from harness.replay.progress import progress_bar
+
+    if args.mode is not None:
+        from harness.replay.resim import Thresholds, resimulate
+
+        defaults = Thresholds()
+        thresholds = Thresholds(
+            **{
+                name: getattr(args, name) if getattr(args, name) is not None else value
+                for name, value in defaults._asdict().items()
+            }
+        )
+        with progress_bar(f"re-simulating ({args.mode})") as progress:
+            resim = resimulate(
+                args.file,
+                args.mode,
+                thresholds=thresholds,
+                allow_damaged=args.allow_damaged,
+                progress=progress,
+            )
+        print(resim.format())
+        if args.report is not None:
+            args.report.write_text(json.dumps(resim.to_json(), indent=2) + "\n")
+        return 0 if resim.passed else 1
+
+    from harness.replay.verify import verify
+
+    with progress_bar("replaying") as progress:
+        report = verify(
+            args.file,
+            atol=args.atol,
+            rtol=args.rtol,
+            level=args.level,
+            allow_damaged=args.allow_damaged,
+            progress=progress,
+        )
+    print(report.format())
+    if args.report is not None:
+        args.report.write_text(json.dumps(report.to_json(), indent=2) + "\n")
+    sys.stdout.flush()
+    return 0 if report.reproduced else 1

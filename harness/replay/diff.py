@@ -1,0 +1,238 @@
+"""``diff``: compare two recordings on decoded records with per-quantity tolerances.
+
+The engine of golden tests (the pytest plugin's ``golden.check(**tolerances)`` calls
+:func:`diff`). Compared, at the steps both recordings hold a physics state:
+
+- ``joint_position`` / ``joint_velocity``: every ``qpos``/``qvel`` coordinate, named after
+  its joint (``box_joint[3]`` for multi-coordinate joints);
+- ``link_position`` (m) / ``link_rotation`` (rad): every body's world pose, by forward
+  kinematics of the recorded ``qpos`` on recording A's model;
+- ``collisions``: begin/end events matched by (kind, body pair) within ``collision_time_ns``;
+- ``message_count``: messages per topic (``/harness/bridge`` frames included).
+
+Bytes are never compared (headers carry library versions). A quantity differs when
+``|b - a| > tolerance``; every differing quantity is one :class:`DiffEntry` naming the first
+step it exceeded its tolerance and its largest delta.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.recording import CollisionEvent, Recording
+from harness.replay.layout import StateLayout, rotation_angle
+from harness.replay.source import open_recording, read_states, resolve_model
+
+__all__ = ["DiffEntry", "DiffReport", "Tolerances", "diff"]
+
+F64 = npt.NDArray[np.float64]
+_KINDS = {0: "begin", 1: "end", 2: "near_miss"}
+
+
+class Tolerances(NamedTuple):
+    """Per-quantity tolerances (0: exact)."""
+
+    joint_position: float = 0.0
+    joint_velocity: float = 0.0
+    link_position: float = 0.0
+    link_rotation: float = 0.0
+    collision_time_ns: int = 0
+    message_count: int = 0
+
+
+@dataclass(frozen=True)
+class DiffEntry:
+    """One quantity that differs beyond its tolerance."""
+
+    quantity: str
+    name: str
+    step: int  # first step beyond tolerance (-1: not step-based)
+    a: Any
+    b: Any
+    max_delta: float
+    tolerance: float
+
+
+@dataclass(frozen=True)
+class DiffReport:
+    """The outcome of :func:`diff` (``same``: nothing beyond its tolerance)."""
+
+    a: str
+    b: str
+    tolerances: dict[str, float]
+    steps_compared: int
+    entries: tuple[DiffEntry, ...]
+
+    @property
+    def same(self) -> bool:
+        """True when every quantity is within its tolerance."""
+        return not self.entries
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict."""
+        return {**asdict(self), "same": self.same}
+
+    def format(self) -> str:
+        """A readable table (the CLI's output)."""
+        lines = [f"A: {self.a}", f"B: {self.b}", f"{self.steps_compared} common steps compared"]
+        if self.same:
+            lines.append("SAME: every quantity within its tolerance")
+            return "\n".join(lines)
+        lines.append(
+            f"{'quantity':<16} {'name':<28} {'step':>7} {'A':>22} {'B':>22} {'max delta':>11} "
+            f"{'tolerance':>10}"
+        )
+        for e in self.entries:
+            step = "-" if e.step < 0 else str(e.step)
+            lines.append(
+                f"{e.quantity:<16} {e.name:<28} {step:>7} {_show(e.a):>22} {_show(e.b):>22} "
+                f"{e.max_delta:>11.4g} {e.tolerance:>10.3g}"
+            )
+        lines.append(f"DIFFERENT: {len(self.entries)} quantities beyond tolerance")
+        return "\n".join(lines)
+
+
+def _show(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.10g}"
+    return str(value)
+
+
+def _compare_columns(
+    quantity: str,
+    names: list[str],
+    steps: npt.NDArray[np.int64],
+    a: F64,
+    b: F64,
+    tolerance: float,
+) -> list[DiffEntry]:
+    with np.errstate(invalid="ignore"):
+        delta = np.abs(b - a)
+    delta = np.where(np.isnan(a) & np.isnan(b), 0.0, delta)
+    delta = np.where(np.isnan(delta), np.inf, delta)
+    out: list[DiffEntry] = []
+    for column in np.flatnonzero((delta > tolerance).any(axis=0)):
+        rows = np.flatnonzero(delta[:, column] > tolerance)
+        r = int(rows[0])
+        out.append(
+            DiffEntry(
+                quantity,
+                names[column],
+                int(steps[r]),
+                float(a[r, column]),
+                float(b[r, column]),
+                float(delta[:, column].max()),
+                tolerance,
+            )
+        )
+    return out
+
+
+def _poses(model: mujoco.MjModel, qpos: F64) -> tuple[F64, F64]:
+    data = mujoco.MjData(model)
+    pos = np.empty((qpos.shape[0], model.nbody, 3))
+    quat = np.empty((qpos.shape[0], model.nbody, 4))
+    for t in range(qpos.shape[0]):
+        data.qpos[:] = qpos[t]
+        mujoco.mj_kinematics(model, data)
+        pos[t] = data.xpos
+        quat[t] = data.xquat
+    return pos, quat
+
+
+def _events(rec: Recording) -> list[CollisionEvent]:
+    return list(rec.collision_events())
+
+
+def _match_collisions(
+    a: list[CollisionEvent], b: list[CollisionEvent], tolerance_ns: int
+) -> list[DiffEntry]:
+    def key(e: CollisionEvent) -> tuple[str, str, str]:
+        return (_KINDS.get(e.kind, str(e.kind)), e.body1, e.body2)
+
+    unmatched_b = list(b)
+    out: list[DiffEntry] = []
+    for event in a:
+        best = None
+        for j, other in enumerate(unmatched_b):
+            if (
+                key(other) == key(event)
+                and abs(other.sim_time_ns - event.sim_time_ns) <= tolerance_ns
+            ):
+                best = j
+                break
+        if best is None:
+            kind, b1, b2 = key(event)
+            where = f"at {event.sim_time_ns} ns"
+            out.append(
+                DiffEntry("collisions", f"{kind} {b1}|{b2}", event.step, where, "missing",
+                          math.inf, tolerance_ns)
+            )  # fmt: skip
+        else:
+            unmatched_b.pop(best)
+    for other in unmatched_b:
+        kind, b1, b2 = key(other)
+        out.append(DiffEntry("collisions", f"{kind} {b1}|{b2}", other.step, "missing",
+                             f"at {other.sim_time_ns} ns", math.inf, tolerance_ns))  # fmt: skip
+    return out
+
+
+def diff(
+    a: str | Path, b: str | Path, tolerances: Tolerances | None = None, **overrides: float
+) -> DiffReport:
+    """Compare recordings ``a`` and ``b``; ``tolerances`` (or keyword overrides of
+    :class:`Tolerances` fields, e.g. ``joint_position=1e-9``) bound each quantity."""
+    tol = (tolerances or Tolerances())._replace(**overrides)  # type: ignore[arg-type]
+    entries: list[DiffEntry] = []
+    with open_recording(a) as ra, open_recording(b) as rb:
+        model, _ = resolve_model(ra)
+        sa, sb = read_states(ra), read_states(rb)
+        counts_a = {t: i.messages for t, i in ra.topics.items()}
+        counts_b = {t: i.messages for t, i in rb.topics.items()}
+        events_a, events_b = _events(ra), _events(rb)
+    common, ia, ib = np.intersect1d(sa.steps, sb.steps, return_indices=True)
+    if not np.array_equal(sa.steps, sb.steps):
+        entries.append(
+            DiffEntry("steps", "recorded steps", -1,
+                      f"{int(sa.steps[0])}..{int(sa.steps[-1])} ({sa.steps.size})",
+                      f"{int(sb.steps[0])}..{int(sb.steps[-1])} ({sb.steps.size})", math.inf, 0.0)
+        )  # fmt: skip
+    if sa.qpos.shape[1] != sb.qpos.shape[1] or sa.qvel.shape[1] != sb.qvel.shape[1]:
+        entries.append(
+            DiffEntry("model", "nq/nv", -1, f"{sa.qpos.shape[1]}/{sa.qvel.shape[1]}",
+                      f"{sb.qpos.shape[1]}/{sb.qvel.shape[1]}", math.inf, 0.0)
+        )  # fmt: skip
+    elif common.size:
+        layout = StateLayout(model, sa.state_spec)
+        qa, qb = sa.qpos[ia], sb.qpos[ib]
+        entries += _compare_columns("joint_position", layout.qpos_names(), common, qa, qb,
+                                    tol.joint_position)  # fmt: skip
+        entries += _compare_columns("joint_velocity", layout.dof_names(), common, sa.qvel[ia],
+                                    sb.qvel[ib], tol.joint_velocity)  # fmt: skip
+        if qa.shape[1] == model.nq:
+            pa, oa = _poses(model, qa)
+            pb, ob = _poses(model, qb)
+            bodies = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or f"body{i}"
+                      for i in range(model.nbody)]  # fmt: skip
+            dist = np.linalg.norm(pb - pa, axis=2)
+            angle = rotation_angle(oa, ob)
+            entries += _compare_columns("link_position", bodies, common, np.zeros_like(dist),
+                                        dist, tol.link_position)  # fmt: skip
+            entries += _compare_columns("link_rotation", bodies, common, np.zeros_like(angle),
+                                        angle, tol.link_rotation)  # fmt: skip
+    entries += _match_collisions(events_a, events_b, int(tol.collision_time_ns))
+    for topic in sorted(set(counts_a) | set(counts_b)):
+        na, nb = counts_a.get(topic, 0), counts_b.get(topic, 0)
+        if abs(na - nb) > tol.message_count:
+            entries.append(
+                DiffEntry("message_count", topic, -1, na, nb, float(abs(na - nb)),
+                          float(tol.message_count))
+            )  # fmt: skip
+    return DiffReport(str(a), str(b), dict(tol._asdict()), int(common.size), tuple(entries))

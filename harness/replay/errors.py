@@ -1,0 +1,28 @@
+"""Errors of :mod:`harness.replay` (all :class:`~harness.errors.ReplayError`)."""
+
+from __future__ import annotations
+
+from harness.errors import ReplayError
+
+__all__ = [
+    "LevelUnavailableError",
+    "ModelAttachmentError",
+    "RecordedDataError",
+    "VersionMismatchError",
+]
+
+
+class VersionMismatchError(ReplayError):
+    """The recording was made with another MuJoCo version and no tolerance was given."""
+
+
+class ModelAttachmentError(ReplayError):
+    """No attachment of the recording yields the model it was recorded with."""
+
+
+class RecordedDataError(ReplayError):
+    """The recorded states or inputs are missing, damaged or inconsistent with the model."""
+
+
+class LevelUnavailableError(ReplayError):
+    """A replay level or mode cannot run with what the recording or this harness provides."""

@@ -1,0 +1,193 @@
+"""``Player``: serve a recording's outgoing topic traffic to rosbridge clients, like
+``ros2 bag play``, so client code can be tested against a recorded robot without simulating.
+
+What is played: the recorded outgoing ``publish`` frames (JSON text or CBOR), as messages
+published on an in-process rosbridge graph (:class:`harness.rosbridge.Bridge` behind
+:class:`harness.rosbridge.BridgeServer`), so each client gets them per its own subscription
+(compression, throttling, queue length). A message the recorded robot sent to several
+connections is published once: per (topic, step), the connection that received the most
+frames is taken. A topic's type comes from the recording's channel of the same name or from a
+recorded ``subscribe``/``advertise`` frame; topics of unknown type are skipped (counted).
+Service answers and status frames were replies to the recorded clients and are not replayed.
+
+Schedule: a message recorded at sim time ``t`` is published when the playback clock reaches
+``t``; the clock runs at ``rate`` x wall time (wall time paces, it is never recorded), or is
+moved by hand: ``/harness/step`` (``harness_msgs/srv/Step``: publish the next ``steps`` steps,
+answer with the new sim time), ``/harness/pause`` and ``/harness/resume``
+(``std_srvs/srv/Empty``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cbor2
+
+from harness.recording import Recording
+from harness.replay.errors import RecordedDataError
+from harness.replay.source import open_recording
+from harness.rosbridge import Bridge, BridgeServer, ServiceCall
+
+__all__ = ["PlayItem", "Player", "load_schedule"]
+
+_DIRECTION_IN, _DIRECTION_OUT = 0, 1
+
+
+@dataclass(frozen=True)
+class PlayItem:
+    """One message to publish at ``step``."""
+
+    step: int
+    sim_time_ns: int
+    topic: str
+    type: str
+    msg: dict[str, Any]
+
+
+def _decode(payload: str | bytes) -> dict[str, Any] | None:
+    try:
+        frame = json.loads(payload) if isinstance(payload, str) else cbor2.loads(payload)
+    except (ValueError, cbor2.CBORDecodeError):
+        return None
+    return frame if isinstance(frame, dict) else None
+
+
+def load_schedule(rec: Recording) -> tuple[list[PlayItem], dict[str, int]]:
+    """The messages to play, in recorded order, and the skipped-frame counts by reason."""
+    types = {t: info.msgtype for t, info in rec.topics.items() if not t.startswith("/harness/")}
+    per_key: dict[tuple[str, int], dict[int, list[tuple[int, dict[str, Any]]]]] = defaultdict(
+        lambda: defaultdict(list)
+    )
+    skipped: dict[str, int] = defaultdict(int)
+    for frame in rec.bridge_frames():
+        if frame.direction == _DIRECTION_IN:
+            if frame.op in ("subscribe", "advertise"):
+                decoded = _decode(frame.payload)
+                if decoded and isinstance(decoded.get("type"), str) and frame.topic:
+                    types.setdefault(frame.topic, decoded["type"])
+            continue
+        if frame.op != "publish":
+            skipped[f"op {frame.op or '?'}"] += 1
+            continue
+        decoded = _decode(frame.payload)
+        msg = decoded.get("msg") if decoded else None
+        if not isinstance(msg, dict):
+            skipped["undecodable publish"] += 1
+            continue
+        per_key[(frame.topic, frame.step)][frame.connection].append((frame.sim_time_ns, msg))
+    items: list[PlayItem] = []
+    for (topic, step), by_connection in per_key.items():
+        msgtype = types.get(topic)
+        if msgtype is None:
+            skipped[f"unknown type of {topic}"] += 1
+            continue
+        chosen = max(by_connection.values(), key=len)
+        items.extend(PlayItem(step, t, topic, msgtype, msg) for t, msg in chosen)
+    items.sort(key=lambda i: i.sim_time_ns)  # stable: recorded order within a step
+    return items, dict(skipped)
+
+
+class Player:
+    """Serve the recording at ``path`` on ``ws://host:port`` (port 0: any free port)."""
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        rate: float = 1.0,
+        start_paused: bool = False,
+    ) -> None:
+        if not rate > 0:
+            raise RecordedDataError(f"rate must be > 0, got {rate!r}")
+        with open_recording(path) as rec:
+            self.items, self.skipped = load_schedule(rec)
+            self.dt_ns = rec.timestep_ns
+            self.first_step = rec.first_step
+            self.last_step = rec.last_step
+        self.rate = rate
+        self.paused = start_paused
+        self.bridge = Bridge()
+        self.server = BridgeServer(self.bridge, host=host, port=port)
+        self.step = self.first_step
+        self._next = 0
+        self._wake = asyncio.Event()
+        self.finished = asyncio.Event()
+        for topic, msgtype in sorted({(i.topic, i.type) for i in self.items}):
+            self.bridge.advertise(topic, msgtype)
+        self.bridge.advertise_service("/harness/step", "harness_msgs/srv/Step", self._on_step)
+        self.bridge.advertise_service("/harness/pause", "std_srvs/srv/Empty", self._on_pause)
+        self.bridge.advertise_service("/harness/resume", "std_srvs/srv/Empty", self._on_resume)
+
+    @property
+    def sim_time_ns(self) -> int:
+        """The playback clock: every message up to it has been published."""
+        return self.step * self.dt_ns
+
+    async def start(self) -> str:
+        """Start serving; returns the URL."""
+        return await self.server.start()
+
+    async def stop(self) -> None:
+        """Stop serving."""
+        await self.server.stop()
+
+    def advance_to(self, step: int) -> int:
+        """Publish every message recorded up to ``step``; returns how many."""
+        count = 0
+        self.step = max(self.step, min(step, self.last_step))
+        while self._next < len(self.items) and self.items[self._next].step <= self.step:
+            item = self.items[self._next]
+            self.bridge.publish(item.topic, item.type, item.msg, item.sim_time_ns)
+            self._next += 1
+            count += 1
+        if self.step >= self.last_step:
+            self.finished.set()
+        self.server.flush()
+        return count
+
+    def _on_step(self, call: ServiceCall) -> dict[str, Any]:
+        steps = int(call.args.get("steps", 1) or 1)
+        self.advance_to(self.step + steps)
+        sec, nanosec = divmod(self.sim_time_ns, 1_000_000_000)
+        return {"sim_time": {"sec": sec, "nanosec": nanosec}}
+
+    def _on_pause(self, call: ServiceCall) -> dict[str, Any]:
+        self.paused = True
+        self._wake.set()
+        return {}
+
+    def _on_resume(self, call: ServiceCall) -> dict[str, Any]:
+        self.paused = False
+        self._wake.set()
+        return {}
+
+    async def run(self) -> None:
+        """Play until the end of the recording (paced at ``rate``; paused when asked)."""
+        loop = asyncio.get_running_loop()
+        while self.step < self.last_step:
+            if self.paused:
+                self._wake.clear()
+                await self._wake.wait()
+                continue
+            origin_wall, origin_ns = loop.time(), self.sim_time_ns
+            while not self.paused and self.step < self.last_step:
+                elapsed_ns = (loop.time() - origin_wall) * self.rate * 1e9
+                self.advance_to((origin_ns + int(elapsed_ns)) // self.dt_ns)
+                if self._next < len(self.items):
+                    wait_ns = self.items[self._next].sim_time_ns - origin_ns - elapsed_ns
+                else:
+                    wait_ns = (self.last_step * self.dt_ns) - origin_ns - elapsed_ns
+                self._wake.clear()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(
+                        self._wake.wait(), timeout=max(wait_ns / 1e9 / self.rate, 0.0005)
+                    )
+        self.finished.set()

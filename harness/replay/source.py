@@ -1,0 +1,364 @@
+"""What replay reads from a recording: the model, the version check, the recorded states and
+the applied inputs, as numpy arrays.
+
+Which model a recording is replayed with, in order of preference:
+
+1. ``model.mjb``: the exact binary model (``LoadedRobot.mjb``), bit for bit what was simulated;
+2. the source attachments (``source/model/...``, ``source/scene/...``) rebuilt with
+   :func:`harness.models.load_robot` and the recorded control modes, accepted only when the
+   rebuilt MJCF's SHA-256 equals the recorded ``model_sha256``;
+3. ``model.mjcf.xml``, the compiled MJCF: MuJoCo writes it with 6 significant digits, so it is
+   exact only for models that were written at full precision (hand-written MJCF); its SHA-256
+   must equal ``model_sha256``.
+
+Recorded states are decoded in bulk: every ``PhysicsState`` of one recording has the same
+layout (one model), so the CDR bytes of all of them form one ``(N, L)`` byte matrix whose
+float64 columns are viewed directly (checked against the length fields of every row).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tempfile
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.errors import HarnessError
+from harness.models import DEMO_URDF, SCENES, LoadedRobot, load_robot
+from harness.models.description import CONTROL_MODES, ControlMode
+from harness.recording import Recording
+from harness.recording.layout import ATTACHMENT_MODEL, ATTACHMENT_SOURCE_PREFIX, TOPIC_STATE
+from harness.replay.errors import (
+    ModelAttachmentError,
+    RecordedDataError,
+    VersionMismatchError,
+)
+from harness.sim.inputs import AppliedInput
+
+__all__ = [
+    "ATTACHMENT_MJB",
+    "RecordedStates",
+    "check_states_fit",
+    "check_version",
+    "control_modes",
+    "open_recording",
+    "read_inputs",
+    "read_states",
+    "rebuild_robot",
+    "resolve_model",
+]
+
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+
+ATTACHMENT_MJB = "model.mjb"
+"""The exact binary model (``mj_saveModel``): what bit-exact replay needs."""
+
+
+def open_recording(path: str | Path, *, allow_damaged: bool = False) -> Recording:
+    """Open ``path``; a truncated or corrupted file is refused (naming the byte offset)
+    unless ``allow_damaged``, which replays what precedes the damage."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rec = Recording(path)
+    if rec.problems and not allow_damaged:
+        text = "; ".join(str(p) for p in rec.problems)
+        rec.close()
+        raise RecordedDataError(
+            f"{path}: the recording is damaged ({text}); pass --allow-damaged "
+            "(allow_damaged=True) to replay what precedes the damage"
+        )
+    return rec
+
+
+def check_version(rec: Recording, *, tolerant: bool) -> str:
+    """The recorded MuJoCo version; a different one than this process's is refused unless
+    the comparison is ``tolerant`` (a non-zero atol or rtol)."""
+    recorded = rec.metadata.get("mujoco_version", "")
+    running = mujoco.__version__
+    if not recorded:
+        raise RecordedDataError(f"{rec.path}: metadata has no 'mujoco_version'")
+    if recorded != running and not tolerant:
+        raise VersionMismatchError(
+            f"{rec.path}: recorded with MuJoCo {recorded}, this is MuJoCo {running}: bit-exact "
+            "replay is defined only on the same version (results differ from the first step); "
+            "compare with tolerances instead, e.g. --atol 1e-6 --rtol 1e-6"
+        )
+    return recorded
+
+
+def control_modes(rec: Recording) -> dict[str, ControlMode]:
+    """The recorded control mode of every controllable joint."""
+    raw = rec.metadata.get("control_modes", "")
+    try:
+        modes = json.loads(raw)
+    except json.JSONDecodeError:
+        modes = None
+    if not isinstance(modes, dict) or not all(
+        isinstance(k, str) and v in CONTROL_MODES for k, v in modes.items()
+    ):
+        raise RecordedDataError(
+            f"{rec.path}: metadata 'control_modes' is {raw[:80]!r}, not a JSON object of "
+            f"joint -> one of {', '.join(CONTROL_MODES)}"
+        )
+    return {str(k): v for k, v in modes.items()}
+
+
+def _sources(rec: Recording) -> dict[str, bytes]:
+    return {
+        name.removeprefix(ATTACHMENT_SOURCE_PREFIX): rec.attachment(name)
+        for name in rec.attachment_names
+        if name.startswith(ATTACHMENT_SOURCE_PREFIX)
+    }
+
+
+def rebuild_robot(
+    rec: Recording, control: ControlMode | Mapping[str, ControlMode] | None = None
+) -> LoadedRobot:
+    """The robot rebuilt from the source attachments with ``control`` (default: the recorded
+    control modes). The bundled demo robot and named scenes are recognised by content and
+    loaded from the package (so they get the demo's ``home`` keyframe, as when recorded)."""
+    sources = _sources(rec)
+    models = [n for n in sources if n.startswith("model/")]
+    scenes = [n for n in sources if n.startswith("scene/")]
+    if len(models) != 1:
+        raise ModelAttachmentError(
+            f"{rec.path}: expected one 'source/model/...' attachment to rebuild the robot, "
+            f"found {len(models)} (attachments: {', '.join(rec.attachment_names)})"
+        )
+    modes = control_modes(rec) if control is None else control
+    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
+        root = Path(tmp)
+        for name, blob in sources.items():
+            target = root / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(blob)
+        model_name = models[0]
+        source: str | Path = root / model_name
+        if sources[model_name] == DEMO_URDF.read_bytes():
+            source = "demo"
+        scene: str | Path | None = None
+        if scenes:
+            scene = root / scenes[0]
+            for named, scene_path in SCENES.items():
+                if sources[scenes[0]] == scene_path.read_bytes():
+                    scene = named
+        try:
+            return load_robot(source, control=modes, scene=scene)
+        except HarnessError as exc:
+            raise ModelAttachmentError(
+                f"{rec.path}: cannot rebuild the robot from its source attachments: {exc}"
+            ) from None
+
+
+def _model_from_mjb(blob: bytes) -> mujoco.MjModel:
+    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
+        path = Path(tmp) / ATTACHMENT_MJB
+        path.write_bytes(blob)
+        return mujoco.MjModel.from_binary_path(str(path))
+
+
+def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
+    """The model to replay ``rec`` with and where it came from (see the module docstring)."""
+    names = set(rec.attachment_names)
+    expected_sha = rec.metadata.get("model_sha256", "")
+    problems: list[str] = []
+    if ATTACHMENT_MJB in names:
+        try:
+            return _model_from_mjb(rec.attachment(ATTACHMENT_MJB)), ATTACHMENT_MJB
+        except (ValueError, OSError) as exc:
+            problems.append(f"{ATTACHMENT_MJB}: {' '.join(str(exc).split())}")
+    if any(n.startswith(ATTACHMENT_SOURCE_PREFIX + "model/") for n in names):
+        try:
+            robot = rebuild_robot(rec)
+        except HarnessError as exc:
+            problems.append(str(exc))
+        else:
+            if robot.sha256 == expected_sha:
+                return robot.model, "source attachments (rebuilt; MJCF SHA-256 matches)"
+            problems.append("source attachments rebuild to a model whose MJCF SHA-256 differs")
+    if ATTACHMENT_MODEL in names:
+        text = rec.attachment(ATTACHMENT_MODEL)
+        sha = hashlib.sha256(text).hexdigest()
+        if expected_sha and sha != expected_sha:
+            raise ModelAttachmentError(
+                f"{rec.path}: attachment {ATTACHMENT_MODEL!r} has SHA-256 {sha[:12]}..., the "
+                f"metadata's model_sha256 is {expected_sha[:12]}...: the attachment is not the "
+                "model this run was recorded with"
+                + (f" ({'; '.join(problems)})" if problems else "")
+            )
+        try:
+            model = mujoco.MjModel.from_xml_string(text.decode("utf-8"))
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise ModelAttachmentError(
+                f"{rec.path}: attachment {ATTACHMENT_MODEL!r} does not compile: "
+                f"{' '.join(str(exc).split())}"
+            ) from None
+        return model, f"{ATTACHMENT_MODEL} (MJCF text, 6 significant digits)"
+    raise ModelAttachmentError(
+        f"{rec.path}: no usable model attachment ({ATTACHMENT_MJB}, source/model/..., "
+        f"{ATTACHMENT_MODEL}); has: {', '.join(sorted(names)) or 'none'}"
+        + (f" ({'; '.join(problems)})" if problems else "")
+    )
+
+
+class RecordedStates(NamedTuple):
+    """Every recorded ``PhysicsState``: ``steps`` (N,), ``state`` (N, nstate), ``qpos``
+    (N, nq), ``qvel`` (N, nv), the ``state_spec`` they were captured with."""
+
+    steps: I64
+    sim_time_ns: I64
+    state: F64
+    qpos: F64
+    qvel: F64
+    state_spec: int
+
+
+def _column(blob: bytes, rows: int, length: int, offset: int, dtype: str, n: int) -> Any:
+    """``n`` values of ``dtype`` at byte ``offset`` of each of ``rows`` rows of ``length``
+    bytes in ``blob``, as a contiguous ``(rows, n)`` array (a strided view, then one copy)."""
+    view = np.ndarray(
+        shape=(rows, n), dtype=dtype, buffer=blob, offset=offset,
+        strides=(length, np.dtype(dtype).itemsize),
+    )  # fmt: skip
+    return view.copy()
+
+
+def read_states(
+    rec: Recording, start_step: int | None = None, stop_step: int | None = None
+) -> RecordedStates:
+    """The recorded physics states in ``[start_step, stop_step)`` as arrays."""
+    raws = [m.data for m in rec.messages(TOPIC_STATE, start_step=start_step, stop_step=stop_step)]
+    if not raws:
+        raise RecordedDataError(f"{rec.path}: no physics states on {TOPIC_STATE}")
+    length = len(raws[0])
+    if any(len(r) != length for r in raws) or raws[0][:2] != b"\x00\x01":
+        return _read_states_slowly(rec, start_step, stop_step)
+    count = len(raws)
+    blob = b"".join(raws)
+    first = raws[0]
+    # CDR payload offsets (alignment is relative to the payload, after the 4-byte header).
+    nstate = int.from_bytes(first[24:28], "little")
+    nq_at = 28 + 8 * nstate
+    nq = int.from_bytes(first[nq_at : nq_at + 4], "little") if nq_at + 4 <= length else -1
+    nv_at = 36 + 8 * (nstate + nq)
+    nv = int.from_bytes(first[nv_at : nv_at + 4], "little") if nv_at + 4 <= length else -1
+    if nq < 0 or nv < 0 or 44 + 8 * (nstate + nq + nv) != length:
+        return _read_states_slowly(rec, start_step, stop_step)
+    sizes_ok = (
+        np.all(_column(blob, count, length, 24, "<u4", 1) == nstate)
+        and np.all(_column(blob, count, length, nq_at, "<u4", 1) == nq)
+        and np.all(_column(blob, count, length, nv_at, "<u4", 1) == nv)
+    )
+    if not sizes_ok:
+        return _read_states_slowly(rec, start_step, stop_step)
+    spec = _column(blob, count, length, 20, "<u4", 1)[:, 0]
+    if np.any(spec != spec[0]):
+        raise RecordedDataError(f"{rec.path}: physics states use different state_spec values")
+    return RecordedStates(
+        _column(blob, count, length, 4, "<u8", 1)[:, 0].astype(np.int64),
+        _column(blob, count, length, 12, "<i8", 1)[:, 0].astype(np.int64),
+        _column(blob, count, length, 28, "<f8", nstate).astype(np.float64),
+        _column(blob, count, length, 36 + 8 * nstate, "<f8", nq).astype(np.float64),
+        _column(blob, count, length, 44 + 8 * (nstate + nq), "<f8", nv).astype(np.float64),
+        int(spec[0]),
+    )
+
+
+def _read_states_slowly(
+    rec: Recording, start_step: int | None, stop_step: int | None
+) -> RecordedStates:
+    states = list(rec.physics_states(start_step, stop_step))
+    shapes = {(s.state.size, s.qpos.size, s.qvel.size, s.state_spec) for s in states}
+    if len(shapes) != 1:
+        raise RecordedDataError(
+            f"{rec.path}: physics states change size or state_spec during the run "
+            f"(first at step {states[0].step}: {sorted(shapes)[:2]})"
+        )
+    return RecordedStates(
+        np.array([s.step for s in states], dtype=np.int64),
+        np.array([s.sim_time_ns for s in states], dtype=np.int64),
+        np.stack([np.asarray(s.state, dtype=np.float64) for s in states]),
+        np.stack([np.asarray(s.qpos, dtype=np.float64) for s in states]),
+        np.stack([np.asarray(s.qvel, dtype=np.float64) for s in states]),
+        states[0].state_spec,
+    )
+
+
+def check_states_fit(rec: Recording, model: mujoco.MjModel, states: RecordedStates) -> None:
+    """Refuse states whose sizes are not ``model``'s (a model attachment of another run)."""
+    size = int(mujoco.mj_stateSize(model, states.state_spec))
+    if states.state.shape[1] != size:
+        raise RecordedDataError(
+            f"{rec.path}: recorded states have {states.state.shape[1]} values, the model's "
+            f"state (spec {states.state_spec}) has {size}: the model attachment does not "
+            "belong to this recording"
+        )
+    if states.qpos.shape[1] != model.nq or states.qvel.shape[1] != model.nv:
+        raise RecordedDataError(
+            f"{rec.path}: recorded qpos/qvel have {states.qpos.shape[1]}/"
+            f"{states.qvel.shape[1]} values, the model nq={model.nq} nv={model.nv}: the model "
+            "attachment does not belong to this recording"
+        )
+
+
+def read_inputs(rec: Recording, model: mujoco.MjModel) -> list[AppliedInput]:
+    """The applied inputs in step order, checked against ``model``'s sizes."""
+    out: list[AppliedInput] = []
+    previous = -1
+    for r in rec.applied_inputs():
+        where = f"{rec.path}: applied input at step {r.step}"
+        if r.step <= previous:
+            raise RecordedDataError(f"{where} follows step {previous}: inputs out of order")
+        previous = r.step
+        inp = AppliedInput(
+            r.step,
+            r.sim_time_ns,
+            np.asarray(r.ctrl, dtype=np.float64),
+            tuple(r.kinematic_joints),
+            np.asarray(r.qpos_index, dtype=np.uint32),
+            np.asarray(r.qpos_value, dtype=np.float64),
+            np.asarray(r.qvel_index, dtype=np.uint32),
+            np.asarray(r.qvel_value, dtype=np.float64),
+            np.asarray(r.mocap_pos, dtype=np.float64),
+            np.asarray(r.mocap_quat, dtype=np.float64),
+            np.asarray(r.qfrc_applied, dtype=np.float64),
+            np.asarray(r.xfrc_applied, dtype=np.float64),
+        )
+        checks = (
+            (
+                inp.ctrl.size == model.nu,
+                f"ctrl has {inp.ctrl.size} values, the model nu={model.nu}",
+            ),
+            (
+                inp.qpos_index.size == inp.qpos_value.size
+                and inp.qvel_index.size == inp.qvel_value.size,
+                "index and value arrays differ in length",
+            ),
+            (
+                bool(np.all(inp.qpos_index < model.nq)) and bool(np.all(inp.qvel_index < model.nv)),
+                "a qpos/qvel index is outside the model",
+            ),
+            (
+                inp.mocap_pos.size in (0, 3 * model.nmocap)
+                and inp.mocap_quat.size in (0, 4 * model.nmocap),
+                "mocap arrays do not match the model's mocap bodies",
+            ),
+            (inp.qfrc_applied.size in (0, model.nv), f"qfrc_applied is not empty or nv={model.nv}"),
+            (
+                inp.xfrc_applied.size in (0, 6 * model.nbody),
+                f"xfrc_applied is not empty or 6*nbody={6 * model.nbody}",
+            ),
+        )
+        for ok, message in checks:
+            if not ok:
+                raise RecordedDataError(f"{where}: {message}")
+        out.append(inp)
+    return out

@@ -1,0 +1,104 @@
+"""``harness serve``: a simulated robot on a rosbridge server until Ctrl-C (or SIGTERM).
+
+Prints the URL on its first line (``harness serve: ws://127.0.0.1:PORT ...``); on SIGINT or
+SIGTERM it closes the session cleanly (the recording, when ``--record``, is complete) and
+prints the step reached.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import signal
+import sys
+import threading
+from types import FrameType
+
+from harness.models.description import CONTROL_MODES
+from harness.session.session import CLOCK_MODES
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``harness serve``."""
+    parser.add_argument("--robot", default="demo", help="robot model file or 'demo' (default)")
+    parser.add_argument(
+        "--mode", choices=CONTROL_MODES, default="position", help="control mode of every joint"
+    )
+    parser.add_argument(
+        "--kinematic-limits",
+        choices=("clamp", "allow"),
+        default="clamp",
+        help="kinematic commands beyond a joint's limits: clamp (default) or allow",
+    )
+    parser.add_argument(
+        "--clock", choices=CLOCK_MODES, default="realtime", help="clock mode (default realtime)"
+    )
+    parser.add_argument(
+        "--rate", type=float, default=1.0, help="realtime: sim time per wall time (default 1)"
+    )
+    parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
+    parser.add_argument("--port", type=int, default=9090, help="port (default 9090; 0: any)")
+    parser.add_argument("--namespace", default="", help="robot topics under /NAMESPACE/")
+    parser.add_argument("--scene", default=None, help="scene name or MJCF world file")
+    parser.add_argument("--record", metavar="PATH", default=None, help="record the run to MCAP")
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def run(args: argparse.Namespace) -> int:
+    """Serve until SIGINT/SIGTERM; exit 0 after a clean shutdown."""
+    from harness.session.session import Session
+
+    if not _is_loopback(args.host):
+        print(
+            f"harness serve: warning: binding {args.host} exposes the simulation to the "
+            "network; the rosbridge protocol has no authentication",
+            file=sys.stderr,
+        )
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with Session(
+            args.robot,
+            mode=args.mode,
+            kinematic_limits=args.kinematic_limits,
+            clock=args.clock,
+            rate=args.rate,
+            namespace=args.namespace,
+            host=args.host,
+            port=args.port,
+            record_to=args.record,
+            scene=args.scene,
+        ) as session:
+            clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
+            print(
+                f"harness serve: {session.url} robot {session.robot_name} ({args.mode}), "
+                f"clock {clock}; Ctrl-C to stop",
+                flush=True,
+            )
+            while not stop.wait(0.5) and session.failure is None:
+                pass
+            step = session.step_index
+            failure = session.failure
+        recorded = f", recording {args.record} closed" if args.record else ""
+        if failure is not None:
+            print(f"harness serve: error: {failure}{recorded}", file=sys.stderr)
+            return 1
+        print(f"harness serve: stopped at step {step}{recorded}", flush=True)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return 0

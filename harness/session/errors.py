@@ -1,0 +1,33 @@
+"""Errors of the session; each message is one line naming what is wrong and where."""
+
+from __future__ import annotations
+
+from harness.errors import ConfigError, HarnessError
+
+__all__ = [
+    "CommandRefused",
+    "SessionClosedError",
+    "SessionConfigError",
+    "SessionError",
+    "SimTimeoutError",
+]
+
+
+class SessionError(HarnessError):
+    """A session could not do what was asked."""
+
+
+class SessionConfigError(SessionError, ConfigError):
+    """An invalid session option (clock mode, rate, topic name, namespace...)."""
+
+
+class SessionClosedError(SessionError):
+    """The session is closed (or its simulation failed) and can no longer run."""
+
+
+class SimTimeoutError(SessionError):
+    """A condition did not hold within its simulation-time budget."""
+
+
+class CommandRefused(SessionError):
+    """A command message was refused; the message is the status text sent to its client."""

@@ -1,0 +1,186 @@
+"""Where the session meets rosbridge: an embedded server (default) or a client of an external
+server. Both are used only from the session's event loop thread."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Callable, Coroutine, Mapping
+from typing import Any, Protocol
+
+from harness.errors import BridgeError
+from harness.rosbridge import Bridge, BridgeClient, BridgeServer, FrameTap, TypeRegistry
+from harness.rosbridge.convert import from_json
+
+__all__ = ["ClientPort", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
+
+MessageCallback = Callable[[Mapping[str, Any], int], None]
+"""``callback(msg, connection)``: a canonical message dict and the sending connection (0 when
+unknown or in-process)."""
+ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
+"""``handler(request) -> response``; raising fails the call with the error's text."""
+
+
+class Port(Protocol):
+    """The session's view of the bridge."""
+
+    @property
+    def wake(self) -> asyncio.Event:
+        """Set when input waits for :meth:`process_pending`."""
+        ...
+
+    async def start(self) -> str:
+        """Serve or connect; returns the URL."""
+        ...
+
+    async def stop(self) -> None:
+        """Close every connection."""
+        ...
+
+    async def settle(self) -> None:
+        """Wait until subscriptions and services are registered."""
+        ...
+
+    def process_pending(self, now_ns: int) -> int:
+        """Apply waiting input in arrival order at ``now_ns``; returns the frame count."""
+        ...
+
+    def has_subscribers(self, topic: str) -> bool: ...
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None: ...
+
+    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None: ...
+
+    def serve(self, service: str, type: str, handler: ServiceHandler) -> None: ...
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        """Tell one client something (a ``status`` frame), where the transport can."""
+        ...
+
+
+class ServerPort:
+    """The embedded rosbridge server in queued mode: frames wait until the session's step
+    boundary (:meth:`process_pending`)."""
+
+    def __init__(self, *, host: str, port: int, tap: FrameTap | None) -> None:
+        self.bridge = Bridge(tap=tap)
+        self.server = BridgeServer(self.bridge, host=host, port=port, queued=True)
+
+    @property
+    def wake(self) -> asyncio.Event:
+        return self.server.pending_event
+
+    async def start(self) -> str:
+        return await self.server.start()
+
+    async def stop(self) -> None:
+        await self.server.stop()
+
+    async def settle(self) -> None:
+        """Registration is immediate in-process."""
+
+    def process_pending(self, now_ns: int) -> int:
+        return self.server.process_pending(now_ns)
+
+    def has_subscribers(self, topic: str) -> bool:
+        return bool(self.bridge.subscribers_of(topic))
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None:
+        self.bridge.publish(topic, type, msg, now_ns, latch=latch)
+
+    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None:
+        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type)
+
+    def serve(self, service: str, type: str, handler: ServiceHandler) -> None:
+        self.bridge.advertise_service(service, type, lambda call: handler(call.args))
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        self.bridge.status(connection, level, text)
+
+
+class ClientPort:
+    """A client of an external rosbridge server (the original framework's topology). Incoming
+    messages apply when they arrive on the session's loop, which is always between steps.
+    Frames are not tapped: a recording holds the published messages, not the bridge frames."""
+
+    def __init__(self, url: str) -> None:
+        self.client = BridgeClient(url)
+        self.registry = TypeRegistry()
+        self._wake = asyncio.Event()
+        self._advertised: set[str] = set()
+        self._last: asyncio.Future[None] | None = None
+        self._now_ns = 0
+        self.errors: list[str] = []
+        """Incoming messages that did not match their type (nobody to tell)."""
+
+    @property
+    def wake(self) -> asyncio.Event:
+        return self._wake
+
+    async def start(self) -> str:
+        await self.client.start()
+        return self.client.url
+
+    async def stop(self) -> None:
+        with contextlib.suppress(Exception):
+            await self.settle()
+        await self.client.close()
+
+    async def settle(self) -> None:
+        """Wait until every frame handed to the client so far is sent."""
+        if self._last is not None:
+            await self._last
+
+    def process_pending(self, now_ns: int) -> int:
+        self._now_ns = now_ns
+        self._wake.clear()
+        return 0
+
+    def has_subscribers(self, topic: str) -> bool:
+        return True
+
+    def _send(self, coro: Coroutine[Any, Any, None]) -> None:
+        """Send in call order: each send waits for the one before."""
+        previous = self._last
+
+        async def chained() -> None:
+            if previous is not None:
+                with contextlib.suppress(Exception):
+                    await previous
+            await coro
+
+        self._last = asyncio.ensure_future(chained())
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None:
+        if topic not in self._advertised:
+            self._advertised.add(topic)
+            self._send(self.client.advertise(topic, type, latch=latch))
+        self._send(self.client.publish(topic, msg))
+
+    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None:
+        def on_message(raw: dict[str, Any]) -> None:
+            try:
+                msg = from_json(self.registry, type, raw, self._now_ns)
+            except BridgeError as exc:
+                self.errors.append(f"{topic}: {exc}")
+                return
+            callback(msg, 0)
+
+        self._send(self.client.subscribe(topic, type, on_message))
+
+    def serve(self, service: str, type: str, handler: ServiceHandler) -> None:
+        async def answer(request: dict[str, Any]) -> Mapping[str, Any]:
+            response = handler(request)
+            await self.settle()  # what the call published goes out before its answer
+            return response
+
+        self._send(self.client.advertise_service(service, type, answer))
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        """Status frames cannot reach the external server's clients: the log event remains."""

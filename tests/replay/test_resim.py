@@ -1,0 +1,79 @@
+"""Kinematic <-> dynamic re-simulation: the teleport jump and the limit violation are found."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from harness.cli import main
+from harness.replay.resim import Thresholds, resimulate
+
+# Step 30: joint7 commanded 0.4 rad past its upper limit (2.8973); step 100: the arm is
+# teleported into the box on the table (hand 25 mm deep in it).
+PAST_LIMIT = {"joint7": 3.3}
+INTO_BOX = {"joint2": 0.4, "joint4": -1.6, "joint6": 1.0}
+
+
+@pytest.fixture(scope="module")
+def jump_recording(helper: ModuleType, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("jump") / "jump.mcap"
+    return helper.record(  # type: ignore[no-any-return]
+        path, {30: PAST_LIMIT, 100: INTO_BOX}, 160, control="kinematic", kinematic_limits="allow"
+    )
+
+
+def test_kinematic_recording_shows_the_jump_and_the_limit_violation(jump_recording: Path) -> None:
+    report = resimulate(jump_recording, "dynamic")
+    assert not report.passed
+    recorded = {(f.quantity, f.name): f for f in report.findings if f.run == "recorded"}
+    violation = recorded[("limit_violation", "joint7")]
+    assert violation.step == 31
+    assert violation.value == pytest.approx(3.3 - 2.8973, abs=0.01)
+    assert [k for k in recorded if k[0] == "limit_violation"] == [("limit_violation", "joint7")]
+    assert recorded[("penetration", "")].step == 101
+    assert recorded[("velocity_ratio", "joint2")].step == 101
+    jumps = [f.step for f in report.findings if f.run == "recorded" and f.quantity == "energy_jump"]
+    assert jumps == [31]  # the first one; the teleport's is in the summary
+    # The servos cannot teleport: the dynamic run trails the targets, and never passes the
+    # limit at the step of the command nor penetrates 25 mm at once.
+    resim = {(f.quantity, f.name): f for f in report.findings if f.run == "resimulated"}
+    assert resim[("tracking_error", "joint7")].step == 31
+    assert resim[("tracking_error", "joint2")].step == 101
+    by_joint = {j.joint: j for j in report.resimulated.joints}
+    assert by_joint["joint7"].violation_step > 31  # a servo reaches the limit later
+    assert report.recorded.peak_penetration > 0.02
+    assert report.resimulated.penetration_step != 101
+    assert "box|hand" in report.contacts_disappearing
+
+
+def test_thresholds_are_configurable(jump_recording: Path) -> None:
+    loose = Thresholds(
+        max_tracking_error=10.0,
+        max_limit_violation=1.0,
+        max_velocity_ratio=1e6,
+        max_penetration=1.0,
+        max_energy_jump=1e9,
+    )
+    assert resimulate(jump_recording, "dynamic", thresholds=loose).passed
+
+
+def test_dynamic_recording_to_kinematic_via_cli(
+    base_recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    report_path = tmp_path / "resim.json"
+    code = main(
+        ["replay", str(base_recording), "--mode", "kinematic", "--report", str(report_path)]
+    )
+    out = capsys.readouterr().out
+    assert "recorded (position) vs re-simulated (kinematic)" in out
+    data = json.loads(report_path.read_text())
+    assert data["mode"] == "kinematic"
+    assert code == (0 if data["passed"] else 1)
+    # Kinematic joints report exactly the commanded targets.
+    assert all(j["max_tracking_error"] == 0.0 for j in data["resimulated"]["joints"])
+    assert main(["replay", str(base_recording), "--mode", "kinematic", "--max-velocity-ratio",
+                 "1e9", "--max-energy-jump", "1e9", "--max-tracking-error", "10",
+                 "--max-penetration", "1", "--max-limit-violation", "1"]) == 0  # fmt: skip
