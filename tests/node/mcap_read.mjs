@@ -1,35 +1,23 @@
 // Reads a recording with Foxglove's own decoding stack and prints what it found as JSON.
 //
-// usage: node mcap_read.mjs FILE PYTHON
+// usage: node mcap_read.mjs FILE
 //
 // 1. @mcap/core McapStreamReader (validateCrcs) over the whole file: every record, every
 //    message decoded with @foxglove/rosmsg2-serialization from the channel's ros2msg schema.
 // 2. @mcap/core McapIndexedReader (summary, chunk indexes, validateCrcs): every message again.
-// Node 20 has no zstd and tests/node has no zstd package, so zstd chunks are inflated by the
-// python `zstandard` module (the reference libzstd) in a child process; the container parsing,
-// CRC checks and CDR decoding are all Foxglove's.
-import { execFileSync } from "node:child_process";
+// zstd chunks are inflated by @foxglove/wasm-zstd, the decompressor the Foxglove app itself
+// uses, so container parsing, CRC checks, decompression and CDR decoding are all Foxglove's.
 import { open, readFile } from "node:fs/promises";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 import { parse } from "@foxglove/rosmsg";
 import { MessageReader } from "@foxglove/rosmsg2-serialization";
+import * as zstd from "@foxglove/wasm-zstd";
 
-const [file, python] = process.argv.slice(2);
+const [file] = process.argv.slice(2);
+await zstd.isLoaded;
 
 const decompressHandlers = {
-  zstd: (buffer, decompressedSize) =>
-    new Uint8Array(
-      execFileSync(
-        python,
-        [
-          "-c",
-          "import sys, zstandard; sys.stdout.buffer.write(" +
-            "zstandard.ZstdDecompressor().decompress(sys.stdin.buffer.read(), max_output_size=int(sys.argv[1])))",
-          String(decompressedSize),
-        ],
-        { input: buffer, maxBuffer: 1 << 30 },
-      ),
-    ),
+  zstd: (buffer, decompressedSize) => zstd.decompress(buffer, Number(decompressedSize)),
 };
 
 function plain(value) {

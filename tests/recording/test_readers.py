@@ -125,7 +125,7 @@ def test_foxglove_decoders_read_everything(run_recording: Path) -> None:
     if node is None or not (NODE_DIR / "node_modules" / "@mcap" / "core").is_dir():
         pytest.skip("node or tests/node/node_modules missing (make test installs them)")
     done = subprocess.run(
-        [node, str(NODE_DIR / "mcap_read.mjs"), str(run_recording), sys.executable],
+        [node, str(NODE_DIR / "mcap_read.mjs"), str(run_recording)],
         capture_output=True,
         text=True,
         timeout=120,
