@@ -1,8 +1,14 @@
 """rosbridge relay on loopback: our server vs a raw ``websockets`` relay (the library's limit).
 
-One publisher client and one subscriber client; the server runs in its own process.
-Figures: small-message relay rate, publish -> own-subscription round trip p50/p99 at 1 kHz,
-and a burst of 500 x 100 kB messages (all must arrive).
+One publisher client and one subscriber client; each server runs in its own process, both
+started before measuring. Figures: small-message relay rate, publish -> own-subscription
+round trip p50/p99 at 1 kHz, and a burst of 500 x 100 kB messages (all must arrive).
+
+The machine is shared and noisy, so the relay-rate and round-trip runs of the two servers
+are interleaved (ours, raw, raw, ours, ...) and the best run of each is reported; the
+relay row's note gives the median of the paired per-run ratios, and the server CPU time
+per relayed message (``time.process_time`` of the server process, far less sensitive to
+other load than wall-clock rates) is reported beside it.
 """
 
 from __future__ import annotations
@@ -17,49 +23,76 @@ from typing import Any
 
 from common import Row
 from websockets.asyncio.client import connect
-from websockets.asyncio.server import ServerConnection, serve
+from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
 TOPIC = "/bench"
 
 
-def _serve_ours(conn: Any) -> None:
-    from harness.rosbridge import BridgeServer
-
-    async def main() -> None:
-        async with BridgeServer(ping_interval=None) as server:
-            conn.send(server.port)
-            await asyncio.get_running_loop().run_in_executor(None, conn.recv)
-
-    asyncio.run(main())
-
-
-def _serve_raw(conn: Any) -> None:
+async def _raw_relay() -> Server:
     """A minimal relay: every frame from any client goes to every client that sent "sub"."""
+    subscribers: set[ServerConnection] = set()
+
+    async def handler(ws: ServerConnection) -> None:
+        try:
+            async for message in ws:
+                if message == "sub":
+                    subscribers.add(ws)
+                    await ws.send("ok")
+                    continue
+                for sub in list(subscribers):
+                    with contextlib.suppress(ConnectionClosed):
+                        await sub.send(message)
+        finally:
+            subscribers.discard(ws)
+
+    server: Server = await serve(
+        handler, "127.0.0.1", 0, compression=None, max_size=2**24, ping_interval=None
+    )
+    return server
+
+
+def _serve(kind: str, conn: Any) -> None:
+    """Server process: serve ``kind``, send the port, then answer "cpu" with this process's
+    CPU seconds until told to stop."""
 
     async def main() -> None:
-        subscribers: set[ServerConnection] = set()
+        if kind == "ours":
+            from harness.rosbridge import BridgeServer
 
-        async def handler(ws: ServerConnection) -> None:
-            try:
-                async for message in ws:
-                    if message == "sub":
-                        subscribers.add(ws)
-                        await ws.send("ok")
-                        continue
-                    for sub in list(subscribers):
-                        with contextlib.suppress(ConnectionClosed):
-                            await sub.send(message)
-            finally:
-                subscribers.discard(ws)
-
-        async with serve(
-            handler, "127.0.0.1", 0, compression=None, max_size=2**24, ping_interval=None
-        ) as server:
-            conn.send(server.sockets[0].getsockname()[1])
-            await asyncio.get_running_loop().run_in_executor(None, conn.recv)
+            ours = BridgeServer(ping_interval=None)
+            await ours.start()
+            conn.send(ours.port)
+        else:
+            raw = await _raw_relay()
+            conn.send(raw.sockets[0].getsockname()[1])
+        loop = asyncio.get_running_loop()
+        while await loop.run_in_executor(None, conn.recv) == "cpu":
+            conn.send(time.process_time())
 
     asyncio.run(main())
+
+
+class ServerProcess:
+    """One server kind in its own process (spawned, so both kinds start alike)."""
+
+    def __init__(self, kind: str) -> None:
+        ctx = mp.get_context("spawn")
+        self.conn, child = ctx.Pipe()
+        self.proc = ctx.Process(target=_serve, args=(kind, child), daemon=True)
+        self.proc.start()
+        self.target = Target(kind, self.conn.recv())
+
+    def cpu(self) -> float:
+        """CPU seconds the server process has used so far."""
+        self.conn.send("cpu")
+        return float(self.conn.recv())
+
+    def stop(self) -> None:
+        self.conn.send("stop")
+        self.proc.join(10)
+        if self.proc.is_alive():
+            self.proc.kill()
 
 
 class Target:
@@ -165,36 +198,77 @@ async def burst(t: Target, n: int, size: int) -> tuple[int, float]:
         return got, n * size / (time.perf_counter() - start) / 1e6
 
 
-def measure(kind: str, quick: bool) -> dict[str, float]:
-    ctx = mp.get_context("spawn")
-    parent, child = ctx.Pipe()
-    proc = ctx.Process(target=_serve_ours if kind == "ours" else _serve_raw, args=(child,))
-    proc.start()
-    try:
-        t = Target(kind, parent.recv())
-        n = 5_000 if quick else 20_000
-        rate = max(asyncio.run(relay_rate(t, n)) for _ in range(1 if quick else 3))
-        p50, p99 = asyncio.run(round_trip(t, 500 if quick else 2_000))
-        got, mbps = asyncio.run(burst(t, 500, 100_000))
-        return {"rate": rate, "p50": p50, "p99": p99, "burst": got, "mbps": mbps}
-    finally:
-        parent.send("stop")
-        proc.join(10)
-        if proc.is_alive():
-            proc.kill()
+def relay_rates(servers: dict[str, ServerProcess], quick: bool) -> dict[str, Any]:
+    """Relay rate of each server, runs interleaved (ours, raw, raw, ours, ...) so that both
+    see the same background load on a shared machine; best run of each, the median of the
+    paired ratios, and the server process's CPU time per relayed message."""
+    n = 5_000 if quick else 20_000
+    repeats = 3 if quick else 7
+    rates: dict[str, list[float]] = {kind: [] for kind in servers}
+    cpu_us: dict[str, list[float]] = {kind: [] for kind in servers}
+    kinds = list(servers)
+    for i in range(repeats):
+        for kind in kinds if i % 2 == 0 else kinds[::-1]:
+            server = servers[kind]
+            before = server.cpu()
+            rates[kind].append(asyncio.run(relay_rate(server.target, n)))
+            cpu_us[kind].append((server.cpu() - before) / n * 1e6)
+    return {
+        "rate": {kind: max(r) for kind, r in rates.items()},
+        "ratio": statistics.median(o / r for o, r in zip(rates["ours"], rates["raw"], strict=True)),
+        "cpu_us": {kind: min(c) for kind, c in cpu_us.items()},
+    }
+
+
+def round_trips(servers: dict[str, ServerProcess], quick: bool) -> dict[str, tuple[float, float]]:
+    """Round trip p50/p99 at 1 kHz of each server, runs interleaved; the run with the lowest
+    p99 of each (a p99 is what a busy shared machine disturbs most)."""
+    best: dict[str, tuple[float, float]] = {}
+    kinds = list(servers)
+    for i in range(1 if quick else 3):
+        for kind in kinds if i % 2 == 0 else kinds[::-1]:
+            p50, p99 = asyncio.run(round_trip(servers[kind].target, 500 if quick else 2_000))
+            if kind not in best or p99 < best[kind][1]:
+                best[kind] = (p50, p99)
+    return best
+
+
+def measure(server: ServerProcess, p50_p99: tuple[float, float]) -> dict[str, float]:
+    """The large-message burst against one server, with its round-trip figures."""
+    got, mbps = asyncio.run(burst(server.target, 500, 100_000))
+    return {"p50": p50_p99[0], "p99": p50_p99[1], "burst": got, "mbps": mbps}
 
 
 def run(quick: bool) -> list[Row]:
-    ours, raw = measure("ours", quick), measure("raw", quick)
+    servers = {"ours": ServerProcess("ours"), "raw": ServerProcess("raw")}
+    try:
+        relay = relay_rates(servers, quick)
+        trips = round_trips(servers, quick)
+        ours = measure(servers["ours"], trips["ours"])
+        raw = measure(servers["raw"], trips["raw"])
+    finally:
+        for server in servers.values():
+            server.stop()
+    best_ours, best_raw = relay["rate"]["ours"], relay["rate"]["raw"]
     return [
         Row(
             "bridge: small-message relay rate",
-            ours["rate"],
-            raw["rate"],
+            best_ours,
+            best_raw,
             "msg/s",
             ">=20000 and >=50% raw",
-            ours["rate"] >= 20_000 and ours["rate"] >= 0.5 * raw["rate"],
-            note="reference ~4,600 msg/s",
+            best_ours >= 20_000 and best_ours >= 0.5 * best_raw,
+            note=f"best of interleaved runs; median paired ratio {relay['ratio']:.2f}; "
+            "reference ~4,600 msg/s",
+        ),
+        Row(
+            "bridge: server CPU per relayed message",
+            relay["cpu_us"]["ours"],
+            relay["cpu_us"]["raw"],
+            "us",
+            "(info)",
+            True,
+            higher_is_better=False,
         ),
         Row(
             "bridge: round trip p50 at 1 kHz",

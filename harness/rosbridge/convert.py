@@ -230,17 +230,20 @@ def _finite(value: Any) -> Any:
     return value
 
 
+# One encoder for the whole process: ``json.dumps`` with keyword arguments builds a new
+# encoder on every call, which costs about as much as encoding a small message.
+_ENCODER = json.JSONEncoder(
+    separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
+)
+
+
 def dumps(value: Any) -> str:
     """Compact JSON text of a canonical value: bytes as base64, NaN/Inf as null, keys in
     the order they were built (definition order), non-ASCII kept as UTF-8."""
     try:
-        return json.dumps(
-            value, separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
-        )
+        return _ENCODER.encode(value)
     except ValueError:
-        return json.dumps(
-            _finite(value), separators=(",", ":"), ensure_ascii=False, default=_json_default
-        )
+        return _ENCODER.encode(_finite(value))
 
 
 # -- CBOR and CDR out -----------------------------------------------------------------------

@@ -7,6 +7,9 @@ of several connections interleave in arrival order). Each connection has a bound
 queue: subscription frames beyond their ``queue_length`` (or the bridge default) are dropped
 oldest first, counted in :attr:`BridgeServer.metrics` and reported to the client as a
 ``warning`` status; a client whose unsendable backlog exceeds ``send_queue_bytes`` is closed.
+While a connection's queue is empty and its socket keeps up (write buffer below the
+high-water mark), frames skip the queue: those produced in one loop iteration are framed
+and written together at its end, one write per connection instead of one per frame.
 Everything runs on one event loop; call the bridge's in-process API from that loop.
 """
 
@@ -23,6 +26,7 @@ from typing import Any
 
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
+from websockets.protocol import State
 
 from harness.rosbridge.errors import FrameError
 from harness.rosbridge.protocol import Bridge, Output
@@ -52,6 +56,9 @@ class _Entry:
 
 
 class _Peer:
+    """One WebSocket client: its frames batched for the next write (fast path) and its
+    bounded queue (slow path, while the socket is backed up)."""
+
     def __init__(self, cid: int, ws: ServerConnection) -> None:
         self.cid = cid
         self.ws = ws
@@ -62,6 +69,32 @@ class _Peer:
         self.unreported: dict[str, int] = {}
         self.metrics = ConnectionMetrics()
         self.writer: asyncio.Task[None] | None = None
+        self.transport = ws.transport
+        self.high_water = self.transport.get_write_buffer_limits()[1]
+        self.batch: list[str | bytes] = []
+        self.batch_bytes = 0
+
+
+def _write_frames(peer: _Peer, frames: list[str | bytes]) -> None:
+    """Write ``frames`` to the peer's socket in one write (what ``send`` does per frame)."""
+    ws = peer.ws
+    if not frames or ws.state is not State.OPEN:
+        return  # closing: lost like frames a failed ``send`` could not write
+    protocol = ws.protocol
+    for data in frames:
+        if isinstance(data, str):
+            protocol.send_text(data.encode())
+        else:
+            protocol.send_binary(data)
+    # Only these frames: the protocol is open and the connection flushes everything else
+    # (pongs, close frames) as soon as it is produced.
+    peer.transport.writelines(protocol.data_to_send())
+    peer.metrics.sent += len(frames)
+
+
+def _write_batch(peer: _Peer) -> None:
+    batch, peer.batch, peer.batch_bytes = peer.batch, [], 0
+    _write_frames(peer, batch)
 
 
 class BridgeServer:
@@ -105,6 +138,7 @@ class BridgeServer:
         self._timers: set[asyncio.TimerHandle] = set()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._closers: set[asyncio.Future[None]] = set()
+        self._batched: list[_Peer] = []
 
     # -- lifecycle ----------------------------------------------------------------------
 
@@ -245,6 +279,22 @@ class BridgeServer:
                 self._enqueue(peer, out)
 
     def _enqueue(self, peer: _Peer, out: Output) -> None:
+        if (
+            not peer.queue
+            and peer.ws.state is State.OPEN
+            and peer.batch_bytes + peer.transport.get_write_buffer_size() <= peer.high_water
+        ):
+            # Nothing waits before this frame and the socket keeps up: it goes to the
+            # socket as ``send`` would put it there, without the writer task. Frames for
+            # one peer produced in one loop iteration are written together (one syscall).
+            if not peer.batch:
+                if not self._batched:
+                    assert self._loop is not None  # peers exist only once started
+                    self._loop.call_soon(self._write_batches)
+                self._batched.append(peer)
+            peer.batch.append(out.data)
+            peer.batch_bytes += len(out.data)
+            return
         entry = _Entry(out.data, out.name if out.queue_limit else None)
         if out.queue_limit:
             same = peer.by_key.setdefault(out.name, collections.deque())
@@ -272,9 +322,17 @@ class BridgeServer:
         peer.metrics.dropped[entry.key] = peer.metrics.dropped.get(entry.key, 0) + 1
         peer.unreported[entry.key] = peer.unreported.get(entry.key, 0) + 1
 
+    def _write_batches(self) -> None:
+        batched, self._batched = self._batched, []
+        for peer in batched:
+            _write_batch(peer)
+
     async def _write(self, peer: _Peer) -> None:
+        """Slow path: the socket is backed up; move queued frames to it as it drains."""
         ws = peer.ws
         while True:
+            if peer.batch:  # frames batched before the queue started go first
+                _write_batch(peer)
             if not peer.queue:
                 if peer.unreported:
                     for key, n in sorted(peer.unreported.items()):
@@ -290,14 +348,28 @@ class BridgeServer:
                 peer.wake.clear()
                 await peer.wake.wait()
                 continue
-            entry = peer.queue.popleft()
-            if not entry.alive:
+            # Take what fits below the high-water mark (at least one frame): those leave
+            # the queue and can no longer be dropped, as if ``send`` had been called on each.
+            room = peer.high_water - peer.transport.get_write_buffer_size()
+            frames: list[str | bytes] = []
+            while peer.queue:
+                entry = peer.queue[0]
+                if entry.alive and frames and len(entry.data) > room:
+                    break
+                peer.queue.popleft()
+                if not entry.alive:
+                    continue
+                if entry.key is not None:
+                    peer.by_key[entry.key].popleft()
+                peer.bytes -= len(entry.data)
+                room -= len(entry.data)
+                frames.append(entry.data)
+            if not frames:
                 continue
-            if entry.key is not None:
-                peer.by_key[entry.key].popleft()
-            peer.bytes -= len(entry.data)
+            last = frames.pop()
+            _write_frames(peer, frames)
             try:
-                await ws.send(entry.data)
+                await ws.send(last)  # written after the others; waits while backed up
             except ConnectionClosed:
                 return
             peer.metrics.sent += 1
