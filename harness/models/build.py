@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib
-import math
 import re
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -21,6 +20,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
+import numpy.typing as npt
 
 from harness.models.description import CONTROL_MODES, ControlMode, RobotModel
 from harness.models.errors import (
@@ -33,13 +33,13 @@ from harness.models.resolve import PackageMap
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
     REPAIR_BOUNDMASS,
+    harness_extension,
     mujoco_urdf_xml,
     urdf_from_element,
 )
 from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = [
-    "DEMO_HOME",
     "DEMO_URDF",
     "SCENES",
     "LoadedRobot",
@@ -49,35 +49,29 @@ __all__ = [
 
 DATA = Path(__file__).resolve().parent / "data"
 DEMO_URDF = DATA / "demo_arm.urdf"
-"""The bundled demo robot (Panda kinematics and limits, two-finger gripper)."""
+"""The bundled demo robot (Panda kinematics and limits, two-finger gripper). Its ``home``
+keyframe and joint armature are in the file (``<harness>``), so any copy loads the same."""
 SCENES: Mapping[str, Path] = MappingProxyType(
     {name: DATA / "scenes" / f"{name}.xml" for name in ("floor", "empty", "table")}
 )
 """Named scenes: ``floor`` (what ``scene=None`` gives a URDF/SDF robot), ``empty`` (floor and
 light), ``table`` (floor, light, a table and a free box within the demo arm's reach)."""
-DEMO_HOME: Mapping[str, float] = MappingProxyType(
-    {
-        "joint1": 0.0,
-        "joint2": -math.pi / 4,
-        "joint3": 0.0,
-        "joint4": -3 * math.pi / 4,
-        "joint5": 0.0,
-        "joint6": math.pi / 2,
-        "joint7": math.pi / 4,
-        "finger_joint1": 0.04,
-        "finger_joint2": 0.04,
-    }
-)
-"""The demo robot's ``home`` keyframe (joint 4's range excludes the zero configuration)."""
-
 URDF_SUFFIXES = (".urdf",)
 MJCF_SUFFIXES = (".xml", ".mjcf")
 SDF_SUFFIXES = (".sdf", ".world")
 
 # Default gains: a position servo saturates its effort limit at this error, a velocity servo
 # at this speed error; both are capped so that sqrt(kp / M) * dt <= 0.5 and kv * dt <= M,
-# with M the joint's effective inertia at the zero configuration (1 / dof_invweight0). Reference:
-# kp 2e4 critically damped tracked a Panda well, kp 1e6 was unstable; fingers need far less.
+# with M the joint's smallest effective inertia (other joints free: 1 / dof_invweight0).
+# Reference: kp 2e4 critically damped tracked a Panda well, kp 1e6 was unstable.
+#
+# A position servo is critically damped for the inertia the joint sees when the other joints
+# are held (the mass matrix diagonal, armature included, at the "home" keyframe or the zero
+# configuration). Part of that damping is the drive's torque-speed limit, effort / velocity
+# (a motor's torque falls linearly to zero at its no-load speed), put on the joint as
+# damping so that it acts outside the actuator's force range: a saturated servo then runs at
+# about the velocity limit and can brake, instead of reaching many times the limit and
+# overshooting it (issue 2: joint7 reached 29x its velocity limit and 0.40 rad past its limit).
 _POSITION_SATURATION_ERROR = 0.005
 _VELOCITY_SATURATION_ERROR = 0.05
 _DEFAULT_EFFORT = 100.0
@@ -254,12 +248,24 @@ def _check_mode(mode: object, where: str) -> None:
         )
 
 
+def _held_inertia(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Per dof, the inertia it sees with every other dof held: the mass matrix diagonal."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    full = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, full)
+    diagonal: npt.NDArray[np.float64] = np.diag(full).copy()
+    return diagonal
+
+
 def _add_actuators(
     spec: mujoco.MjSpec,
     model: mujoco.MjModel,
     description: RobotModel,
     modes: Mapping[str, ControlMode],
     gains: Mapping[str, float],
+    held_inertia: npt.NDArray[np.float64],
 ) -> tuple[str, ...]:
     dt = float(model.opt.timestep)
     actuated = []
@@ -269,15 +275,22 @@ def _add_actuators(
         joint = description.joint(name)
         limits = joint.limits
         effort = limits.effort if limits.effort is not None and limits.effort > 0 else None
-        # the effective inertia MuJoCo's dampratio uses (other joints free to move)
-        inertia = 1.0 / float(model.dof_invweight0[model.jnt_dofadr[model.joint(name).id]])
+        dof = int(model.jnt_dofadr[model.joint(name).id])
+        # the smallest effective inertia (other joints free to move): the stability bound
+        inertia = 1.0 / float(model.dof_invweight0[dof])
         act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         if mode == "position":
             kp = gains.get(name)
             if kp is None:
                 kp = (effort or _DEFAULT_EFFORT) / _POSITION_SATURATION_ERROR
                 kp = min(kp, inertia * (_STABLE_OMEGA_DT / dt) ** 2)
-            act.set_to_position(kp=float(kp), dampratio=1.0)
+            spec_joint = spec.joint(name)
+            damping = float(spec_joint.damping[0])
+            if effort is not None and limits.velocity is not None and limits.velocity > 0:
+                damping += effort / limits.velocity
+                spec_joint.damping = [damping, *spec_joint.damping[1:]]
+            critical = 2.0 * float(np.sqrt(kp * held_inertia[dof]))
+            act.set_to_position(kp=float(kp), kv=max(critical - damping, 0.0))
             lower, upper = limits.lower, limits.upper
             bounded = lower is not None and upper is not None and lower < upper
             if bounded and joint.type != "continuous":
@@ -371,17 +384,44 @@ def _has_body(model: mujoco.MjModel, name: str) -> bool:
     return bool(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) >= 0)
 
 
-def _add_home_key(
+def _key_qpos(model: mujoco.MjModel, values: Mapping[str, float]) -> npt.NDArray[np.float64]:
+    qpos = np.array(model.qpos0, dtype=float)
+    for name, value in values.items():
+        qpos[model.jnt_qposadr[model.joint(name).id]] = value
+    return qpos
+
+
+def _servo_configuration(
+    model: mujoco.MjModel, keyframes: Mapping[str, Mapping[str, float]]
+) -> npt.NDArray[np.float64]:
+    """Where the servos are tuned: the ``home`` keyframe (the source's own or the URDF's
+    ``<harness>`` one), else the zero configuration."""
+    if "home" in keyframes:
+        return _key_qpos(model, keyframes["home"])
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    if key >= 0:
+        return np.array(model.key_qpos[key], dtype=float)
+    return np.array(model.qpos0, dtype=float)
+
+
+def _add_keyframes(
     spec: mujoco.MjSpec,
     model: mujoco.MjModel,
+    keyframes: Mapping[str, Mapping[str, float]],
     actuated: tuple[str, ...],
     modes: Mapping[str, ControlMode],
 ) -> None:
-    qpos = np.array(model.qpos0, dtype=float)
-    for name, value in DEMO_HOME.items():
-        qpos[model.jnt_qposadr[model.joint(name).id]] = value
-    ctrl = [DEMO_HOME[name] if modes[name] == "position" else 0.0 for name in actuated]
-    spec.add_key(name="home", qpos=qpos.tolist(), ctrl=ctrl)
+    """Each keyframe as a MuJoCo key: its joint positions (others at qpos0) and, for
+    position servos, the same positions as their targets."""
+    for key, values in keyframes.items():
+        qpos = _key_qpos(model, values)
+        ctrl = [
+            float(qpos[model.jnt_qposadr[model.joint(name).id]])
+            if modes.get(name) == "position"
+            else 0.0
+            for name in actuated
+        ]
+        spec.add_key(name=key, qpos=qpos.tolist(), ctrl=ctrl)
 
 
 def load_robot(
@@ -408,6 +448,13 @@ def load_robot(
     (non-colliding). ``repair_inertia``: bound masses/inertias and balance inertias,
     reporting every changed link in ``repairs``. ``gains``: joint -> kp (position) or kv
     (velocity) overriding the defaults. ``cache_dir``: converted-mesh cache folder.
+
+    A URDF's ``<harness>`` element adds keyframes and joint armature (see
+    :func:`harness.models.urdf.harness_extension`): the model depends on file contents only,
+    never on where the file is. Position servos are critically damped (servo kv plus joint
+    damping) for the inertia each joint sees with the others held, at the ``home`` keyframe;
+    their joint gets the drive's torque-speed limit, effort / velocity, as extra damping, so a
+    saturated servo moves at about its velocity limit and stops at its target.
     """
     path = _source_path(source)
     name_of_source = str(path)
@@ -417,6 +464,7 @@ def load_robot(
         scene = "table"
 
     existing_actuators = False
+    keyframes: Mapping[str, Mapping[str, float]] = {}
     source_repairs: tuple[str, ...] = ()
     repaired_inertias: Mapping[str, tuple[float, ...]] = {}
     if kind == "urdf":
@@ -433,6 +481,10 @@ def load_robot(
         )
         source_repairs, repaired_inertias = prepared.repairs, prepared.inertias
         robot_spec = _spec_from_string(prepared.xml, name_of_source)
+        extension = harness_extension(root, description)
+        keyframes = extension.keyframes
+        for joint_name, armature in extension.armature.items():
+            robot_spec.joint(joint_name).armature = armature
     elif kind == "sdf":
         read_sdf, build_spec = _sdf_api()
         sources[f"model/{path.name}"] = path.read_bytes()
@@ -466,12 +518,12 @@ def load_robot(
             raise ModelStructureError(
                 f"{name_of_source}: gains name joints that are not controllable: {unknown_gains}"
             )
-        actuated = _add_actuators(spec, first, description, modes, dict(gains or {}))
+        held = _held_inertia(first, _servo_configuration(first, keyframes))
+        actuated = _add_actuators(spec, first, description, modes, dict(gains or {}), held)
     if srdf is not None:
         body_names = {first.body(b).name for b in range(first.nbody)}
         sources[f"srdf/{Path(srdf).name}"] = _add_srdf_excludes(spec, Path(srdf), body_names)
-    if path == DEMO_URDF:
-        _add_home_key(spec, first, actuated, modes)
+    _add_keyframes(spec, first, keyframes, actuated, modes)
 
     model = _compile(spec, name_of_source)
     with _mujoco_warnings():

@@ -15,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 from harness.models.errors import MeshError
+from harness.models.xmlsafe import check_size, parse_xml
 
 __all__ = ["CONVERTIBLE", "PASS_THROUGH", "mesh_cache_dir", "prepare_mesh"]
 
@@ -52,12 +53,16 @@ def prepare_mesh(
             f"{prefix}unsupported mesh format {source.suffix!r} in {str(source)!r} "
             f"(supported: {', '.join(supported)})"
         )
+    if ext == ".dae":  # COLLADA is XML: the same size limit as the models
+        check_size(source)
     data = source.read_bytes()
     digest = hashlib.sha256(ext.encode() + b"\0" + data).hexdigest()[:20]
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
     target = folder / f"{source.stem}-{digest}.obj"
     if target.is_file():
         return target
+    if ext == ".dae":  # ... and no entities (checked once per content: converted ones are cached)
+        parse_xml(data, str(source))
     obj = _convert(source, prefix)
     folder.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=folder, suffix=".obj.tmp")

@@ -10,6 +10,10 @@ folders above the referencing file (a folder named like the package, a child fol
 like it, or a folder whose ``package.xml`` declares that name). ``model://`` searches the
 explicit ``search_paths``, then ``GZ_SIM_RESOURCE_PATH``, ``SDF_PATH``,
 ``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file.
+
+``package://`` and ``model://`` references are confined to the folder of the package (model)
+they name: a reference whose real path (``..`` and symlinks resolved) lies outside that folder
+is refused, as is a package name that is not a plain folder name (``..``, empty).
 """
 
 from __future__ import annotations
@@ -112,6 +116,29 @@ def find_model(
     return found
 
 
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
+
+
+def _check_name(name: str, kind: str) -> None:
+    if not name:
+        raise ResolveError(f"empty {kind} name")
+    if not _NAME.fullmatch(name):
+        raise ResolveError(f"invalid {kind} name {name!r}")
+
+
+def _confined(root: Path, rest: str, kind: str, name: str) -> Path:
+    """``root / rest``, refusing anything whose real path leaves ``root``."""
+    path = root / rest
+    real_root = root.resolve()
+    real = path.resolve()
+    if not real.is_relative_to(real_root):
+        raise ResolveError(
+            f"reference escapes {kind} {name!r} (folder {str(real_root)!r}, "
+            f"the reference leads to {str(real)!r})"
+        )
+    return path
+
+
 def resolve_uri(
     uri: str,
     *,
@@ -134,17 +161,17 @@ def resolve_uri(
         if uri.startswith("package://"):
             # package:///pkg/x (seen in real files) means package://pkg/x
             name, _, rest = uri[len("package://") :].lstrip("/").partition("/")
-            if not name:
-                raise ResolveError("empty package name")
-            path = find_package(name, packages=packages, start=base) / unquote(rest)
+            _check_name(name, "package")
+            root = find_package(name, packages=packages, start=base)
+            path = _confined(root, unquote(rest), "package", name)
         elif uri.startswith("model://"):
             name, _, rest = uri[len("model://") :].lstrip("/").partition("/")
-            if not name:
-                raise ResolveError("empty model name")
+            _check_name(name, "model")
             if packages and name in packages:
-                path = Path(packages[name]) / unquote(rest)
+                root = Path(packages[name])
             else:
-                path = find_model(name, search_paths=search_paths, start=base) / unquote(rest)
+                root = find_model(name, search_paths=search_paths, start=base)
+            path = _confined(root, unquote(rest), "model", name)
         elif uri.startswith("file://"):
             path = Path(unquote(uri[len("file://") :]))
             if not path.is_absolute():

@@ -35,7 +35,9 @@ __all__ = [
     "JOINT_TYPES",
     "REPAIR_BOUNDINERTIA",
     "REPAIR_BOUNDMASS",
+    "HarnessExtension",
     "PreparedURDF",
+    "harness_extension",
     "mujoco_urdf_xml",
     "read_urdf",
     "urdf_from_element",
@@ -283,6 +285,94 @@ def _joint(element: etree._Element, parent: str, child: str, pose: Pose, source:
     )
 
 
+class HarnessExtension(NamedTuple):
+    """What a URDF's ``<harness>`` element adds to the robot (other URDF readers ignore it).
+
+    ``keyframes``: name -> joint -> position (mimic followers filled in from their leader);
+    ``armature``: joint -> reflected rotor inertia of its drive (kg m^2, kg for prismatic).
+    """
+
+    keyframes: Mapping[str, Mapping[str, float]]
+    armature: Mapping[str, float]
+
+
+_SCALAR_JOINTS = ("revolute", "continuous", "prismatic")
+
+
+def _extension_joint(element: etree._Element, description: RobotModel, source: str) -> str:
+    """The name of the one-degree-of-freedom joint an extension element refers to."""
+    name = element.get("name")
+    if not name:
+        raise ModelStructureError(f"{source}: {describe(element)}: <joint> without a name")
+    if not any(j.name == name and j.type in _SCALAR_JOINTS for j in description.joints):
+        movable = [j.name for j in description.joints if j.type in _SCALAR_JOINTS]
+        raise ModelStructureError(
+            f"{source}: {describe(element)}: {name!r} is not a revolute, continuous or "
+            f"prismatic joint of the robot (those are: {movable})"
+        )
+    return str(name)
+
+
+def harness_extension(root: etree._Element, description: RobotModel) -> HarnessExtension:
+    """The ``<harness>`` element of a parsed URDF ``<robot>`` (empty when there is none)::
+
+        <harness>
+          <keyframe name="home"><joint name="joint1" value="0.5"/> ...</keyframe>
+          <joint name="joint1" armature="0.1"/>
+        </harness>
+
+    A keyframe's unlisted joints stay at zero (mimic followers follow their leader).
+    """
+    source = description.source or "<urdf>"
+    keyframes: dict[str, dict[str, float]] = {}
+    armature: dict[str, float] = {}
+    elements = root.findall("harness")
+    if len(elements) > 1:
+        raise ModelStructureError(f"{source}: {describe(elements[1])}: more than one <harness>")
+    for child in elements[0] if elements else ():
+        if not isinstance(child.tag, str):
+            continue  # comments
+        if child.tag == "keyframe":
+            key = child.get("name")
+            if not key:
+                raise ModelStructureError(f"{source}: {describe(child)}: keyframe without a name")
+            if key in keyframes:
+                raise ModelStructureError(
+                    f"{source}: {describe(child)}: duplicate keyframe {key!r}"
+                )
+            values: dict[str, float] = {}
+            for joint_el in child:
+                if not isinstance(joint_el.tag, str):
+                    continue
+                if joint_el.tag != "joint":
+                    raise ModelStructureError(
+                        f"{source}: {describe(joint_el)}: unexpected <{joint_el.tag}> in "
+                        "<keyframe> (expected <joint name=... value=...>)"
+                    )
+                name = _extension_joint(joint_el, description, source)
+                values[name] = _floats(joint_el, "value", 1, source, None)[0]
+            for joint in description.joints:
+                if joint.mimic is not None and joint.name not in values:
+                    lead = values.get(joint.mimic.joint)
+                    if lead is not None:
+                        values[joint.name] = joint.mimic.multiplier * lead + joint.mimic.offset
+            keyframes[key] = values
+        elif child.tag == "joint":
+            name = _extension_joint(child, description, source)
+            value = _floats(child, "armature", 1, source, None)[0]
+            if not value >= 0.0:
+                raise ModelStructureError(
+                    f"{source}: {describe(child)}: armature {value!r} is negative"
+                )
+            armature[name] = value
+        else:
+            raise ModelStructureError(
+                f"{source}: {describe(child)}: unexpected <{child.tag}> in <harness> "
+                "(expected <keyframe> or <joint>)"
+            )
+    return HarnessExtension(keyframes, armature)
+
+
 def read_urdf(path: str | Path) -> RobotModel:
     """Read the URDF file at ``path`` into a :class:`RobotModel`."""
     root, _ = read_xml_file(path)
@@ -370,8 +460,9 @@ def mujoco_urdf_xml(
                     f"{REPAIR_BOUNDINERTIA:g} kg m^2"
                 )
     # Our own <mujoco> element replaces any in the file: the compiler settings are part of
-    # the harness contract (named bodies, visual handling, explicit repairs).
-    for old in doc.findall("mujoco"):
+    # the harness contract (named bodies, visual handling, explicit repairs). <harness> is
+    # applied to the MjSpec by the caller (see harness_extension).
+    for old in doc.findall("mujoco") + doc.findall("harness"):
         doc.remove(old)
     attrs = {
         "discardvisual": "false" if visuals else "true",

@@ -2,7 +2,8 @@
 
 Entities are never resolved and the network is never touched; any document that declares
 entities is refused outright (libxml2 expands entities in attribute values even with
-``resolve_entities=False``, so a billion-laughs file must not reach the parser).
+``resolve_entities=False``, so a billion-laughs file must not reach the parser). Files larger
+than :data:`MAX_XML_BYTES` are refused before they are read.
 """
 
 from __future__ import annotations
@@ -13,7 +14,11 @@ from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.models.errors import XMLError
 
-__all__ = ["describe", "parse_xml", "read_xml_file"]
+__all__ = ["MAX_XML_BYTES", "check_size", "describe", "parse_xml", "read_xml_file"]
+
+MAX_XML_BYTES = 32 * 2**20
+"""The largest robot, world or mesh XML file read (32 MiB; real URDF/SDF files are far
+smaller, meshes belong in mesh files)."""
 
 
 def _parser() -> etree.XMLParser:
@@ -47,11 +52,25 @@ def parse_xml(data: bytes, source: str) -> etree._Element:
 
 def read_xml_file(path: str | Path) -> tuple[etree._Element, bytes]:
     """Read and safely parse the file at ``path``: ``(root element, raw bytes)``."""
+    check_size(path)
     try:
         data = Path(path).read_bytes()
     except OSError as exc:
         raise XMLError(f"{path}: cannot read: {exc.strerror or exc}") from None
     return parse_xml(data, str(path)), data
+
+
+def check_size(path: str | Path, limit: int = MAX_XML_BYTES) -> None:
+    """Refuse a file larger than ``limit`` bytes before reading it (:class:`XMLError`)."""
+    try:
+        size = Path(path).stat().st_size
+    except OSError as exc:
+        raise XMLError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if size > limit:
+        raise XMLError(
+            f"{path}: file is {size / 2**20:.1f} MiB, more than the {limit / 2**20:g} MiB "
+            "limit for XML files"
+        )
 
 
 def describe(element: etree._Element) -> str:

@@ -81,7 +81,7 @@ def _limit_case(
         client = client_factory(session.url)
         client.send({"op": "set_level", "level": "warning"})
         client.publish("/joint_command", {"name": ["joint1"], "position": [upper + 0.5]})
-        client.step(200)
+        client.step(800)  # joint1 covers ~2.9 rad at its 2.175 rad/s velocity limit
         statuses = [f for f in client.received if f.get("op") == "status"]
         position = float(session.joint_positions()[0])
         command = float(session.joint_commands()[0])
