@@ -47,7 +47,7 @@ demo: install
 	$(VENV)/bin/harness demo
 
 lint: install
-	$(VENV)/bin/ruff check harness tests bench conftest.py
+	$(VENV)/bin/ruff check harness tests bench examples conftest.py
 	$(VENV)/bin/mypy
 
 test: install node-deps system-deps lint

@@ -1,13 +1,27 @@
-"""``harness demo``: the demo arm pushes the box, in every control mode, twice, in two processes.
+"""``harness demo``: the showcase. The demo scenario run over the real bridge, recorded, judged,
+replay-verified and re-simulated in the other control mode; then the physics alone proven
+deterministic across processes in every control mode.
 
-Each run loads the bundled demo robot (URDF) on its table scene, follows a scripted joint
-trajectory for 5 s of simulation time that sweeps the hand through the box, and hashes the
-``mjSTATE_INTEGRATION`` state after every step (SHA-256 of the whole state stream, initial
-state included). The two processes must print identical hashes: that is the determinism claim.
+1. ``scenarios/demo.yaml``: the bundled arm on its table scene, driven in lockstep over rosbridge
+   by the scripted roslibpy client ``scenarios/clients/demo_arm.py`` (run by this interpreter),
+   which follows :func:`trajectory` (the hand sweeps through the box). Two iterations in two
+   worker processes through the session-backed runner (``harness run`` machinery): each
+   recorded to MCAP, judged (collisions except with the box, joint limits) and hashed (SHA-256
+   of every step's ``mjSTATE_INTEGRATION`` state); the two hashes must be equal. Reports
+   (``report.html``, ``junit.xml``, ``results.json``) go to ``--out``.
+2. The first recording replayed from its inputs (:func:`harness.replay.verify`): bit for bit.
+3. The same recording re-simulated with every joint in the other control mode
+   (:func:`harness.replay.resimulate`: position -> kinematic), its findings summarised: what a
+   switch of control mode would show (velocity spikes of kinematic "jumping", penetration).
+4. Without the bridge: each control mode run for ``--seconds`` in two processes
+   (:func:`run_mode`), the state streams hashed; the two processes must print identical hashes.
 
-Command laws per mode (``q_d``, ``dq_d``: the scripted trajectory): kinematic and position
-command ``q_d``; velocity commands ``dq_d + K (q_d - q)``; effort commands
+Command laws per mode in step 4 (``q_d``, ``dq_d``: the scripted trajectory): kinematic and
+position command ``q_d``; velocity commands ``dq_d + K (q_d - q)``; effort commands
 ``Kp (q_d - q) + Kd (dq_d - dq) + bias`` with MuJoCo's gravity/Coriolis term of the last step.
+
+Exit code 0 when the scenario passed, its iterations hashed the same, the replay reproduced the
+recording and every mode hashed the same in both processes.
 """
 
 from __future__ import annotations
@@ -19,16 +33,24 @@ import json
 import math
 import subprocess
 import sys
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import NamedTuple
+from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
+from harness.errors import ConfigError, SimulationError
 from harness.models.description import CONTROL_MODES, ControlMode
 
+if TYPE_CHECKING:
+    from harness.replay import Finding, ResimReport
+    from harness.replay.resim import ResimMode
+
 __all__ = [
+    "SCENARIO",
     "ContactSummary",
     "ModeResult",
     "add_arguments",
@@ -155,15 +177,41 @@ def run_mode(mode: ControlMode, seconds: float = 5.0) -> ModeResult:
     return ModeResult(mode, steps, digest.hexdigest(), summaries, travel)
 
 
+SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "demo.yaml"
+"""The demo scenario of a source checkout."""
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``harness demo``."""
     parser.add_argument(
-        "--seconds", type=float, default=5.0, help="simulation time per run (default 5)"
+        "--seconds",
+        type=float,
+        default=5.0,
+        help="simulation time per run of the per-mode proof (default 5)",
     )
     parser.add_argument(
-        "--mode", choices=CONTROL_MODES, action="append", help="only this mode (repeatable)"
+        "--mode",
+        choices=CONTROL_MODES,
+        action="append",
+        help="only this mode in the per-mode proof (repeatable)",
     )
-    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("harness-results") / "demo",
+        metavar="DIR",
+        help="where the recordings and report.html go (default harness-results/demo)",
+    )
+    parser.add_argument(
+        "--scenario",
+        type=Path,
+        default=SCENARIO,
+        metavar="FILE",
+        help="the scenario to showcase (default: scenarios/demo.yaml)",
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print only the per-mode proof's results as JSON"
+    )
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
 
 
@@ -186,32 +234,160 @@ def _as_json(results: list[ModeResult]) -> list[Mapping[str, object]]:
     return [{**r._asdict(), "contacts": [list(c) for c in r.contacts]} for r in results]
 
 
+class _Proof:
+    """The per-mode proof running in two worker processes."""
+
+    def __init__(self, args: argparse.Namespace, modes: tuple[ControlMode, ...]) -> None:
+        self.procs = [
+            subprocess.Popen(_worker_command(args, modes), stdout=subprocess.PIPE, text=True)
+            for _ in range(2)
+        ]
+
+    def results(self) -> tuple[list[ModeResult], list[ModeResult]]:
+        outputs = [p.communicate()[0] for p in self.procs]
+        for i, p in enumerate(self.procs):
+            if p.returncode != 0:
+                raise SimulationError(f"per-mode proof: run {i + 1} failed (exit {p.returncode})")
+        first, second = (_load(o) for o in outputs)
+        return first, second
+
+    def stop(self) -> None:
+        for p in self.procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+
+
 def run(args: argparse.Namespace) -> int:
-    """Run the demo twice in two processes; exit 0 when both state streams hash the same."""
+    """The showcase (see the module docstring); exit 0 when every check held."""
     modes: tuple[ControlMode, ...] = tuple(args.mode or CONTROL_MODES)
     if args.worker:
         print(json.dumps(_as_json([run_mode(m, args.seconds) for m in modes])))
         return 0
-    procs = [
-        subprocess.Popen(_worker_command(args, modes), stdout=subprocess.PIPE, text=True)
-        for _ in range(2)
+    proof = _Proof(args, modes)
+    try:
+        if args.json:
+            first, second = proof.results()
+            identical = _identical(first, second)
+            print(json.dumps({"identical": identical, "runs": [_as_json(first), _as_json(second)]}))
+            return 0 if identical else 1
+        showcase = _showcase(args.scenario, args.out)
+        first, second = proof.results()
+    finally:
+        proof.stop()
+    print(
+        "\n4. Physics alone, every control mode, each run in 2 processes "
+        f"({args.seconds:g} s of simulation)"
+    )
+    _print_report(first, second)
+    identical = _identical(first, second)
+    checks = [*showcase.checks, ("per-mode state streams identical", identical)]
+    failed = [name for name, ok in checks if not ok]
+    print(f"\nreport: {showcase.report}")
+    if failed:
+        print(f"verdict: FAIL ({'; '.join(failed)})")
+        return 1
+    print("verdict: PASS (" + "; ".join(name for name, _ in checks) + ")")
+    return 0
+
+
+def _identical(first: list[ModeResult], second: list[ModeResult]) -> bool:
+    return all(a.sha256 == b.sha256 for a, b in zip(first, second, strict=True))
+
+
+class _Showcase(NamedTuple):
+    report: Path
+    checks: list[tuple[str, bool]]
+
+
+def _showcase(scenario_path: Path, out: Path) -> _Showcase:
+    """Steps 1-3: the scenario over the bridge, replay verification, re-simulation."""
+    from rich.console import Console
+
+    from harness.replay import resimulate, verify
+    from harness.scenario import LocalBackend, load_run_file, session_iteration_runner
+    from harness.scenario._cli import execute
+
+    if not scenario_path.is_file():
+        raise ConfigError(
+            f"{scenario_path}: the demo scenario is not there (it ships in a source checkout's "
+            "scenarios/ folder; pass --scenario FILE)"
+        )
+    config = load_run_file(scenario_path)
+    scenario = config.simulations[0].scenario
+    robot = scenario.robots[0]
+    recorded_modes = {c.mode for c in robot.controllers} or {"position"}
+    other: ResimMode = "dynamic" if recorded_modes == {"kinematic"} else "kinematic"
+    print(
+        f"harness demo: {scenario.name}: {scenario.description}\n"
+        f"1. The scenario over the rosbridge bridge, 2 iterations in 2 worker processes, recorded"
+    )
+    console = Console(highlight=False)
+    results = execute(
+        config,
+        session_iteration_runner(),
+        LocalBackend(2),
+        out,
+        console,
+        iterations=2,
+        check_determinism=True,
+    )
+    checks: list[tuple[str, bool]] = [
+        ("scenario passed", all(r.passed for r in results)),
     ]
-    outputs = [p.communicate()[0] for p in procs]
-    for i, p in enumerate(procs):
-        if p.returncode != 0:
-            print(f"harness demo: run {i + 1} failed (exit {p.returncode})", file=sys.stderr)
-            return p.returncode
-    first, second = (_load(o) for o in outputs)
-    identical = all(a.sha256 == b.sha256 for a, b in zip(first, second, strict=True))
-    if args.json:
-        print(json.dumps({"identical": identical, "runs": [_as_json(first), _as_json(second)]}))
-        return 0 if identical else 1
-    _print_report(first, second, identical)
-    return 0 if identical else 1
+    for r in results:
+        print(f"  iteration {r.iteration} state sha256 {r.state_digest}")
+    same = len({r.state_digest for r in results}) == 1 and results[0].state_digest is not None
+    print(f"  iterations: {'identical' if same else 'DIFFERENT'} state streams")
+    checks.append(("iterations identical", same))
+    recording = results[0].recording
+    if recording is None or not recording.is_file():
+        print("2. Replay: no recording to verify")
+        checks.append(("replay reproduced", False))
+        return _Showcase(out.resolve() / "report.html", checks)
+    print(f"2. Replay of {recording} from its inputs (harness.replay.verify)")
+    verified = verify(recording)
+    print("  " + verified.format().replace("\n", "\n  "))
+    checks.append(("replay reproduced", verified.reproduced))
+    print(f"3. Re-simulation with every joint {other} (harness.replay.resimulate)")
+    resim = resimulate(recording, other)
+    for line in _resim_summary(resim):
+        print(f"  {line}")
+    return _Showcase(out.resolve() / "report.html", checks)
 
 
-def _print_report(first: list[ModeResult], second: list[ModeResult], identical: bool) -> None:
-    print("harness demo: the demo arm sweeps through the box; each mode run in 2 processes\n")
+def _resim_summary(report: ResimReport) -> list[str]:
+    """A few lines: the findings counted per run and quantity, the first of each, contacts."""
+    lines = [
+        f"{report.steps} steps: recorded ({report.recorded.control}) vs re-simulated "
+        f"({report.resimulated.control})"
+    ]
+    if not report.findings:
+        lines.append("no finding: the switch of control mode changes nothing measurable")
+    counts = Counter((f.run, f.quantity) for f in report.findings)
+    firsts: dict[tuple[str, str], Finding] = {}
+    for f in report.findings:
+        firsts.setdefault((f.run, f.quantity), f)
+    for (run, quantity), f in sorted(firsts.items(), key=lambda kv: kv[1].step):
+        what = f"{quantity} {f.name}".strip()
+        lines.append(
+            f"{run}: {quantity} exceeded {counts[(run, quantity)]}x, first {what} = "
+            f"{f.value:.4g} > {f.threshold:g} at step {f.step}"
+        )
+    re, rec = report.resimulated, report.recorded
+    lines.append(
+        f"peak penetration {rec.peak_penetration * 1000:.2f} mm recorded vs "
+        f"{re.peak_penetration * 1000:.2f} mm re-simulated; max energy jump "
+        f"{rec.max_energy_jump:.3g} J vs {re.max_energy_jump:.3g} J"
+    )
+    if report.contacts_appearing:
+        lines.append(f"contacts only when re-simulated: {', '.join(report.contacts_appearing)}")
+    if report.contacts_disappearing:
+        lines.append(f"contacts only when recorded: {', '.join(report.contacts_disappearing)}")
+    return lines
+
+
+def _print_report(first: list[ModeResult], second: list[ModeResult]) -> None:
     for a, b in zip(first, second, strict=True):
         same = "identical" if a.sha256 == b.sha256 else "DIFFERENT"
         print(f"{a.mode:<9}  {a.steps} steps  box moved {a.box_travel * 1000:.1f} mm  {same}")
@@ -225,5 +401,5 @@ def _print_report(first: list[ModeResult], second: list[ModeResult], identical: 
             )
         if not a.contacts:
             print("  no robot contacts")
-    verdict = "identical in every mode" if identical else "NOT identical"
-    print(f"\nstate streams: {verdict}")
+    verdict = "identical in every mode" if _identical(first, second) else "NOT identical"
+    print(f"state streams: {verdict}")

@@ -3,11 +3,12 @@ configs (the original ``sim_runner`` format), iterations on local or Dask worker
 (JUnit XML, JSON, self-contained HTML).
 
 The runner machinery talks to whatever runs one iteration through :class:`IterationRunner`;
-:func:`session_iteration_runner` is where the session-backed one is wired in.
+:func:`session_iteration_runner` returns the session-backed one
+(:mod:`harness.scenario.session_runner`, imported when used).
 """
 
 from harness.scenario.client import BridgeHost, run_client, stop_group
-from harness.scenario.errors import RunnerError, RunnerUnavailableError, ScenarioError
+from harness.scenario.errors import RunnerError, ScenarioError
 from harness.scenario.reports import render_html, write_reports
 from harness.scenario.results import (
     ClientOutcome,
@@ -26,6 +27,7 @@ from harness.scenario.runner import (
     Backend,
     DaskBackend,
     LocalBackend,
+    check_runnable,
     iteration_specs,
     judge_determinism,
     run_iterations,
@@ -59,12 +61,12 @@ __all__ = [
     "RobotSpec",
     "RunConfig",
     "RunnerError",
-    "RunnerUnavailableError",
     "Scenario",
     "ScenarioError",
     "SimulationPlan",
     "Traces",
     "Verdict",
+    "check_runnable",
     "iteration_specs",
     "judge",
     "judge_determinism",

@@ -20,6 +20,7 @@ from harness.scenario.runner import (
     Backend,
     DaskBackend,
     LocalBackend,
+    check_runnable,
     iteration_specs,
     run_iterations,
     session_iteration_runner,
@@ -80,11 +81,12 @@ def execute(
     terminal), write the reports into ``out_dir`` and print the summary table."""
     if iterations is not None and iterations < 1:
         raise ConfigError(f"--iterations: {iterations} must be at least 1")
-    if check_determinism:
+    if check_determinism or any(p.scenario.criteria.deterministic for p in config.simulations):
+        # Determinism is judged across iterations: every judged simulation runs at least 2.
         plans = []
         for plan in config.simulations:
             count = iterations if iterations is not None else plan.iterations
-            if count < 2:
+            if count < 2 and (check_determinism or plan.scenario.criteria.deterministic):
                 console.print(
                     f"note: {plan.name}: running 2 iterations to check determinism", style="yellow"
                 )
@@ -124,6 +126,7 @@ def execute(
 def run(args: argparse.Namespace) -> int:
     """``harness run``: exit 0 when every iteration passed, 1 otherwise."""
     config = load_run_file(args.file)
+    check_runnable(config)
     console = Console()
     for notice in config.notices:
         print(f"harness run: note: {notice}", file=sys.stderr)

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 from harness.errors import ConfigError, HarnessError
 
-__all__ = ["RunnerError", "RunnerUnavailableError", "ScenarioError"]
+__all__ = ["RunnerError", "ScenarioError"]
 
 
 class ScenarioError(ConfigError):
@@ -22,10 +22,6 @@ class ScenarioError(ConfigError):
             if len(self.problems) == 1
             else f"{len(self.problems)} problems:\n  " + "\n  ".join(self.problems)
         )
-
-
-class RunnerUnavailableError(ConfigError):
-    """No iteration runner can run scenarios here (the session-backed one is not wired in)."""
 
 
 class RunnerError(HarnessError):

@@ -415,6 +415,7 @@ def _iteration_section(r: IterationResult) -> str:
             else ""
         )
         client = f"<p>Client: {html.escape(r.client.reason)}{log}</p>"
+    notes = "".join(f'<p class="note">Note: {html.escape(n)}</p>' for n in r.notes)
     plots = (
         _joint_plots(r.traces)
         if r.traces is not None and r.traces.time
@@ -428,7 +429,7 @@ def _iteration_section(r: IterationResult) -> str:
         f"<p>Sim time reached {r.sim_time:.6g} s ({r.steps} steps); "
         f"wall {r.wall_seconds:.2f} s.</p>"
         f'{error}<table class="verdicts"><tr><th>criterion</th><th>result</th><th>detail</th></tr>'
-        f"{rows}</table>{replay}{client}"
+        f"{rows}</table>{replay}{client}{notes}"
         f"<h3>Collisions</h3>{_timeline(r.collisions, r.sim_time)}"
         f"<h3>Joints</h3>{plots}</section>"
     )

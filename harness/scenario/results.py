@@ -141,7 +141,8 @@ class ClientOutcome:
 @dataclass(frozen=True)
 class IterationResult:
     """Everything one iteration produced. ``error`` is set when the iteration could not run
-    to an end (runner exception, worker died); ``verdicts`` hold what was judged."""
+    to an end (runner exception, worker died); ``verdicts`` hold what was judged; ``notes``
+    are things worth knowing that do not fail it (a log sink that dropped events, ...)."""
 
     simulation: str
     iteration: int
@@ -157,6 +158,7 @@ class IterationResult:
     port: int | None = None
     wall_seconds: float = 0.0
     error: str | None = None
+    notes: tuple[str, ...] = ()
 
     @property
     def passed(self) -> bool:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol
 
-from harness.scenario.errors import RunnerError, RunnerUnavailableError
+from harness.scenario.errors import RunnerError, ScenarioError
 from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict
 from harness.scenario.runfile import RunConfig
 
@@ -27,6 +27,7 @@ __all__ = [
     "Backend",
     "DaskBackend",
     "LocalBackend",
+    "check_runnable",
     "iteration_specs",
     "judge_determinism",
     "run_iterations",
@@ -37,15 +38,26 @@ OnResult = Callable[[IterationResult], None]
 
 
 def session_iteration_runner() -> IterationRunner:
-    """The iteration runner ``harness run`` uses: one :class:`harness.Session` per iteration.
+    """The iteration runner ``harness run`` uses: one :class:`harness.Session` per iteration
+    (:class:`harness.scenario.session_runner.SessionIterationRunner`)."""
+    from harness.scenario.session_runner import SessionIterationRunner
 
-    This is the single wiring point for the session-backed runner; until the Session exists it
-    refuses rather than pretend to run anything.
-    """
-    raise RunnerUnavailableError(
-        "the session-backed iteration runner is not available yet (harness.Session is not "
-        "built); nothing was run"
-    )
+    return SessionIterationRunner()
+
+
+def check_runnable(config: RunConfig) -> None:
+    """Refuse, before anything runs, a run file whose scenarios the session-backed runner
+    cannot run (several robots, ...): :class:`ScenarioError` naming each key path."""
+    from harness.scenario.world import check_runnable as problems_of
+
+    seen: set[int] = set()
+    problems: list[str] = []
+    for plan in config.simulations:
+        if id(plan.scenario) not in seen:
+            seen.add(id(plan.scenario))
+            problems.extend(problems_of(plan.scenario))
+    if problems:
+        raise ScenarioError(problems)
 
 
 def _slug(name: str) -> str:

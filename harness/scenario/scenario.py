@@ -207,7 +207,8 @@ class Criteria:
 class ClientSpec:
     """The client under test: ``command`` runs in ``cwd`` with ``env`` added to the environment
     (plus ``HARNESS_ROSBRIDGE_URL``); it must connect within ``readiness_timeout`` wall seconds;
-    a run still going after ``wall_timeout`` wall seconds is stopped and failed."""
+    a run still going after ``wall_timeout`` wall seconds is stopped and failed. A command whose
+    program is ``python`` or ``python3`` runs with the interpreter running the harness."""
 
     command: tuple[str, ...]
     cwd: Path

@@ -51,13 +51,16 @@ def test_demo_scenario_content():
     assert demo.environment.map == "table"
     assert demo.robots[0].robot == "demo"
     assert demo.robots[0].name == "arm"
-    assert demo.clock.mode == "fast"
+    assert demo.clock.mode == "lockstep"
     assert demo.criteria.allowed_collisions == (("*", "box"),)
     assert demo.criteria.deterministic
     kinds = [type(lg).__name__ for lg in demo.robots[0].loggers]
     assert kinds == ["CollisionLoggerSpec", "JointLoggerSpec"]
     assert demo.robots[0].loggers[1] == sc.JointLoggerSpec(rate=50.0)
-    assert demo.objects[0].mass == 0.1
+    assert demo.objects[0].name == "marker"
+    assert demo.objects[0].mass is None  # fixed
+    assert demo.client is not None
+    assert demo.client.command[:2] == ("python", "clients/demo_arm.py")
 
 
 def test_original_scene_config_port_as_number():

@@ -1,0 +1,776 @@
+"""The harness pytest plugin (entry point ``pytest11``: ``harness = "harness.pytest_plugin"``).
+
+Fixtures
+--------
+- ``harness_session``: a :class:`harness.Session` for this test (simulation + rosbridge server
+  on a free port + recorder + collision and joint-limit loggers), configured by the marker
+  ``@pytest.mark.harness(robot=..., scenario=..., mode=..., clock=..., ...)``.
+- ``harness_session_factory``: ``factory(**options) -> Session`` with the same options as the
+  marker (keyword arguments override it); the first session a test makes is *its* session.
+- ``rosbridge_url``: ``harness_session.url``.
+- ``harness_recording``: this test's recording path (under the record directory).
+- ``harness_events``: the :class:`~harness.events.CollectingSink` of this test's session (the
+  collision, joint-limit and log events).
+- ``golden``: ``golden.check(**tolerances)`` ends this test's session (finalising the
+  recording) and compares the recording with ``recordings/<test module>/<test name>.mcap``
+  under the rootdir through :func:`harness.replay.diff` (tolerances are
+  :class:`harness.replay.Tolerances` fields, e.g. ``joint_position=1e-9``). A missing golden
+  fails with the command that creates it; ``--harness-update-goldens`` writes or overwrites it
+  (written to a temporary file, then renamed: concurrent workers never leave half a golden).
+
+A test's sessions end with its body (the recording is complete when the report is built);
+fixtures that use a session tear down after it closed.
+
+Marker keys: ``robot`` (``"demo"``, a model path; relative paths resolve against the test
+file's folder), ``scenario`` (a scenario file: robot, scene, control modes, seed and collision
+logger options from it; marker keys win), ``mode`` (a control mode or joint -> mode),
+``clock`` (default ``lockstep``), ``scene``, ``collisions`` (``CollisionLogger`` keyword
+arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False), and
+the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
+``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
+``joint_command_topic``. Markers on the module/class/function merge, the closest wins.
+
+Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
+``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
+``--harness-keep-recordings {always,failed,never}`` (default ``failed``),
+``--harness-update-goldens``, ``--harness-strict-bridge`` (a test whose bridge answered a
+client with an error ``status`` fails), ``--harness-mode {kinematic,dynamic}`` (run every
+session in kinematic or in dynamic control: dynamic keeps a test's own dynamic modes and turns
+kinematic ones into position control), ``--harness-golden-dir`` (default ``recordings``).
+
+On failure the report gets a ``harness`` section: the recording's path, the
+``harness replay`` command, the collision/joint-limit/log event summary, bridge errors and the
+first golden divergence.
+
+This module imports only the standard library and pytest: MuJoCo, websockets and MCAP load
+when a fixture is first used.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import shlex
+import tempfile
+from collections.abc import Callable, Generator, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+if TYPE_CHECKING:
+    from harness.events import CollectingSink
+    from harness.replay import DiffEntry, DiffReport
+    from harness.session import Session
+
+__all__ = [
+    "KEEP_CHOICES",
+    "MARKER_KEYS",
+    "MODE_CHOICES",
+    "Golden",
+    "GoldenMismatch",
+    "HarnessSettings",
+    "SessionFactory",
+]
+
+KEEP_CHOICES = ("always", "failed", "never")
+MODE_CHOICES = ("kinematic", "dynamic")
+_SESSION_KEYS = (
+    "rate",
+    "namespace",
+    "state_every",
+    "joint_states_hz",
+    "tf_hz",
+    "clock_hz",
+    "kinematic_limits",
+    "seed",
+    "joint_command_topic",
+)
+MARKER_KEYS = frozenset(
+    {"robot", "scenario", "mode", "clock", "scene", "collisions", "joint_limits", *_SESSION_KEYS}
+)
+"""The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept."""
+_DYNAMIC = ("position", "velocity", "effort")
+_PLUGIN_MODULE = "harness.pytest_plugin"
+_DEFAULT_RECORD_DIR = ".harness/recordings"
+_DEFAULT_GOLDEN_DIR = "recordings"
+_BRIDGE_TOPIC = "/harness/bridge"
+_DISCONNECT_MARKER = "harness/disconnect"  # harness.session.core.MARKER_DISCONNECT
+_JOINT_LIMIT_TOLERANCE = 1e-4  # below it, an excess is servo/solver noise (rad, m, rad/s, m/s)
+
+
+class GoldenMismatch(AssertionError):
+    """This test's recording differs from its golden beyond the tolerances."""
+
+
+@dataclass(frozen=True)
+class HarnessSettings:
+    """The plugin's options, resolved (command line first, then ini)."""
+
+    rootdir: Path
+    record_dir: Path
+    keep_recordings: str
+    update_goldens: bool
+    strict_bridge: bool
+    mode: str | None
+    golden_dir: Path
+    plugin_args: tuple[str, ...]
+    """Arguments that load this plugin when it is not installed as an entry point."""
+
+
+_SETTINGS = pytest.StashKey[HarnessSettings]()
+_GOLDENS_WRITTEN = pytest.StashKey[list[Path]]()
+
+
+# ----------------------------------------------------------------------------- options
+
+
+def _add(
+    parser: pytest.Parser,
+    group: pytest.OptionGroup,
+    flag: str,
+    ini: str,
+    help: str,
+    *,
+    kind: str = "string",
+    default: Any = None,
+    choices: tuple[str, ...] | None = None,
+) -> None:
+    if kind == "bool":
+        group.addoption(flag, action="store_true", dest=ini, default=None, help=help)
+    else:
+        group.addoption(flag, dest=ini, default=None, choices=choices, help=help)
+    parser.addini(ini, f"{help} (ini twin of {flag})", type=kind, default=default)  # type: ignore[arg-type]
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    """Register the harness options and their ini twins."""
+    group = parser.getgroup("harness", "harness: simulated robots on rosbridge, recorded")
+    _add(
+        parser,
+        group,
+        "--harness-record-dir",
+        "harness_record_dir",
+        f"where test recordings go (default: <rootdir>/{_DEFAULT_RECORD_DIR})",
+        default="",
+    )
+    _add(
+        parser,
+        group,
+        "--harness-keep-recordings",
+        "harness_keep_recordings",
+        "keep recordings of always, failed (default) or never any tests",
+        default="failed",
+        choices=KEEP_CHOICES,
+    )
+    _add(
+        parser,
+        group,
+        "--harness-update-goldens",
+        "harness_update_goldens",
+        "write or overwrite golden recordings instead of comparing with them",
+        kind="bool",
+        default=False,
+    )
+    _add(
+        parser,
+        group,
+        "--harness-strict-bridge",
+        "harness_strict_bridge",
+        "fail a test whose bridge answered a client with an error status",
+        kind="bool",
+        default=False,
+    )
+    _add(
+        parser,
+        group,
+        "--harness-mode",
+        "harness_mode",
+        "run every session in kinematic or dynamic control",
+        default="",
+        choices=MODE_CHOICES,
+    )
+    _add(
+        parser,
+        group,
+        "--harness-golden-dir",
+        "harness_golden_dir",
+        f"where golden recordings are (default: <rootdir>/{_DEFAULT_GOLDEN_DIR})",
+        default="",
+    )
+
+
+def _choice(config: pytest.Config, name: str, choices: tuple[str, ...], default: str) -> str:
+    value = config.getoption(name)
+    if value is None:
+        value = str(config.getini(name)).strip() or default
+        if value not in choices:
+            raise pytest.UsageError(
+                f"ini option {name} = {value!r}: must be one of {', '.join(choices)}"
+            )
+    return str(value)
+
+
+def _flag(config: pytest.Config, name: str) -> bool:
+    value = config.getoption(name)
+    return bool(config.getini(name)) if value is None else bool(value)
+
+
+def _folder(config: pytest.Config, name: str, default: str) -> Path:
+    """A folder option: relative to the invocation directory on the command line, to the
+    rootdir in the ini file."""
+    value = config.getoption(name)
+    if value is not None:
+        return (config.invocation_params.dir / str(value)).resolve()
+    return (config.rootpath / (str(config.getini(name)).strip() or default)).resolve()
+
+
+def _worker_id(config: pytest.Config) -> str | None:
+    workerinput = getattr(config, "workerinput", None)
+    if isinstance(workerinput, dict):
+        return str(workerinput.get("workerid", "gw"))
+    return None
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Register the marker and resolve the options (no harness module is imported)."""
+    config.addinivalue_line(
+        "markers",
+        "harness(robot='demo', *, scenario=None, mode=None, clock='lockstep', ...): configure "
+        "the harness_session fixture (see harness.pytest_plugin)",
+    )
+    mode = _choice(config, "harness_mode", ("", *MODE_CHOICES), "")
+    record_dir = _folder(config, "harness_record_dir", _DEFAULT_RECORD_DIR)
+    worker = _worker_id(config)
+    if worker is not None:
+        record_dir = record_dir / worker
+    from_entry_point = config.pluginmanager.get_plugin("harness") is not None
+    config.stash[_SETTINGS] = HarnessSettings(
+        rootdir=config.rootpath,
+        record_dir=record_dir,
+        keep_recordings=_choice(config, "harness_keep_recordings", KEEP_CHOICES, "failed"),
+        update_goldens=_flag(config, "harness_update_goldens"),
+        strict_bridge=_flag(config, "harness_strict_bridge"),
+        mode=mode or None,
+        golden_dir=_folder(config, "harness_golden_dir", _DEFAULT_GOLDEN_DIR),
+        plugin_args=() if from_entry_point else ("-p", _PLUGIN_MODULE),
+    )
+    config.stash[_GOLDENS_WRITTEN] = []
+
+
+# ----------------------------------------------------------------------------- per test
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^\w.\-\[\]]+", "_", name).strip("_") or "test"
+
+
+def _marker_options(item: pytest.Item) -> dict[str, Any]:
+    """The merged ``harness`` markers (closest first wins); positional arg = robot."""
+    options: dict[str, Any] = {}
+    for mark in item.iter_markers("harness"):
+        if len(mark.args) > 1:
+            pytest.fail(
+                f"{item.nodeid}: @pytest.mark.harness takes at most one positional argument "
+                f"(the robot), got {len(mark.args)}",
+                pytrace=False,
+            )
+        values = dict(mark.kwargs)
+        if mark.args:
+            values.setdefault("robot", mark.args[0])
+        for key, value in values.items():
+            options.setdefault(key, value)
+    return options
+
+
+def _check_keys(where: str, options: Mapping[str, Any]) -> None:
+    unknown = sorted(set(options) - MARKER_KEYS)
+    if unknown:
+        pytest.fail(
+            f"{where}: unknown harness option {unknown[0]!r} "
+            f"(known: {', '.join(sorted(MARKER_KEYS))})",
+            pytrace=False,
+        )
+
+
+def suite_mode(mode: Any, suite: str | None) -> Any:
+    """The control mode a session runs in: the test's ``mode`` unless ``--harness-mode``
+    forces every joint kinematic, or every kinematic joint to position control."""
+    if suite is None:
+        return mode if mode is not None else "position"
+    if suite == "kinematic":
+        return "kinematic"
+    if isinstance(mode, Mapping):
+        return {j: (m if m in _DYNAMIC else "position") for j, m in mode.items()}
+    return mode if mode in _DYNAMIC else "position"
+
+
+def _resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
+    """A relative model/scenario path against the test's folder, then the rootdir."""
+    if not isinstance(value, str | os.PathLike):
+        return value
+    text = os.fspath(value)
+    if not ("/" in text or os.sep in text or Path(text).suffix):
+        return value  # a built-in name ("demo", "table")
+    path = Path(text)
+    if path.is_absolute():
+        return path
+    for base in (item.path.parent, rootdir):
+        if (base / path).exists():
+            return (base / path).resolve()
+    return value
+
+
+def _scenario_options(path: Path) -> dict[str, Any]:
+    """Session options from a scenario file (its first robot)."""
+    from harness.scenario import Scenario
+    from harness.scenario.scenario import CollisionLoggerSpec
+
+    scenario = Scenario.load(path)
+    spec = scenario.robots[0]
+    options: dict[str, Any] = {
+        "robot": spec.robot,
+        "scene": scenario.environment.map,
+        "seed": scenario.seed,
+        "state_every": scenario.recording.state_every,
+        "scenario_text": path.read_bytes(),
+    }
+    controllers = spec.controllers
+    if len(controllers) == 1 and not controllers[0].joints:
+        options["mode"] = controllers[0].mode
+        options["kinematic_limits"] = controllers[0].beyond_limits
+    elif controllers:
+        options["mode"] = {j: c.mode for c in controllers for j in c.joints}
+    for logger in spec.loggers:
+        if isinstance(logger, CollisionLoggerSpec):
+            options["collisions"] = {
+                "debounce_steps": max(1, logger.debounce_steps),  # 0: no debounce
+                "ignore": list(logger.ignore_pairs),
+                "self_collision": logger.self_collision,
+                "robot_vs_world_only": logger.robot_vs_world_only,
+                "min_force": logger.min_force,
+                "near_miss_distance": logger.near_miss_distance,
+            }
+    return options
+
+
+@dataclass
+class _TestRun:
+    """Everything the plugin holds for one test that uses a harness fixture."""
+
+    item: pytest.Item
+    settings: HarnessSettings
+    sessions: list[Session] = field(default_factory=list)
+    recordings: list[Path] = field(default_factory=list)
+    sinks: list[CollectingSink] = field(default_factory=list)
+    divergence: str | None = None
+    golden_note: str | None = None
+    bridge_errors: list[str] = field(default_factory=list)
+    close_errors: list[str] = field(default_factory=list)
+    failed: bool = False
+    closed: bool = False
+
+    def recording_path(self, index: int) -> Path:
+        nodepath = self.item.nodeid.split("::", 1)[0]
+        folder = self.settings.record_dir / Path(nodepath).with_suffix("")
+        name = _safe(self.item.name)
+        return folder / (f"{name}.mcap" if index == 0 else f"{name}-{index + 1}.mcap")
+
+    def golden_path(self) -> Path:
+        module = Path(self.item.nodeid.split("::", 1)[0]).stem
+        name = _safe(self.item.name)
+        cls = getattr(self.item, "cls", None)
+        if cls is not None:
+            name = f"{cls.__name__}.{name}"
+        return self.settings.golden_dir / module / f"{name}.mcap"
+
+    def update_command(self) -> str:
+        nodepath, _, rest = self.item.nodeid.partition("::")
+        where = os.path.relpath(
+            self.settings.rootdir / nodepath, self.item.config.invocation_params.dir
+        )
+        target = f"{where}::{rest}" if rest else where
+        args = ["python", "-m", "pytest", target, "--harness-update-goldens"]
+        return shlex.join([*args, *self.settings.plugin_args])
+
+    def make_session(self, options: Mapping[str, Any]) -> Session:
+        from harness.events import CollectingSink, CollisionLogger, JointLimitLogger
+        from harness.events import velocity_limits as limits_of
+        from harness.session import Session
+
+        if self.closed:
+            pytest.fail(f"{self.item.nodeid}: this test's sessions already ended", pytrace=False)
+        rootdir = self.settings.rootdir
+        opts = dict(options)
+        scenario = opts.pop("scenario", None)
+        scenario_text: bytes | None = None
+        if scenario is not None:
+            path = _resolve_path(scenario, self.item, rootdir)
+            from_file = _scenario_options(Path(path))
+            scenario_text = from_file.pop("scenario_text")
+            opts = {**from_file, **opts}
+        robot = _resolve_path(opts.pop("robot", "demo"), self.item, rootdir)
+        scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
+        mode = suite_mode(opts.pop("mode", None), self.settings.mode)
+        clock = opts.pop("clock", "lockstep")
+        collisions = opts.pop("collisions", True)
+        joint_limits = opts.pop("joint_limits", True)
+        loggers: list[Callable[[Session], Any]] = []
+        if collisions is not False:
+            kwargs = dict(collisions) if isinstance(collisions, Mapping) else {}
+            loggers.append(lambda s: CollisionLogger(s.model, **kwargs))
+        if joint_limits is not False:
+            jl = dict(joint_limits) if isinstance(joint_limits, Mapping) else {}
+            loggers.append(
+                lambda s: JointLimitLogger(
+                    s.model,
+                    **{
+                        "velocity_limits": limits_of(s.robot.description),
+                        "tolerance": _JOINT_LIMIT_TOLERANCE,
+                        **jl,
+                    },
+                )
+            )
+        sink = CollectingSink()
+        index = len(self.recordings)
+        path = self.recording_path(index)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.recordings.append(path)
+        session = Session(
+            robot,
+            mode=mode,
+            clock=clock,
+            scene=scene,
+            record_to=path,
+            loggers=loggers,
+            sinks=[sink],
+            scenario=scenario_text,
+            **opts,
+        )
+        self.sessions.append(session)
+        self.sinks.append(sink)
+        return session
+
+    def close_sessions(self) -> None:
+        """End every session of the test (idempotent); close errors are kept and raised."""
+        if self.closed:
+            return
+        self.closed = True
+        errors: list[BaseException] = []
+        for session in self.sessions:
+            try:
+                session.close()
+            except Exception as exc:
+                errors.append(exc)
+                self.close_errors.append(f"{type(exc).__name__}: {exc}")
+        if errors:
+            raise errors[0]
+
+    def find_bridge_errors(self) -> list[str]:
+        """Error ``status`` frames the bridge sent to clients, from the recordings."""
+        import json
+
+        from harness.recording import Recording
+        from harness.rosbridge import DIRECTION_OUT
+
+        found: list[str] = []
+        for path in self.recordings:
+            if not path.is_file():
+                continue
+            with Recording(path) as rec:
+                for frame in rec.bridge_frames():
+                    if frame.op != "status" or frame.direction != DIRECTION_OUT:
+                        continue
+                    with contextlib.suppress(ValueError):
+                        status = json.loads(frame.text)
+                        if status.get("level") == "error":
+                            found.append(
+                                f"step {frame.step}, connection {frame.connection}: "
+                                f"{status.get('msg', '')}"
+                            )
+        self.bridge_errors = found
+        return found
+
+    def describe(self) -> str:
+        """The failure report section."""
+        keep = self.settings.keep_recordings
+        lines: list[str] = []
+        for path in self.recordings:
+            fate = "removed after the test" if keep == "never" else "kept"
+            lines.append(f"recording: {path} ({fate}: --harness-keep-recordings={keep})")
+            lines.append(f"replay:    {shlex.join(['harness', 'replay', str(path)])}")
+        for sink in self.sinks:
+            summary = sink.report_lines(max_lines=20)
+            lines.append(f"events:    {summary[0] or 'none'}")
+            lines.extend(f"           {line}" for line in summary[1:])
+        if self.bridge_errors:
+            lines.append(f"bridge:    {len(self.bridge_errors)} error status frame(s)")
+            lines.extend(f"           {e}" for e in self.bridge_errors[:20])
+        if self.divergence:
+            lines.append(f"golden:    first divergence: {self.divergence}")
+        elif self.golden_note:
+            lines.append(f"golden:    {self.golden_note}")
+        lines.extend(f"close:     {e}" for e in self.close_errors)
+        return "\n".join(lines)
+
+    def teardown(self) -> None:
+        """Close the sessions; keep or remove the recordings per --harness-keep-recordings."""
+        try:
+            self.close_sessions()
+        finally:
+            keep = self.settings.keep_recordings
+            if keep == "never" or (keep == "failed" and not self.failed):
+                for path in self.recordings:
+                    with contextlib.suppress(OSError):
+                        path.unlink()
+                    with contextlib.suppress(OSError):
+                        path.parent.rmdir()  # only when empty
+
+
+_RUN = pytest.StashKey[_TestRun]()
+
+
+def _run(request: pytest.FixtureRequest) -> _TestRun:
+    item = request.node
+    if not isinstance(item, pytest.Item):
+        raise pytest.UsageError("harness fixtures are function-scoped")
+    run = item.stash.get(_RUN, None)
+    if run is None:
+        run = _TestRun(item, item.config.stash[_SETTINGS])
+        item.stash[_RUN] = run
+        request.addfinalizer(run.teardown)
+    return run
+
+
+class SessionFactory:
+    """``factory(**options) -> Session``: the marker's options overridden by ``options``."""
+
+    def __init__(self, run: _TestRun) -> None:
+        self._run = run
+
+    def __call__(self, **options: Any) -> Session:
+        item = self._run.item
+        marked = _marker_options(item)
+        _check_keys(f"{item.nodeid}: @pytest.mark.harness", marked)
+        _check_keys(f"{item.nodeid}: harness_session_factory", options)
+        return self._run.make_session({**marked, **options})
+
+
+class Golden:
+    """This test's golden recording: :attr:`path`, :meth:`check`."""
+
+    def __init__(self, run: _TestRun) -> None:
+        self._run = run
+        self.path = run.golden_path()
+        """``<golden dir>/<test module>/<test name>.mcap``."""
+
+    def check(self, **tolerances: float) -> DiffReport:
+        """End this test's session and compare its recording with the golden (or write the
+        golden under ``--harness-update-goldens``). ``tolerances``: per-quantity bounds
+        (:class:`harness.replay.Tolerances` fields; default 0: exact). Raises
+        :class:`GoldenMismatch` naming the first divergence."""
+        from harness.replay import Tolerances, diff
+
+        run = self._run
+        unknown = sorted(set(tolerances) - set(Tolerances._fields))
+        if unknown:
+            raise TypeError(
+                f"golden.check: unknown tolerance {unknown[0]!r} "
+                f"(known: {', '.join(Tolerances._fields)})"
+            )
+        if not run.recordings:
+            raise pytest.UsageError(
+                f"{run.item.nodeid}: golden.check() needs this test's harness_session"
+            )
+        run.close_sessions()
+        recording = run.recordings[0]
+        shown = _shown(self.path, run.settings.rootdir)
+        if run.settings.update_goldens:
+            _write_atomically(recording, self.path)
+            run.item.config.stash[_GOLDENS_WRITTEN].append(self.path)
+            run.golden_note = f"written {shown}"
+        elif not self.path.is_file():
+            run.golden_note = f"missing {shown}"
+            pytest.fail(
+                f"golden recording {shown} does not exist; create it with:\n"
+                f"    {run.update_command()}",
+                pytrace=False,
+            )
+        bounds: dict[str, Any] = dict(tolerances)
+        report = _without_wall_clock_noise(diff(self.path, recording, Tolerances(**bounds)))
+        if not report.same:
+            first = _first(report.entries)
+            run.divergence = _format_entry(first)
+            raise GoldenMismatch(
+                f"this run differs from golden {shown}: first divergence: {run.divergence}\n"
+                f"{report.format()}\n"
+                f"if the change is intended: {run.update_command()}"
+            )
+        return report
+
+
+def _bridge_frames_in_run(path: Path) -> int:
+    """Bridge frames that took effect during the run: not disconnect markers, and not frames
+    that arrived after the last step (step > last step)."""
+    from harness.recording import Recording
+
+    with Recording(path) as rec:
+        last = rec.last_step
+        return sum(
+            1 for f in rec.bridge_frames() if f.topic != _DISCONNECT_MARKER and f.step <= last
+        )
+
+
+def _without_wall_clock_noise(report: DiffReport) -> DiffReport:
+    """Drop a ``/harness/bridge`` message-count difference made only of frames whose presence
+    depends on the wall clock, not on the run: disconnect markers, and frames a client sent
+    after the last step (its goodbye ``unsubscribe``, the socket closing) that the session
+    may or may not have received before it ended. They changed nothing in the run."""
+    import dataclasses
+
+    entries = list(report.entries)
+    for i, e in enumerate(entries):
+        if e.quantity == "message_count" and e.name == _BRIDGE_TOPIC:
+            a = _bridge_frames_in_run(Path(report.a))
+            b = _bridge_frames_in_run(Path(report.b))
+            if abs(a - b) <= e.tolerance:
+                del entries[i]
+                return dataclasses.replace(report, entries=tuple(entries))
+    return report
+
+
+def _shown(path: Path, rootdir: Path) -> str:
+    with contextlib.suppress(ValueError):
+        return str(path.relative_to(rootdir))
+    return str(path)
+
+
+def _first(entries: Iterable[DiffEntry]) -> DiffEntry:
+    ordered = sorted(entries, key=lambda e: (e.step < 0, e.step))
+    return ordered[0]
+
+
+def _format_entry(e: DiffEntry) -> str:
+    where = f" at step {e.step}" if e.step >= 0 else ""
+    return (
+        f"{e.quantity} {e.name}{where}: golden {e.a!r}, this run {e.b!r} "
+        f"(max delta {e.max_delta:.6g} > tolerance {e.tolerance:g})"
+    )
+
+
+def _write_atomically(source: Path, target: Path) -> None:
+    """Copy ``source`` to ``target`` through a temporary file in the same folder and a rename,
+    so that a reader (or a second writer) never sees half a file."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as out, open(source, "rb") as src:
+            while block := src.read(1 << 20):
+                out.write(block)
+            out.flush()
+            os.fsync(out.fileno())
+        os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a project file
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+# ----------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture
+def harness_session_factory(request: pytest.FixtureRequest) -> SessionFactory:
+    """``factory(**options) -> Session``: sessions configured by the ``harness`` marker,
+    overridden by keyword arguments; all end with the test body."""
+    return SessionFactory(_run(request))
+
+
+@pytest.fixture
+def harness_session(harness_session_factory: SessionFactory) -> Session:
+    """This test's session (simulation + rosbridge server + recorder + loggers), configured by
+    ``@pytest.mark.harness(...)``; it ends with the test body."""
+    return harness_session_factory()
+
+
+@pytest.fixture
+def rosbridge_url(harness_session: Session) -> str:
+    """The ``ws://127.0.0.1:<port>`` URL of this test's rosbridge server (a free port)."""
+    return harness_session.url
+
+
+@pytest.fixture
+def harness_recording(request: pytest.FixtureRequest) -> Path:
+    """This test's recording path (kept per ``--harness-keep-recordings``)."""
+    return _run(request).recording_path(0)
+
+
+@pytest.fixture
+def harness_events(harness_session: Session, request: pytest.FixtureRequest) -> CollectingSink:
+    """The events (collisions, joint limits, log messages) of this test's session."""
+    return _run(request).sinks[0]
+
+
+@pytest.fixture
+def golden(request: pytest.FixtureRequest) -> Golden:
+    """This test's golden recording; ``golden.check(**tolerances)``."""
+    return Golden(_run(request))
+
+
+# ----------------------------------------------------------------------------- hooks
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item: pytest.Item) -> Generator[None, object, object]:
+    """End the test's sessions with its body; ``--harness-strict-bridge`` fails it when its
+    bridge answered an error."""
+    try:
+        result = yield
+    except BaseException:
+        run = item.stash.get(_RUN, None)
+        if run is not None:
+            with contextlib.suppress(Exception):
+                run.close_sessions()
+            if run.settings.strict_bridge:
+                with contextlib.suppress(Exception):
+                    run.find_bridge_errors()
+        raise
+    run = item.stash.get(_RUN, None)
+    if run is None:
+        return result
+    run.close_sessions()
+    if run.settings.strict_bridge and run.find_bridge_errors():
+        shown = "\n".join(f"  {e}" for e in run.bridge_errors[:20])
+        pytest.fail(
+            f"--harness-strict-bridge: the bridge answered {len(run.bridge_errors)} "
+            f"error status frame(s):\n{shown}",
+            pytrace=False,
+        )
+    return result
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(
+    item: pytest.Item, call: pytest.CallInfo[None]
+) -> Generator[None, pytest.TestReport, pytest.TestReport]:
+    """Mark the test failed (recordings kept) and add the ``harness`` report section."""
+    report = yield
+    run = item.stash.get(_RUN, None)
+    if run is not None and report.failed:
+        run.failed = True
+        text = run.describe()
+        if text:
+            report.sections.append(("harness", text))
+    return report
+
+
+def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
+    """List the goldens written by ``--harness-update-goldens``."""
+    written = config.stash.get(_GOLDENS_WRITTEN, [])
+    if written:
+        terminalreporter.section("harness goldens written")
+        for path in written:
+            terminalreporter.write_line(str(path))

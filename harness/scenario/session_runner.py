@@ -1,0 +1,515 @@
+"""The product's iteration runner: one :class:`harness.session.Session` per iteration.
+
+For one :class:`~harness.scenario.results.IterationSpec` it builds the world
+(:func:`harness.scenario.world.build_robot`), starts a Session on a free port of the
+scenario's bridge address, recording to the iteration's ``recording.mcap``, with
+
+- loggers: the robot's ``CollisionLogger``/``JointLogger`` entries mapped onto
+  :mod:`harness.events` (a default collision logger when the scenario lists none and the
+  criteria judge collisions), a ``JointLimitLogger`` (position and URDF velocity limits, with
+  the criteria's tolerance), a joint logger at ``logging.frequency`` when ``logging.enable``;
+- sinks: the ``logging`` section's destinations (:func:`harness.events.logging_config_from_scene`);
+- an observer that hashes every step's ``mjSTATE_INTEGRATION`` state (initial state first),
+  tracks joint ranges against limits and samples joint traces for the report.
+
+Then, by clock and client:
+
+- with a client command: the client starts once the bridge listens, with
+  ``HARNESS_ROSBRIDGE_URL`` (:func:`harness.scenario.client.run_client`). ``lockstep``: the client
+  moves time with ``/harness/step``; ``fast``: the runner steps as fast as it can once the client
+  connected; ``realtime``: the same, paced to wall time x ``clock.rate``. The iteration ends when
+  the client exits, or at the sim-time limit (the client is then stopped), or at the readiness
+  or wall-time limit; the client's whole process group is stopped with escalation.
+- without a client command: the runner steps the sim-time limit itself (paced in ``realtime``)
+  with the robot holding its initial command: a settling and stability check of the world.
+
+Fast and realtime clocks are driven by the runner through a lockstep Session (the Session's own
+free-running clock starts stepping in its constructor, before a client could connect); frames
+are applied at every step boundary either way, and the run stops exactly at the limit.
+
+A client command whose program is ``python`` or ``python3`` runs with the interpreter running
+the harness (so clients shipped in ``scenarios/clients`` find roslibpy and harness).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import sys
+import threading
+import time
+from dataclasses import dataclass, replace
+from typing import Any
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.errors import ConfigError
+from harness.events import (
+    CollectingSink,
+    CollisionEnd,
+    CollisionLogger,
+    Event,
+    JointLimitLogger,
+    JointLogger,
+    Level,
+    Logger,
+    LoggerConfigError,
+    Sink,
+    StepContext,
+    logging_config_from_scene,
+    velocity_limits,
+)
+from harness.models import LoadedRobot
+from harness.scenario._validation import format_path
+from harness.scenario.client import run_client
+from harness.scenario.errors import ScenarioError
+from harness.scenario.results import (
+    ClientOutcome,
+    CollisionSummary,
+    IterationResult,
+    IterationSpec,
+    JointLimitSummary,
+    JointTrace,
+    Traces,
+    Verdict,
+    judge,
+)
+from harness.scenario.scenario import (
+    ClientSpec,
+    CollisionLoggerSpec,
+    JointLoggerSpec,
+    RobotSpec,
+    Scenario,
+)
+from harness.scenario.scenario import LoggingConfig as ScenarioLogging
+from harness.scenario.world import build_robot, joint_command_topic, kinematic_limits
+from harness.session import Session, SessionError
+
+__all__ = ["SessionHost", "SessionIterationRunner", "logging_section", "steps_for"]
+
+F64 = npt.NDArray[np.float64]
+_PYTHON = ("python", "python3")
+_DEFAULT_DEBOUNCE_STEPS = 5
+
+
+def steps_for(sim_time: float, dt_ns: int) -> int:
+    """Steps needed to reach ``sim_time`` seconds (at least; whole steps)."""
+    return max(0, math.ceil(round(sim_time * 1e9) / dt_ns))
+
+
+def logging_section(config: ScenarioLogging) -> dict[str, Any]:
+    """The scenario's parsed ``logging`` section back in the original's shape, for
+    :func:`harness.events.logging_config_from_scene`."""
+    section: dict[str, Any] = {"enable": config.enable, "frequency": config.frequency}
+    dest = config.destination
+    if dest is not None:
+        if dest.type == "Seq":
+            item: dict[str, Any] = {"type": "Seq"}
+            if dest.endpoint is not None:
+                item["endpoint"] = dest.endpoint
+            if dest.api_key is not None:
+                item["apiKey"] = dest.api_key
+        elif dest.type == "JsonLines":
+            item = {"type": "jsonl", "path": str(dest.path)}
+        else:
+            item = {"type": "logging"}
+            if dest.logger is not None:
+                item["logger"] = dest.logger
+        section["destination"] = item
+    return section
+
+
+def _connections_seen(session: Session) -> int:
+    # The Session has no public "a client connected" signal yet: its embedded server keeps one
+    # metrics entry per connection ever accepted (never removed), which is exactly that.
+    port = getattr(session, "_port", None)
+    server = getattr(port, "server", None)
+    metrics = getattr(server, "metrics", None)
+    return len(metrics) if isinstance(metrics, dict) else 0
+
+
+class SessionHost:
+    """A :class:`~harness.scenario.client.BridgeHost` over a running Session."""
+
+    def __init__(self, session: Session) -> None:
+        self._session = session
+
+    @property
+    def url(self) -> str:
+        """The session's bridge URL."""
+        return self._session.url
+
+    def client_connected(self) -> bool:
+        """True once any client connected to the session's bridge."""
+        return _connections_seen(self._session) > 0
+
+    def sim_time(self) -> float:
+        """Simulation seconds reached (infinite once the simulation failed: nothing more can
+        happen, so the client is stopped at once)."""
+        if self._session.failure is not None:
+            return math.inf
+        return self._session.sim_time_ns / 1e9
+
+
+class _Observer:
+    """Every step, on the session's thread: the state digest, joint ranges against limits, and
+    trace samples every ``every`` steps. A logger that emits nothing."""
+
+    name = "scenario-observer"
+    period_ns = 0
+
+    def __init__(self, session: Session, every: int) -> None:
+        sim = session.sim
+        model = sim.model
+        self._sim = sim
+        self.every = every
+        self.joints = sim.joint_names
+        ids = [model.joint(j).id for j in self.joints]
+        self._qadr = np.array([model.jnt_qposadr[i] for i in ids], dtype=np.intp)
+        self._dadr = np.array([model.jnt_dofadr[i] for i in ids], dtype=np.intp)
+        limited = np.array([bool(model.jnt_limited[i]) for i in ids], dtype=bool)
+        ranges = np.asarray(model.jnt_range)[ids].reshape(-1, 2)
+        self.lower = np.where(limited, ranges[:, 0], -np.inf)
+        self.upper = np.where(limited, ranges[:, 1], np.inf)
+        modes = sim.control
+        self._commanded = np.array(
+            [modes[j] in ("position", "kinematic") for j in self.joints], dtype=bool
+        )
+        self._state = np.zeros(mujoco.mj_stateSize(model, sim.state_spec))
+        self._spec = sim.state_spec
+        self.digest = hashlib.sha256()
+        mujoco.mj_getState(model, sim.data, self._state, self._spec)
+        self.digest.update(self._state.tobytes())
+        n = len(self.joints)
+        self.qmin = np.full(n, np.inf)
+        self.qmax = np.full(n, -np.inf)
+        self.excess = np.zeros(n)
+        self.violations = np.zeros(n, dtype=np.int64)
+        self.time: list[float] = []
+        self.pos: list[F64] = []
+        self.vel: list[F64] = []
+        self.cmd: list[F64] = []
+        self.step = sim.step_index
+        self._sample(sim.step_index, sim.sim_time_ns)
+
+    def _sample(self, step: int, sim_time_ns: int) -> None:
+        data = self._sim.data
+        self.time.append(sim_time_ns / 1e9)
+        self.pos.append(data.qpos[self._qadr].copy())
+        self.vel.append(data.qvel[self._dadr].copy())
+        self.cmd.append(np.where(self._commanded, self._sim.joint_commands(), np.nan))
+
+    def observe(self, ctx: StepContext) -> list[Event]:
+        mujoco.mj_getState(ctx.model, ctx.data, self._state, self._spec)
+        self.digest.update(self._state.tobytes())
+        q = ctx.data.qpos[self._qadr]
+        np.minimum(self.qmin, q, out=self.qmin)
+        np.maximum(self.qmax, q, out=self.qmax)
+        beyond = np.maximum(self.lower - q, q - self.upper)
+        self.violations += beyond > 0
+        np.maximum(self.excess, beyond, out=self.excess)
+        self.step = ctx.step
+        if ctx.step % self.every == 0:
+            self._sample(ctx.step, ctx.sim_time_ns)
+        return []
+
+    def finish(self, ctx: StepContext) -> list[Event]:
+        return []
+
+    def limits(self) -> tuple[JointLimitSummary, ...]:
+        return tuple(
+            JointLimitSummary(
+                joint,
+                None if math.isinf(self.lower[i]) else float(self.lower[i]),
+                None if math.isinf(self.upper[i]) else float(self.upper[i]),
+                float(self.qmin[i]) if self.step else float(self.pos[0][i]),
+                float(self.qmax[i]) if self.step else float(self.pos[0][i]),
+                float(self.excess[i]),
+                int(self.violations[i]),
+            )
+            for i, joint in enumerate(self.joints)
+        )
+
+    def traces(self, velocity: dict[str, float]) -> Traces:
+        n = len(self.time)
+        pos, vel, cmd = (np.array(r).reshape(n, -1) for r in (self.pos, self.vel, self.cmd))
+        return Traces(
+            time=tuple(self.time),
+            joints=tuple(
+                JointTrace(
+                    joint,
+                    tuple(pos[:, i].tolist()),
+                    tuple(vel[:, i].tolist()),
+                    tuple(cmd[:, i].tolist()) if self._commanded[i] else None,
+                    None if math.isinf(self.lower[i]) else float(self.lower[i]),
+                    None if math.isinf(self.upper[i]) else float(self.upper[i]),
+                    velocity.get(joint),
+                )
+                for i, joint in enumerate(self.joints)
+            ),
+        )
+
+
+def _robot_loggers(scenario: Scenario, robot: RobotSpec, loaded: LoadedRobot) -> list[Logger]:
+    """The scenario's loggers as harness.events loggers; errors name the key path."""
+    model = loaded.model
+    where = str(scenario.source) if scenario.source is not None else "<scenario>"
+    links = [link.name for link in loaded.description.links if _is_body(model, link.name)]
+    loggers: list[Logger] = []
+    has_collision = has_joint = False
+    for i, spec in enumerate(robot.loggers):
+        path = format_path(["robots", 0, "loggers", i])
+        try:
+            if isinstance(spec, CollisionLoggerSpec):
+                has_collision = True
+                loggers.append(
+                    CollisionLogger(
+                        model,
+                        robot_bodies=links,
+                        self_collision=spec.self_collision,
+                        robot_vs_world_only=spec.robot_vs_world_only,
+                        ignore=spec.ignore_pairs,
+                        min_force=spec.min_force,
+                        debounce_steps=max(1, spec.debounce_steps),
+                        near_miss_distance=spec.near_miss_distance,
+                        name=f"collisions[{i}]",
+                    )
+                )
+            elif isinstance(spec, JointLoggerSpec):
+                has_joint = True
+                loggers.append(
+                    JointLogger(
+                        model,
+                        joints=list(spec.joints) or None,
+                        rate_hz=spec.rate,
+                        name=f"joints[{i}]",
+                    )
+                )
+        except LoggerConfigError as exc:
+            raise ScenarioError([f"{where}: {path}: {exc}"]) from None
+    if not has_collision and scenario.criteria.no_collisions:
+        loggers.append(
+            CollisionLogger(model, robot_bodies=links, debounce_steps=_DEFAULT_DEBOUNCE_STEPS)
+        )
+    try:
+        logging = logging_config_from_scene(logging_section(scenario.logging))
+    except LoggerConfigError as exc:
+        raise ScenarioError([f"{where}: {exc}"]) from None
+    if logging.enable and not has_joint:
+        loggers.append(JointLogger(model, rate_hz=logging.frequency_hz))
+    joints = [j.name for j in loaded.description.controllable_joints]
+    speed = velocity_limits(loaded.description)
+    loggers.append(
+        JointLimitLogger(
+            model,
+            joints=joints,
+            velocity_limits={j: v for j, v in speed.items() if j in joints},
+            tolerance=scenario.criteria.joint_limit_tolerance,
+        )
+    )
+    return loggers
+
+
+def _is_body(model: mujoco.MjModel, name: str) -> bool:
+    return bool(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) > 0)
+
+
+def _sinks(scenario: Scenario) -> list[Sink]:
+    where = str(scenario.source) if scenario.source is not None else "<scenario>"
+    try:
+        return logging_config_from_scene(logging_section(scenario.logging)).create_sinks()
+    except LoggerConfigError as exc:
+        raise ScenarioError([f"{where}: {exc}"]) from None
+
+
+def _client_command(client: ClientSpec) -> ClientSpec:
+    if client.command and client.command[0] in _PYTHON:
+        return replace(client, command=(sys.executable, *client.command[1:]))
+    return client
+
+
+class _Stepper:
+    """Steps the session to ``limit`` steps from the calling thread or a background thread
+    (fast: as fast as possible; realtime: paced to wall time x ``rate``), optionally only once
+    a client connected. ``stop()`` ends it at the next chunk."""
+
+    def __init__(
+        self,
+        session: Session,
+        host: SessionHost,
+        limit: int,
+        *,
+        realtime_rate: float | None,
+        wait_for_client: bool,
+        chunk: int,
+    ) -> None:
+        self._session = session
+        self._host = host
+        self._limit = limit
+        self._rate = realtime_rate
+        self._wait = wait_for_client
+        self._chunk = chunk
+        self._stop = threading.Event()
+        self.error: BaseException | None = None
+        self._thread: threading.Thread | None = None
+
+    def run(self) -> None:
+        try:
+            self._run()
+        except SessionError as exc:
+            self.error = exc
+
+    def _run(self) -> None:
+        while self._wait and not self._host.client_connected():
+            if self._stop.wait(0.01):
+                return
+        session = self._session
+        start_step = session.step_index
+        start_wall = time.monotonic()
+        dt = session.dt_ns / 1e9
+        k = start_step
+        while not self._stop.is_set() and k < self._limit:
+            k = session.step(min(self._chunk, self._limit - k))
+            if self._rate is not None:
+                due = start_wall + (k - start_step) * dt / self._rate
+                self._stop.wait(max(0.0, due - time.monotonic()))
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self.run, name="harness-run-stepper", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+
+
+@dataclass(frozen=True)
+class SessionIterationRunner:
+    """Runs one iteration in a Session (see the module docstring). ``grace``: seconds a
+    client gets between SIGTERM and SIGKILL; ``trace_samples``: about how many samples the
+    report's joint plots get; ``chunk``: steps handed to the session at once when the runner
+    drives the clock."""
+
+    grace: float = 3.0
+    trace_samples: int = 500
+    chunk: int = 10
+
+    def __call__(self, spec: IterationSpec) -> IterationResult:
+        started = time.monotonic()
+        scenario = spec.scenario
+        robot_spec = scenario.robots[0] if scenario.robots else None
+        if robot_spec is None:
+            raise ConfigError("the scenario lists no robot")
+        spec.out_dir.mkdir(parents=True, exist_ok=True)
+        spec.recording_path.parent.mkdir(parents=True, exist_ok=True)
+        loaded = build_robot(scenario, spec.out_dir)
+        expected = steps_for(spec.sim_time_limit, round(float(loaded.model.opt.timestep) * 1e9))
+        every = max(1, math.ceil(expected / max(1, self.trace_samples)))
+        observers: list[_Observer] = []
+
+        def observer(session: Session) -> Logger:
+            built = _Observer(session, every)
+            observers.append(built)
+            return built
+
+        collect = CollectingSink(min_level=Level.INFO)
+        sinks: list[Sink] = [*_sinks(scenario), collect]
+        scenario_text = scenario.source.read_bytes() if scenario.source is not None else None
+        session = Session(
+            loaded,
+            kinematic_limits=kinematic_limits(robot_spec),
+            clock="lockstep",
+            host=spec.host,
+            port=spec.port,
+            record_to=spec.recording_path if scenario.recording.enabled else None,
+            state_every=scenario.recording.state_every,
+            joint_command_topic=joint_command_topic(robot_spec),
+            loggers=[observer, *_robot_loggers(scenario, robot_spec, loaded)],
+            sinks=sinks,
+            seed=spec.seed,
+            scenario=scenario_text,
+        )
+        dt_ns = session.dt_ns
+        limit = steps_for(spec.sim_time_limit, dt_ns)
+        outcome: ClientOutcome | None = None
+        stepper_error: BaseException | None = None
+        try:
+            host = SessionHost(session)
+            port = int(session.url.rsplit(":", 1)[1])
+            clock = scenario.clock
+            stepper = _Stepper(
+                session,
+                host,
+                limit,
+                realtime_rate=clock.rate if clock.mode == "realtime" else None,
+                wait_for_client=spec.client is not None,
+                chunk=self.chunk,
+            )
+            if spec.client is None:
+                stepper.run()
+            else:
+                if clock.mode != "lockstep":
+                    stepper.start()
+                try:
+                    outcome = run_client(
+                        _client_command(spec.client),
+                        host,
+                        spec.sim_time_limit,
+                        spec.out_dir / "client.log",
+                        self.grace,
+                    )
+                finally:
+                    stepper.stop()
+            stepper_error = stepper.error
+            failure = session.failure
+        finally:
+            session.close()
+        obs = observers[0]
+        collisions = _collisions(collect.events, dt_ns)
+        limits = obs.limits()
+        verdicts = list(judge(scenario.criteria, outcome, collisions, limits))
+        problem = failure or stepper_error
+        if problem is not None:
+            verdicts.append(Verdict("simulation", False, f"the simulation stopped: {problem}"))
+        notes = tuple(
+            f"log sink {r.name}: {r.delivered} delivered, {r.dropped} dropped"
+            + (f" ({r.note})" if r.note else "")
+            for r in session.sink_reports
+            if r.dropped or r.note
+        )
+        return IterationResult(
+            simulation=spec.simulation,
+            iteration=spec.iteration,
+            verdicts=tuple(verdicts),
+            sim_time=obs.step * dt_ns / 1e9,
+            steps=obs.step,
+            recording=session.record_path,
+            collisions=collisions,
+            joint_limits=limits,
+            traces=obs.traces(velocity_limits(loaded.description)),
+            state_digest=obs.digest.hexdigest(),
+            client=outcome,
+            port=port,
+            wall_seconds=time.monotonic() - started,
+            notes=notes,
+        )
+
+
+def _collisions(events: list[Event], dt_ns: int) -> tuple[CollisionSummary, ...]:
+    episodes = [
+        CollisionSummary(
+            e.body1,
+            e.body2,
+            e.begin_step * dt_ns / 1e9,
+            None if e.at_finish else e.end_step * dt_ns / 1e9,
+            e.penetration,
+            e.normal_force,
+        )
+        for e in events
+        if isinstance(e, CollisionEnd)
+    ]
+    episodes.sort(key=lambda c: (c.begin, c.body1, c.body2))
+    return tuple(episodes)
