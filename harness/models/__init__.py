@@ -1,6 +1,13 @@
 """Robot descriptions: URDF, SDF and MJCF into one `RobotModel` and a compiled MuJoCo model."""
 
-from harness.models.build import DEMO_URDF, SCENES, LoadedRobot, load_description, load_robot
+from harness.models.build import (
+    DEMO_URDF,
+    SCENES,
+    LoadedRobot,
+    load_description,
+    load_robot,
+    load_world,
+)
 from harness.models.description import (
     CONTROL_MODES,
     ControlMode,
@@ -15,23 +22,42 @@ from harness.models.description import (
     RobotModel,
     Shape,
 )
+from harness.models.world import (
+    DuplicateNamespaceError,
+    InvalidNamespaceError,
+    JointAddress,
+    LoadedRobotView,
+    LoadedWorld,
+    PoseLike,
+    RobotSpec,
+    WorldObject,
+)
 
 __all__ = [
     "CONTROL_MODES",
     "DEMO_URDF",
     "SCENES",
     "ControlMode",
+    "DuplicateNamespaceError",
     "Geometry",
     "Inertial",
+    "InvalidNamespaceError",
     "Joint",
+    "JointAddress",
     "JointLimits",
     "Link",
     "LoadedRobot",
+    "LoadedRobotView",
+    "LoadedWorld",
     "Mimic",
     "ModelFrame",
     "Pose",
+    "PoseLike",
     "RobotModel",
+    "RobotSpec",
     "Shape",
+    "WorldObject",
     "load_description",
     "load_robot",
+    "load_world",
 ]

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import math
 import re
 import warnings
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +23,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models.description import CONTROL_MODES, ControlMode, RobotModel
+from harness.models.description import CONTROL_MODES, ControlMode, Pose, RobotModel
 from harness.models.errors import (
     CompileError,
     MasslessLinkError,
@@ -37,6 +38,17 @@ from harness.models.urdf import (
     mujoco_urdf_xml,
     urdf_from_element,
 )
+from harness.models.world import (
+    DuplicateNamespaceError,
+    JointAddress,
+    LoadedRobotView,
+    LoadedWorld,
+    PoseLike,
+    RobotSpec,
+    WorldObject,
+    check_namespace,
+    placement_pose,
+)
 from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = [
@@ -45,6 +57,7 @@ __all__ = [
     "LoadedRobot",
     "load_description",
     "load_robot",
+    "load_world",
 ]
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -199,19 +212,40 @@ def _compile(spec: mujoco.MjSpec, source: str) -> mujoco.MjModel:
         raise CompileError(f"{source}: {_mujoco_message(exc)}") from None
 
 
+# An attached MJCF robot's <size> memory hints (nkey: it brings keyframes) lose to the world's:
+# harmless, unlike other attach conflicts (an ignored <option timestep>).
+_SIZE_HINT_CONFLICT = (
+    r"\s*Attach conflict[^\n]*"
+    r"(\n(nkey|nuserdata|nuser_\w+|memory|nconmax|njmax|nstack):[^\n]*)+\s*$"
+)
+
+
 @contextmanager
 def _mujoco_warnings() -> Iterator[None]:
-    """Re-issue MuJoCo's printed warnings as :class:`ModelWarning`; drop the one about
-    attaching with an empty prefix (robot names stay unprefixed on purpose: one robot)."""
+    """Re-issue MuJoCo's warnings (printed or Python) as :class:`ModelWarning`; drop the one
+    about attaching with an empty prefix (robot names stay unprefixed on purpose: one robot)
+    and attach conflicts about size hints only."""
     messages: list[str] = []
     previous = mujoco.get_mju_user_warning()
     mujoco.set_mju_user_warning(messages.append)
     try:
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
             yield
     finally:
         mujoco.set_mju_user_warning(previous)
+    # the printed attach conflict is a headline only: its Python twin has the details
+    messages = [m for m in messages if not m.lstrip().startswith("Attach conflict")]
+    for warning in caught:
+        text = str(warning.message)
+        if "empty prefix" in text or re.match(_SIZE_HINT_CONFLICT, text):
+            continue
+        if text.lstrip().startswith("Attach conflict"):
+            messages.append(text)
+        else:
+            warnings.warn_explicit(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )
     for message in messages:
         if "empty prefix" not in message:
             warnings.warn(" ".join(message.split()), ModelWarning, stacklevel=4)
@@ -266,7 +300,10 @@ def _add_actuators(
     modes: Mapping[str, ControlMode],
     gains: Mapping[str, float],
     held_inertia: npt.NDArray[np.float64],
+    prefix: str = "",
 ) -> tuple[str, ...]:
+    """One actuator per non-kinematic joint of ``modes`` (unprefixed names), named after its
+    MuJoCo joint ``prefix + name``; returns the actuated joints (unprefixed) in order."""
     dt = float(model.opt.timestep)
     actuated = []
     for name, mode in modes.items():
@@ -275,16 +312,17 @@ def _add_actuators(
         joint = description.joint(name)
         limits = joint.limits
         effort = limits.effort if limits.effort is not None and limits.effort > 0 else None
-        dof = int(model.jnt_dofadr[model.joint(name).id])
+        mj_name = prefix + name
+        dof = int(model.jnt_dofadr[model.joint(mj_name).id])
         # the smallest effective inertia (other joints free to move): the stability bound
         inertia = 1.0 / float(model.dof_invweight0[dof])
-        act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act = spec.add_actuator(name=mj_name, target=mj_name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         if mode == "position":
             kp = gains.get(name)
             if kp is None:
                 kp = (effort or _DEFAULT_EFFORT) / _POSITION_SATURATION_ERROR
                 kp = min(kp, inertia * (_STABLE_OMEGA_DT / dt) ** 2)
-            spec_joint = spec.joint(name)
+            spec_joint = spec.joint(mj_name)
             damping = float(spec_joint.damping[0])
             if effort is not None and limits.velocity is not None and limits.velocity > 0:
                 damping += effort / limits.velocity
@@ -317,7 +355,9 @@ def _add_actuators(
     return tuple(actuated)
 
 
-def _add_srdf_excludes(spec: mujoco.MjSpec, srdf: Path, body_names: set[str]) -> bytes:
+def _add_srdf_excludes(
+    spec: mujoco.MjSpec, srdf: Path, body_names: set[str], prefix: str = ""
+) -> bytes:
     root, raw = read_xml_file(srdf)
     for element in root.iter("disable_collisions"):
         link1, link2 = element.get("link1"), element.get("link2")
@@ -326,7 +366,7 @@ def _add_srdf_excludes(spec: mujoco.MjSpec, srdf: Path, body_names: set[str]) ->
                 raise ModelStructureError(
                     f"{srdf}: {describe(element)}: link {link!r} is not a body of the model"
                 )
-        spec.add_exclude(bodyname1=link1, bodyname2=link2)
+        spec.add_exclude(bodyname1=prefix + str(link1), bodyname2=prefix + str(link2))
     return raw
 
 
@@ -348,11 +388,13 @@ def _repairs(
     model: mujoco.MjModel,
     description: RobotModel,
     repaired_inertias: Mapping[str, tuple[float, ...]],
+    prefix: str = "",
 ) -> tuple[str, ...]:
     """The links whose mass or inertia the compiler bounds or balancing changed."""
     found = []
     for link in description.links:
-        body = model.body(link.name) if _has_body(model, link.name) else None
+        name = prefix + link.name
+        body = model.body(name) if _has_body(model, name) else None
         if body is None or body.id == 0:
             continue
         mass = float(model.body_mass[body.id])
@@ -384,44 +426,143 @@ def _has_body(model: mujoco.MjModel, name: str) -> bool:
     return bool(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) >= 0)
 
 
-def _key_qpos(model: mujoco.MjModel, values: Mapping[str, float]) -> npt.NDArray[np.float64]:
-    qpos = np.array(model.qpos0, dtype=float)
-    for name, value in values.items():
-        qpos[model.jnt_qposadr[model.joint(name).id]] = value
-    return qpos
+class _Robot:
+    """A robot being assembled: its source read, its spec built, its names not yet in a world."""
+
+    def __init__(self, index: int, robot: RobotSpec, cache_dir: str | Path | None) -> None:
+        self.index = index
+        self.request = robot
+        self.namespace = ""
+        self.prefix = ""
+        self.path = _source_path(robot.source)
+        self.source = str(self.path)
+        self.kind = _kind(self.path)
+        self.model_bytes = b""
+        self.existing_actuators = False
+        # key name -> joint -> position, from a URDF's <harness> element
+        self.extension_keys: Mapping[str, Mapping[str, float]] = {}
+        self.spec_keys: tuple[str, ...] = ()  # keys the robot's own spec brings (MJCF)
+        self.source_repairs: tuple[str, ...] = ()
+        self.repaired_inertias: Mapping[str, tuple[float, ...]] = {}
+        self.modes: dict[str, ControlMode] = {}
+        self.actuated: tuple[str, ...] = ()
+        self.srdf_bytes: bytes | None = None
+        path = self.path
+        if self.kind == "urdf":
+            root, self.model_bytes = read_xml_file(path)
+            self.description = urdf_from_element(root, self.source)
+            prepared = mujoco_urdf_xml(
+                root,
+                path,
+                packages=robot.packages,
+                visuals=robot.visuals,
+                repair_inertia=robot.repair_inertia,
+                cache_dir=cache_dir,
+            )
+            self.source_repairs, self.repaired_inertias = prepared.repairs, prepared.inertias
+            self.spec = _spec_from_string(prepared.xml, self.source)
+            extension = harness_extension(root, self.description)
+            self.extension_keys = extension.keyframes
+            for joint_name, armature in extension.armature.items():
+                self.spec.joint(joint_name).armature = armature
+        elif self.kind == "sdf":
+            read_sdf, build_spec = _sdf_api()
+            self.model_bytes = path.read_bytes()
+            self.description = read_sdf(path)
+            self.spec = build_spec(self.description)
+        else:
+            _, self.model_bytes = read_xml_file(path)
+            self.spec = _spec_from_file(path)
+            self.description = _describe_mjcf(_compile(self.spec.copy(), self.source), path)
+            self.existing_actuators = len(self.spec.actuators) > 0
+        self.spec_keys = tuple(key.name for key in self.spec.keys)
+
+    def set_namespace(self, namespace: str) -> None:
+        self.namespace = namespace
+        self.prefix = f"{namespace}/" if namespace else ""
+
+    def where(self, several: bool) -> str:
+        return f"robots[{self.index}] ({self.source})" if several else self.source
+
+    def joint_ids(self, model: mujoco.MjModel) -> list[int]:
+        """This robot's MuJoCo joints, in model order."""
+        names = {self.prefix + j.name for j in self.description.joints}
+        return [j for j in range(model.njnt) if model.joint(j).name in names]
+
+    def own_key(self, model: mujoco.MjModel, key: str) -> int:
+        """The id of this robot's own attached key ``key`` in ``model`` (-1 if none)."""
+        if key not in self.spec_keys:
+            return -1
+        return int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, self.prefix + key))
+
+    def key_values(
+        self, model: mujoco.MjModel, key: str, qpos: npt.NDArray[np.float64]
+    ) -> tuple[int, bool]:
+        """Write this robot's positions of keyframe ``key`` into ``qpos`` (its ``home`` when
+        it has no such key); returns the own attached key used (-1: none) and whether any
+        source keyframe was found."""
+        for name in (key, "home"):
+            if name in self.extension_keys:
+                for joint, value in self.extension_keys[name].items():
+                    qpos[model.jnt_qposadr[model.joint(self.prefix + joint).id]] = value
+                return -1, True
+            own = self.own_key(model, name)
+            if own >= 0:
+                for j in self.joint_ids(model):
+                    start, width = _qpos_span(model, j)
+                    qpos[start : start + width] = model.key_qpos[own][start : start + width]
+                return own, True
+        return -1, False
 
 
-def _servo_configuration(
-    model: mujoco.MjModel, keyframes: Mapping[str, Mapping[str, float]]
-) -> npt.NDArray[np.float64]:
-    """Where the servos are tuned: the ``home`` keyframe (the source's own or the URDF's
-    ``<harness>`` one), else the zero configuration."""
-    if "home" in keyframes:
-        return _key_qpos(model, keyframes["home"])
-    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    if key >= 0:
-        return np.array(model.key_qpos[key], dtype=float)
-    return np.array(model.qpos0, dtype=float)
+def _qpos_span(model: mujoco.MjModel, joint: int) -> tuple[int, int]:
+    start = int(model.jnt_qposadr[joint])
+    end = int(model.jnt_qposadr[joint + 1]) if joint + 1 < model.njnt else int(model.nq)
+    return start, end - start
 
 
-def _add_keyframes(
-    spec: mujoco.MjSpec,
-    model: mujoco.MjModel,
-    keyframes: Mapping[str, Mapping[str, float]],
-    actuated: tuple[str, ...],
-    modes: Mapping[str, ControlMode],
-) -> None:
-    """Each keyframe as a MuJoCo key: its joint positions (others at qpos0) and, for
-    position servos, the same positions as their targets."""
-    for key, values in keyframes.items():
-        qpos = _key_qpos(model, values)
-        ctrl = [
-            float(qpos[model.jnt_qposadr[model.joint(name).id]])
-            if modes.get(name) == "position"
-            else 0.0
-            for name in actuated
-        ]
-        spec.add_key(name=key, qpos=qpos.tolist(), ctrl=ctrl)
+def _dof_span(model: mujoco.MjModel, joint: int) -> tuple[int, int]:
+    start = int(model.jnt_dofadr[joint])
+    end = int(model.jnt_dofadr[joint + 1]) if joint + 1 < model.njnt else int(model.nv)
+    return start, end - start
+
+
+def _place_top_bodies(spec: mujoco.MjSpec, pose: Pose) -> None:
+    """Move every top-level body of a world-owning MJCF robot by ``pose`` (bodies in a
+    ``<frame>`` move with their frame)."""
+    moved: list[Any] = []
+    for body in spec.worldbody.bodies:
+        frame = body.frame
+        target = frame if frame is not None else body
+        if any(target is m for m in moved):
+            continue
+        moved.append(target)
+        composed = pose * Pose(
+            tuple(float(v) for v in target.pos),  # type: ignore[arg-type]
+            tuple(float(v) for v in target.quat),  # type: ignore[arg-type]
+        )
+        target.pos = list(composed.xyz)
+        target.quat = list(composed.quat)
+
+
+def _add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
+    obj.check(where)
+    pose = placement_pose(obj.pose, where) or Pose()
+    body = spec.worldbody.add_body(name=obj.name, pos=list(pose.xyz), quat=list(pose.quat))
+    if obj.mass is not None:
+        body.add_freejoint(name=f"{obj.name}_joint")
+    shapes = {
+        "box": mujoco.mjtGeom.mjGEOM_BOX,
+        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+        "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+        "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+    }
+    geom = body.add_geom(name=obj.name, type=shapes[obj.shape])
+    geom.size = [*obj.size, *([0.0] * (3 - len(obj.size)))]
+    if obj.mass is not None:
+        geom.mass = obj.mass
+    if obj.rgba is not None:
+        geom.rgba = list(obj.rgba)
 
 
 def load_robot(
@@ -435,6 +576,8 @@ def load_robot(
     repair_inertia: bool = False,
     gains: Mapping[str, float] | None = None,
     cache_dir: str | Path | None = None,
+    pose: PoseLike = None,
+    initial_positions: Mapping[str, float] | None = None,
 ) -> LoadedRobot:
     """Load ``source`` into MuJoCo with one actuator per controllable joint.
 
@@ -448,6 +591,9 @@ def load_robot(
     (non-colliding). ``repair_inertia``: bound masses/inertias and balance inertias,
     reporting every changed link in ``repairs``. ``gains``: joint -> kp (position) or kv
     (velocity) overriding the defaults. ``cache_dir``: converted-mesh cache folder.
+    ``pose``: where the robot's base (model frame) is in the world (see
+    :data:`harness.models.world.PoseLike`). ``initial_positions``: joint -> position
+    overriding the ``home`` keyframe (created if the robot has none).
 
     A URDF's ``<harness>`` element adds keyframes and joint armature (see
     :func:`harness.models.urdf.harness_extension`): the model depends on file contents only,
@@ -455,113 +601,362 @@ def load_robot(
     damping) for the inertia each joint sees with the others held, at the ``home`` keyframe;
     their joint gets the drive's torque-speed limit, effort / velocity, as extra damping, so a
     saturated servo moves at about its velocity limit and stops at its target.
+
+    This is :func:`load_world` with one robot in the empty namespace: names stay unprefixed.
     """
-    path = _source_path(source)
-    name_of_source = str(path)
-    kind = _kind(path)
+    robot = RobotSpec(
+        source,
+        namespace="",
+        pose=pose,
+        control=control,
+        gains=gains,
+        packages=packages,
+        srdf=srdf,
+        visuals=visuals,
+        repair_inertia=repair_inertia,
+        initial_positions=dict(initial_positions or {}),
+    )
+    world = load_world([robot], scene=scene, cache_dir=cache_dir)
+    view = world.robots[0]
+    return LoadedRobot(
+        name=view.description.name,
+        description=view.description,
+        spec=world.spec,
+        model=world.model,
+        control=view.control,
+        actuated=view.actuated,
+        kinematic=view.kinematic,
+        mjcf=world.mjcf,
+        mjb=world.mjb,
+        sources=world.sources,
+        sha256=world.sha256,
+        repairs=view.repairs,
+    )
+
+
+def load_world(
+    robots: Sequence[RobotSpec],
+    *,
+    scene: str | Path | None = None,
+    objects: Sequence[WorldObject] = (),
+    timestep: float | None = None,
+    cache_dir: str | Path | None = None,
+) -> LoadedWorld:
+    """Load several robots (and primitive ``objects``) into one world and compile it.
+
+    Each robot is built as :func:`load_robot` builds it and attached at its ``pose`` with
+    the prefix ``"<namespace>/"`` on every name it brings (a namespace of None takes the
+    robot's own name; ``""`` keeps names as they are). Robots are separate kinematic trees:
+    their links can collide with each other (bases fixed to the world never do).
+    ``scene``: as for :func:`load_robot`; None gives the ``"table"`` when the first robot is
+    the demo, a lone MJCF robot in the empty namespace its own world, else ``"floor"``.
+    ``objects`` are added to the world body before the robots (free objects come first in
+    ``qpos``, after the scene's). ``timestep`` overrides the scene's (the servo gains are
+    tuned for it).
+
+    Keyframes combine: each key name any robot has becomes one key whose robot part is that
+    robot's key of that name (else its ``home``, else its zero configuration), whose rest is
+    the scene's key of that name (else the model's default), with position servo targets at
+    their joint's position; ``initial_positions`` override a robot's part of ``home``.
+    Keys keep qpos, qvel (of a robot's own MJCF keys), ctrl and time, not act or mocap.
+    Errors: :class:`DuplicateNamespaceError`, :class:`InvalidNamespaceError` and the other
+    :class:`ModelError` of :func:`load_robot`, naming ``robots[i]``.
+    """
+    if not robots:
+        raise ModelStructureError("load_world: no robots given")
+    several = len(robots) > 1
+    prepared: list[_Robot] = []
+    namespaces: dict[str, int] = {}
+    for index, request in enumerate(robots):
+        robot = _Robot(index, request, cache_dir)
+        where = robot.where(several)
+        if request.namespace is None:
+            namespace = check_namespace(robot.description.name, where)
+        else:
+            namespace = check_namespace(request.namespace, where)
+        if namespace in namespaces:
+            raise DuplicateNamespaceError(
+                f"{where}: namespace {namespace!r} is already robots[{namespaces[namespace]}]'s "
+                "(give each robot its own namespace)"
+            )
+        namespaces[namespace] = index
+        robot.set_namespace(namespace)
+        prepared.append(robot)
+    placements = [placement_pose(r.request.pose, r.where(several)) for r in prepared]
+    first_robot = prepared[0]
+    world_source = first_robot.source if not several else f"world [{', '.join(namespaces)}]"
+
     sources: dict[str, bytes] = {}
-    if str(source) == "demo" and scene is None:
+    for robot in prepared:
+        sources[f"model/{robot.prefix}{robot.path.name}"] = robot.model_bytes
+    if scene is None and str(first_robot.request.source) == "demo":
         scene = "table"
-
-    existing_actuators = False
-    keyframes: Mapping[str, Mapping[str, float]] = {}
-    source_repairs: tuple[str, ...] = ()
-    repaired_inertias: Mapping[str, tuple[float, ...]] = {}
-    if kind == "urdf":
-        root, raw = read_xml_file(path)
-        sources[f"model/{path.name}"] = raw
-        description = urdf_from_element(root, name_of_source)
-        prepared = mujoco_urdf_xml(
-            root,
-            path,
-            packages=packages,
-            visuals=visuals,
-            repair_inertia=repair_inertia,
-            cache_dir=cache_dir,
-        )
-        source_repairs, repaired_inertias = prepared.repairs, prepared.inertias
-        robot_spec = _spec_from_string(prepared.xml, name_of_source)
-        extension = harness_extension(root, description)
-        keyframes = extension.keyframes
-        for joint_name, armature in extension.armature.items():
-            robot_spec.joint(joint_name).armature = armature
-    elif kind == "sdf":
-        read_sdf, build_spec = _sdf_api()
-        sources[f"model/{path.name}"] = path.read_bytes()
-        description = read_sdf(path)
-        robot_spec = build_spec(description)
+    own_world = scene is None and not several and first_robot.kind == "mjcf"
+    own_world = own_world and first_robot.namespace == ""
+    if own_world:
+        spec = first_robot.spec
+        if placements[0] is not None:
+            _place_top_bodies(spec, placements[0])
+        for number, obj in enumerate(objects):
+            _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
-        _, raw = read_xml_file(path)
-        sources[f"model/{path.name}"] = raw
-        robot_spec = _spec_from_file(path)
-        description = _describe_mjcf(_compile(robot_spec.copy(), name_of_source), path)
-        existing_actuators = len(robot_spec.actuators) > 0
-
-    if kind == "mjcf" and scene is None:
-        spec = robot_spec
-    else:
-        spec, scene_path = _scene_spec(scene, name_of_source)
+        spec, scene_path = _scene_spec(scene, world_source)
         sources[f"scene/{scene_path.name}"] = scene_path.read_bytes()
-        frame = spec.worldbody.add_frame()
-        with _mujoco_warnings():
-            spec.attach(robot_spec, prefix="", frame=frame)
-    spec.modelname = description.name
+        for number, obj in enumerate(objects):
+            _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
+        for robot, placement in zip(prepared, placements, strict=True):
+            if placement is None:
+                frame = spec.worldbody.add_frame()
+            else:
+                frame = spec.worldbody.add_frame(pos=list(placement.xyz), quat=list(placement.quat))
+            try:
+                with _mujoco_warnings():
+                    spec.attach(robot.spec, prefix=robot.prefix, frame=frame)
+            except ValueError as exc:
+                raise CompileError(
+                    f"{robot.where(several)}: cannot attach the robot into the scene: "
+                    f"{_mujoco_message(exc)}"
+                ) from None
+    if timestep is not None:
+        if not (math.isfinite(timestep) and timestep > 0):
+            raise ModelStructureError(f"{world_source}: timestep {timestep!r} is not positive")
+        spec.option.timestep = timestep
+    spec.modelname = first_robot.description.name if not several else "world"
 
-    first = _compile(spec, name_of_source)
+    first = _compile(spec, world_source)
     joint_names = {first.joint(j).name for j in range(first.njnt)}
-    if existing_actuators:
-        modes, actuated = _existing_control(first)
-    else:
-        modes = _resolve_control(description, joint_names, control, name_of_source)
-        unknown_gains = sorted(set(gains or {}) - set(modes))
+    servo_qpos = np.array(first.qpos0, dtype=float)
+    for robot in prepared:
+        robot.key_values(first, "home", servo_qpos)
+    held = _held_inertia(first, servo_qpos)
+    for robot in prepared:
+        where = robot.where(several)
+        if robot.existing_actuators:
+            robot.modes, robot.actuated = _existing_control(first, robot.prefix, robot.description)
+            continue
+        own_joints = {
+            name.removeprefix(robot.prefix) for name in joint_names if name.startswith(robot.prefix)
+        }
+        robot.modes = _resolve_control(robot.description, own_joints, robot.request.control, where)
+        gains = dict(robot.request.gains or {})
+        unknown_gains = sorted(set(gains) - set(robot.modes))
         if unknown_gains:
             raise ModelStructureError(
-                f"{name_of_source}: gains name joints that are not controllable: {unknown_gains}"
+                f"{where}: gains name joints that are not controllable: {unknown_gains}"
             )
-        held = _held_inertia(first, _servo_configuration(first, keyframes))
-        actuated = _add_actuators(spec, first, description, modes, dict(gains or {}), held)
-    if srdf is not None:
-        body_names = {first.body(b).name for b in range(first.nbody)}
-        sources[f"srdf/{Path(srdf).name}"] = _add_srdf_excludes(spec, Path(srdf), body_names)
-    _add_keyframes(spec, first, keyframes, actuated, modes)
+        robot.actuated = _add_actuators(
+            spec, first, robot.description, robot.modes, gains, held, robot.prefix
+        )
+    for robot in prepared:
+        if robot.request.srdf is not None:
+            srdf = Path(robot.request.srdf)
+            body_names = {first.body(b).name for b in range(first.nbody)}
+            if robot.prefix:  # only this robot's links
+                links = {link.name for link in robot.description.links}
+                body_names = {n for n in links if robot.prefix + n in body_names}
+            sources[f"srdf/{robot.prefix}{srdf.name}"] = _add_srdf_excludes(
+                spec, srdf, body_names, robot.prefix
+            )
+    _combine_keyframes(spec, first, prepared, several)
 
-    model = _compile(spec, name_of_source)
+    model = _compile(spec, world_source)
     with _mujoco_warnings():
         mjcf = spec.to_xml()
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
     mujoco.mj_saveModel(model, None, buffer)
-    return LoadedRobot(
-        name=description.name,
-        description=description,
+    views = tuple(
+        _view(model, robot, placement or Pose(), sources)
+        for robot, placement in zip(prepared, placements, strict=True)
+    )
+    control: dict[str, ControlMode] = {}
+    for view in views:
+        control.update({view.mujoco_name(j): m for j, m in view.control.items()})
+    actuated = tuple(
+        model.joint(int(model.actuator_trnid[a][0])).name
+        for a in range(model.nu)
+        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
+    )
+    return LoadedWorld(
+        name=str(spec.modelname),
         spec=spec,
         model=model,
-        control=MappingProxyType(modes),
+        robots=views,
+        control=MappingProxyType(control),
         actuated=actuated,
-        kinematic=tuple(n for n, m in modes.items() if m == "kinematic"),
+        kinematic=tuple(n for n, m in control.items() if m == "kinematic"),
         mjcf=mjcf,
         mjb=buffer.tobytes(),
         sources=MappingProxyType(sources),
         sha256=hashlib.sha256(mjcf.encode()).hexdigest(),
+    )
+
+
+def _combine_keyframes(
+    spec: mujoco.MjSpec, first: mujoco.MjModel, robots: Sequence[_Robot], several: bool
+) -> None:
+    """Replace the robots' own keys (and the scene's keys of the same names) with combined
+    keys (see :func:`load_world`)."""
+    names: list[str] = []
+    for robot in robots:
+        for name in (*robot.extension_keys, *robot.spec_keys):
+            if name not in names:
+                names.append(name)
+    if "home" not in names and any(r.request.initial_positions for r in robots):
+        names.append("home")
+    if not names:
+        return
+    robot_keys = {r.prefix + k for r in robots for k in r.spec_keys}
+    scene_keys = {
+        first.key(k).name: k for k in range(first.nkey) if first.key(k).name not in robot_keys
+    }
+    added_actuators = [
+        (robot, joint)
+        for robot in robots
+        if not robot.existing_actuators
+        for joint in robot.actuated
+    ]
+    keys: list[dict[str, Any]] = []
+    for name in names:
+        scene_key = scene_keys.get(name, -1)
+        qpos = np.array(first.qpos0 if scene_key < 0 else first.key_qpos[scene_key], dtype=float)
+        qvel = np.zeros(first.nv) if scene_key < 0 else np.array(first.key_qvel[scene_key])
+        ctrl = np.zeros(first.nu) if scene_key < 0 else np.array(first.key_ctrl[scene_key])
+        time = 0.0 if scene_key < 0 else float(first.key_time[scene_key])
+        for robot in robots:
+            own, _ = robot.key_values(first, name, qpos)
+            joints = robot.joint_ids(first)
+            if own >= 0:
+                time = float(first.key_time[own])
+                for j in joints:
+                    start, width = _dof_span(first, j)
+                    qvel[start : start + width] = first.key_qvel[own][start : start + width]
+            if name == "home":
+                _apply_initial_positions(first, robot, qpos, several)
+            for a in range(first.nu):
+                joint = int(first.actuator_trnid[a][0])
+                if first.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT or joint not in joints:
+                    continue
+                if own >= 0:
+                    ctrl[a] = first.key_ctrl[own][a]
+                unprefixed = first.joint(joint).name.removeprefix(robot.prefix)
+                overridden = name == "home" and unprefixed in robot.request.initial_positions
+                if overridden and robot.modes.get(unprefixed) == "position":
+                    ctrl[a] = qpos[first.jnt_qposadr[joint]]
+        added = [
+            float(qpos[first.jnt_qposadr[first.joint(robot.prefix + joint).id]])
+            if robot.modes.get(joint) == "position"
+            else 0.0
+            for robot, joint in added_actuators
+        ]
+        keys.append(
+            {
+                "name": name,
+                "time": time,
+                "qpos": qpos.tolist(),
+                "qvel": qvel.tolist(),
+                "ctrl": [*ctrl.tolist(), *added],
+            }
+        )
+    for key in list(spec.keys):
+        if key.name in robot_keys or key.name in names:
+            spec.delete(key)
+    for key_options in keys:
+        spec.add_key(**key_options)
+
+
+def _apply_initial_positions(
+    model: mujoco.MjModel, robot: _Robot, qpos: npt.NDArray[np.float64], several: bool
+) -> None:
+    wanted = robot.request.initial_positions
+    single_dof = {
+        model.joint(j).name.removeprefix(robot.prefix): j
+        for j in robot.joint_ids(model)
+        if _qpos_span(model, j)[1] == 1
+    }
+    unknown = sorted(set(wanted) - set(single_dof))
+    if unknown:
+        raise ModelStructureError(
+            f"{robot.where(several)}: initial_positions name no hinge or slide joint of the "
+            f"robot: {unknown} (joints: {', '.join(sorted(single_dof))})"
+        )
+    for name, value in wanted.items():
+        if not math.isfinite(value):
+            raise ModelStructureError(
+                f"{robot.where(several)}: initial_positions[{name!r}] = {value!r} is not finite"
+            )
+        qpos[model.jnt_qposadr[single_dof[name]]] = value
+
+
+def _view(
+    model: mujoco.MjModel, robot: _Robot, placement: Pose, sources: Mapping[str, bytes]
+) -> LoadedRobotView:
+    joints: dict[str, JointAddress] = {}
+    for j in robot.joint_ids(model):
+        name = model.joint(j).name
+        start, width = _qpos_span(model, j)
+        dof, dofs = _dof_span(model, j)
+        joints[name.removeprefix(robot.prefix)] = JointAddress(name, j, start, dof, width, dofs)
+    by_joint = {address.id: joint for joint, address in joints.items()}
+    actuators = {
+        by_joint[int(model.actuator_trnid[a][0])]: a
+        for a in range(model.nu)
+        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
+        and int(model.actuator_trnid[a][0]) in by_joint
+    }
+    bodies = {
+        link.name: int(model.body(robot.prefix + link.name).id)
+        for link in robot.description.links
+        if _has_body(model, robot.prefix + link.name)
+    }
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    qpos = model.key_qpos[key] if key >= 0 else model.qpos0
+    home = {
+        joint: float(qpos[address.qpos]) for joint, address in joints.items() if address.nq == 1
+    }
+    mine = {
+        f"model/{robot.prefix}{robot.path.name}",
+        f"srdf/{robot.prefix}{Path(robot.request.srdf).name}" if robot.request.srdf else "",
+    }
+    return LoadedRobotView(
+        namespace=robot.namespace,
+        description=robot.description,
+        placement=placement,
+        control=MappingProxyType(dict(robot.modes)),
+        actuated=robot.actuated,
+        kinematic=tuple(n for n, m in robot.modes.items() if m == "kinematic"),
+        joints=MappingProxyType(joints),
+        actuators=MappingProxyType(actuators),
+        bodies=MappingProxyType(bodies),
+        home=MappingProxyType(home),
+        sources=MappingProxyType({k: v for k, v in sources.items() if k in mine}),
         repairs=(
-            source_repairs + _repairs(model, description, repaired_inertias)
-            if repair_inertia
+            robot.source_repairs
+            + _repairs(model, robot.description, robot.repaired_inertias, robot.prefix)
+            if robot.request.repair_inertia
             else ()
         ),
     )
 
 
-def _existing_control(model: mujoco.MjModel) -> tuple[dict[str, ControlMode], tuple[str, ...]]:
-    """Control modes of an MJCF's own joint actuators, inferred from gain and bias."""
+def _existing_control(
+    model: mujoco.MjModel, prefix: str, description: RobotModel
+) -> tuple[dict[str, ControlMode], tuple[str, ...]]:
+    """Control modes of an MJCF's own joint actuators, inferred from gain and bias (joint
+    names unprefixed)."""
+    own = {prefix + j.name for j in description.joints}
     modes: dict[str, ControlMode] = {}
     actuated = []
     for a in range(model.nu):
         if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
             continue
         joint = model.joint(int(model.actuator_trnid[a][0])).name
+        if joint not in own:
+            continue
         bias: Any = model.actuator_biasprm[a]
         mode: ControlMode = "effort"
         if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
             mode = "position" if bias[1] != 0 else "velocity"
+        joint = joint.removeprefix(prefix)
         modes[joint] = mode
         actuated.append(joint)
     return modes, tuple(actuated)
