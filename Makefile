@@ -7,7 +7,7 @@ NODE_DIR := tests/node
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test bench lint install node-deps system-deps clean
+.PHONY: demo test bench bench-quick fuzz lint install node-deps system-deps clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -16,7 +16,7 @@ $(PY):
 # Reinstall only when the dependency pins change; constraints.txt pins the whole environment
 # because MuJoCo and numpy versions change simulation results.
 $(STAMP): pyproject.toml constraints.txt | $(PY)
-	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,dask]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,dask,fast]'
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -55,6 +55,17 @@ test: install node-deps system-deps lint
 
 bench: install
 	$(PY) bench/run.py
+
+bench-quick: install
+	$(PY) bench/run.py --quick
+
+# Longer fuzzing than `make test` runs: hypothesis with more examples, then atheris
+# (coverage-guided) on each target for two minutes.
+fuzz: install
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[fuzz]'
+	HARNESS_FUZZ_EXAMPLES=2000 $(PY) -m pytest tests/fuzz -n 2 -q
+	for t in frames urdf sdf scenario recording; do \
+		$(PY) tests/fuzz/atheris_fuzz.py $$t -max_total_time=120 || exit 1; done
 
 clean:
 	rm -rf $(VENV) $(NODE_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache

@@ -1,8 +1,11 @@
-"""Project-wide pytest configuration: a derandomised hypothesis profile for CI."""
+"""Project-wide pytest configuration: a derandomised hypothesis profile for CI, and pytester
+(the plugin tests drive inner pytest runs)."""
 
 import os
 
 from hypothesis import HealthCheck, settings
+
+pytest_plugins = ["pytester"]
 
 settings.register_profile(
     "ci", derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow]

@@ -1,4 +1,4 @@
-"""Shared pieces of the benchmarks: one result row, timing helpers, the table.
+"""Shared pieces of the benchmarks: one result row, timing helpers, the table, the machine.
 
 Every benchmark measures our code and the limit it is judged against *in the same run*
 (e.g. our step loop vs a raw ``mj_step`` loop), and reports the ratio, so the figures mean
@@ -7,15 +7,24 @@ something on any machine. Each ``bench/bench_*.py`` exposes ``run(quick: bool) -
 
 from __future__ import annotations
 
+import os
+import platform
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from pathlib import Path
+
+__all__ = ["Row", "best_of", "format_markdown", "format_table", "machine", "rss_mb"]
 
 
 @dataclass(frozen=True)
 class Row:
-    """One figure: ``ours`` measured beside ``limit``; ``ratio`` is ours/limit (or the
-    inverse where lower is better, see ``higher_is_better``); ``target`` the bar to meet."""
+    """One figure: ``ours`` measured beside ``limit`` in the same run; ``target`` the bar to
+    meet (text), ``passed`` whether it was met.
+
+    :attr:`ratio` reads the same way for every row: the fraction of the limit's performance we
+    reach (above 1: better than the limit). It is ``ours / limit`` where higher is better
+    (rates) and ``limit / ours`` where lower is better (times, latencies)."""
 
     name: str
     ours: float
@@ -28,11 +37,13 @@ class Row:
 
     @property
     def ratio(self) -> float:
-        if self.limit == 0:
-            return float("nan")
-        return self.ours / self.limit
+        """Performance relative to the limit (1.0: as good as the limit)."""
+        if self.higher_is_better:
+            return self.ours / self.limit if self.limit else float("nan")
+        return self.limit / self.ours if self.ours else float("nan")
 
     def as_dict(self) -> dict[str, object]:
+        """The row with its ratio, for JSON."""
         return {**asdict(self), "ratio": self.ratio}
 
 
@@ -46,12 +57,70 @@ def best_of(fn: Callable[[], object], repeats: int = 5) -> float:
     return best
 
 
+def rss_mb(pid: int | None = None) -> float:
+    """Resident set size of a process (default: this one) in MiB, from ``/proc``."""
+    status = Path(f"/proc/{pid or os.getpid()}/status").read_text()
+    for line in status.splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def machine() -> str:
+    """One line naming the machine the figures come from: CPU model, cores, memory, OS,
+    Python and MuJoCo versions."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    memory = ""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal:"):
+                memory = f", {int(line.split()[1]) / 2**20:.0f} GiB RAM"
+                break
+    except OSError:
+        pass
+    try:
+        import mujoco
+
+        engine = f", MuJoCo {mujoco.__version__}"
+    except ImportError:
+        engine = ""
+    return (
+        f"{cpu} ({os.cpu_count()} cores{memory}), {platform.system()} {platform.release()}, "
+        f"Python {platform.python_version()}{engine}"
+    )
+
+
+def _cells(r: Row) -> tuple[str, str, str, str, str]:
+    return (
+        f"{r.ours:.4g} {r.unit}",
+        f"{r.limit:.4g} {r.unit}",
+        f"{r.ratio:.3f}",
+        r.target,
+        "yes" if r.passed else "NO",
+    )
+
+
 def format_table(rows: list[Row]) -> str:
-    header = f"{'benchmark':<52} {'ours':>14} {'limit':>14} {'ratio':>7}  {'target':<18} ok"
+    """The rows as a fixed-width text table (ratio: see :attr:`Row.ratio`)."""
+    header = f"{'benchmark':<56} {'ours':>16} {'limit':>16} {'ratio':>7}  {'target':<30} ok"
     lines = [header, "-" * len(header)]
     for r in rows:
-        lines.append(
-            f"{r.name:<52} {r.ours:>10.4g} {r.unit:<3} {r.limit:>10.4g} {r.unit:<3} "
-            f"{r.ratio:>7.3f}  {r.target:<18} {'yes' if r.passed else 'NO'}"
-        )
+        ours, limit, ratio, target, ok = _cells(r)
+        lines.append(f"{r.name:<56} {ours:>16} {limit:>16} {ratio:>7}  {target:<30} {ok}")
+    return "\n".join(lines)
+
+
+def format_markdown(rows: list[Row]) -> str:
+    """The rows as a Markdown table (for the README)."""
+    lines = ["| benchmark | ours | limit | ratio | target | ok |", "|---|---:|---:|---:|---|---|"]
+    for r in rows:
+        ours, limit, ratio, target, ok = _cells(r)
+        lines.append(f"| {r.name} | {ours} | {limit} | {ratio} | {target} | {ok} |")
     return "\n".join(lines)

@@ -11,12 +11,23 @@ Fixtures
 - ``harness_recording``: this test's recording path (under the record directory).
 - ``harness_events``: the :class:`~harness.events.CollectingSink` of this test's session (the
   collision, joint-limit and log events).
-- ``golden``: ``golden.check(**tolerances)`` ends this test's session (finalising the
-  recording) and compares the recording with ``recordings/<test module>/<test name>.mcap``
-  under the rootdir through :func:`harness.replay.diff` (tolerances are
-  :class:`harness.replay.Tolerances` fields, e.g. ``joint_position=1e-9``). A missing golden
-  fails with the command that creates it; ``--harness-update-goldens`` writes or overwrites it
-  (written to a temporary file, then renamed: concurrent workers never leave half a golden).
+- ``golden``: ``golden.check(**tolerances)`` compares this test's recording so far (a
+  :meth:`harness.Session.snapshot` of its first session, which keeps running: call it
+  anywhere in the test, once) with ``recordings/<test module>/<test name>.mcap`` under the
+  rootdir through :func:`harness.replay.diff` (tolerances are
+  :class:`harness.replay.Tolerances` fields, e.g. ``joint_position=1e-9``;
+  ``/harness/bridge`` frames after the last step are not counted: whether a client's frames
+  sent at the very end arrive in time is wall-clock timing). A missing golden fails with the
+  command that creates it; ``--harness-update-goldens`` writes or overwrites it (written to
+  a temporary file, then renamed: concurrent workers never leave half a golden). The snapshot
+  is kept next to the recording (``<test>.snapshot.mcap``) like the recording.
+
+Golden names carry every input that affects them besides the test's own code (dm_control
+style): when the session's control mode differs from the robot's default (every joint
+``position``), the mode is part of the name: ``--harness-mode=kinematic`` (or
+``@pytest.mark.harness(mode="kinematic")``) compares ``<test name>[kinematic].mcap``; a
+per-joint mode names the joints that differ, ``<test name>[joint1=velocity].mcap``. One test
+thus has one golden per mode, and switching modes never compares against the other's.
 
 A test's sessions end with its body (the recording is complete when the report is built);
 fixtures that use a session tear down after it closed.
@@ -73,6 +84,8 @@ __all__ = [
     "GoldenMismatch",
     "HarnessSettings",
     "SessionFactory",
+    "mode_label",
+    "suite_mode",
 ]
 
 KEEP_CHOICES = ("always", "failed", "never")
@@ -96,8 +109,7 @@ _DYNAMIC = ("position", "velocity", "effort")
 _PLUGIN_MODULE = "harness.pytest_plugin"
 _DEFAULT_RECORD_DIR = ".harness/recordings"
 _DEFAULT_GOLDEN_DIR = "recordings"
-_BRIDGE_TOPIC = "/harness/bridge"
-_DISCONNECT_MARKER = "harness/disconnect"  # harness.session.core.MARKER_DISCONNECT
+_DEFAULT_MODE = "position"  # harness.models.load_robot's control default
 _JOINT_LIMIT_TOLERANCE = 1e-4  # below it, an excess is servo/solver noise (rad, m, rad/s, m/s)
 
 
@@ -363,7 +375,9 @@ class _TestRun:
     item: pytest.Item
     settings: HarnessSettings
     sessions: list[Session] = field(default_factory=list)
+    modes: list[Any] = field(default_factory=list)
     recordings: list[Path] = field(default_factory=list)
+    snapshots: list[Path] = field(default_factory=list)
     sinks: list[CollectingSink] = field(default_factory=list)
     divergence: str | None = None
     golden_note: str | None = None
@@ -378,13 +392,25 @@ class _TestRun:
         name = _safe(self.item.name)
         return folder / (f"{name}.mcap" if index == 0 else f"{name}-{index + 1}.mcap")
 
+    def session_mode(self) -> Any:
+        """The control mode of this test's (first) session, or the one it will get."""
+        if self.modes:
+            return self.modes[0]
+        options = _marker_options(self.item)
+        mode = options.get("mode")
+        scenario = options.get("scenario")
+        if mode is None and scenario is not None:
+            path = _resolve_path(scenario, self.item, self.settings.rootdir)
+            mode = _scenario_options(Path(path)).get("mode")
+        return suite_mode(mode, self.settings.mode)
+
     def golden_path(self) -> Path:
         module = Path(self.item.nodeid.split("::", 1)[0]).stem
         name = _safe(self.item.name)
         cls = getattr(self.item, "cls", None)
         if cls is not None:
             name = f"{cls.__name__}.{name}"
-        return self.settings.golden_dir / module / f"{name}.mcap"
+        return self.settings.golden_dir / module / f"{name}{mode_label(self.session_mode())}.mcap"
 
     def update_command(self) -> str:
         nodepath, _, rest = self.item.nodeid.partition("::")
@@ -450,6 +476,7 @@ class _TestRun:
             **opts,
         )
         self.sessions.append(session)
+        self.modes.append(mode)
         self.sinks.append(sink)
         return session
 
@@ -501,6 +528,8 @@ class _TestRun:
             fate = "removed after the test" if keep == "never" else "kept"
             lines.append(f"recording: {path} ({fate}: --harness-keep-recordings={keep})")
             lines.append(f"replay:    {shlex.join(['harness', 'replay', str(path)])}")
+        for path in self.snapshots:
+            lines.append(f"snapshot:  {path} (what golden.check() compared)")
         for sink in self.sinks:
             summary = sink.report_lines(max_lines=20)
             lines.append(f"events:    {summary[0] or 'none'}")
@@ -522,7 +551,7 @@ class _TestRun:
         finally:
             keep = self.settings.keep_recordings
             if keep == "never" or (keep == "failed" and not self.failed):
-                for path in self.recordings:
+                for path in [*self.snapshots, *self.recordings]:
                     with contextlib.suppress(OSError):
                         path.unlink()
                     with contextlib.suppress(OSError):
@@ -563,14 +592,18 @@ class Golden:
 
     def __init__(self, run: _TestRun) -> None:
         self._run = run
-        self.path = run.golden_path()
-        """``<golden dir>/<test module>/<test name>.mcap``."""
+
+    @property
+    def path(self) -> Path:
+        """``<golden dir>/<test module>/<test name>[<mode>].mcap`` (the mode only when it is
+        not the default; see the module docstring)."""
+        return self._run.golden_path()
 
     def check(self, **tolerances: float) -> DiffReport:
-        """End this test's session and compare its recording with the golden (or write the
-        golden under ``--harness-update-goldens``). ``tolerances``: per-quantity bounds
-        (:class:`harness.replay.Tolerances` fields; default 0: exact). Raises
-        :class:`GoldenMismatch` naming the first divergence."""
+        """Compare this test's recording so far (a snapshot: the session keeps running) with
+        the golden (or write the golden under ``--harness-update-goldens``). ``tolerances``:
+        per-quantity bounds (:class:`harness.replay.Tolerances` fields; default 0: exact).
+        Raises :class:`GoldenMismatch` naming the first divergence."""
         from harness.replay import Tolerances, diff
 
         run = self._run
@@ -584,14 +617,21 @@ class Golden:
             raise pytest.UsageError(
                 f"{run.item.nodeid}: golden.check() needs this test's harness_session"
             )
-        run.close_sessions()
         recording = run.recordings[0]
-        shown = _shown(self.path, run.settings.rootdir)
+        session = run.sessions[0]
+        if not session.closed:
+            snapshot = recording.with_name(f"{recording.stem}.snapshot.mcap")
+            session.snapshot(snapshot)
+            if snapshot not in run.snapshots:
+                run.snapshots.append(snapshot)
+            recording = snapshot
+        golden = self.path
+        shown = _shown(golden, run.settings.rootdir)
         if run.settings.update_goldens:
-            _write_atomically(recording, self.path)
-            run.item.config.stash[_GOLDENS_WRITTEN].append(self.path)
+            _write_atomically(recording, golden)
+            run.item.config.stash[_GOLDENS_WRITTEN].append(golden)
             run.golden_note = f"written {shown}"
-        elif not self.path.is_file():
+        elif not golden.is_file():
             run.golden_note = f"missing {shown}"
             pytest.fail(
                 f"golden recording {shown} does not exist; create it with:\n"
@@ -599,7 +639,7 @@ class Golden:
                 pytrace=False,
             )
         bounds: dict[str, Any] = dict(tolerances)
-        report = _without_wall_clock_noise(diff(self.path, recording, Tolerances(**bounds)))
+        report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
         if not report.same:
             first = _first(report.entries)
             run.divergence = _format_entry(first)
@@ -611,34 +651,15 @@ class Golden:
         return report
 
 
-def _bridge_frames_in_run(path: Path) -> int:
-    """Bridge frames that took effect during the run: not disconnect markers, and not frames
-    that arrived after the last step (step > last step)."""
-    from harness.recording import Recording
-
-    with Recording(path) as rec:
-        last = rec.last_step
-        return sum(
-            1 for f in rec.bridge_frames() if f.topic != _DISCONNECT_MARKER and f.step <= last
-        )
-
-
-def _without_wall_clock_noise(report: DiffReport) -> DiffReport:
-    """Drop a ``/harness/bridge`` message-count difference made only of frames whose presence
-    depends on the wall clock, not on the run: disconnect markers, and frames a client sent
-    after the last step (its goodbye ``unsubscribe``, the socket closing) that the session
-    may or may not have received before it ended. They changed nothing in the run."""
-    import dataclasses
-
-    entries = list(report.entries)
-    for i, e in enumerate(entries):
-        if e.quantity == "message_count" and e.name == _BRIDGE_TOPIC:
-            a = _bridge_frames_in_run(Path(report.a))
-            b = _bridge_frames_in_run(Path(report.b))
-            if abs(a - b) <= e.tolerance:
-                del entries[i]
-                return dataclasses.replace(report, entries=tuple(entries))
-    return report
+def mode_label(mode: Any) -> str:
+    """The golden-name suffix of a control mode: ``""`` for the default (every joint
+    ``position``), ``"[kinematic]"``, or the joints that differ, ``"[j1=velocity,j2=effort]"``."""
+    if isinstance(mode, Mapping):
+        changed = sorted((str(j), str(m)) for j, m in mode.items() if m != _DEFAULT_MODE)
+        return f"[{','.join(f'{j}={m}' for j, m in changed)}]" if changed else ""
+    if mode is None or mode == _DEFAULT_MODE:
+        return ""
+    return f"[{mode}]"
 
 
 def _shown(path: Path, rootdir: Path) -> str:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from harness.recording.describe import LoadedRobotLike, RunDescription, describe_run
 from harness.recording.errors import (
+    RecordingDamagedError,
     RecordingDamagedWarning,
     RecordingFormatError,
     RecordingWriteError,
@@ -20,6 +21,7 @@ from harness.recording.records import (
     BridgeFrame,
     CollisionEvent,
     PhysicsState,
+    PhysicsStateArrays,
     RecordedMessage,
 )
 
@@ -31,10 +33,12 @@ __all__ = [
     "FlushInfo",
     "LoadedRobotLike",
     "PhysicsState",
+    "PhysicsStateArrays",
     "RecordedMessage",
     "Recorder",
     "RecorderStats",
     "Recording",
+    "RecordingDamagedError",
     "RecordingDamagedWarning",
     "RecordingFormatError",
     "RecordingWriteError",

@@ -5,6 +5,7 @@ from __future__ import annotations
 from harness.errors import RecordingError
 
 __all__ = [
+    "RecordingDamagedError",
     "RecordingDamagedWarning",
     "RecordingFormatError",
     "RecordingWriteError",
@@ -18,6 +19,11 @@ class RecordingWriteError(RecordingError):
 class RecordingFormatError(RecordingError):
     """A file is not a recording this harness can read (empty, not MCAP, wrong profile,
     missing ``harness`` metadata, newer format version, unusable damage)."""
+
+
+class RecordingDamagedError(RecordingFormatError):
+    """Damage found while reading a chunk whose checks were deferred (``defer_chunk_checks``):
+    the message names the chunk's byte offset."""
 
 
 class RecordingDamagedWarning(UserWarning):

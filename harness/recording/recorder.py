@@ -12,6 +12,7 @@ fails (disk full) is raised by the next ``write_*`` call.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import platform
 import sys
@@ -48,7 +49,11 @@ from harness.recording.layout import (
     typestore,
 )
 
-__all__ = ["FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
+__all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
+
+MAX_RECORDING_BYTES = 16 * 2**30
+"""Default size limit of one recording (16 GiB: hours of full-rate recording of a robot arm;
+a runaway run stops there instead of filling the disk)."""
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -188,6 +193,9 @@ class Recorder:
     ``state_every``: ``write_physics_state`` keeps steps that are multiples of it.
     ``library``: the header's library string (fix it for byte-identical files).
     ``on_flush``: called (from the flushing thread) after each flush.
+    ``max_bytes``: the file's size limit (default :data:`MAX_RECORDING_BYTES`), checked at
+    every flush: beyond it writes fail with :class:`RecordingWriteError` (the file is still
+    closed cleanly).
     """
 
     def __init__(
@@ -202,6 +210,7 @@ class Recorder:
         chunk_size: int = 1024 * 1024,
         library: str | None = None,
         on_flush: Callable[[FlushInfo], None] | None = None,
+        max_bytes: int = MAX_RECORDING_BYTES,
     ) -> None:
         if compression not in _COMPRESSION:
             raise RecordingWriteError(
@@ -211,6 +220,9 @@ class Recorder:
             raise RecordingWriteError(f"state_every must be an integer >= 1, got {state_every!r}")
         if not flush_interval_s > 0:
             raise RecordingWriteError(f"flush_interval_s must be > 0, got {flush_interval_s!r}")
+        if not isinstance(max_bytes, int) or max_bytes < 1:
+            raise RecordingWriteError(f"max_bytes must be an integer >= 1, got {max_bytes!r}")
+        self.max_bytes = max_bytes
         self.path = Path(path)
         self.metadata = build_metadata(metadata, state_every=state_every, compression=compression)
         for name, blob in attachments.items():
@@ -245,17 +257,30 @@ class Recorder:
             enable_crcs=True,
             enable_data_crcs=True,
         )
-        self._writer.start(
-            profile=PROFILE,
-            library=library or f"harness/{__version__} mcap-python/{_package_version('mcap')}",
-        )
-        self._writer.add_metadata(METADATA_NAME, self.metadata)
-        if not attachments:
-            # An MCAP without attachments gets empty index groups that strict doctors flag.
-            attachments = {"harness_msgs.txt": _definitions_text()}
-        for name, blob in attachments.items():
-            self._writer.add_attachment(0, 0, name, _media_type(name), bytes(blob))
-        self._writer.flush()  # type: ignore[no-untyped-call]
+        try:
+            self._writer.start(
+                profile=PROFILE,
+                library=library or f"harness/{__version__} mcap-python/{_package_version('mcap')}",
+            )
+            self._writer.add_metadata(METADATA_NAME, self.metadata)
+            if not attachments:
+                # An MCAP without attachments gets empty index groups that strict doctors flag.
+                attachments = {"harness_msgs.txt": _definitions_text()}
+            for name, blob in attachments.items():
+                self._writer.add_attachment(0, 0, name, _media_type(name), bytes(blob))
+            self._writer.flush()  # type: ignore[no-untyped-call]
+            # Header and attachments reach the file system now: a full disk (or a file size
+            # limit) is reported here, before the run starts, not at the first flush.
+            self._stream.flush()
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                self._stream.close()
+            if self.path.is_file():
+                with contextlib.suppress(OSError):
+                    self.path.unlink()
+            raise RecordingWriteError(
+                f"{self.path}: cannot write recording: {exc.strerror or exc}"
+            ) from None
         self._stop = threading.Event()
         self._thread = threading.Thread(
             target=self._flush_loop, args=(flush_interval_s,), name="harness-recorder", daemon=True
@@ -514,7 +539,15 @@ class Recorder:
         self._flushes += 1
         self._flush_total += seconds
         self._flush_max = max(self._flush_max, seconds)
-        return FlushInfo(self._last_time, self._messages, self._stream.tell(), seconds)
+        size = self._stream.tell()
+        if size > self.max_bytes:
+            # Further writes fail; close() still finishes a valid file.
+            self._failure = RecordingWriteError(
+                f"recording is {size / 2**20:.1f} MiB, over its "
+                f"{self.max_bytes / 2**20:g} MiB limit (max_bytes): recording stopped"
+            )
+            raise self._failure
+        return FlushInfo(self._last_time, self._messages, size, seconds)
 
     def _flush_loop(self, interval: float) -> None:
         while not self._stop.wait(interval):

@@ -1,14 +1,21 @@
 """``Recording``: open a recording, check it, iterate and decode its messages.
 
-Opening walks the whole file once (``scan``: every chunk decompressed and CRC-checked), so a
-truncated or corrupted file opens up to its last good chunk with a
-:class:`~harness.recording.errors.RecordingDamagedWarning` naming the byte offset; iteration
-then reads only the chunks that can hold what is asked for. Messages are decoded with a
-typestore built from the file's own schemas (as rosbags and Foxglove do).
+Opening reads the whole file once, every chunk decompressed and CRC-checked: a complete file
+through its summary and message indexes (``index_scan``), anything else by walking every
+record (``scan``), so a truncated or corrupted file opens up to its last good chunk with a
+:class:`~harness.recording.errors.RecordingDamagedWarning` naming the byte offset (a reader
+that reads everything once anyway can defer the chunk checks to the reads:
+``defer_chunk_checks``). Iteration then decompresses only the chunks that can hold what is
+asked for (the most recent are kept, up to 16 MiB), and in indexed files reads only the
+records asked for. Messages are decoded with a typestore
+built from the file's own schemas (as rosbags and Foxglove do);
+:meth:`Recording.physics_state_arrays` and :meth:`Recording.physics_state_blocks` decode
+physics states in bulk, straight into numpy arrays.
 """
 
 from __future__ import annotations
 
+import functools
 import mmap
 import os
 import warnings
@@ -16,9 +23,11 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
+import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from harness.recording.bulk import decode_physics_states, empty_physics_states
 from harness.recording.errors import RecordingDamagedWarning, RecordingFormatError
 from harness.recording.layout import (
     FORMAT_VERSION,
@@ -28,17 +37,44 @@ from harness.recording.layout import (
     TOPIC_COLLISIONS,
     TOPIC_INPUTS,
     TOPIC_STATE,
+    TYPE_PHYSICS_STATE,
 )
 from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
     CollisionEvent,
     PhysicsState,
+    PhysicsStateArrays,
     RecordedMessage,
 )
-from harness.recording.scan import Problem, Scan, chunk_messages, scan
+from harness.recording.scan import (
+    I64,
+    ChunkInfo,
+    Problem,
+    Scan,
+    chunk_messages,
+    gather,
+    index_scan,
+    message_offsets,
+    read_chunk_data,
+    scan,
+)
 
 __all__ = ["Recording", "TopicInfo"]
+
+_KEPT_BYTES = 16 * 2**20
+"""Decompressed chunks kept for the next reads, the most recent up to this many bytes (so a
+reader of states and inputs side by side, block by block, decompresses each chunk once)."""
+
+
+@functools.lru_cache(maxsize=16)
+def _typestore_for(schemas: tuple[tuple[str, bytes], ...]) -> Typestore:
+    """A typestore of these ``ros2msg`` schemas (shared: recordings of one harness version
+    carry the same ones, and building a store generates code)."""
+    store = get_typestore(Stores.EMPTY)
+    for name, text in schemas:
+        store.register(get_types_from_msg(text.decode("utf-8"), name))
+    return store
 
 
 class TopicInfo(NamedTuple):
@@ -55,10 +91,25 @@ class Recording:
     Raises :class:`~harness.recording.errors.RecordingFormatError` for an empty or non-MCAP
     file, a profile other than ``ros2``, a missing ``harness`` metadata record or a format
     version newer than this harness reads. Damage warns (or raises with ``strict=True``).
+
+    ``defer_chunk_checks``: for a complete file, check each chunk's CRC and message index
+    when the chunk is first read instead of when opening (opening then decompresses
+    nothing; its data-section CRC already covers the compressed bytes). For a reader that
+    reads the whole file once anyway, that saves a decompression of everything; the price is
+    that damage inside a chunk raises :class:`~harness.recording.errors.RecordingDamagedError`
+    from the read that finds it (:meth:`check_chunks` checks what no read touched), and
+    :attr:`problems` cannot list it beforehand.
     """
 
-    def __init__(self, path: str | os.PathLike[str], *, strict: bool = False) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        strict: bool = False,
+        defer_chunk_checks: bool = False,
+    ) -> None:
         self.path = Path(path)
+        self._recent: dict[int, bytes] = {}
         try:
             with open(self.path, "rb") as f:
                 size = os.fstat(f.fileno()).st_size
@@ -67,7 +118,8 @@ class Recording:
             raise RecordingFormatError(f"{self.path}: cannot open: {exc.strerror}") from None
         self._buf = memoryview(self._mmap) if self._mmap is not None else memoryview(b"")
         try:
-            self._scan = scan(self._buf, str(self.path))
+            found = index_scan(self._buf, str(self.path), check_chunks=not defer_chunk_checks)
+            self._scan = found if found is not None else scan(self._buf, str(self.path))
             self._check()
         except BaseException:
             self.close()
@@ -91,6 +143,42 @@ class Recording:
                 ),
                 stacklevel=2,
             )
+
+    def _chunk_data(self, chunk: ChunkInfo) -> bytes:
+        """The decompressed records of ``chunk`` (one of the last few read, or read now)."""
+        data = self._recent.get(chunk.offset)
+        if data is None:
+            data = read_chunk_data(self._buf, chunk, self._scan)
+            kept = len(data)
+            for offset, older in reversed(list(self._recent.items())):
+                kept += len(older)
+                if kept > _KEPT_BYTES:
+                    del self._recent[offset]
+            self._recent[chunk.offset] = data
+        return data
+
+    def check_chunks(self) -> None:
+        """Check every chunk whose checks were deferred and that was not read since
+        (``defer_chunk_checks``); raises
+        :class:`~harness.recording.errors.RecordingDamagedError` at the first damaged one."""
+        by_offset = {c.offset: c for c in self._scan.chunks}
+        for offset in sorted(self._scan.unchecked):
+            read_chunk_data(self._buf, by_offset[offset], self._scan)
+
+    def _record_offsets(self, chunk: ChunkInfo, data: bytes, channels: set[int]) -> I64 | None:
+        """Where the records of ``channels`` start in ``chunk`` (ascending); ``None`` when the
+        chunk holds none of them."""
+        index = self._scan.message_index.get(chunk.offset)
+        found = (
+            {c: index[c] for c in channels if c in index}
+            if index is not None
+            else message_offsets(data, channels)
+        )
+        if not found:
+            return None
+        if len(found) == 1:
+            return next(iter(found.values()))
+        return np.sort(np.concatenate(list(found.values())))
 
     def _check(self) -> None:
         s = self._scan
@@ -136,6 +224,7 @@ class Recording:
         buf = getattr(self, "_buf", None)
         mm = getattr(self, "_mmap", None)
         self._mmap = None
+        self._recent = {}
         try:
             if buf is not None:
                 buf.release()
@@ -158,7 +247,8 @@ class Recording:
 
     @property
     def complete(self) -> bool:
-        """True when the file was closed properly and nothing is damaged."""
+        """True when the file was closed properly and nothing is damaged (with
+        ``defer_chunk_checks``: nothing found so far)."""
         return not self._scan.problems and self._scan.has_summary
 
     @property
@@ -193,6 +283,17 @@ class Recording:
     def end_time_ns(self) -> int:
         """Sim time of the last message (``-1`` when there are none)."""
         return self._scan.end_time
+
+    def time_range(self, topic: str) -> tuple[int, int]:
+        """Sim time of the first and of the last message on ``topic`` (``(-1, -1)``: none)."""
+        ranges = [
+            r
+            for cid, r in self._scan.time_ranges.items()
+            if self._scan.channels[cid].topic == topic
+        ]
+        if not ranges:
+            return -1, -1
+        return min(r[0] for r in ranges), max(r[1] for r in ranges)
 
     @property
     def first_step(self) -> int:
@@ -229,14 +330,14 @@ class Recording:
 
     def _typestore(self) -> Typestore:
         if self._store is None:
-            store = get_typestore(Stores.EMPTY)
             for schema in self._scan.schemas.values():
                 if schema.encoding != "ros2msg":
                     raise RecordingFormatError(
                         f"{self.path}: schema {schema.name!r} is {schema.encoding!r}, not ros2msg"
                     )
-                store.register(get_types_from_msg(schema.data.decode("utf-8"), schema.name))
-            self._store = store
+            self._store = _typestore_for(
+                tuple(sorted((str(x.name), bytes(x.data)) for x in self._scan.schemas.values()))
+            )
         return self._store
 
     def decode(self, message: RecordedMessage) -> Any:
@@ -262,6 +363,7 @@ class Recording:
         }
         if not channels:
             return
+        wanted_ids = set(channels)
         lo = -1 if start_step is None else start_step * self.timestep_ns
         hi = None if stop_step is None else stop_step * self.timestep_ns
         store = self._typestore() if decode else None
@@ -270,13 +372,119 @@ class Recording:
                 continue
             if chunk.channels.isdisjoint(channels):
                 continue
-            for cid, seq, log_time, data in chunk_messages(self._buf, chunk):
+            chunk_data = self._chunk_data(chunk)
+            offsets = self._record_offsets(chunk, chunk_data, wanted_ids)
+            if offsets is None:
+                continue
+            for cid, seq, log_time, data in chunk_messages(chunk_data, offsets):
                 if cid not in channels or log_time < lo or (hi is not None and log_time >= hi):
                     continue
                 topic, msgtype = channels[cid]
                 raw = bytes(data)
                 msg = store.deserialize_cdr(raw, msgtype) if store is not None else None
                 yield RecordedMessage(topic, msgtype, log_time, seq, raw, msg)
+
+    def physics_state_arrays(
+        self, start_step: int | None = None, stop_step: int | None = None
+    ) -> PhysicsStateArrays:
+        """The recorded physics states in ``[start_step, stop_step)`` as arrays (the same
+        values as :meth:`physics_states`, bit for bit), decoded in bulk from the chunks.
+
+        Raises :class:`~harness.recording.errors.RecordingFormatError` when the states change
+        size or state spec within the range (they cannot form one array)."""
+        arrays = decode_physics_states(list(self._state_records(start_step, stop_step)))
+        if arrays is not None:
+            return arrays
+        return self._physics_state_arrays_slowly(start_step, stop_step)
+
+    def physics_state_blocks(
+        self, start_step: int | None = None, stop_step: int | None = None, *, rows: int = 4096
+    ) -> Iterator[PhysicsStateArrays]:
+        """:meth:`physics_state_arrays` in consecutive blocks of whole chunks, about ``rows``
+        states each, for reading a long recording in little memory. Blocks may differ in
+        layout; within one block it is uniform (else the block raises
+        :class:`~harness.recording.errors.RecordingFormatError`)."""
+        pieces: list[tuple[bytes, I64]] = []
+        count = 0
+        for piece in self._state_records(start_step, stop_step):
+            pieces.append(piece)
+            count += piece[1].size
+            if count >= rows:
+                yield self._block(pieces)
+                pieces, count = [], 0
+        if pieces:
+            yield self._block(pieces)
+
+    def _block(self, pieces: list[tuple[bytes, I64]]) -> PhysicsStateArrays:
+        arrays = decode_physics_states(pieces)
+        if arrays is not None:
+            return arrays
+        (head, head_at), (tail, tail_at) = pieces[0], pieces[-1]
+        first = int(gather(np.frombuffer(head, dtype=np.uint8), head_at[:1] + 15, "<u8")[0])
+        last = int(gather(np.frombuffer(tail, dtype=np.uint8), tail_at[-1:] + 15, "<u8")[0])
+        return self._physics_state_arrays_slowly(
+            first // self.timestep_ns, last // self.timestep_ns + 1
+        )
+
+    def _state_records(
+        self, start_step: int | None, stop_step: int | None
+    ) -> Iterator[tuple[bytes, I64]]:
+        """Each chunk holding physics states in ``[start_step, stop_step)``: its decompressed
+        data and where their message records start (ascending)."""
+        s = self._scan
+        channels = {
+            cid
+            for cid, c in s.channels.items()
+            if c.topic == TOPIC_STATE
+            and c.schema_id in s.schemas
+            and s.schemas[c.schema_id].name == TYPE_PHYSICS_STATE
+        }
+        if not channels:
+            return
+        lo = -1 if start_step is None else start_step * self.timestep_ns
+        hi = None if stop_step is None else stop_step * self.timestep_ns
+        for chunk in s.chunks:
+            if chunk.end_time < lo or (hi is not None and chunk.start_time >= hi):
+                continue
+            if chunk.channels.isdisjoint(channels):
+                continue
+            data = self._chunk_data(chunk)
+            offsets = self._record_offsets(chunk, data, channels)
+            if offsets is None:
+                continue
+            if chunk.start_time < lo or (hi is not None and chunk.end_time >= hi):
+                times = gather(np.frombuffer(data, dtype=np.uint8), offsets + 15, "<u8")
+                inside = times.astype(np.int64) >= lo
+                if hi is not None:
+                    inside &= times.astype(np.int64) < hi
+                offsets = offsets[inside]
+            if offsets.size:
+                yield data, offsets
+
+    def _physics_state_arrays_slowly(
+        self, start_step: int | None, stop_step: int | None
+    ) -> PhysicsStateArrays:
+        states = list(self.physics_states(start_step, stop_step))
+        if not states:
+            return empty_physics_states()
+        first = states[0]
+        shape = (first.state.size, first.qpos.size, first.qvel.size, first.state_spec)
+        for s in states:
+            if (s.state.size, s.qpos.size, s.qvel.size, s.state_spec) != shape:
+                raise RecordingFormatError(
+                    f"{self.path}: physics state at step {s.step} has {s.state.size} state, "
+                    f"{s.qpos.size} qpos, {s.qvel.size} qvel values and state_spec "
+                    f"{s.state_spec}; the first (step {first.step}) has {shape[0]}, "
+                    f"{shape[1]}, {shape[2]} and {shape[3]}: the states change layout"
+                )
+        return PhysicsStateArrays(
+            np.array([s.step for s in states], dtype=np.int64),
+            np.array([s.sim_time_ns for s in states], dtype=np.int64),
+            first.state_spec,
+            np.stack([np.asarray(s.state, dtype=np.float64) for s in states]),
+            np.stack([np.asarray(s.qpos, dtype=np.float64) for s in states]),
+            np.stack([np.asarray(s.qvel, dtype=np.float64) for s in states]),
+        )
 
     def _decoded(self, topic: str, start_step: int | None, stop_step: int | None) -> Iterator[Any]:
         for m in self.messages(topic, start_step=start_step, stop_step=stop_step, decode=True):

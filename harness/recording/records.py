@@ -7,7 +7,7 @@ compare by identity; compare fields with numpy.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -17,11 +17,13 @@ __all__ = [
     "BridgeFrame",
     "CollisionEvent",
     "PhysicsState",
+    "PhysicsStateArrays",
     "RecordedMessage",
 ]
 
 F64 = npt.NDArray[np.float64]
 U32 = npt.NDArray[np.uint32]
+I64 = npt.NDArray[np.int64]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -106,3 +108,16 @@ class CollisionEvent:
     normal: tuple[float, float, float]
     duration_ns: int
     distance: float
+
+
+class PhysicsStateArrays(NamedTuple):
+    """Many :class:`PhysicsState` at once, as arrays: row ``i`` of ``state`` (N, nstate),
+    ``qpos`` (N, nq) and ``qvel`` (N, nv) is the state after step ``steps[i]``; one
+    ``state_spec`` for all (zero rows: an empty recording range)."""
+
+    steps: I64
+    sim_time_ns: I64
+    state_spec: int
+    state: F64
+    qpos: F64
+    qvel: F64

@@ -6,23 +6,32 @@ offset) or stop at the first error without saying where; a recording must open u
 good chunk and name the byte offset of the damage. So this module walks the records itself,
 parsing each with ``mcap.records`` and checking every CRC (chunk, attachment, data section,
 summary).
+
+Two passes give the same :class:`Scan`: :func:`index_scan`, for a complete file (footer,
+summary and data-section CRC present and right), takes the messages of each chunk from the
+chunk's message indexes (numpy over the decompressed chunk, checked against it) instead of
+walking every record in Python; :func:`scan` walks everything and is the one that finds and
+names damage. Both decompress and CRC-check every chunk (and keep none of it: reading
+decompresses again, which costs less than holding a whole file's chunks in fresh memory);
+``index_scan(check_chunks=False)`` leaves that to the first :func:`read_chunk_data` of each
+chunk, for readers that read everything once anyway.
 """
 
 from __future__ import annotations
 
 import struct
-import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from io import BytesIO
-from typing import Any
+from typing import Any, NamedTuple
 
+import numpy as np
+import numpy.typing as npt
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import (
     Channel,
-    Chunk,
     ChunkIndex,
     Header,
     Metadata,
@@ -30,16 +39,37 @@ from mcap.records import (
     Statistics,
 )
 
-from harness.recording.errors import RecordingFormatError
+from harness.recording._crc import crc32
+from harness.recording.errors import RecordingDamagedError, RecordingFormatError
 
-__all__ = ["MAGIC", "ChunkInfo", "Problem", "Scan", "chunk_messages", "scan"]
+__all__ = [
+    "MAGIC",
+    "MESSAGE_HEADER_SIZE",
+    "ChunkInfo",
+    "IndexEntries",
+    "Problem",
+    "Scan",
+    "chunk_messages",
+    "entries_match",
+    "gather",
+    "index_scan",
+    "message_offsets",
+    "read_chunk_data",
+    "scan",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_SIZE = 1 + 8 + 20
 _RECORD = struct.Struct("<BQ")
 _U64 = struct.Struct("<Q")
 _MESSAGE = struct.Struct("<HIQQ")
+_MESSAGE_INDEX_HEAD = struct.Struct("<HI")
+_HEAD_BYTES = np.arange(23)
 _KNOWN = {int(op) for op in Opcode}
+# A message record: opcode (1) + length (8) + channel (2) + sequence (4) + log and publish time.
+MESSAGE_HEADER_SIZE = 9 + 22
+
+I64 = npt.NDArray[np.int64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,6 +127,15 @@ class Scan:
     has_summary: bool = False
     summary_crc_checked: bool = False
     summary_checks: int = 0
+    # Chunk offset -> channel id -> byte offsets (ascending) of that channel's message records
+    # in the decompressed chunk; filled by index_scan only.
+    message_index: dict[int, dict[int, I64]] = field(default_factory=dict)
+    indexed: bool = False
+    # Channel id -> log time of its first and of its last message.
+    time_ranges: dict[int, tuple[int, int]] = field(default_factory=dict)
+    # Chunk offset -> index entries of chunks whose contents are still to be checked (CRC,
+    # entries against records): index_scan(check_chunks=False) leaves that to the first read.
+    unchecked: dict[int, IndexEntries] = field(default_factory=dict)
 
     @property
     def message_count(self) -> int:
@@ -111,7 +150,31 @@ def _parse(cls: Any, body: bytes | memoryview) -> Any:
     return cls.read(ReadDataStream(BytesIO(body)))
 
 
-def _decompress(chunk: Chunk) -> bytes:
+class _ChunkHead(NamedTuple):
+    """A chunk record's fields, its compressed records as a view (no copy)."""
+
+    message_start_time: int
+    message_end_time: int
+    uncompressed_size: int
+    uncompressed_crc: int
+    compression: str
+    data: memoryview
+
+
+_CHUNK_HEAD = struct.Struct("<QQQII")
+
+
+def _chunk_head(body: memoryview) -> _ChunkHead:
+    start, end, size, crc, name_length = _CHUNK_HEAD.unpack_from(body, 0)
+    at = _CHUNK_HEAD.size + name_length
+    compression = str(body[_CHUNK_HEAD.size : at], "utf-8")
+    (records_length,) = _U64.unpack_from(body, at)
+    if at + 8 + records_length > len(body):
+        raise _Damage(f"chunk records ({records_length} bytes) overrun the chunk record")
+    return _ChunkHead(start, end, size, crc, compression, body[at + 8 : at + 8 + records_length])
+
+
+def _decompress(chunk: _ChunkHead) -> bytes:
     if chunk.compression == "zstd":
         try:
             return zstandard.ZstdDecompressor().decompress(
@@ -131,14 +194,14 @@ def _decompress(chunk: Chunk) -> bytes:
     raise _Damage(f"unsupported chunk compression {chunk.compression!r}")
 
 
-def _read_chunk(body: memoryview) -> tuple[Chunk, bytes]:
-    chunk = _parse(Chunk, body)
+def _read_chunk(body: memoryview) -> tuple[_ChunkHead, bytes]:
+    chunk = _chunk_head(body)
     data = _decompress(chunk)
     if len(data) != chunk.uncompressed_size:
         raise _Damage(
             f"chunk decompresses to {len(data)} bytes, its header says {chunk.uncompressed_size}"
         )
-    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+    if chunk.uncompressed_crc and crc32(data) != chunk.uncompressed_crc:
         raise _Damage("chunk CRC mismatch")
     return chunk, data
 
@@ -157,19 +220,63 @@ def _records(data: bytes | memoryview, start: int = 0) -> Iterator[tuple[int, in
         pos = end
 
 
-def chunk_messages(buf: memoryview, chunk: ChunkInfo) -> Iterator[tuple[int, int, int, memoryview]]:
-    """``(channel_id, sequence, log_time, data)`` of each message in a (verified) chunk."""
-    _, data = _read_chunk(buf[chunk.offset + 9 : chunk.offset + chunk.length])
+def read_chunk_data(buf: memoryview, chunk: ChunkInfo, opened: Scan | None = None) -> bytes:
+    """The decompressed records of ``chunk``. A chunk the opening pass (``opened``) checked
+    is not checked again (the file is mapped read-only); one it left in
+    :attr:`Scan.unchecked` is checked now (CRC, index entries) and taken off that list; it
+    raises :class:`RecordingDamagedError` naming the byte offset when a check fails."""
+    body = buf[chunk.offset + 9 : chunk.offset + chunk.length]
+    entries = opened.unchecked.get(chunk.offset) if opened is not None else None
+    try:
+        if entries is None:
+            head = _chunk_head(body)
+            data = _decompress(head)
+            if len(data) != head.uncompressed_size:
+                raise _Damage("chunk decompresses to another size than when opened")
+            return data
+        _, data = _read_chunk(body)
+        if not entries_match(data, entries):
+            raise _Damage("the chunk's message index disagrees with its records")
+    except _Damage as exc:
+        raise RecordingDamagedError(f"chunk at byte {chunk.offset}: {exc}") from None
+    assert opened is not None
+    del opened.unchecked[chunk.offset]
+    return data
+
+
+def chunk_messages(
+    data: bytes, offsets: I64 | None = None
+) -> Iterator[tuple[int, int, int, memoryview]]:
+    """``(channel_id, sequence, log_time, data)`` of each message in decompressed chunk
+    ``data``: all of them (a walk over every record), or those whose records start at
+    ``offsets`` (from :func:`message_offsets`), in that order."""
     view = memoryview(data)
-    for opcode, start, end in _records(view):
+    if offsets is None:
+        for opcode, start, end in _records(view):
+            if opcode == Opcode.MESSAGE:
+                channel_id, sequence, log_time, _ = _MESSAGE.unpack_from(view, start)
+                yield channel_id, sequence, log_time, view[start + 22 : end]
+        return
+    for at in offsets.tolist():
+        (length,) = _U64.unpack_from(view, at + 1)
+        channel_id, sequence, log_time, _ = _MESSAGE.unpack_from(view, at + 9)
+        yield channel_id, sequence, log_time, view[at + MESSAGE_HEADER_SIZE : at + 9 + length]
+
+
+def message_offsets(data: bytes, channels: set[int] | frozenset[int]) -> dict[int, I64]:
+    """Byte offsets of the message records of ``channels`` in decompressed chunk ``data``, by
+    channel, found by walking its records (for chunks without a checked message index)."""
+    found: dict[int, list[int]] = {c: [] for c in channels}
+    view = memoryview(data)
+    for opcode, start, _ in _records(view):
         if opcode == Opcode.MESSAGE:
-            channel_id, sequence, log_time, _ = _MESSAGE.unpack_from(view, start)
-            yield channel_id, sequence, log_time, view[start + 22 : end]
+            (channel_id,) = struct.unpack_from("<H", view, start)
+            if channel_id in found:
+                found[channel_id].append(start - 9)
+    return {c: np.array(v, dtype=np.int64) for c, v in found.items() if v}
 
 
-def scan(buf: memoryview, where: str) -> Scan:
-    """Walk ``buf`` (a whole MCAP file); raise :class:`RecordingFormatError` only when nothing
-    can be read (empty, not MCAP, no header). ``where`` names the file in messages."""
+def _header(buf: memoryview, where: str) -> tuple[Header, int]:
     size = len(buf)
     if size == 0:
         raise RecordingFormatError(f"{where}: empty file (0 bytes), not a recording")
@@ -184,12 +291,236 @@ def scan(buf: memoryview, where: str) -> Scan:
         header = _parse(Header, buf[17 : 17 + length])
     except Exception:
         raise RecordingFormatError(f"{where}: corrupt MCAP header at byte 8") from None
-    result = Scan(size=size, header=header)
-    pos = 17 + length
+    return header, 17 + length
+
+
+def scan(buf: memoryview, where: str) -> Scan:
+    """Walk ``buf`` (a whole MCAP file); raise :class:`RecordingFormatError` only when nothing
+    can be read (empty, not MCAP, no header). ``where`` names the file in messages."""
+    header, pos = _header(buf, where)
+    result = Scan(size=len(buf), header=header)
     data_end = _scan_data(buf, pos, result)
     if data_end is not None:
         _scan_summary(buf, data_end, result)
     return result
+
+
+def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Scan | None:
+    """The opening pass of a complete file, through its summary and message indexes; ``None``
+    when the file is not complete and consistent (then :func:`scan` names what is wrong).
+
+    Checks as much as :func:`scan`: every chunk decompressed and CRC-checked, the data-section
+    and summary CRCs (both required here), the summary against the data; and each message
+    index against its chunk: every entry is a message record of that channel with that log
+    time, and log times never go back. Raises like :func:`scan` when nothing can be read.
+
+    ``check_chunks=False`` leaves what needs a chunk's decompressed bytes (its CRC, its index
+    entries against its records) to :func:`read_chunk_data`, the first time the chunk is
+    read: :attr:`Scan.unchecked` lists them. The data-section CRC, checked here, already
+    covers the compressed bytes and the indexes."""
+    header, pos = _header(buf, where)
+    size = len(buf)
+    footer_pos = size - 8 - _FOOTER_SIZE
+    if footer_pos < pos or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
+        return None
+    summary_start, _, summary_crc = struct.unpack_from("<QQI", buf, footer_pos + 9)
+    if not summary_crc or not pos <= summary_start < footer_pos:
+        return None
+    if crc32(buf[summary_start : size - 12]) != summary_crc:
+        return None
+    result = Scan(size=size, header=header)
+    try:
+        indexes = _summary_chunk_indexes(buf[summary_start:footer_pos], result)
+        data_end = _index_data(buf, pos, summary_start, indexes, result, check_chunks)
+    except Exception:  # any inconsistency at all: the full walk finds it and names it
+        return None
+    if data_end is None:
+        return None
+    _scan_summary(buf, data_end, result)
+    if result.problems or not result.has_summary:
+        return None
+    result.indexed = True
+    return result
+
+
+def _summary_chunk_indexes(section: memoryview, result: Scan) -> dict[int, ChunkIndex]:
+    """Schemas and channels into ``result``; the chunk indexes by chunk offset."""
+    indexes: dict[int, ChunkIndex] = {}
+    for opcode, start, end in _records(section):
+        if opcode == Opcode.SCHEMA:
+            schema = _parse(Schema, section[start:end])
+            result.schemas[schema.id] = schema
+        elif opcode == Opcode.CHANNEL:
+            channel = _parse(Channel, section[start:end])
+            result.channels[channel.id] = channel
+        elif opcode == Opcode.CHUNK_INDEX:
+            index: ChunkIndex = _parse(ChunkIndex, section[start:end])
+            indexes[index.chunk_start_offset] = index
+    return indexes
+
+
+def _index_data(
+    buf: memoryview,
+    pos: int,
+    limit: int,
+    indexes: dict[int, ChunkIndex],
+    result: Scan,
+    check_chunks: bool,
+) -> int | None:
+    """Walk the data section's top-level records (chunks, not their contents) up to
+    ``limit``; return the end of the DataEnd record, or ``None`` on anything irregular."""
+    last_time = -1
+    while True:
+        if pos + 9 > limit:
+            return None
+        opcode, length = _RECORD.unpack_from(buf, pos)
+        end = pos + 9 + int(length)
+        if end > limit or (opcode not in _KNOWN and opcode < 0x80):
+            return None
+        body = buf[pos + 9 : end]
+        if opcode == Opcode.CHUNK:
+            index = indexes.get(pos)
+            if index is None or index.chunk_length != end - pos:
+                return None
+            chunk = _chunk_head(body)
+            if (index.message_start_time, index.message_end_time, index.uncompressed_size) != (
+                chunk.message_start_time,
+                chunk.message_end_time,
+                chunk.uncompressed_size,
+            ):
+                return None
+            entries = _chunk_message_index(buf, limit, chunk.uncompressed_size, index, result)
+            if entries is None:
+                return None
+            if check_chunks:
+                _, data = _read_chunk(body)
+                if not entries_match(data, entries):
+                    return None
+            else:
+                result.unchecked[pos] = entries
+            offsets, times = _by_channel(entries, result), entries.times
+            messages = sum(o.size for o in offsets.values())
+            if messages:
+                if (
+                    int(times[0]) < last_time
+                    or int(times[0]) != chunk.message_start_time
+                    or int(times[-1]) != chunk.message_end_time
+                ):
+                    return None
+                last_time = int(times[-1])
+                if result.start_time < 0:
+                    result.start_time = chunk.message_start_time
+                result.end_time = max(result.end_time, chunk.message_end_time)
+            for channel_id, o in offsets.items():
+                result.counts[channel_id] = result.counts.get(channel_id, 0) + o.size
+            info = ChunkInfo(
+                pos,
+                end - pos,
+                chunk.message_start_time,
+                chunk.message_end_time,
+                frozenset(offsets),
+                messages,
+            )
+            result.chunks.append(info)
+            result.message_index[pos] = offsets
+        elif opcode == Opcode.DATA_END:
+            (crc,) = struct.unpack_from("<I", body, 0)
+            if not crc or crc32(buf[:pos]) != crc:
+                return None
+            result.data_crc_checked = True
+            return end
+        elif opcode in (Opcode.METADATA, Opcode.ATTACHMENT, Opcode.SCHEMA, Opcode.CHANNEL):
+            _data_record(opcode, pos, body, result, last_time)
+        elif opcode == Opcode.MESSAGE:
+            return None
+        pos = end
+
+
+class IndexEntries(NamedTuple):
+    """A chunk's message index entries, in record order: where each record starts in the
+    decompressed chunk, its log time, its channel."""
+
+    where: I64
+    times: I64
+    channels: npt.NDArray[np.uint16]
+
+
+def _chunk_message_index(
+    buf: memoryview, limit: int, size: int, index: ChunkIndex, result: Scan
+) -> IndexEntries | None:
+    """The chunk's message index entries, checked as far as the indexes alone allow (records
+    inside the ``size`` bytes of the chunk, distinct, log times never going back); ``None``
+    when they are not right."""
+    channels: list[int] = []
+    tables: list[npt.NDArray[np.uint64]] = []
+    for channel_id, at in index.message_index_offsets.items():
+        if channel_id not in result.channels or at + 15 > limit:
+            return None
+        opcode, length = _RECORD.unpack_from(buf, at)
+        channel_in_record, table_size = _MESSAGE_INDEX_HEAD.unpack_from(buf, at + 9)
+        if (
+            opcode != Opcode.MESSAGE_INDEX
+            or at + 9 + length > limit
+            or channel_in_record != channel_id
+            or table_size % 16
+            or 6 + table_size != length
+        ):
+            return None
+        if table_size:
+            channels.append(channel_id)
+            tables.append(np.frombuffer(buf, dtype="<u8", count=table_size // 8, offset=at + 15))
+    if not tables:
+        empty = np.empty(0, dtype=np.int64)
+        return IndexEntries(empty, empty, np.empty(0, dtype=np.uint16))
+    pairs = np.concatenate(tables).reshape(-1, 2)
+    if int(pairs[:, 1].max()) + MESSAGE_HEADER_SIZE > size:
+        return None
+    order = np.argsort(pairs[:, 1], kind="stable")
+    where = pairs[order, 1].astype(np.int64)
+    times = pairs[order, 0].astype(np.int64)
+    sizes = [t.size // 2 for t in tables]
+    channel_of = np.repeat(np.array(channels, dtype=np.uint16), sizes)[order]
+    if np.any(np.diff(where) <= 0) or np.any(np.diff(times) < 0):
+        return None
+    return IndexEntries(where, times, channel_of)
+
+
+def entries_match(data: bytes, entries: IndexEntries) -> bool:
+    """Is every index entry a message record of its channel with its log time in ``data``
+    (the decompressed chunk), the records inside it?"""
+    if entries.where.size == 0:
+        return True
+    # Each entry's record head: opcode, length, channel, sequence, log time.
+    head = np.frombuffer(data, dtype=np.uint8)[entries.where[:, None] + _HEAD_BYTES]
+    lengths = np.ascontiguousarray(head[:, 1:9]).view("<u8")[:, 0]
+    return not (
+        np.any(head[:, 0] != Opcode.MESSAGE)
+        or np.any(lengths < 22)
+        or np.any(lengths > len(data))
+        or np.any(entries.where + 9 + lengths.astype(np.int64) > len(data))
+        or np.any(np.ascontiguousarray(head[:, 9:11]).view("<u2")[:, 0] != entries.channels)
+        or np.any(np.ascontiguousarray(head[:, 15:23]).view("<i8")[:, 0] != entries.times)
+    )
+
+
+def _by_channel(entries: IndexEntries, result: Scan) -> dict[int, I64]:
+    """Record offsets by channel; each channel's time range into ``result``."""
+    offsets: dict[int, I64] = {}
+    for channel_id in np.unique(entries.channels).tolist():
+        mine = entries.channels == channel_id
+        offsets[channel_id] = entries.where[mine]
+        times = entries.times[mine]
+        first = result.time_ranges.get(channel_id, (int(times[0]), 0))[0]
+        result.time_ranges[channel_id] = (first, int(times[-1]))
+    return offsets
+
+
+def gather(chunk_bytes: npt.NDArray[np.uint8], at: I64, dtype: str) -> npt.NDArray[Any]:
+    """The little-endian values of ``dtype`` starting at byte offsets ``at``."""
+    width = np.dtype(dtype).itemsize
+    picked = chunk_bytes[at[:, None] + np.arange(width)]
+    values: npt.NDArray[Any] = picked.view(dtype)[:, 0]
+    return values
 
 
 def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
@@ -235,7 +566,7 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
             (crc,) = struct.unpack_from("<I", body, 0)
             if crc:
                 result.data_crc_checked = True
-                if zlib.crc32(buf[:pos]) != crc:
+                if crc32(buf[:pos]) != crc:
                     result.problems.append(Problem(pos, "data section CRC mismatch"))
             return end
         pos = end
@@ -268,20 +599,21 @@ def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_tim
                 channels.add(channel_id)
                 messages += 1
                 result.counts[channel_id] = result.counts.get(channel_id, 0) + 1
+                first = result.time_ranges.get(channel_id, (log_time, 0))[0]
+                result.time_ranges[channel_id] = (first, log_time)
         if messages:
             if result.start_time < 0:
                 result.start_time = chunk.message_start_time
             result.end_time = max(result.end_time, chunk.message_end_time)
-        result.chunks.append(
-            ChunkInfo(
-                pos,
-                9 + len(body),
-                chunk.message_start_time,
-                chunk.message_end_time,
-                frozenset(channels),
-                messages,
-            )
+        info = ChunkInfo(
+            pos,
+            9 + len(body),
+            chunk.message_start_time,
+            chunk.message_end_time,
+            frozenset(channels),
+            messages,
         )
+        result.chunks.append(info)
     elif opcode == Opcode.METADATA:
         result.metadata.append(_parse(Metadata, body))
     elif opcode == Opcode.ATTACHMENT:
@@ -308,7 +640,7 @@ def _attachment(pos: int, body: memoryview) -> AttachmentInfo:
     if data_offset + data_length + 4 != len(body):
         raise _Damage(f"attachment {name!r} has an inconsistent length")
     (crc,) = struct.unpack_from("<I", body, data_offset + data_length)
-    if crc and zlib.crc32(body[: data_offset + data_length]) != crc:
+    if crc and crc32(body[: data_offset + data_length]) != crc:
         raise _Damage(f"attachment {name!r} CRC mismatch")
     return AttachmentInfo(pos, name, media_type, pos + 9 + data_offset, data_length)
 
@@ -332,7 +664,7 @@ def _scan_summary(buf: memoryview, data_end: int, result: Scan) -> None:
         return
     if summary_crc:
         result.summary_crc_checked = True
-        if zlib.crc32(buf[region_start : size - 12]) != summary_crc:
+        if crc32(buf[region_start : size - 12]) != summary_crc:
             result.problems.append(Problem(region_start, "summary CRC mismatch"))
             return
     if not summary_start:

@@ -20,7 +20,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--level",
         choices=("physics", "full"),
         default="physics",
-        help="physics: states from inputs; full: also the bridge pipeline",
+        help=(
+            "physics: states from inputs; full: also re-run the session's bridge pipeline "
+            "and compare every frame, applied input and state"
+        ),
     )
     parser.add_argument(
         "--mode",

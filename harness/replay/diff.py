@@ -8,7 +8,9 @@ The engine of golden tests (the pytest plugin's ``golden.check(**tolerances)`` c
 - ``link_position`` (m) / ``link_rotation`` (rad): every body's world pose, by forward
   kinematics of the recorded ``qpos`` on recording A's model;
 - ``collisions``: begin/end events matched by (kind, body pair) within ``collision_time_ns``;
-- ``message_count``: messages per topic (``/harness/bridge`` frames included).
+- ``message_count``: messages per topic (``/harness/bridge`` frames included; with
+  ``ignore_after_last_step``, the ``/harness/bridge`` frames after the last step are not
+  counted: see :func:`frames_after_last_step`).
 
 Bytes are never compared (headers carry library versions). A quantity differs when
 ``|b - a| > tolerance``; every differing quantity is one :class:`DiffEntry` naming the first
@@ -27,10 +29,11 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.recording import CollisionEvent, Recording
+from harness.recording.layout import TOPIC_BRIDGE
 from harness.replay.layout import StateLayout, rotation_angle
 from harness.replay.source import open_recording, read_states, resolve_model
 
-__all__ = ["DiffEntry", "DiffReport", "Tolerances", "diff"]
+__all__ = ["DiffEntry", "DiffReport", "Tolerances", "diff", "frames_after_last_step"]
 
 F64 = npt.NDArray[np.float64]
 _KINDS = {0: "begin", 1: "end", 2: "near_miss"}
@@ -184,18 +187,51 @@ def _match_collisions(
     return out
 
 
+def frames_after_last_step(rec: Recording) -> int:
+    """How many ``/harness/bridge`` frames of ``rec`` come after its last step: from the
+    first incoming frame or marker recorded with ``step`` > :attr:`Recording.last_step`
+    (applied at a boundary no step followed: sent after the last step, or the session's
+    close) to the end, in recorded order, the outgoing frames they caused included. Whether
+    a client's frames sent while a session closes arrive in time is wall-clock timing
+    (:mod:`harness.session.session`, "Closing"); nothing before them is."""
+    if TOPIC_BRIDGE not in rec.topics:
+        return 0
+    last = rec.last_step
+    total = 0
+    cut: int | None = None
+    for i, frame in enumerate(rec.bridge_frames()):
+        total = i + 1
+        if cut is None and frame.direction == 0 and frame.step > last:
+            cut = i
+    return 0 if cut is None else total - cut
+
+
+def _counts(rec: Recording, ignore_after_last_step: bool) -> dict[str, int]:
+    counts = {t: i.messages for t, i in rec.topics.items()}
+    if ignore_after_last_step and TOPIC_BRIDGE in counts:
+        counts[TOPIC_BRIDGE] -= frames_after_last_step(rec)
+    return counts
+
+
 def diff(
-    a: str | Path, b: str | Path, tolerances: Tolerances | None = None, **overrides: float
+    a: str | Path,
+    b: str | Path,
+    tolerances: Tolerances | None = None,
+    *,
+    ignore_after_last_step: bool = False,
+    **overrides: float,
 ) -> DiffReport:
     """Compare recordings ``a`` and ``b``; ``tolerances`` (or keyword overrides of
-    :class:`Tolerances` fields, e.g. ``joint_position=1e-9``) bound each quantity."""
+    :class:`Tolerances` fields, e.g. ``joint_position=1e-9``) bound each quantity.
+    ``ignore_after_last_step``: leave the ``/harness/bridge`` frames after each recording's
+    last step out of its message count (:func:`frames_after_last_step`; golden tests)."""
     tol = (tolerances or Tolerances())._replace(**overrides)  # type: ignore[arg-type]
     entries: list[DiffEntry] = []
     with open_recording(a) as ra, open_recording(b) as rb:
         model, _ = resolve_model(ra)
         sa, sb = read_states(ra), read_states(rb)
-        counts_a = {t: i.messages for t, i in ra.topics.items()}
-        counts_b = {t: i.messages for t, i in rb.topics.items()}
+        counts_a = _counts(ra, ignore_after_last_step)
+        counts_b = _counts(rb, ignore_after_last_step)
         events_a, events_b = _events(ra), _events(rb)
     common, ia, ib = np.intersect1d(sa.steps, sb.steps, return_indices=True)
     if not np.array_equal(sa.steps, sb.steps):

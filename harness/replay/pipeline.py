@@ -1,38 +1,521 @@
-"""``--level full``: re-run the recorded incoming bridge frames through a fresh protocol core
-and session pipeline without sockets, and compare applied inputs and outgoing frames.
+"""``--level full``: re-run a session recording's incoming bridge frames through a fresh
+session core without sockets and compare everything it produces with the recording.
 
-That needs the session's socket-free entry point (frames in at a step, frames and applied
-inputs out). Until :mod:`harness.session` provides one, the full level is refused with this
-explanation rather than pretending: physics verification is unaffected.
+The core is :class:`harness.session.core.SessionCore`, the code the live
+:class:`~harness.session.Session` runs (protocol, command handling, publishing schedule,
+services, recording outputs), rebuilt from the recording: the robot from its source
+attachments (physics from ``model.mjb`` when attached), the session options from the metadata
+(:meth:`~harness.session.core.CoreOptions.from_metadata`). Each recorded incoming frame and
+marker is applied at the step boundary it was recorded at (``step - 1``); between them the
+core steps as recorded (a ``/harness/step`` call steps inside the core, Python or free-running
+steps are taken up to the next frame's step, then up to the last recorded step). Compared, in
+the order they are produced, bit for bit: every ``/harness/bridge`` frame (step, sim time,
+direction, connection, seq, op, topic, exact text or bytes), every applied input and every
+physics state. The first difference ends the replay and is reported.
+
+Replayable clock modes: all three. ``lockstep`` steps only on recorded requests; ``fast`` and
+``realtime`` steps by themselves, but the step at which each frame took effect is recorded,
+which is all the core needs (wall-clock pacing never reaches the core). Inputs that are not
+client frames are recorded as markers (a socket closing, a wall-clock service-call timeout, a
+status the transport sent by itself, Python ``command``/``set_positions``/``reset``/
+``pause`` calls). Refused: client-mode recordings (the session was a client of an external
+server: no frames to replay), recordings made with ``record_bridge_frames=False`` and
+recordings not made by a session. Not reproducible from the
+file: frames published by Python loggers (pass the same ``loggers``).
 """
 
 from __future__ import annotations
 
-import importlib
+import contextlib
+import dataclasses
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Literal
 
-from harness.replay.errors import LevelUnavailableError
+import mujoco
+import numpy as np
+import numpy.typing as npt
 
-__all__ = ["ENTRY_POINT", "check_pipeline_available"]
+from harness.errors import HarnessError
+from harness.events import EventHub, Logger
+from harness.models import LoadedRobot
+from harness.recording import AppliedInput, BridgeFrame, Recording
+from harness.replay.errors import LevelUnavailableError, RecordedDataError
+from harness.replay.source import open_recording, read_states, rebuild_robot, resolve_model
+from harness.session.core import CoreOptions, SessionCore, is_marker
 
-ENTRY_POINT = "harness.session:replay_pipeline"
-"""Where the socket-free pipeline is expected: ``replay_pipeline(recording) -> iterator of
-(step, applied input, outgoing frames)``."""
+__all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
+
+MismatchKind = Literal["frame", "input", "state", "schedule"]
+_EXCERPT = 160
+_INPUT_FIELDS = (
+    "ctrl",
+    "qpos_index",
+    "qpos_value",
+    "qvel_index",
+    "qvel_value",
+    "mocap_pos",
+    "mocap_quat",
+    "qfrc_applied",
+    "xfrc_applied",
+)
 
 
-def check_pipeline_available() -> None:
-    """Raise :class:`LevelUnavailableError` unless the session's socket-free pipeline exists."""
-    module_name, attribute = ENTRY_POINT.split(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError:
-        module = None
-    if module is None or not callable(getattr(module, attribute, None)):
-        raise LevelUnavailableError(
-            f"--level full needs the session's socket-free pipeline ({ENTRY_POINT}), which this "
-            "harness build does not provide yet; use --level physics (the default), which "
-            "verifies the physics bit for bit"
+@dataclass(frozen=True)
+class PipelineMismatch:
+    """The first thing the re-run pipeline did not reproduce. ``kind``: an outgoing or
+    incoming ``frame``, an applied ``input``, a physics ``state``, or the ``schedule`` (a
+    frame recorded at a step the re-run had already passed). ``what`` says which field
+    differs; ``expected``/``actual`` are excerpts around the first difference ("" when
+    there is no such record)."""
+
+    kind: MismatchKind
+    step: int
+    sim_time_ns: int
+    connection: int | None
+    direction: str  # "in", "out" or "" (inputs, states)
+    op: str
+    topic: str
+    what: str
+    expected: str
+    actual: str
+    index: int  # position in the recorded sequence of its kind
+
+    def format(self) -> str:
+        """Lines for the CLI."""
+        where = f"step {self.step} (sim time {self.sim_time_ns / 1e9:.6f} s)"
+        if self.kind == "frame":
+            head = (
+                f"PIPELINE DIVERGED at {where}: {self.direction}going frame #{self.index} on "
+                f"connection {self.connection}, op {self.op or '-'!r}, topic "
+                f"{self.topic or '-'!r}: {self.what}"
+            )
+        else:
+            head = f"PIPELINE DIVERGED at {where}: {self.kind} #{self.index}: {self.what}"
+        return "\n".join(
+            [
+                head,
+                f"  expected: {self.expected or '(none)'}",
+                f"  actual:   {self.actual or '(none)'}",
+            ]
         )
-    raise LevelUnavailableError(
-        f"--level full: {ENTRY_POINT} exists but harness.replay does not drive it yet; use "
-        "--level physics"
+
+
+@dataclass(frozen=True)
+class PipelineReport:
+    """The outcome of :func:`replay_pipeline`."""
+
+    reproduced: bool
+    steps: int
+    frames_compared: int
+    inputs_compared: int
+    states_compared: int
+    markers: int
+    mismatch: PipelineMismatch | None
+    wall_seconds: float = dataclasses.field(compare=False)
+    notes: tuple[str, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict."""
+        return asdict(self)
+
+    def format(self) -> str:
+        """A human-readable summary."""
+        lines = [f"note: {n}" for n in self.notes]
+        counts = (
+            f"{self.frames_compared} bridge frames ({self.markers} markers), "
+            f"{self.inputs_compared} applied inputs, {self.states_compared} states"
+        )
+        if self.mismatch is None:
+            lines.append(f"PIPELINE REPRODUCED: {counts} over {self.steps} steps")
+        else:
+            lines.append(self.mismatch.format())
+            lines.append(f"  matched before it: {counts}")
+        return "\n".join(lines)
+
+
+def _excerpt(expected: str, actual: str) -> tuple[str, str]:
+    """Both texts around their first difference (``...`` where cut)."""
+    n = min(len(expected), len(actual))
+    i = next((j for j in range(n) if expected[j] != actual[j]), n)
+    start = max(0, i - _EXCERPT // 2)
+
+    def cut(text: str) -> str:
+        part = text[start : start + _EXCERPT]
+        return ("..." if start else "") + part + ("..." if start + _EXCERPT < len(text) else "")
+
+    return cut(expected), cut(actual)
+
+
+def _payload_text(frame: BridgeFrame) -> str:
+    return frame.data.hex() if frame.binary else frame.text
+
+
+def _bits(values: npt.ArrayLike, dtype: type) -> bytes:
+    return np.ascontiguousarray(np.asarray(values, dtype=dtype)).tobytes()
+
+
+class _Checker:
+    """A :class:`~harness.session.core.RecordSink` comparing what the core writes with the
+    recording, as it is written; keeps the first mismatch and ignores everything after it."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        frames: Sequence[BridgeFrame],
+        inputs: Sequence[AppliedInput],
+        state_steps: npt.NDArray[np.int64],
+        states: npt.NDArray[np.float64],
+        dt_ns: int,
+    ) -> None:
+        self.model = model
+        self.frames = frames
+        self.inputs = inputs
+        self.state_steps = state_steps
+        self.states = states
+        self.dt_ns = dt_ns
+        self.frame_at = 0
+        self.input_at = 0
+        self.state_at = 0
+        self.markers = 0
+        self.mismatch: PipelineMismatch | None = None
+
+    def _fail(self, mismatch: PipelineMismatch) -> None:
+        if self.mismatch is None:
+            self.mismatch = mismatch
+
+    # -- RecordSink ------------------------------------------------------------------
+
+    def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
+        """Published messages are built from the state and commands compared here."""
+
+    def write_bridge_frame(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        direction: int,
+        connection: int,
+        seq: int,
+        op: str,
+        topic: str,
+        text: str | None = None,
+        data: bytes | None = None,
+    ) -> None:
+        if self.mismatch is not None:
+            return
+        actual = BridgeFrame(
+            step, sim_time_ns, direction, connection, seq, op, topic,
+            data is not None, text or "", data or b"",
+        )  # fmt: skip
+        i = self.frame_at
+        self.frame_at += 1
+        if i >= len(self.frames):
+            self._frame_mismatch(i, None, actual, "the re-run produced a frame the recording lacks")
+            return
+        expected = self.frames[i]
+        for name in ("direction", "connection", "op", "topic", "binary", "text", "data",
+                     "step", "sim_time_ns", "seq"):  # fmt: skip
+            if getattr(expected, name) != getattr(actual, name):
+                self._frame_mismatch(i, expected, actual, f"{name} differs")
+                return
+        if is_marker(direction, connection, op, topic):
+            self.markers += 1
+
+    def _frame_mismatch(
+        self, i: int, expected: BridgeFrame | None, actual: BridgeFrame | None, what: str
+    ) -> None:
+        ref = expected if expected is not None else actual
+        assert ref is not None
+        exp_text = _payload_text(expected) if expected is not None else ""
+        act_text = _payload_text(actual) if actual is not None else ""
+        exp_text, act_text = _excerpt(exp_text, act_text)
+        if expected is not None and actual is not None and what != "text differs":
+            exp_text = f"step {expected.step} seq {expected.seq} conn {expected.connection} " + (
+                exp_text
+            )
+            act_text = f"step {actual.step} seq {actual.seq} conn {actual.connection} " + act_text
+        self._fail(
+            PipelineMismatch(
+                kind="frame",
+                step=ref.step,
+                sim_time_ns=ref.sim_time_ns,
+                connection=ref.connection,
+                direction="in" if ref.direction == 0 else "out",
+                op=ref.op,
+                topic=ref.topic,
+                what=what,
+                expected=exp_text,
+                actual=act_text,
+                index=i,
+            )
+        )
+
+    def write_applied_input(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        ctrl: npt.ArrayLike,
+        kinematic_joints: Sequence[str] = (),
+        qpos_index: npt.ArrayLike = (),
+        qpos_value: npt.ArrayLike = (),
+        qvel_index: npt.ArrayLike = (),
+        qvel_value: npt.ArrayLike = (),
+        mocap_pos: npt.ArrayLike = (),
+        mocap_quat: npt.ArrayLike = (),
+        qfrc_applied: npt.ArrayLike = (),
+        xfrc_applied: npt.ArrayLike = (),
+    ) -> None:
+        if self.mismatch is not None:
+            return
+        actual = {
+            "ctrl": ctrl, "qpos_index": qpos_index, "qpos_value": qpos_value,
+            "qvel_index": qvel_index, "qvel_value": qvel_value, "mocap_pos": mocap_pos,
+            "mocap_quat": mocap_quat, "qfrc_applied": qfrc_applied,
+            "xfrc_applied": xfrc_applied,
+        }  # fmt: skip
+        i = self.input_at
+        self.input_at += 1
+        if i >= len(self.inputs) or self.inputs[i].step > step:
+            self._fail(self._input_missing(i, step, "the re-run applied a new input here"))
+            return
+        expected = self.inputs[i]
+        if expected.step < step:
+            self._fail(self._input_missing(i, expected.step, "the re-run applied no new input"))
+            return
+        if tuple(expected.kinematic_joints) != tuple(kinematic_joints):
+            self._fail(
+                self._input(i, step, "kinematic_joints differ", expected.kinematic_joints,
+                            tuple(kinematic_joints))
+            )  # fmt: skip
+            return
+        for name in _INPUT_FIELDS:
+            dtype = np.uint32 if name.endswith("_index") else np.float64
+            want = np.asarray(getattr(expected, name), dtype=dtype)
+            got = np.asarray(actual[name], dtype=dtype).reshape(-1)
+            if _bits(want, dtype) == _bits(got, dtype):
+                continue
+            if want.shape != got.shape:
+                self._fail(self._input(i, step, f"{name} has {got.size} values, not {want.size}",
+                                       want.tolist(), got.tolist()))  # fmt: skip
+                return
+            want_bytes = np.ascontiguousarray(want).view(np.uint8).reshape(want.size, -1)
+            got_bytes = np.ascontiguousarray(got).view(np.uint8).reshape(got.size, -1)
+            j = int(np.flatnonzero((want_bytes != got_bytes).any(axis=1))[0])
+            label = f"{name}[{j}]"
+            if name == "ctrl":
+                actuator = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, j)
+                label += f" ({actuator})" if actuator else ""
+            self._fail(self._input(i, step, f"{label} differs", want[j].item(), got[j].item()))
+            return
+
+    def _input(self, i: int, step: int, what: str, expected: Any, actual: Any) -> PipelineMismatch:
+        return PipelineMismatch(
+            kind="input",
+            step=step,
+            sim_time_ns=step * self.dt_ns,
+            connection=None,
+            direction="",
+            op="",
+            topic="/harness/inputs",
+            what=what,
+            expected=repr(expected),
+            actual=repr(actual),
+            index=i,
+        )
+
+    def _input_missing(self, i: int, step: int, what: str) -> PipelineMismatch:
+        recorded = self.inputs[i].step if i < len(self.inputs) else None
+        return self._input(
+            i,
+            step,
+            what,
+            f"next recorded input at step {recorded}" if recorded is not None else "none",
+            f"an input at step {step}" if "new input here" in what else "none",
+        )
+
+    def after_step(self, k: int) -> None:
+        """Inputs the recording has at or before step ``k`` and the re-run did not apply."""
+        if self.mismatch is None and self.input_at < len(self.inputs):
+            expected = self.inputs[self.input_at]
+            if expected.step <= k:
+                self._fail(
+                    self._input_missing(
+                        self.input_at, expected.step, "the re-run applied no new input"
+                    )
+                )
+
+    def write_physics_state(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None:
+        if self.mismatch is not None:
+            return
+        i = self.state_at
+        self.state_at += 1
+        if i >= len(self.state_steps) or int(self.state_steps[i]) != step:
+            recorded = int(self.state_steps[i]) if i < len(self.state_steps) else None
+            self._fail(
+                PipelineMismatch(
+                    "state", step, sim_time_ns, None, "", "", "/harness/state",
+                    "the re-run recorded a state the recording does not have here",
+                    f"state at step {recorded}" if recorded is not None else "none",
+                    f"state at step {step}", i,
+                )
+            )  # fmt: skip
+            return
+        got = np.asarray(state, dtype=np.float64)
+        want = self.states[i]
+        if got.tobytes() != want.tobytes():
+            j = int(np.flatnonzero(got.view(np.uint64) != want.view(np.uint64))[0])
+            self._fail(
+                PipelineMismatch(
+                    "state", step, sim_time_ns, None, "", "", "/harness/state",
+                    f"state value {j} differs", repr(float(want[j])), repr(float(got[j])), i,
+                )
+            )  # fmt: skip
+
+
+def _session_robot(rec: Recording) -> LoadedRobot:
+    robot = rebuild_robot(rec)
+    expected = rec.metadata.get("model_sha256", "")
+    if expected and robot.sha256 != expected:
+        raise RecordedDataError(
+            f"{rec.path}: the source attachments rebuild to a model whose MJCF SHA-256 "
+            f"{robot.sha256[:12]}... is not the recorded {expected[:12]}...: --level full needs "
+            "the robot the session ran"
+        )
+    model, _ = resolve_model(rec)  # the exact binary model when attached
+    return dataclasses.replace(robot, model=model)
+
+
+def replay_pipeline(
+    path: str | Path,
+    *,
+    allow_damaged: bool = False,
+    loggers: Iterable[Logger] = (),
+    progress: Callable[[int, int], None] | None = None,
+) -> PipelineReport:
+    """Re-run the session recording at ``path`` through a fresh :class:`SessionCore` and
+    compare its frames, inputs and states with the recording (see the module docstring).
+    Raises :class:`LevelUnavailableError` for recordings the pipeline cannot re-run."""
+    started = time.perf_counter()
+    with open_recording(path, allow_damaged=allow_damaged) as rec:
+        metadata = rec.metadata
+        if "clock" not in metadata:
+            raise LevelUnavailableError(
+                f"{path}: not a session recording (no 'clock' in the metadata): --level full "
+                "re-runs a Session's bridge pipeline; use --level physics"
+            )
+        if metadata.get("transport") == "client":
+            raise LevelUnavailableError(
+                f"{path}: recorded by a session in client mode (connected to an external "
+                "rosbridge server): its bridge frames were not recorded, so --level full "
+                "cannot re-run them; use --level physics"
+            )
+        if metadata.get("bridge_frames") == "false":
+            raise LevelUnavailableError(
+                f"{path}: recorded with record_bridge_frames=False (scenario "
+                "recording.bridge_frames: false): there are no bridge frames to re-run, so "
+                "--level full cannot; use --level physics"
+            )
+        try:
+            options = CoreOptions.from_metadata(metadata)
+        except HarnessError as exc:
+            raise RecordedDataError(f"{path}: {exc}") from None
+        robot = _session_robot(rec)
+        frames = list(rec.bridge_frames())
+        inputs = list(rec.applied_inputs())
+        states = read_states(rec)
+        dt_ns = rec.timestep_ns
+        notes = [
+            "damaged recording, re-ran up to the damage: " + "; ".join(str(p) for p in rec.problems)
+        ] if rec.problems else []  # fmt: skip
+    checker = _Checker(robot.model, frames, inputs, states.steps, states.state, dt_ns)
+    hub = EventHub()
+    for logger in loggers:
+        hub.add_logger(logger)
+    core = SessionCore(robot, options, recorder=checker, hub=hub)
+    bridge = core.bridge
+    assert bridge is not None
+    sim = core.sim
+    core.after_step.append(lambda: checker.after_step(sim.step_index))
+    final = max(
+        [int(states.steps[-1])]
+        + [f.step if f.direction == 1 else f.step - 1 for f in frames]
+        + [i.step for i in inputs]
+    )
+
+    def advance_to(target: int) -> None:
+        while sim.step_index < target and checker.mismatch is None and core.failure is None:
+            with contextlib.suppress(Exception):  # the core keeps it as its failure, as live
+                core.advance()
+            bridge.drain()
+            if progress is not None:
+                progress(sim.step_index, final)
+
+    core.start()
+    core.publish_initial()
+    bridge.drain()
+    for frame in frames:
+        if checker.mismatch is not None:
+            break
+        if frame.direction != 0:
+            continue
+        target = frame.step - 1
+        advance_to(target)
+        if checker.mismatch is not None:
+            break
+        if sim.step_index != target:
+            checker._fail(
+                PipelineMismatch(
+                    "schedule", frame.step, frame.sim_time_ns, frame.connection, "in", frame.op,
+                    frame.topic,
+                    f"recorded as applied before step {frame.step}, but the re-run is at step "
+                    f"{sim.step_index}" + (f" and failed: {core.failure}" if core.failure else ""),
+                    f"boundary before step {frame.step}", f"step {sim.step_index}",
+                    checker.frame_at,
+                )
+            )  # fmt: skip
+            break
+        core.replay_frame(frame.connection, frame.op, frame.topic, frame.payload)
+        bridge.drain()
+    advance_to(final)
+    if checker.mismatch is None:
+        core.finish()
+        bridge.drain()
+    if checker.mismatch is None and checker.frame_at < len(frames):
+        checker._frame_mismatch(
+            checker.frame_at, frames[checker.frame_at], None, "the re-run did not produce it"
+        )
+    if checker.mismatch is None and checker.input_at < len(inputs):
+        checker.after_step(inputs[checker.input_at].step)
+    if checker.mismatch is None and checker.state_at < len(states.steps):
+        i = checker.state_at
+        step = int(states.steps[i])
+        checker._fail(
+            PipelineMismatch(
+                "state", step, step * dt_ns, None, "", "", "/harness/state",
+                "the re-run did not record this state", f"state at step {step}", "none", i,
+            )
+        )  # fmt: skip
+    return PipelineReport(
+        reproduced=checker.mismatch is None,
+        steps=sim.step_index,
+        frames_compared=checker.frame_at,
+        inputs_compared=checker.input_at,
+        states_compared=checker.state_at,
+        markers=checker.markers,
+        mismatch=checker.mismatch,
+        wall_seconds=time.perf_counter() - started,
+        notes=tuple(notes),
     )

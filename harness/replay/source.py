@@ -11,9 +11,8 @@ Which model a recording is replayed with, in order of preference:
    exact only for models that were written at full precision (hand-written MJCF); its SHA-256
    must equal ``model_sha256``.
 
-Recorded states are decoded in bulk: every ``PhysicsState`` of one recording has the same
-layout (one model), so the CDR bytes of all of them form one ``(N, L)`` byte matrix whose
-float64 columns are viewed directly (checked against the length fields of every row).
+Recorded states are decoded in bulk, straight from the decompressed chunks
+(:meth:`harness.recording.Recording.physics_state_arrays`).
 """
 
 from __future__ import annotations
@@ -22,9 +21,9 @@ import hashlib
 import json
 import tempfile
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -33,7 +32,7 @@ import numpy.typing as npt
 from harness.errors import HarnessError
 from harness.models import DEMO_URDF, SCENES, LoadedRobot, load_robot
 from harness.models.description import CONTROL_MODES, ControlMode
-from harness.recording import Recording
+from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
 from harness.recording.layout import ATTACHMENT_MODEL, ATTACHMENT_SOURCE_PREFIX, TOPIC_STATE
 from harness.replay.errors import (
     ModelAttachmentError,
@@ -45,6 +44,7 @@ from harness.sim.inputs import AppliedInput
 __all__ = [
     "ATTACHMENT_MJB",
     "RecordedStates",
+    "check_chunks",
     "check_states_fit",
     "check_version",
     "control_modes",
@@ -53,6 +53,7 @@ __all__ = [
     "read_states",
     "rebuild_robot",
     "resolve_model",
+    "state_blocks",
 ]
 
 F64 = npt.NDArray[np.float64]
@@ -62,12 +63,16 @@ ATTACHMENT_MJB = "model.mjb"
 """The exact binary model (``mj_saveModel``): what bit-exact replay needs."""
 
 
-def open_recording(path: str | Path, *, allow_damaged: bool = False) -> Recording:
+def open_recording(
+    path: str | Path, *, allow_damaged: bool = False, defer_chunk_checks: bool = False
+) -> Recording:
     """Open ``path``; a truncated or corrupted file is refused (naming the byte offset)
-    unless ``allow_damaged``, which replays what precedes the damage."""
+    unless ``allow_damaged``, which replays what precedes the damage.
+    ``defer_chunk_checks``: see :class:`~harness.recording.Recording` (damage inside a chunk
+    of a complete file is then refused when the chunk is read)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        rec = Recording(path)
+        rec = Recording(path, defer_chunk_checks=defer_chunk_checks)
     if rec.problems and not allow_damaged:
         text = "; ".join(str(p) for p in rec.problems)
         rec.close()
@@ -76,6 +81,22 @@ def open_recording(path: str | Path, *, allow_damaged: bool = False) -> Recordin
             "(allow_damaged=True) to replay what precedes the damage"
         )
     return rec
+
+
+def _damaged(rec: Recording, exc: RecordingDamagedError) -> RecordedDataError:
+    return RecordedDataError(
+        f"{rec.path}: the recording is damaged ({exc}); pass --allow-damaged "
+        "(allow_damaged=True) to replay what precedes the damage"
+    )
+
+
+def check_chunks(rec: Recording) -> None:
+    """Check the chunks the replay did not read (deferred checks): every chunk's CRC is
+    checked before a replay is reported."""
+    try:
+        rec.check_chunks()
+    except RecordingDamagedError as exc:
+        raise _damaged(rec, exc) from None
 
 
 def check_version(rec: Recording, *, tolerant: bool) -> str:
@@ -221,74 +242,69 @@ class RecordedStates(NamedTuple):
     state_spec: int
 
 
-def _column(blob: bytes, rows: int, length: int, offset: int, dtype: str, n: int) -> Any:
-    """``n`` values of ``dtype`` at byte ``offset`` of each of ``rows`` rows of ``length``
-    bytes in ``blob``, as a contiguous ``(rows, n)`` array (a strided view, then one copy)."""
-    view = np.ndarray(
-        shape=(rows, n), dtype=dtype, buffer=blob, offset=offset,
-        strides=(length, np.dtype(dtype).itemsize),
-    )  # fmt: skip
-    return view.copy()
+def state_blocks(
+    rec: Recording, model: mujoco.MjModel, *, rows: int = 4096
+) -> Iterator[RecordedStates]:
+    """The recorded physics states in consecutive blocks of about ``rows`` (whole chunks;
+    :meth:`~harness.recording.Recording.physics_state_blocks`), each checked: sizes
+    fit ``model``, one state spec throughout, steps increasing, ``sim_time_ns == step *
+    timestep_ns``. Raises :class:`~harness.replay.errors.RecordedDataError` at the first
+    block that fails, and when there are no states at all."""
+    spec: int | None = None
+    previous = -1
+    dt_ns = rec.timestep_ns
+    try:
+        for arrays in rec.physics_state_blocks(rows=rows):
+            block = RecordedStates(
+                arrays.steps, arrays.sim_time_ns, arrays.state, arrays.qpos, arrays.qvel,
+                arrays.state_spec,
+            )  # fmt: skip
+            steps = block.steps
+            if spec is None:
+                spec = block.state_spec
+            elif block.state_spec != spec:
+                raise RecordedDataError(
+                    f"{rec.path}: physics state at step {int(steps[0])} has state_spec "
+                    f"{block.state_spec}, the first has {spec}"
+                )
+            check_states_fit(rec, model, block)
+            order = np.diff(steps, prepend=previous)
+            if np.any(order <= 0):
+                i = int(np.flatnonzero(order <= 0)[0])
+                after = int(steps[i - 1]) if i else previous
+                raise RecordedDataError(
+                    f"{rec.path}: physics state at step {int(steps[i])} follows step {after}"
+                )
+            wrong_time = np.flatnonzero(block.sim_time_ns != steps * dt_ns)
+            if wrong_time.size:
+                i = int(wrong_time[0])
+                raise RecordedDataError(
+                    f"{rec.path}: physics state at step {int(steps[i])} has sim_time_ns "
+                    f"{int(block.sim_time_ns[i])}, not step * dt_ns = {int(steps[i]) * dt_ns}"
+                )
+            previous = int(steps[-1])
+            yield block
+    except RecordingDamagedError as exc:
+        raise _damaged(rec, exc) from None
+    except RecordingFormatError as exc:
+        raise RecordedDataError(str(exc)) from None
+    if spec is None:
+        raise RecordedDataError(f"{rec.path}: no physics states on {TOPIC_STATE}")
 
 
 def read_states(
     rec: Recording, start_step: int | None = None, stop_step: int | None = None
 ) -> RecordedStates:
-    """The recorded physics states in ``[start_step, stop_step)`` as arrays."""
-    raws = [m.data for m in rec.messages(TOPIC_STATE, start_step=start_step, stop_step=stop_step)]
-    if not raws:
+    """The recorded physics states in ``[start_step, stop_step)`` as arrays (decoded in bulk
+    by :meth:`~harness.recording.Recording.physics_state_arrays`)."""
+    try:
+        arrays = rec.physics_state_arrays(start_step, stop_step)
+    except RecordingFormatError as exc:
+        raise RecordedDataError(str(exc)) from None
+    if arrays.steps.size == 0:
         raise RecordedDataError(f"{rec.path}: no physics states on {TOPIC_STATE}")
-    length = len(raws[0])
-    if any(len(r) != length for r in raws) or raws[0][:2] != b"\x00\x01":
-        return _read_states_slowly(rec, start_step, stop_step)
-    count = len(raws)
-    blob = b"".join(raws)
-    first = raws[0]
-    # CDR payload offsets (alignment is relative to the payload, after the 4-byte header).
-    nstate = int.from_bytes(first[24:28], "little")
-    nq_at = 28 + 8 * nstate
-    nq = int.from_bytes(first[nq_at : nq_at + 4], "little") if nq_at + 4 <= length else -1
-    nv_at = 36 + 8 * (nstate + nq)
-    nv = int.from_bytes(first[nv_at : nv_at + 4], "little") if nv_at + 4 <= length else -1
-    if nq < 0 or nv < 0 or 44 + 8 * (nstate + nq + nv) != length:
-        return _read_states_slowly(rec, start_step, stop_step)
-    sizes_ok = (
-        np.all(_column(blob, count, length, 24, "<u4", 1) == nstate)
-        and np.all(_column(blob, count, length, nq_at, "<u4", 1) == nq)
-        and np.all(_column(blob, count, length, nv_at, "<u4", 1) == nv)
-    )
-    if not sizes_ok:
-        return _read_states_slowly(rec, start_step, stop_step)
-    spec = _column(blob, count, length, 20, "<u4", 1)[:, 0]
-    if np.any(spec != spec[0]):
-        raise RecordedDataError(f"{rec.path}: physics states use different state_spec values")
     return RecordedStates(
-        _column(blob, count, length, 4, "<u8", 1)[:, 0].astype(np.int64),
-        _column(blob, count, length, 12, "<i8", 1)[:, 0].astype(np.int64),
-        _column(blob, count, length, 28, "<f8", nstate).astype(np.float64),
-        _column(blob, count, length, 36 + 8 * nstate, "<f8", nq).astype(np.float64),
-        _column(blob, count, length, 44 + 8 * (nstate + nq), "<f8", nv).astype(np.float64),
-        int(spec[0]),
-    )
-
-
-def _read_states_slowly(
-    rec: Recording, start_step: int | None, stop_step: int | None
-) -> RecordedStates:
-    states = list(rec.physics_states(start_step, stop_step))
-    shapes = {(s.state.size, s.qpos.size, s.qvel.size, s.state_spec) for s in states}
-    if len(shapes) != 1:
-        raise RecordedDataError(
-            f"{rec.path}: physics states change size or state_spec during the run "
-            f"(first at step {states[0].step}: {sorted(shapes)[:2]})"
-        )
-    return RecordedStates(
-        np.array([s.step for s in states], dtype=np.int64),
-        np.array([s.sim_time_ns for s in states], dtype=np.int64),
-        np.stack([np.asarray(s.state, dtype=np.float64) for s in states]),
-        np.stack([np.asarray(s.qpos, dtype=np.float64) for s in states]),
-        np.stack([np.asarray(s.qvel, dtype=np.float64) for s in states]),
-        states[0].state_spec,
+        arrays.steps, arrays.sim_time_ns, arrays.state, arrays.qpos, arrays.qvel, arrays.state_spec
     )
 
 
@@ -309,11 +325,23 @@ def check_states_fit(rec: Recording, model: mujoco.MjModel, states: RecordedStat
         )
 
 
-def read_inputs(rec: Recording, model: mujoco.MjModel) -> list[AppliedInput]:
-    """The applied inputs in step order, checked against ``model``'s sizes."""
+def read_inputs(
+    rec: Recording,
+    model: mujoco.MjModel,
+    start_step: int | None = None,
+    stop_step: int | None = None,
+    *,
+    after: int = -1,
+) -> list[AppliedInput]:
+    """The applied inputs in ``[start_step, stop_step)`` in step order, checked against
+    ``model``'s sizes; ``after``: the step of the input before them (they must follow it)."""
     out: list[AppliedInput] = []
-    previous = -1
-    for r in rec.applied_inputs():
+    previous = after
+    try:
+        recorded = list(rec.applied_inputs(start_step, stop_step))
+    except RecordingDamagedError as exc:
+        raise _damaged(rec, exc) from None
+    for r in recorded:
         where = f"{rec.path}: applied input at step {r.step}"
         if r.step <= previous:
             raise RecordedDataError(f"{where} follows step {previous}: inputs out of order")

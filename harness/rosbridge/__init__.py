@@ -10,6 +10,7 @@ ROS 2 message validation and a client for external rosbridge servers. Knows noth
 """
 
 from harness.rosbridge.client import BridgeClient
+from harness.rosbridge.errors import ExposedServerWarning
 from harness.rosbridge.protocol import (
     DEFERRED,
     DIRECTION_IN,
@@ -22,7 +23,7 @@ from harness.rosbridge.protocol import (
     ServiceCall,
     TapRecord,
 )
-from harness.rosbridge.server import BridgeServer, ConnectionMetrics
+from harness.rosbridge.server import BridgeServer, ConnectionMetrics, is_loopback
 from harness.rosbridge.types import TypeRegistry
 
 __all__ = [
@@ -34,10 +35,12 @@ __all__ = [
     "BridgeClient",
     "BridgeServer",
     "ConnectionMetrics",
+    "ExposedServerWarning",
     "FrameTap",
     "Message",
     "Output",
     "ServiceCall",
     "TapRecord",
     "TypeRegistry",
+    "is_loopback",
 ]

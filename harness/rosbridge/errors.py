@@ -7,6 +7,7 @@ from harness.errors import BridgeError
 __all__ = [
     "ClientError",
     "ConversionError",
+    "ExposedServerWarning",
     "FrameError",
     "TypeNameError",
     "UnknownTypeError",
@@ -31,3 +32,8 @@ class ConversionError(BridgeError):
 
 class ClientError(BridgeError):
     """The client for an external rosbridge server could not connect or was closed."""
+
+
+class ExposedServerWarning(UserWarning):
+    """A server was asked to listen on a non-loopback address (reachable from other
+    machines); issued once per server start."""

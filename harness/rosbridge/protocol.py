@@ -16,6 +16,7 @@ number. The same inputs in the same order produce the same frames, byte for byte
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import math
 import re
@@ -409,7 +410,27 @@ class Bridge:
                 self._goal_result(key, f"Action {goal.action.name} server disconnected", 0, False)
             elif goal.caller == connection:
                 self._drop_goal(key)
+                self._cancel_orphaned_goal(goal)
         return self.drain()
+
+    def _cancel_orphaned_goal(self, pending: _PendingGoal) -> None:
+        """Tell the action server to stop working on a goal whose client left (the goal is
+        already dropped: whatever the server sends for it goes nowhere)."""
+        goal = pending.goal
+        if goal is not None:
+            goal.cancel_requested = True
+            if goal.on_cancel is not None:
+                with contextlib.suppress(Exception):  # the client is gone: nobody to tell
+                    goal.on_cancel(goal)
+        elif pending.provider_id is not None and pending.action.provider in self._conns:
+            frame = {
+                "op": "cancel_action_goal",
+                "id": pending.provider_id,
+                "action": pending.action.spelled,
+            }
+            self._send(
+                pending.action.provider, dumps(frame), "cancel_action_goal", pending.action.name
+            )
 
     # -- outputs ------------------------------------------------------------------------
 

@@ -18,20 +18,27 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import hmac
+import ipaddress
 import time
+import urllib.parse
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from http import HTTPStatus
 from types import TracebackType
 from typing import Any
 
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
 from websockets.protocol import State
 
-from harness.rosbridge.errors import FrameError
+from harness.errors import ConfigError
+from harness.rosbridge.errors import ExposedServerWarning, FrameError
 from harness.rosbridge.protocol import Bridge, Output
 
-__all__ = ["BridgeServer", "ConnectionMetrics"]
+__all__ = ["BridgeServer", "ConnectionMetrics", "is_loopback"]
 
 _CLOSE = object()
 _TIMEOUT = object()
@@ -97,10 +104,39 @@ def _write_batch(peer: _Peer) -> None:
     _write_frames(peer, batch)
 
 
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` names only this machine (``localhost``, 127.0.0.0/8, ``::1``)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def _presented_token(request: Request) -> str | None:
+    """The token a client presents: ``?token=`` on the URL, else ``Authorization: Bearer``."""
+    query = urllib.parse.parse_qs(urllib.parse.urlsplit(request.path).query)
+    if query.get("token"):
+        return query["token"][0]
+    auth = request.headers.get("Authorization", "")
+    scheme, _, value = auth.partition(" ")
+    return value.strip() if scheme.lower() == "bearer" else None
+
+
 class BridgeServer:
     """Serve ``bridge`` over WebSocket on ``host:port`` (port 0: any free port, see
     :attr:`url`). ``clock`` returns the ``now_ns`` passed to the bridge in immediate mode
-    (default: wall time, for standalone use; the session passes sim time)."""
+    (default: wall time, for standalone use; the session passes sim time).
+
+    Safe defaults: the server binds the loopback interface unless ``host`` says otherwise
+    (then :class:`ExposedServerWarning` is issued at :meth:`start`); frames larger than
+    ``max_size`` bytes close their connection (WebSocket close code 1009). With ``token``,
+    a client must present it, either as a ``token`` query parameter of the WebSocket URL
+    (``ws://host:port/?token=SECRET``: roslibjs ``new Ros({url})``, roslibpy
+    ``Ros("ws://host:port/?token=SECRET")``) or as an ``Authorization: Bearer SECRET``
+    header (roslibpy ``Ros(host, port, headers=...)``); any other handshake is refused with
+    HTTP 401 before a single frame is read. :attr:`url` includes the token."""
 
     def __init__(
         self,
@@ -115,9 +151,13 @@ class BridgeServer:
         ping_timeout: float | None = 20.0,
         send_queue_bytes: int = 256 * 2**20,
         max_pending: int = 100_000,
+        token: str | None = None,
     ) -> None:
+        if token is not None and not token:
+            raise ConfigError("token must be a non-empty string (or None for no token)")
         self.bridge = bridge if bridge is not None else Bridge()
         self.host = host
+        self.token = token
         self.port = port
         self.queued = queued
         self.clock = clock if clock is not None else time.time_ns
@@ -147,6 +187,13 @@ class BridgeServer:
         self._loop = asyncio.get_running_loop()
         self.bridge.on_pending = self._schedule_flush
         self.bridge.on_call_started = self._start_timer
+        if not is_loopback(self.host):
+            warnings.warn(
+                f"rosbridge server on {self.host!r}: reachable from other machines "
+                f"({'token required' if self.token else 'no token: anyone can drive the robot'})",
+                ExposedServerWarning,
+                stacklevel=2,
+            )
         self._server = await serve(
             self._handle,
             self.host,
@@ -155,14 +202,33 @@ class BridgeServer:
             ping_interval=self.ping_interval,
             ping_timeout=self.ping_timeout,
             compression=None,
+            process_request=self._check_token if self.token is not None else None,
         )
         self.port = self._server.sockets[0].getsockname()[1]
         return self.url
 
+    def _check_token(self, connection: ServerConnection, request: Request) -> Response | None:
+        assert self.token is not None
+        presented = _presented_token(request)
+        if presented is not None and hmac.compare_digest(
+            presented.encode("utf-8"), self.token.encode("utf-8")
+        ):
+            return None
+        reason = "no token presented" if presented is None else "wrong token"
+        return connection.respond(
+            HTTPStatus.UNAUTHORIZED,
+            f"{reason}: this rosbridge server requires ?token=... on the URL "
+            "or an Authorization: Bearer header\n",
+        )
+
     @property
     def url(self) -> str:
-        """``ws://host:port`` actually bound."""
-        return f"ws://{self.host}:{self.port}"
+        """``ws://host:port`` actually bound (with ``/?token=...`` when a token is
+        required: hand it to clients as is)."""
+        base = f"ws://{self.host}:{self.port}"
+        if self.token is None:
+            return base
+        return f"{base}/?{urllib.parse.urlencode({'token': self.token})}"
 
     async def stop(self) -> None:
         """Close every connection and stop listening."""

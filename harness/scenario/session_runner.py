@@ -12,20 +12,21 @@ scenario's bridge address, recording to the iteration's ``recording.mcap``, with
 - an observer that hashes every step's ``mjSTATE_INTEGRATION`` state (initial state first),
   tracks joint ranges against limits and samples joint traces for the report.
 
-Then, by clock and client:
+The Session runs in the scenario's own clock mode (the recording's metadata says which) and
+records bridge frames unless ``recording.bridge_frames`` is false. Then, by clock and client:
 
 - with a client command: the client starts once the bridge listens, with
   ``HARNESS_ROSBRIDGE_URL`` (:func:`harness.scenario.client.run_client`). ``lockstep``: the client
-  moves time with ``/harness/step``; ``fast``: the runner steps as fast as it can once the client
-  connected; ``realtime``: the same, paced to wall time x ``clock.rate``. The iteration ends when
-  the client exits, or at the sim-time limit (the client is then stopped), or at the readiness
-  or wall-time limit; the client's whole process group is stopped with escalation.
-- without a client command: the runner steps the sim-time limit itself (paced in ``realtime``)
-  with the robot holding its initial command: a settling and stability check of the world.
+  moves time with ``/harness/step``; ``fast`` and ``realtime`` (x ``clock.rate``): the Session's
+  clock starts when the client connects (``start="on_client"``). The iteration ends when the
+  client exits, or at the sim-time limit (the client is then stopped), or at the readiness or
+  wall-time limit; the client's whole process group is stopped with escalation.
+- without a client command: the world runs the sim-time limit with the robot holding its
+  initial command (``lockstep``: the runner steps; ``fast``/``realtime``: the Session's clock
+  runs): a settling and stability check of the world.
 
-Fast and realtime clocks are driven by the runner through a lockstep Session (the Session's own
-free-running clock starts stepping in its constructor, before a client could connect); frames
-are applied at every step boundary either way, and the run stops exactly at the limit.
+A free-running clock pauses exactly at the limit (:meth:`harness.session.Session.pause_at`);
+frames are applied at every step boundary in every mode.
 
 A client command whose program is ``python`` or ``python3`` runs with the interpreter running
 the harness (so clients shipped in ``scenarios/clients`` find roslibpy and harness).
@@ -36,7 +37,6 @@ from __future__ import annotations
 import hashlib
 import math
 import sys
-import threading
 import time
 from dataclasses import dataclass, replace
 from typing import Any
@@ -85,7 +85,7 @@ from harness.scenario.scenario import (
 )
 from harness.scenario.scenario import LoggingConfig as ScenarioLogging
 from harness.scenario.world import build_robot, joint_command_topic, kinematic_limits
-from harness.session import Session, SessionError
+from harness.session import Session, SessionError, StartMode
 
 __all__ = ["SessionHost", "SessionIterationRunner", "logging_section", "steps_for"]
 
@@ -121,15 +121,6 @@ def logging_section(config: ScenarioLogging) -> dict[str, Any]:
     return section
 
 
-def _connections_seen(session: Session) -> int:
-    # The Session has no public "a client connected" signal yet: its embedded server keeps one
-    # metrics entry per connection ever accepted (never removed), which is exactly that.
-    port = getattr(session, "_port", None)
-    server = getattr(port, "server", None)
-    metrics = getattr(server, "metrics", None)
-    return len(metrics) if isinstance(metrics, dict) else 0
-
-
 class SessionHost:
     """A :class:`~harness.scenario.client.BridgeHost` over a running Session."""
 
@@ -143,7 +134,7 @@ class SessionHost:
 
     def client_connected(self) -> bool:
         """True once any client connected to the session's bridge."""
-        return _connections_seen(self._session) > 0
+        return self._session.clients_seen > 0
 
     def sim_time(self) -> float:
         """Simulation seconds reached (infinite once the simulation failed: nothing more can
@@ -330,60 +321,17 @@ def _client_command(client: ClientSpec) -> ClientSpec:
     return client
 
 
-class _Stepper:
-    """Steps the session to ``limit`` steps from the calling thread or a background thread
-    (fast: as fast as possible; realtime: paced to wall time x ``rate``), optionally only once
-    a client connected. ``stop()`` ends it at the next chunk."""
-
-    def __init__(
-        self,
-        session: Session,
-        host: SessionHost,
-        limit: int,
-        *,
-        realtime_rate: float | None,
-        wait_for_client: bool,
-        chunk: int,
-    ) -> None:
-        self._session = session
-        self._host = host
-        self._limit = limit
-        self._rate = realtime_rate
-        self._wait = wait_for_client
-        self._chunk = chunk
-        self._stop = threading.Event()
-        self.error: BaseException | None = None
-        self._thread: threading.Thread | None = None
-
-    def run(self) -> None:
-        try:
-            self._run()
-        except SessionError as exc:
-            self.error = exc
-
-    def _run(self) -> None:
-        while self._wait and not self._host.client_connected():
-            if self._stop.wait(0.01):
-                return
-        session = self._session
-        start_step = session.step_index
-        start_wall = time.monotonic()
-        dt = session.dt_ns / 1e9
-        k = start_step
-        while not self._stop.is_set() and k < self._limit:
-            k = session.step(min(self._chunk, self._limit - k))
-            if self._rate is not None:
-                due = start_wall + (k - start_step) * dt / self._rate
-                self._stop.wait(max(0.0, due - time.monotonic()))
-
-    def start(self) -> None:
-        self._thread = threading.Thread(target=self.run, name="harness-run-stepper", daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join()
+def _run_world(session: Session, limit: int, chunk: int) -> None:
+    """Without a client: run the world to ``limit`` steps (lockstep: in chunks from here; a
+    free-running clock: its own, paused at the limit)."""
+    if session.clock == "lockstep":
+        k = session.step_index
+        while k < limit:
+            k = session.step(min(chunk, limit - k))
+        return
+    session.resume()
+    budget = (limit - session.step_index) * session.dt_ns / 1e9
+    session.run_until(lambda: session.sim.step_index >= limit, sim_timeout=budget)
 
 
 @dataclass(frozen=True)
@@ -391,7 +339,7 @@ class SessionIterationRunner:
     """Runs one iteration in a Session (see the module docstring). ``grace``: seconds a
     client gets between SIGTERM and SIGKILL; ``trace_samples``: about how many samples the
     report's joint plots get; ``chunk``: steps handed to the session at once when the runner
-    drives the clock."""
+    drives a lockstep clock without a client."""
 
     grace: float = 3.0
     trace_samples: int = 500
@@ -418,10 +366,17 @@ class SessionIterationRunner:
         collect = CollectingSink(min_level=Level.INFO)
         sinks: list[Sink] = [*_sinks(scenario), collect]
         scenario_text = scenario.source.read_bytes() if scenario.source is not None else None
+        clock = scenario.clock
+        start: StartMode = "now"
+        if clock.mode != "lockstep":
+            start = "paused" if spec.client is None else "on_client"
         session = Session(
             loaded,
             kinematic_limits=kinematic_limits(robot_spec),
-            clock="lockstep",
+            clock=clock.mode,
+            rate=clock.rate,
+            start=start,
+            record_bridge_frames=scenario.recording.bridge_frames,
             host=spec.host,
             port=spec.port,
             record_to=spec.recording_path if scenario.recording.enabled else None,
@@ -439,31 +394,21 @@ class SessionIterationRunner:
         try:
             host = SessionHost(session)
             port = int(session.url.rsplit(":", 1)[1])
-            clock = scenario.clock
-            stepper = _Stepper(
-                session,
-                host,
-                limit,
-                realtime_rate=clock.rate if clock.mode == "realtime" else None,
-                wait_for_client=spec.client is not None,
-                chunk=self.chunk,
-            )
+            if clock.mode != "lockstep":
+                session.pause_at(limit)  # before the clock starts
             if spec.client is None:
-                stepper.run()
-            else:
-                if clock.mode != "lockstep":
-                    stepper.start()
                 try:
-                    outcome = run_client(
-                        _client_command(spec.client),
-                        host,
-                        spec.sim_time_limit,
-                        spec.out_dir / "client.log",
-                        self.grace,
-                    )
-                finally:
-                    stepper.stop()
-            stepper_error = stepper.error
+                    _run_world(session, limit, self.chunk)
+                except SessionError as exc:
+                    stepper_error = exc
+            else:
+                outcome = run_client(
+                    _client_command(spec.client),
+                    host,
+                    spec.sim_time_limit,
+                    spec.out_dir / "client.log",
+                    self.grace,
+                )
             failure = session.failure
         finally:
             session.close()

@@ -1,8 +1,20 @@
-"""The session: one run of a simulated robot on the rosbridge bridge (:class:`Session`), its
-command topics (:mod:`harness.session.commands`) and ``harness serve``."""
+"""The session: one run of a simulated robot on the rosbridge bridge (:class:`Session`, a thin
+shell around the sans-I/O :class:`SessionCore`), its command topics
+(:mod:`harness.session.commands`) and ``harness serve``."""
 
 from harness.session.commands import FORWARD_TOPICS, Trajectory
+from harness.session.core import (
+    DEFAULT_MAX_STEP_REQUEST,
+    MARKERS,
+    START_MODES,
+    CoreOptions,
+    RecordSink,
+    SessionCore,
+    StartMode,
+    is_marker,
+)
 from harness.session.errors import (
+    ClientTimeoutError,
     CommandRefused,
     SessionClosedError,
     SessionConfigError,
@@ -13,15 +25,24 @@ from harness.session.session import CLOCK_MODES, ClockMode, LoggerFactory, Sessi
 
 __all__ = [
     "CLOCK_MODES",
+    "DEFAULT_MAX_STEP_REQUEST",
     "FORWARD_TOPICS",
+    "MARKERS",
+    "START_MODES",
+    "ClientTimeoutError",
     "ClockMode",
     "CommandRefused",
+    "CoreOptions",
     "LoggerFactory",
+    "RecordSink",
     "Session",
     "SessionClosedError",
     "SessionConfigError",
+    "SessionCore",
     "SessionError",
     "SessionTopics",
     "SimTimeoutError",
+    "StartMode",
     "Trajectory",
+    "is_marker",
 ]

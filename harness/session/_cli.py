@@ -2,16 +2,18 @@
 
 Prints the URL on its first line (``harness serve: ws://127.0.0.1:PORT ...``); on SIGINT or
 SIGTERM it closes the session cleanly (the recording, when ``--record``, is complete) and
-prints the step reached.
+prints the step reached. ``--token`` (or ``$HARNESS_TOKEN``) makes clients present a token
+(``ws://host:port/?token=...``; the printed URL carries it).
 """
 
 from __future__ import annotations
 
 import argparse
-import ipaddress
+import os
 import signal
 import sys
 import threading
+import warnings
 from types import FrameType
 
 from harness.models.description import CONTROL_MODES
@@ -43,27 +45,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--namespace", default="", help="robot topics under /NAMESPACE/")
     parser.add_argument("--scene", default=None, help="scene name or MJCF world file")
     parser.add_argument("--record", metavar="PATH", default=None, help="record the run to MCAP")
-
-
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
+    parser.add_argument(
+        "--token",
+        default=os.environ.get("HARNESS_TOKEN") or None,
+        help="clients must present this token: ws://HOST:PORT/?token=TOKEN "
+        "(default: $HARNESS_TOKEN; none when unset)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGINT/SIGTERM; exit 0 after a clean shutdown."""
+    from harness.rosbridge import ExposedServerWarning, is_loopback
     from harness.session.session import Session
 
-    if not _is_loopback(args.host):
+    if not is_loopback(args.host):
+        guard = "clients must present the token" if args.token else "no token: use --token"
         print(
             f"harness serve: warning: binding {args.host} exposes the simulation to the "
-            "network; the rosbridge protocol has no authentication",
+            f"network; {guard}",
             file=sys.stderr,
         )
+    # this line says it once; the server's own ExposedServerWarning would repeat it
+    warnings.filterwarnings("ignore", category=ExposedServerWarning)
     stop = threading.Event()
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -80,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
             namespace=args.namespace,
             host=args.host,
             port=args.port,
+            token=args.token,
             record_to=args.record,
             scene=args.scene,
         ) as session:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from harness.errors import ConfigError, HarnessError
 
 __all__ = [
+    "ClientTimeoutError",
     "CommandRefused",
     "SessionClosedError",
     "SessionConfigError",
@@ -31,3 +32,7 @@ class SimTimeoutError(SessionError):
 
 class CommandRefused(SessionError):
     """A command message was refused; the message is the status text sent to its client."""
+
+
+class ClientTimeoutError(SessionError):
+    """No client connected within the wall-clock readiness timeout."""

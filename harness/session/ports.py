@@ -9,20 +9,16 @@ from collections.abc import Callable, Coroutine, Mapping
 from typing import Any, Protocol
 
 from harness.errors import BridgeError
-from harness.rosbridge import Bridge, BridgeClient, BridgeServer, FrameTap, TypeRegistry
+from harness.rosbridge import BridgeClient, BridgeServer, TypeRegistry
 from harness.rosbridge.convert import from_json
+from harness.session.core import Graph, MessageCallback, ServiceHandler, SessionBridge
 
-__all__ = ["ClientPort", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
-
-MessageCallback = Callable[[Mapping[str, Any], int], None]
-"""``callback(msg, connection)``: a canonical message dict and the sending connection (0 when
-unknown or in-process)."""
-ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
-"""``handler(request) -> response``; raising fails the call with the error's text."""
+__all__ = ["ClientPort", "Graph", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
 
 
 class Port(Protocol):
-    """The session's view of the bridge."""
+    """The session shell's side of the transport: start, stop, and hand waiting input to the
+    core at a step boundary."""
 
     @property
     def wake(self) -> asyncio.Event:
@@ -33,8 +29,9 @@ class Port(Protocol):
         """Serve or connect; returns the URL."""
         ...
 
-    async def stop(self) -> None:
-        """Close every connection."""
+    async def stop(self, on_input: Callable[[], object] | None = None) -> None:
+        """Close every connection; until they are closed, ``on_input`` is called whenever
+        input waits (:attr:`wake`), so the owner can process what still arrives."""
         ...
 
     async def settle(self) -> None:
@@ -45,28 +42,16 @@ class Port(Protocol):
         """Apply waiting input in arrival order at ``now_ns``; returns the frame count."""
         ...
 
-    def has_subscribers(self, topic: str) -> bool: ...
-
-    def publish(
-        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
-    ) -> None: ...
-
-    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None: ...
-
-    def serve(self, service: str, type: str, handler: ServiceHandler) -> None: ...
-
-    def status(self, connection: int, level: str, text: str) -> None:
-        """Tell one client something (a ``status`` frame), where the transport can."""
-        ...
-
 
 class ServerPort:
-    """The embedded rosbridge server in queued mode: frames wait until the session's step
-    boundary (:meth:`process_pending`)."""
+    """The embedded rosbridge server around the core's :class:`SessionBridge`, in queued mode:
+    frames wait until the session's step boundary (:meth:`process_pending`)."""
 
-    def __init__(self, *, host: str, port: int, tap: FrameTap | None) -> None:
-        self.bridge = Bridge(tap=tap)
-        self.server = BridgeServer(self.bridge, host=host, port=port, queued=True)
+    def __init__(
+        self, bridge: SessionBridge, *, host: str, port: int, token: str | None = None
+    ) -> None:
+        self.bridge = bridge
+        self.server = BridgeServer(bridge, host=host, port=port, queued=True, token=token)
 
     @property
     def wake(self) -> asyncio.Event:
@@ -75,8 +60,16 @@ class ServerPort:
     async def start(self) -> str:
         return await self.server.start()
 
-    async def stop(self) -> None:
-        await self.server.stop()
+    async def stop(self, on_input: Callable[[], object] | None = None) -> None:
+        stopping = asyncio.ensure_future(self.server.stop())
+        wake = self.server.pending_event
+        while on_input is not None and not stopping.done():
+            waiter = asyncio.ensure_future(wake.wait())
+            await asyncio.wait({stopping, waiter}, return_when=asyncio.FIRST_COMPLETED)
+            waiter.cancel()
+            if wake.is_set():
+                on_input()
+        await stopping
 
     async def settle(self) -> None:
         """Registration is immediate in-process."""
@@ -84,28 +77,12 @@ class ServerPort:
     def process_pending(self, now_ns: int) -> int:
         return self.server.process_pending(now_ns)
 
-    def has_subscribers(self, topic: str) -> bool:
-        return bool(self.bridge.subscribers_of(topic))
-
-    def publish(
-        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
-    ) -> None:
-        self.bridge.publish(topic, type, msg, now_ns, latch=latch)
-
-    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None:
-        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type)
-
-    def serve(self, service: str, type: str, handler: ServiceHandler) -> None:
-        self.bridge.advertise_service(service, type, lambda call: handler(call.args))
-
-    def status(self, connection: int, level: str, text: str) -> None:
-        self.bridge.status(connection, level, text)
-
 
 class ClientPort:
-    """A client of an external rosbridge server (the original framework's topology). Incoming
-    messages apply when they arrive on the session's loop, which is always between steps.
-    Frames are not tapped: a recording holds the published messages, not the bridge frames."""
+    """A :class:`Graph` and :class:`Port` in one: a client of an external rosbridge server
+    (the original framework's topology). Incoming messages apply when they arrive on the
+    session's loop, which is always between steps. Frames are not tapped: a recording holds
+    the published messages, not the bridge frames."""
 
     def __init__(self, url: str) -> None:
         self.client = BridgeClient(url)
@@ -125,7 +102,7 @@ class ClientPort:
         await self.client.start()
         return self.client.url
 
-    async def stop(self) -> None:
+    async def stop(self, on_input: Callable[[], object] | None = None) -> None:
         with contextlib.suppress(Exception):
             await self.settle()
         await self.client.close()

@@ -24,6 +24,19 @@ Clock modes (simulation time is the only clock; wall time paces ``realtime`` and
 - ``realtime``: like ``fast``, paced so that simulation time follows wall time x ``rate``
   (when the simulation cannot keep up it runs as fast as it can and does not burst to catch up).
 
+Start control (``start``): a ``fast`` or ``realtime`` clock steps from the constructor on
+(``"now"``), starts paused (``"paused"``: :meth:`Session.resume` starts it), or starts paused
+until its first client connects (``"on_client"``: the clock starts at step 0, at the first
+step boundary after the connection opened, before any of that client's frames is applied;
+recorded as a ``harness/python`` resume marker). Readiness: :attr:`Session.client_count`
+(open connections), :attr:`Session.clients_seen` (connections ever accepted) and
+:meth:`Session.wait_for_client` (a wall-clock timeout: readiness, not simulation).
+
+A ``/harness/step`` request asks for at most ``max_step_request`` steps (default 100000):
+all of a request's steps run before any other frame is processed (that is what makes a
+client's step request deterministic), so the cap bounds how long one request can block the
+others; a larger request fails (``result: false``, the reason in ``values``) without stepping.
+
 ``/harness/pause`` (``std_srvs/srv/SetBool``) stops and resumes ``fast`` and ``realtime``
 stepping (frames are still applied); ``/harness/reset`` (``std_srvs/srv/Trigger``) returns the
 robot and world to the initial state *without* resetting step numbering (recorded time never
@@ -54,7 +67,39 @@ Recording (``record_to``)
 Every frame in and out of the bridge (incoming frames with ``step`` = the step before which they
 took effect and the sim time of the boundary they were applied at; outgoing with the current
 step), the applied input whenever it changes, the physics state every ``state_every`` steps
-(step 0 included), every published message, and the loggers' events (collisions, ``/rosout``).
+(step 0 included), every published message, and the loggers' events (collisions, ``/rosout``),
+plus markers for the inputs that are not client frames (a socket closing, a wall-clock call
+timeout, a transport status, a Python command: :mod:`harness.session.core`).
+``record_bridge_frames=False`` leaves out the bridge frames and markers (such a recording
+cannot be replayed at ``--level full``). :meth:`Session.snapshot` writes a complete copy of
+the recording so far while the session runs (mid-test golden comparisons).
+
+Closing
+-------
+:meth:`Session.close` ends a recording the same way for the same client behaviour: the
+free-running clock stops; the frames already received are processed as at any step boundary;
+the server sends every client a close frame and, until each closing handshake completes,
+keeps processing what the clients still send, in arrival order; each socket's closing is a
+``harness/disconnect`` marker where it arrives; then a ``harness/close`` marker records the
+last step ``k``, a connection somehow still open gets a disconnect marker, loggers finish and
+the recording is closed. So the recording holds every frame a client sent before it received
+the server's close frame, processed exactly as if it had been processed before ``close()``
+was called: in lockstep a late ``/harness/step`` request still steps (refusing it would make
+the recording depend on whether the idle loop got to it before ``close()``); otherwise the
+frames take effect at step ``k + 1``, which is never taken. What remains timing-dependent is
+only how far a client got before the close frame reached it: a client still sending while
+the session closes (a library's goodbye ``unsubscribe`` racing ``close()``) may or may not
+have its last frames recorded, and a client that does not answer the closing handshake
+within 10 s is cut off. With a free-running clock, which step a frame lands on is wall-clock
+timing anyway. Golden comparisons ignore exactly the frames after the last step
+(:func:`harness.replay.diff` with ``ignore_after_last_step=True``).
+
+Structure
+---------
+The per-step logic is :class:`~harness.session.core.SessionCore` (sans-I/O); this class is
+the shell around it: the thread, the asyncio loop, the WebSocket server or client, the clock
+modes, and the Python API handing calls to the loop. ``harness replay --level full`` drives a
+fresh core with a recording's frames.
 """
 
 from __future__ import annotations
@@ -65,129 +110,47 @@ import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Coroutine, Iterable, Mapping
 from pathlib import Path
-from types import MappingProxyType, TracebackType
-from typing import Any, Literal, TypeVar
+from types import TracebackType
+from typing import Any, TypeVar
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.events import (
-    EventHub,
-    JointSample,
-    Level,
-    Logger,
-    LogMessage,
-    RecordingSink,
-    Sink,
-    SinkReport,
-    StepContext,
-)
-from harness.events.events import Event
+from harness.events import EventHub, Logger, RecordingSink, Sink, SinkReport
 from harness.models import ControlMode, LoadedRobot, load_robot
 from harness.recording import Recorder, describe_run
-from harness.rosbridge import DIRECTION_IN, TapRecord
-from harness.session.commands import (
-    FORWARD_TOPICS,
-    Trajectory,
-    apply_forward,
-    apply_joint_state,
-    parse_trajectory,
+from harness.session.core import (
+    CLOCK_MODES,
+    DEFAULT_MAX_STEP_REQUEST,
+    ClockMode,
+    CoreOptions,
+    SessionCore,
+    SessionTopics,
+    StartMode,
 )
 from harness.session.errors import (
-    CommandRefused,
+    ClientTimeoutError,
     SessionClosedError,
     SessionConfigError,
     SessionError,
     SimTimeoutError,
 )
 from harness.session.ports import ClientPort, Port, ServerPort
-from harness.session.topics import (
-    TYPE_CLOCK,
-    TYPE_FORWARD,
-    TYPE_JOINT_STATE,
-    TYPE_LOG,
-    TYPE_STRING,
-    TYPE_TF,
-    TYPE_TRAJECTORY,
-    clock_msg,
-    joint_state_msg,
-    log_msg,
-    period_steps,
-    stamp,
-    tf_msg,
-)
-from harness.sim import CommandField, KinematicLimits, Notice, Simulation
+from harness.session.snapshot import complete_prefix
+from harness.sim import KinematicLimits, Notice, Simulation
 
-__all__ = ["CLOCK_MODES", "ClockMode", "LoggerFactory", "Session", "SessionTopics"]
+__all__ = ["CLOCK_MODES", "ClockMode", "LoggerFactory", "Session", "SessionTopics", "StartMode"]
 
 F64 = npt.NDArray[np.float64]
 T = TypeVar("T")
 
-ClockMode = Literal["lockstep", "fast", "realtime"]
-CLOCK_MODES: tuple[ClockMode, ...] = ("lockstep", "fast", "realtime")
 LoggerFactory = Callable[["Session"], Logger]
 """Builds a logger once the session (and so its model) exists."""
 
-_SERVICE_STEP = "/harness/step"
-_SERVICE_RESET = "/harness/reset"
-_SERVICE_PAUSE = "/harness/pause"
-_SERVICE_GET_STATE = "/harness/get_state"
-_ROSOUT = "/rosout"
-_CLOCK = "/clock"
-_LOG_NAME = "harness.session"
 _BEHIND_S = 0.25  # realtime: further behind than this, re-anchor instead of bursting
-
-
-@dataclass(frozen=True)
-class SessionTopics:
-    """The resolved names of the robot's topics."""
-
-    joint_states: str
-    joint_command: str
-    joint_trajectory: str
-    tf: str
-    robot_description: str
-    forward: Mapping[CommandField, str] = field(default_factory=dict)
-    clock: str = _CLOCK
-    rosout: str = _ROSOUT
-
-
-def _check_name(value: str, what: str) -> str:
-    parts = value.strip("/").split("/")
-    if not value.strip("/") or not all(p and (p[0].isalpha() or p[0] == "_") for p in parts):
-        raise SessionConfigError(f"{what} {value!r} is not a valid ROS name")
-    if not all(c.isalnum() or c in "_/" for c in value):
-        raise SessionConfigError(f"{what} {value!r} is not a valid ROS name")
-    return value
-
-
-class _BridgeLogSink:
-    """Publishes every event except joint samples on ``/rosout`` over the bridge."""
-
-    name = "bridge-rosout"
-
-    def __init__(self, session: Session) -> None:
-        self._session = session
-        self._delivered = 0
-
-    def emit(self, event: Event) -> None:
-        if isinstance(event, JointSample):
-            return
-        name = event.name if isinstance(event, LogMessage) else f"harness.{event.kind}"
-        self._session._publish(
-            _ROSOUT,
-            TYPE_LOG,
-            lambda: log_msg(event.sim_time_ns, int(event.level), name, event.message()),
-            record=False,
-        )
-        self._delivered += 1
-
-    def close(self) -> SinkReport:
-        return SinkReport(self.name, self._delivered, 0)
 
 
 class Session:
@@ -202,13 +165,18 @@ class Session:
     ``"clamp"``\\ ed or ``"allow"``\\ ed (the original framework's "jumping"). ``clock``:
     ``"lockstep"`` (default), ``"fast"`` or ``"realtime"`` (x ``rate``). ``namespace``: topics
     under ``/<namespace>/``. ``host``/``port``: where the embedded server listens (port 0: any
-    free port, see :attr:`url`); ``connect_to``: a ``ws://`` URL of an external rosbridge server
+    free port, see :attr:`url`; a non-loopback host issues an ``ExposedServerWarning``);
+    ``token``: clients must present it (``?token=`` on the URL or ``Authorization: Bearer``;
+    :attr:`url` carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server
     to use instead (client mode). ``record_to``: an MCAP path (``state_every``: physics state
     every N steps). ``joint_states_hz``, ``tf_hz``, ``clock_hz``: publication rates in
     simulation time (``tf_hz``/``clock_hz`` default to ``joint_states_hz``; 0 turns one off).
     ``loggers``: loggers or factories ``f(session) -> Logger``; ``sinks``: event sinks besides
     the recording and ``/rosout``. ``scene``, ``seed``, ``scenario``: passed to the loader and
-    the recording's metadata.
+    the recording's metadata. ``start``: ``"now"``, ``"paused"`` or ``"on_client"`` (free-running
+    clocks only, see the module docstring). ``record_bridge_frames``: record the bridge frames
+    and markers (default True). ``max_step_request``: the most steps one ``/harness/step``
+    request may ask for.
     """
 
     def __init__(
@@ -222,6 +190,7 @@ class Session:
         namespace: str = "",
         host: str = "127.0.0.1",
         port: int = 0,
+        token: str | None = None,
         connect_to: str | None = None,
         record_to: str | Path | None = None,
         state_every: int = 1,
@@ -234,25 +203,39 @@ class Session:
         scene: str | Path | None = None,
         seed: int = 0,
         scenario: str | bytes | None = None,
+        start: StartMode = "now",
+        record_bridge_frames: bool = True,
+        max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
     ) -> None:
-        if clock not in CLOCK_MODES:
-            raise SessionConfigError(
-                f"clock must be one of {', '.join(CLOCK_MODES)}, not {clock!r}"
-            )
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
-        if not isinstance(state_every, int) or state_every < 1:
-            raise SessionConfigError(f"state_every must be an integer >= 1, not {state_every!r}")
-        for what, hz in (
-            ("joint_states_hz", joint_states_hz),
-            ("tf_hz", tf_hz),
-            ("clock_hz", clock_hz),
-        ):
-            if hz is not None and not (math.isfinite(hz) and hz >= 0):
-                raise SessionConfigError(f"{what} must be >= 0 Hz, not {hz!r}")
+        if token is not None and connect_to is not None:
+            raise SessionConfigError(
+                "token protects the embedded server; for an external server put its token "
+                "in connect_to (ws://host:port/?token=...)"
+            )
+        options = CoreOptions(
+            clock=clock,
+            namespace=namespace,
+            kinematic_limits=kinematic_limits,
+            state_every=state_every,
+            joint_states_hz=joint_states_hz,
+            tf_hz=tf_hz,
+            clock_hz=clock_hz,
+            joint_command_topic=joint_command_topic,
+            start=start,
+            record_bridge_frames=record_bridge_frames,
+            max_step_request=max_step_request,
+        )
         self.clock: ClockMode = clock
+        self.start: StartMode = start
+        self._start_on_client = start == "on_client"
+        self._clients = threading.Condition()
+        self._clients_seen = 0
+        self._clients_open = 0
+        self._pause_at: int | None = None
         self.rate = float(rate)
-        self.namespace = _check_name(namespace, "namespace").strip("/") if namespace else ""
+        self.namespace = options.namespace
         self._closed = False
         self._close_lock = threading.Lock()
         self._loop = asyncio.new_event_loop()
@@ -274,48 +257,20 @@ class Session:
             loaded = load_robot(robot, control=mode or "position", scene=scene)
         self.robot: LoadedRobot = loaded
         """The loaded robot (description, compiled model, sources)."""
-        self.sim = Simulation(loaded, kinematic_limits=kinematic_limits)
-        """The simulation. Touch it only from the session's thread (loggers, predicates) or
-        while nothing else can step it; prefer the session's methods."""
         self.robot_name = loaded.name
-        self.topics = self._resolve_topics(joint_command_topic)
-        self._dt_ns = self.sim.dt_ns
-        self._js_every = period_steps(joint_states_hz, self._dt_ns)
-        self._tf_every = period_steps(joint_states_hz if tf_hz is None else tf_hz, self._dt_ns)
-        self._clock_every = period_steps(
-            joint_states_hz if clock_hz is None else clock_hz, self._dt_ns
-        )
-        self._state_every = state_every
-        self._joint_state_layout()
-        self._links = tuple(
-            link.name
-            for link in loaded.description.links
-            if mujoco.mj_name2id(loaded.model, mujoco.mjtObj.mjOBJ_BODY, link.name) >= 0
-        )
-        self._trajectory: Trajectory | None = None
-        self._trajectory_topic = ""
-        self._trajectory_warned: set[str] = set()
-        self._paused = False
-        self._failure: BaseException | None = None
         self._anchor: tuple[float, int] | None = None
-        self._watchers: list[Callable[[], None]] = []
-        self._hub = EventHub()
-        self._host = host
-        self._port_number = port
-        self._connect_to = connect_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
+            hub = EventHub()
             if self.record_path is not None:
                 description = describe_run(
                     loaded,
                     seed=seed,
                     scenario=scenario,
                     extra={
-                        "clock": clock,
+                        **options.to_metadata(),
                         "rate": repr(self.rate),
-                        "kinematic_limits": kinematic_limits,
-                        "namespace": self.namespace,
-                        "joint_states_hz": repr(joint_states_hz),
+                        "transport": "server" if connect_to is None else "client",
                     },
                 )
                 self._recorder = Recorder(
@@ -324,12 +279,26 @@ class Session:
                     attachments=description.attachments,
                     state_every=state_every,
                 )
-                self._hub.add_sink(RecordingSink(self._recorder))
-            self._hub.add_sink(_BridgeLogSink(self))
+                hub.add_sink(RecordingSink(self._recorder))
+            client = ClientPort(connect_to) if connect_to is not None else None
+            self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub, graph=client)
+            """The sans-I/O core (touch it only from the session's thread)."""
+            self.core.on_clock_change = self._on_clock_change
+            self.sim: Simulation = self.core.sim
+            """The simulation. Touch it only from the session's thread (loggers, predicates) or
+            while nothing else can step it; prefer the session's methods."""
+            self.topics: SessionTopics = self.core.topics
+            if client is not None:
+                self._port = client
+            else:
+                assert self.core.bridge is not None
+                self.core.bridge.on_connect = self._on_connect
+                self.core.bridge.on_disconnect = self._on_disconnect
+                self._port = ServerPort(self.core.bridge, host=host, port=port, token=token)
             for sink in sinks:
-                self._hub.add_sink(sink)
+                hub.add_sink(sink)
             for item in loggers:
-                self._hub.add_logger(item if isinstance(item, Logger) else item(self))
+                hub.add_logger(item if isinstance(item, Logger) else item(self))
             self._thread = threading.Thread(
                 target=self._loop.run_forever, name="harness-session", daemon=True
             )
@@ -343,75 +312,32 @@ class Session:
 
     # ----------------------------------------------------------------------------- set-up
 
-    def _resolve(self, name: str) -> str:
-        _check_name(name, "topic")
-        if name.startswith("/"):
-            return name
-        return f"/{self.namespace}/{name}" if self.namespace else f"/{name}"
-
-    def _resolve_topics(self, joint_command: str) -> SessionTopics:
-        return SessionTopics(
-            joint_states=self._resolve("joint_states"),
-            joint_command=self._resolve(joint_command),
-            joint_trajectory=self._resolve("joint_trajectory"),
-            tf=self._resolve("tf"),
-            robot_description=self._resolve("robot_description"),
-            forward=MappingProxyType({f: self._resolve(t) for f, t in FORWARD_TOPICS.items()}),
-        )
-
-    def _joint_state_layout(self) -> None:
-        model = self.sim.model
-        kinematic = set(self.sim.kinematic_joints)
-        names: list[str] = []
-        qadr: list[int] = []
-        dadr: list[int] = []
-        kin: list[bool] = []
-        slide_hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-        for joint in self.robot.description.joints:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
-            if jid < 0 or int(model.jnt_type[jid]) not in slide_hinge:
-                continue
-            names.append(joint.name)
-            qadr.append(int(model.jnt_qposadr[jid]))
-            dadr.append(int(model.jnt_dofadr[jid]))
-            kin.append(joint.name in kinematic)
-        self._js_names = tuple(names)
-        self._js_qadr = np.array(qadr, dtype=np.intp)
-        self._js_dadr = np.array(dadr, dtype=np.intp)
-        self._js_kin = np.array(kin, dtype=bool)
-
     async def _start(self) -> str:
-        port: Port
-        if self._connect_to is not None:
-            port = ClientPort(self._connect_to)
-        else:
-            tap = self._tap if self._recorder is not None else None
-            port = ServerPort(host=self._host, port=self._port_number, tap=tap)
-        self._port = port
+        port = self._port
+        assert port is not None
         url = await port.start()
-        topics = self.topics
-        port.subscribe(topics.joint_command, TYPE_JOINT_STATE, self._on_joint_command)
-        port.subscribe(topics.joint_trajectory, TYPE_TRAJECTORY, self._on_trajectory)
-        for command_field, topic in topics.forward.items():
-            port.subscribe(topic, TYPE_FORWARD, self._forward_handler(command_field, topic))
-        port.serve(_SERVICE_STEP, "harness_msgs/srv/Step", self._srv_step)
-        port.serve(_SERVICE_RESET, "std_srvs/srv/Trigger", self._srv_reset)
-        port.serve(_SERVICE_PAUSE, "std_srvs/srv/SetBool", self._srv_pause)
-        port.serve(_SERVICE_GET_STATE, "harness_msgs/srv/GetState", self._srv_get_state)
+        self.core.start()
         await port.settle()
-        description = self._description_text()
-        self._publish(
-            topics.robot_description, TYPE_STRING, lambda: {"data": description}, latch=True
-        )
-        self._after_state()
+        self.core.publish_initial()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         return url
 
-    def _description_text(self) -> str:
-        for name, blob in self.robot.sources.items():
-            if name.startswith("model/"):
-                return blob.decode("utf-8", errors="replace")
-        return self.robot.mjcf
+    def _on_connect(self, connection: int) -> None:
+        with self._clients:
+            self._clients_seen += 1
+            self._clients_open += 1
+            self._clients.notify_all()
+        if self._start_on_client and self._port is not None:
+            self._port.wake.set()  # the clock starts at the next boundary
+
+    def _on_disconnect(self, connection: int) -> None:
+        with self._clients:
+            self._clients_open -= 1
+
+    def _on_clock_change(self) -> None:
+        self._anchor = None
+        if self._port is not None:
+            self._port.wake.set()
 
     # ----------------------------------------------------------------------------- threads
 
@@ -425,7 +351,7 @@ class Session:
                 "this session method waits for the simulation: it cannot be called from the "
                 "session's own thread (a predicate, logger or callback)"
             )
-        if self._thread is None or not self._thread.is_alive():
+        if self._closed or self._thread is None or not self._thread.is_alive():
             coro.close()
             raise SessionClosedError("the session is closed")
         return asyncio.run_coroutine_threadsafe(coro, self._loop).result()
@@ -454,16 +380,20 @@ class Session:
         while nobody steps."""
         assert self._port is not None
         wake = self._port.wake
+        core = self.core
         while True:
             try:
-                if self.clock == "lockstep" or self._paused or self._failure is not None:
+                if self.clock == "lockstep" or core.paused or core.failure is not None:
                     await wake.wait()
                     self._boundary()
                     continue
                 self._boundary()
-                if self._paused or self._failure is not None:
+                if self._pause_at is not None and self.sim.step_index >= self._pause_at:
+                    self._pause_at = None
+                    core.set_paused(True)
+                if core.paused or core.failure is not None:
                     continue
-                self._advance()
+                core.advance()
                 if self.clock == "realtime":
                     await self._pace()
                 else:
@@ -471,7 +401,9 @@ class Session:
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
-                self._fail(exc)
+                core.fail(exc)
+                for watcher in tuple(core.after_step):
+                    watcher()  # a run_until waiting for a step that will not come
 
     async def _pace(self) -> None:
         now = time.monotonic()
@@ -479,7 +411,7 @@ class Session:
         if self._anchor is None:
             self._anchor = (now, k)
         wall0, k0 = self._anchor
-        delay = wall0 + (k - k0) * self._dt_ns / 1e9 / self.rate - now
+        delay = wall0 + (k - k0) * self.dt_ns / 1e9 / self.rate - now
         if delay > 0:
             await asyncio.sleep(delay)
         else:
@@ -489,275 +421,10 @@ class Session:
 
     def _boundary(self) -> None:
         assert self._port is not None
+        if self._start_on_client and self._clients_seen:
+            self._start_on_client = False
+            self.core.set_paused(False)  # before the client's first frame
         self._port.process_pending(self.sim.sim_time_ns)
-
-    def _fail(self, exc: BaseException) -> None:
-        if self._failure is None:
-            self._failure = exc
-            with contextlib.suppress(Exception):
-                self._log(Level.FATAL, f"the run failed: {exc}")
-
-    def _check_running(self) -> None:
-        if self._failure is not None:
-            raise SessionClosedError(
-                f"the simulation failed ({self._failure}); call reset() to start again"
-            )
-
-    def _advance(self) -> None:
-        """One step: trajectory setpoints, the step, then recording, loggers, publishing."""
-        sim = self.sim
-        trajectory = self._trajectory
-        if trajectory is not None:
-            t_next = sim.sim_time_ns + self._dt_ns
-            positions, velocities = trajectory.commands(t_next)
-            notices = sim.set_positions(positions) if positions else []
-            if velocities:
-                notices += sim.set_velocities(velocities)
-            fresh = [n for n in notices if n.joint not in self._trajectory_warned]
-            if fresh:
-                self._trajectory_warned.update(n.joint for n in fresh)
-                self._report_notices(self._trajectory_topic, 0, fresh)
-            if t_next >= trajectory.end_ns:
-                self._trajectory = None
-        try:
-            sim.step()
-        except Exception as exc:
-            self._fail(exc)
-            raise
-        recorder = self._recorder
-        if recorder is not None and sim.input_changed:
-            applied = sim.last_input
-            assert applied is not None
-            recorder.write_applied_input(
-                step=applied.step,
-                sim_time_ns=applied.sim_time_ns,
-                ctrl=applied.ctrl,
-                kinematic_joints=applied.kinematic_joints,
-                qpos_index=applied.qpos_index,
-                qpos_value=applied.qpos_value,
-                qvel_index=applied.qvel_index,
-                qvel_value=applied.qvel_value,
-                mocap_pos=applied.mocap_pos,
-                mocap_quat=applied.mocap_quat,
-                qfrc_applied=applied.qfrc_applied,
-                xfrc_applied=applied.xfrc_applied,
-            )
-        if self._hub.loggers:
-            self._hub.observe(StepContext.of(sim, self.robot_name))
-        self._after_state()
-        for watcher in tuple(self._watchers):
-            watcher()
-
-    def _after_state(self) -> None:
-        """Record the state and publish what is due at the current step."""
-        sim = self.sim
-        k = sim.step_index
-        recorder = self._recorder
-        if recorder is not None and k % self._state_every == 0:
-            data = sim.data
-            recorder.write_physics_state(
-                step=k,
-                sim_time_ns=sim.sim_time_ns,
-                state_spec=sim.state_spec,
-                state=sim.get_state(),
-                qpos=data.qpos,
-                qvel=data.qvel,
-            )
-        topics = self.topics
-        if self._js_every and k % self._js_every == 0:
-            self._publish(topics.joint_states, TYPE_JOINT_STATE, self._joint_state)
-        if self._clock_every and k % self._clock_every == 0:
-            self._publish(topics.clock, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
-        if self._tf_every and k % self._tf_every == 0:
-            self._publish(topics.tf, TYPE_TF, self._tf)
-
-    def _joint_state(self) -> dict[str, Any]:
-        data = self.sim.data
-        effort: F64 = np.where(
-            self._js_kin, data.qfrc_applied[self._js_dadr], data.qfrc_actuator[self._js_dadr]
-        )
-        return joint_state_msg(
-            self.sim.sim_time_ns,
-            self._js_names,
-            data.qpos[self._js_qadr],
-            data.qvel[self._js_dadr],
-            effort,
-        )
-
-    def _tf(self) -> dict[str, Any]:
-        poses = self.sim.link_poses()
-        prefix = f"{self.namespace}/" if self.namespace else ""
-        return tf_msg(
-            self.sim.sim_time_ns, {n: poses[n] for n in self._links if n in poses}, "world", prefix
-        )
-
-    def _publish(
-        self,
-        topic: str,
-        type: str,
-        build: Callable[[], Mapping[str, Any]],
-        *,
-        latch: bool = False,
-        record: bool = True,
-    ) -> None:
-        """Publish on the bridge (when someone listens or ``latch``) and record (``record``);
-        ``build`` makes the message only when needed."""
-        assert self._port is not None
-        recorder = self._recorder if record else None
-        send = latch or self._port.has_subscribers(topic)
-        if recorder is None and not send:
-            return
-        msg = build()
-        now = self.sim.sim_time_ns
-        if recorder is not None:
-            recorder.write_message(topic, type, msg, sim_time_ns=now)
-        if send:
-            self._port.publish(topic, type, msg, now, latch=latch)
-
-    def _tap(self, record: TapRecord) -> None:
-        assert self._recorder is not None
-        k = self.sim.step_index
-        data = record.data
-        self._recorder.write_bridge_frame(
-            step=k + 1 if record.direction == DIRECTION_IN else k,
-            sim_time_ns=k * self._dt_ns,
-            direction=record.direction,
-            connection=record.connection,
-            seq=record.seq,
-            op=record.op,
-            topic=record.name,
-            text=data if isinstance(data, str) else None,
-            data=data if isinstance(data, bytes) else None,
-        )
-
-    # ----------------------------------------------------------------------------- events
-
-    def _log(self, level: Level, text: str) -> None:
-        sim = self.sim
-        self._hub.emit(
-            [
-                LogMessage.of(
-                    step=sim.step_index,
-                    sim_time_ns=sim.sim_time_ns,
-                    robot=self.robot_name,
-                    text=text,
-                    level=level,
-                    name=_LOG_NAME,
-                )
-            ]
-        )
-
-    def _report_notices(self, topic: str, connection: int, notices: Sequence[Notice]) -> None:
-        assert self._port is not None
-        for notice in notices:
-            text = f"{topic}: {notice.message}"
-            if connection:
-                self._port.status(connection, "warning", text)
-            self._log(Level.WARNING, text)
-
-    def _refuse(self, topic: str, connection: int, reason: str) -> None:
-        assert self._port is not None
-        text = f"{topic}: command refused: {reason}"
-        if connection:
-            self._port.status(connection, "error", text)
-        self._log(Level.ERROR, text)
-
-    # ----------------------------------------------------------------------------- commands
-
-    def _command(
-        self, topic: str, connection: int, apply: Callable[[], list[Notice]], joints: set[str]
-    ) -> list[Notice]:
-        try:
-            notices = apply()
-        except CommandRefused as exc:
-            self._refuse(topic, connection, str(exc))
-            raise
-        if self._trajectory is not None:
-            self._trajectory = self._trajectory.without(joints)
-        self._report_notices(topic, connection, notices)
-        return notices
-
-    def _on_joint_command(self, msg: Mapping[str, Any], connection: int) -> None:
-        with contextlib.suppress(CommandRefused):
-            self._command(
-                self.topics.joint_command,
-                connection,
-                lambda: apply_joint_state(self.sim, msg),
-                set(msg["name"]),
-            )
-
-    def _forward_handler(
-        self, command_field: CommandField, topic: str
-    ) -> Callable[[Mapping[str, Any], int], None]:
-        def handle(msg: Mapping[str, Any], connection: int) -> None:
-            with contextlib.suppress(CommandRefused):
-                self._command(
-                    topic,
-                    connection,
-                    lambda: apply_forward(self.sim, command_field, msg),
-                    set(self.sim.joint_names),
-                )
-
-        return handle
-
-    def _on_trajectory(self, msg: Mapping[str, Any], connection: int) -> None:
-        topic = self.topics.joint_trajectory
-        try:
-            trajectory = parse_trajectory(self.sim, msg, self.sim.sim_time_ns)
-        except CommandRefused as exc:
-            self._refuse(topic, connection, str(exc))
-            return
-        self._trajectory = trajectory
-        self._trajectory_topic = topic
-        self._trajectory_warned = set()
-
-    # ----------------------------------------------------------------------------- services
-
-    def _srv_step(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        self._check_running()
-        for _ in range(int(request["steps"])):
-            self._advance()
-        return {"sim_time": stamp(self.sim.sim_time_ns)}
-
-    def _srv_reset(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        return {"success": True, "message": self._reset()}
-
-    def _srv_pause(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        return {"success": True, "message": self._set_paused(bool(request["data"]))}
-
-    def _srv_get_state(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        return {
-            "step": self.sim.step_index,
-            "sim_time": stamp(self.sim.sim_time_ns),
-            "clock": self.clock,
-            "paused": self._paused,
-            "joint_state": self._joint_state(),
-        }
-
-    def _reset(self) -> str:
-        sim = self.sim
-        k = sim.step_index
-        sim.reset()
-        state = sim.get_state()
-        state[0] = k * self._dt_ns / 1e9  # mjSTATE_TIME first: step numbering continues
-        sim.set_state(state, k)
-        self._trajectory = None
-        self._failure = None
-        self._anchor = None
-        text = f"reset to the initial state at step {k} (step numbering continues)"
-        self._log(Level.WARNING, text)
-        self._after_state()
-        return text
-
-    def _set_paused(self, paused: bool) -> str:
-        self._paused = paused
-        self._anchor = None
-        assert self._port is not None
-        self._port.wake.set()
-        k = self.sim.step_index
-        if self.clock == "lockstep":
-            return f"lockstep clock: time moves only on {_SERVICE_STEP} (step {k})"
-        return f"paused at step {k}" if paused else f"running from step {k}"
 
     # ----------------------------------------------------------------------------- public API
 
@@ -772,19 +439,19 @@ class Session:
         self._require_stepping()
         for i in range(n):
             self._boundary()
-            self._check_running()
-            self._advance()
+            self.core.check_running()
+            self.core.advance()
             if i + 1 < n:
                 await asyncio.sleep(0)
         return self.sim.step_index
 
     def _require_stepping(self) -> None:
-        if self.clock != "lockstep" and not self._paused:
+        if self.clock != "lockstep" and not self.core.paused:
             raise SessionError(
                 f"the clock is {self.clock}: time moves by itself; pause() first to step, or "
                 "wait with run_until()"
             )
-        self._check_running()
+        self.core.check_running()
 
     def run_until(self, predicate: Callable[[], bool], *, sim_timeout: float) -> int:
         """Wait until ``predicate()`` holds, checked after every step on the session's thread
@@ -793,7 +460,7 @@ class Session:
         time pass first."""
         if not (math.isfinite(sim_timeout) and sim_timeout >= 0):
             raise SessionError(f"sim_timeout must be >= 0 s, not {sim_timeout!r}")
-        budget = math.ceil(round(sim_timeout * 1e9) / self._dt_ns)
+        budget = math.ceil(round(sim_timeout * 1e9) / self.dt_ns)
         if self.clock == "lockstep":
             return self._await(self._run_until_lockstep(predicate, budget, sim_timeout))
         return self._await(self._run_until_free(predicate, budget, sim_timeout))
@@ -808,21 +475,22 @@ class Session:
     async def _run_until_lockstep(
         self, predicate: Callable[[], bool], budget: int, sim_timeout: float
     ) -> int:
-        self._check_running()
+        self.core.check_running()
         for i in range(budget + 1):
             if predicate():
                 return self.sim.step_index
             if i == budget:
                 break
             self._boundary()
-            self._check_running()
-            self._advance()
+            self.core.check_running()
+            self.core.advance()
             await asyncio.sleep(0)
         raise self._timeout(sim_timeout)
 
     async def _run_until_free(
         self, predicate: Callable[[], bool], budget: int, sim_timeout: float
     ) -> int:
+        self.core.check_running()
         if predicate():
             return self.sim.step_index
         done: asyncio.Future[int] = asyncio.get_running_loop().create_future()
@@ -832,6 +500,7 @@ class Session:
             if done.done():
                 return
             try:
+                self.core.check_running()
                 if predicate():
                     done.set_result(self.sim.step_index)
                 elif self.sim.step_index >= deadline:
@@ -839,11 +508,11 @@ class Session:
             except Exception as exc:
                 done.set_exception(exc)
 
-        self._watchers.append(check)
+        self.core.after_step.append(check)
         try:
             return await done
         finally:
-            self._watchers.remove(check)
+            self.core.after_step.remove(check)
 
     def command(
         self,
@@ -856,49 +525,55 @@ class Session:
         """Command one joint from Python (takes effect at the next step; see
         :meth:`harness.sim.Simulation.command`); limit notices become warning events."""
         return self._call(
-            lambda: self._python_command(
-                lambda: self.sim.command(
-                    joint, position=position, velocity=velocity, effort=effort
-                ),
-                {joint},
-            )
+            lambda: self.core.command(joint, position=position, velocity=velocity, effort=effort)
         )
 
     def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
         """Position commands for several joints from Python."""
         values = dict(positions)
-        return self._call(
-            lambda: self._python_command(lambda: self.sim.set_positions(values), set(values))
-        )
-
-    def _python_command(self, apply: Callable[[], list[Notice]], joints: set[str]) -> list[Notice]:
-        notices = apply()
-        if self._trajectory is not None:
-            self._trajectory = self._trajectory.without(joints)
-        self._report_notices("python", 0, notices)
-        return notices
+        return self._call(lambda: self.core.set_positions(values))
 
     def reset(self) -> None:
         """Back to the initial state (step numbering continues), as ``/harness/reset``."""
-        self._call(self._reset)
+        self._call(self.core.reset)
 
     def pause(self) -> None:
         """Stop a fast or realtime clock (frames are still applied), as ``/harness/pause``."""
-        self._call(lambda: self._set_paused(True))
+        self._call(lambda: self.core.set_paused(True))
 
     def resume(self) -> None:
         """Restart a paused fast or realtime clock."""
-        self._call(lambda: self._set_paused(False))
+        self._call(lambda: self.core.set_paused(False))
+
+    def pause_at(self, step: int | None) -> None:
+        """Pause a fast or realtime clock when it reaches ``step`` (exactly: at that step
+        boundary, recorded as a ``pause`` marker; None cancels). A run that must end at a
+        simulation-time limit sets it before the clock starts (``start="paused"`` or
+        ``"on_client"``)."""
+        if step is not None and (not isinstance(step, int) or step < 0):
+            raise SessionError(f"pause_at step must be an integer >= 0 or None, not {step!r}")
+
+        def set_limit() -> None:
+            self._pause_at = step
+            if self._port is not None:
+                self._port.wake.set()
+
+        self._call(set_limit)
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return self._closed
 
     @property
     def paused(self) -> bool:
         """Whether a free-running clock is paused."""
-        return self._paused
+        return self.core.paused
 
     @property
     def failure(self) -> BaseException | None:
         """Why the simulation stopped (an unstable step, a recording error), else None."""
-        return self._failure
+        return self.core.failure
 
     @property
     def step_index(self) -> int:
@@ -913,7 +588,7 @@ class Session:
     @property
     def dt_ns(self) -> int:
         """The timestep in nanoseconds."""
-        return self._dt_ns
+        return self.core.dt_ns
 
     @property
     def model(self) -> mujoco.MjModel:
@@ -928,7 +603,7 @@ class Session:
     @property
     def link_names(self) -> tuple[str, ...]:
         """The robot's links that are MuJoCo bodies (the /tf child frames)."""
-        return self._links
+        return self.core.links
 
     def joint_positions(self) -> F64:
         """Positions of :attr:`joint_names`."""
@@ -953,16 +628,66 @@ class Session:
     def add_logger(self, logger: Logger | LoggerFactory) -> None:
         """Register a logger (observed from the next step on)."""
         built = logger if isinstance(logger, Logger) else logger(self)
-        self._call(lambda: self._hub.add_logger(built))
+        self._call(lambda: self.core.hub.add_logger(built))
 
     def add_sink(self, sink: Sink) -> None:
         """Register an event sink."""
-        self._call(lambda: self._hub.add_sink(sink))
+        self._call(lambda: self.core.hub.add_sink(sink))
 
     def call(self, fn: Callable[[], T]) -> T:
         """Run ``fn()`` on the session's thread between steps and return its result (for
         consistent reads of :attr:`sim` while clients may be stepping)."""
         return self._call(fn)
+
+    # ----------------------------------------------------------------------------- clients
+
+    @property
+    def client_count(self) -> int:
+        """Clients connected now (sockets accepted whose closing the session has not yet
+        processed; 0 in client mode)."""
+        return self._clients_open
+
+    @property
+    def clients_seen(self) -> int:
+        """Clients that connected since the session started (never decreases)."""
+        return self._clients_seen
+
+    def wait_for_client(self, timeout: float = 10.0, *, count: int = 1) -> int:
+        """Wait until ``count`` clients have connected since the session started (a
+        wall-clock ``timeout`` in seconds: readiness, not simulation); returns
+        :attr:`clients_seen`. Raises :class:`ClientTimeoutError` naming the URL."""
+        if self._port is not None and not isinstance(self._port, ServerPort):
+            raise SessionError("wait_for_client: a session in client mode has no clients")
+        with self._clients:
+            if not self._clients.wait_for(lambda: self._clients_seen >= count, timeout):
+                raise ClientTimeoutError(
+                    f"{self._clients_seen} of {count} client(s) connected to "
+                    f"{getattr(self, 'url', '?')} within {timeout:g} s"
+                )
+            return self._clients_seen
+
+    # ----------------------------------------------------------------------------- snapshot
+
+    def snapshot(self, path: str | Path) -> int:
+        """Write the recording so far to ``path`` as a complete MCAP file, without stopping
+        the session; returns the step it ends at. Taken at a step boundary: frames waiting
+        there are applied first (as the next step would), so the copy ends with every frame
+        the session had received (recorded at ``step + 1``), like a recording closed at that
+        step minus its close and disconnect markers and its loggers' finish events."""
+        recorder = self._recorder
+        if recorder is None:
+            raise SessionError("snapshot: this session records nothing (record_to=None)")
+
+        def flush() -> tuple[int, int]:
+            self._boundary()
+            recorder.flush()
+            return self.sim.step_index, recorder.stats.file_bytes
+
+        step, size = self._call(flush)
+        with open(recorder.path, "rb") as source:
+            prefix = source.read(size)
+        complete_prefix(prefix, path, recorder.metadata.get("compression", "zstd"))
+        return step
 
     # ----------------------------------------------------------------------------- teardown
 
@@ -998,18 +723,35 @@ class Session:
             with contextlib.suppress(asyncio.CancelledError):
                 await self._driver
         try:
-            if self._hub.loggers:
-                self._hub.finish(StepContext.of(self.sim, self.robot_name))
+            try:
+                if self._port is not None:
+                    await self._close_port(self._port)
+            finally:
+                self.sink_reports = self.core.finish()
         finally:
-            self.sink_reports = self._hub.close()
-            if self._port is not None:
-                await self._port.stop()
             current = asyncio.current_task()
             others = [t for t in asyncio.all_tasks() if t is not current]
             for task in others:
                 task.cancel()
             await asyncio.gather(*others, return_exceptions=True)
             await asyncio.get_running_loop().shutdown_default_executor()
+
+    async def _close_port(self, port: Port) -> None:
+        """Deterministic close (module docstring): marker, every frame received processed
+        while the closing handshakes complete, a disconnect for every connection."""
+        bridge = self.core.bridge
+        try:
+            if bridge is None:
+                return
+            self._boundary()
+            await asyncio.sleep(0)  # answers to those frames leave before the close frames
+        finally:
+            await port.stop(self._boundary)
+        self._boundary()
+        self.core.record_close()
+        for connection in bridge.connections:
+            bridge.disconnect(connection)
+        bridge.drain()  # nobody to send to
 
     def __enter__(self) -> Session:
         return self

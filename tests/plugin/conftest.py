@@ -1,4 +1,5 @@
-"""pytester for the plugin tests, and the arguments that load the plugin in inner runs."""
+"""The plugin tests' set-up (pytester itself is enabled in the top-level conftest.py, the only
+place pytest allows ``pytest_plugins``), and the arguments that load the plugin in inner runs."""
 
 from __future__ import annotations
 
@@ -15,8 +16,6 @@ import harness.recording
 import harness.replay
 import harness.session
 import harness.testing  # noqa: F401
-
-pytest_plugins = ["pytester"]
 
 
 def _installed() -> bool:

@@ -424,3 +424,87 @@ def test_xdist_two_workers(pytester, plugin_args, run):
     assert workers == {"gw0", "gw1"}
     assert not list((pytester.path / "recordings").rglob("*.tmp"))
     run().assert_outcomes(passed=4)  # the goldens hold (compared in-process: one xdist run)
+
+
+MODES = """
+import pytest
+from harness.testing import connect
+
+def _move(session, url):
+    with connect(url) as client:
+        client.publish(
+            "/joint_command", "sensor_msgs/msg/JointState",
+            {"name": ["joint1"], "position": [0.2]},
+        )
+        client.step(20)
+
+def test_default(harness_session, rosbridge_url, golden):
+    _move(harness_session, rosbridge_url)
+    golden.check()
+
+@pytest.mark.harness(mode={"joint1": "velocity", "joint2": "position"})
+def test_per_joint(harness_session, rosbridge_url, golden):
+    _move(harness_session, rosbridge_url)
+    golden.check()
+"""
+
+
+def test_golden_names_carry_the_control_mode(pytester, run):
+    pytester.makepyfile(test_modes=MODES)
+    folder = pytester.path / "recordings" / "test_modes"
+    run("--harness-update-goldens").assert_outcomes(passed=2)
+    run("--harness-update-goldens", "--harness-mode=kinematic").assert_outcomes(passed=2)
+    assert sorted(p.name for p in folder.glob("*.mcap")) == [
+        "test_default.mcap",
+        "test_default[kinematic].mcap",
+        "test_per_joint[joint1=velocity].mcap",
+        "test_per_joint[kinematic].mcap",
+    ]
+    with Recording(folder / "test_default[kinematic].mcap") as rec:
+        assert "kinematic" in rec.metadata["control_modes"]
+        assert "position" not in rec.metadata["control_modes"]
+    # Each mode compares with its own golden: both suites pass again.
+    run().assert_outcomes(passed=2)
+    run("--harness-mode=kinematic").assert_outcomes(passed=2)
+    # Without the kinematic goldens, the kinematic suite fails naming the mode's golden.
+    (folder / "test_default[kinematic].mcap").unlink()
+    missing = run("--harness-mode=kinematic", "-k", "test_default")
+    missing.assert_outcomes(failed=1)
+    missing.stdout.fnmatch_lines(
+        ["*golden recording recordings/test_modes/test_default?kinematic?.mcap*"]
+    )
+
+
+MID_TEST = """
+from harness.testing import connect
+
+def test_mid(harness_session, rosbridge_url, golden, harness_recording):
+    with connect(rosbridge_url) as client:
+        client.publish(
+            "/joint_command", "sensor_msgs/msg/JointState",
+            {"name": ["joint1"], "position": [0.1]},
+        )
+        client.step(30)
+        report = golden.check()
+        assert report.steps_compared == 31
+        assert golden.path.name == "test_mid.mcap"
+        client.step(10)  # the session still runs after the check
+    assert harness_session.step_index == 40
+"""
+
+
+def test_golden_check_mid_test_keeps_the_session_running(pytester, run):
+    pytester.makepyfile(test_mid=MID_TEST)
+    run("--harness-update-goldens").assert_outcomes(passed=1)
+    golden = pytester.path / "recordings" / "test_mid" / "test_mid.mcap"
+    with Recording(golden) as rec:
+        assert rec.complete
+        assert rec.last_step == 30
+    run("--harness-keep-recordings=always").assert_outcomes(passed=1)
+    kept = pytester.path / ".harness" / "recordings" / "test_mid"
+    assert sorted(p.name for p in kept.glob("*.mcap")) == [
+        "test_mid.mcap",
+        "test_mid.snapshot.mcap",
+    ]
+    with Recording(kept / "test_mid.mcap") as rec:
+        assert rec.last_step == 40  # the full run, closed at the end of the test

@@ -49,6 +49,7 @@ def record(
     flush_interval_s: float = 1.0,
     print_flushes: bool = False,
     state_every: int = 1,
+    chunk_size: int = 1024 * 1024,
 ) -> None:
     """Run ``steps`` steps (0: forever) and record everything the harness records."""
     text = MODEL.read_text()
@@ -70,6 +71,7 @@ def record(
         flush_interval_s=flush_interval_s,
         on_flush=on_flush,
         state_every=state_every,
+        chunk_size=chunk_size,
     )
     with recorder:
         recorder.write_message(

@@ -2,7 +2,7 @@
 
 ``rewrite(src, dst, edit=fn, metadata=fn, attachments=fn)``: ``edit(topic, msg)`` gets every
 decoded message (a rosbags object, modifiable in place) and returns it, or ``None`` to drop it;
-``metadata``/``attachments`` map the old dict to the new one.
+``metadata``/``attachments`` map the old dict to the new one; ``chunk_size`` as the recorder's.
 """
 
 from __future__ import annotations
@@ -26,12 +26,13 @@ def rewrite(
     edit: Callable[[str, Any], Any] | None = None,
     metadata: Callable[[dict[str, str]], dict[str, str]] | None = None,
     attachments: Callable[[dict[str, bytes]], dict[str, bytes]] | None = None,
+    chunk_size: int = 1024 * 1024,
 ) -> Path:
     store = typestore()
     with open(src, "rb") as f_in, open(dst, "wb") as f_out:
         reader = make_reader(f_in)
         header = reader.get_header()
-        writer = Writer(f_out, compression=CompressionType.ZSTD)
+        writer = Writer(f_out, compression=CompressionType.ZSTD, chunk_size=chunk_size)
         writer.start(profile=header.profile, library=header.library)
         for record in reader.iter_metadata():
             data = dict(record.metadata)

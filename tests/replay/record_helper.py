@@ -52,6 +52,7 @@ def record(
     with_mjb: bool = True,
     joint_states_every: int = 10,
     chunk_size: int = 1024 * 1024,
+    state_every: int = 1,
 ) -> Path:
     """Run the demo robot ``steps`` steps applying ``commands`` and record it to ``path``."""
     robot = demo_robot(control)
@@ -68,7 +69,11 @@ def record(
     tracker = CollisionTracker(debounce_steps=5)
     seq = 0
     recorder = Recorder(
-        path, metadata=description.metadata, attachments=attachments, chunk_size=chunk_size
+        path,
+        metadata=description.metadata,
+        attachments=attachments,
+        chunk_size=chunk_size,
+        state_every=state_every,
     )
     with recorder as rec:
         state = sim.get_state()

@@ -1,0 +1,1037 @@
+"""The session's per-step logic without sockets, threads or wall clocks (sans-I/O, h11-style).
+
+:class:`SessionCore` is everything a session does between two step boundaries: the rosbridge
+protocol core (:class:`SessionBridge`), the command topics, the publishing schedule, the
+``/harness/*`` services, loggers and what goes to the recorder. Input arrives as rosbridge
+frames at a step boundary (``bridge.receive``, called by the live server's queue or by replay);
+output is outgoing frames (the bridge's outbox and tap), applied inputs, physics states and
+published messages (a :class:`RecordSink`). The live :class:`~harness.session.Session` is a
+thin asyncio/thread shell around one core; ``harness replay --level full``
+(:mod:`harness.replay.pipeline`) drives a fresh core with the recorded frames, so both run
+the same code.
+
+Markers
+-------
+A few inputs are not frames a client sent, yet change what the core does. They are recorded
+as ``/harness/bridge`` frames with ``direction`` 0 (in), ``connection`` 0 (real connections
+count from 1), ``op`` ``""``, ``topic`` one of :data:`MARKERS` and a JSON ``text``; ``seq``
+is the sequence number the next real frame gets (markers do not consume one), ``step`` and
+``sim_time_ns`` as for incoming frames (the step before which it took effect):
+
+- ``harness/disconnect`` ``{"connection": c}``: a client's socket closed;
+- ``harness/call_timeout`` ``{"call": key}``: a service call routed to a client timed out on
+  the wall clock (the transport's timer);
+- ``harness/transport_status`` ``{"connection": c, "level": l, "msg": m}``: a ``status``
+  frame the transport sent by itself (subscription frames dropped for a slow reader);
+- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause", ...}``:
+  a call of the session's Python API that changes the run (stepping from Python needs no
+  marker: replay steps to the recorded steps); a free-running clock started by its first
+  client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
+- ``harness/close`` ``{"step": k}``: the session closed after step ``k``, once every frame
+  it received was processed; only ``harness/disconnect`` markers of connections still open
+  follow it. It changes nothing (replay re-records it).
+
+A connection opening needs no marker: a connection has no effect until its first frame, and
+ids are given in order, so replay opens connection ``c`` when its first frame (or marker)
+appears. Python loggers are not replayable from a file: what they publish on ``/rosout``
+needs the same loggers (``loggers=`` of :func:`harness.replay.pipeline.replay_pipeline`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Literal, Protocol
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.events import (
+    EventHub,
+    JointSample,
+    Level,
+    LogMessage,
+    SinkReport,
+    StepContext,
+)
+from harness.events.events import Event
+from harness.models import LoadedRobot
+from harness.rosbridge import DIRECTION_IN, Bridge, Output, TapRecord
+from harness.session.commands import (
+    FORWARD_TOPICS,
+    Trajectory,
+    apply_forward,
+    apply_joint_state,
+    parse_trajectory,
+)
+from harness.session.errors import (
+    CommandRefused,
+    SessionClosedError,
+    SessionConfigError,
+    SessionError,
+)
+from harness.session.topics import (
+    TYPE_CLOCK,
+    TYPE_FORWARD,
+    TYPE_JOINT_STATE,
+    TYPE_LOG,
+    TYPE_STRING,
+    TYPE_TF,
+    TYPE_TRAJECTORY,
+    clock_msg,
+    joint_state_msg,
+    log_msg,
+    period_steps,
+    stamp,
+    tf_msg,
+)
+from harness.sim import CommandField, KinematicLimits, Notice, Simulation
+
+__all__ = [
+    "CLOCK_MODES",
+    "DEFAULT_MAX_STEP_REQUEST",
+    "MARKERS",
+    "MARKER_CALL_TIMEOUT",
+    "MARKER_CLOSE",
+    "MARKER_DISCONNECT",
+    "MARKER_PYTHON",
+    "MARKER_TRANSPORT_STATUS",
+    "START_MODES",
+    "ClockMode",
+    "CoreOptions",
+    "Graph",
+    "RecordSink",
+    "SessionBridge",
+    "SessionCore",
+    "SessionTopics",
+    "StartMode",
+    "is_marker",
+]
+
+F64 = npt.NDArray[np.float64]
+
+ClockMode = Literal["lockstep", "fast", "realtime"]
+CLOCK_MODES: tuple[ClockMode, ...] = ("lockstep", "fast", "realtime")
+StartMode = Literal["now", "paused", "on_client"]
+START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
+DEFAULT_MAX_STEP_REQUEST = 100_000
+"""Default cap of one ``/harness/step`` request (steps run while the loop is blocked)."""
+
+MARKER_DISCONNECT = "harness/disconnect"
+MARKER_CALL_TIMEOUT = "harness/call_timeout"
+MARKER_TRANSPORT_STATUS = "harness/transport_status"
+MARKER_PYTHON = "harness/python"
+MARKER_CLOSE = "harness/close"
+MARKERS = (
+    MARKER_DISCONNECT,
+    MARKER_CALL_TIMEOUT,
+    MARKER_TRANSPORT_STATUS,
+    MARKER_PYTHON,
+    MARKER_CLOSE,
+)
+"""The ``topic`` of every marker frame (see the module docstring)."""
+
+SERVICE_STEP = "/harness/step"
+SERVICE_RESET = "/harness/reset"
+SERVICE_PAUSE = "/harness/pause"
+SERVICE_GET_STATE = "/harness/get_state"
+_ROSOUT = "/rosout"
+_CLOCK = "/clock"
+_LOG_NAME = "harness.session"
+
+
+def is_marker(direction: int, connection: int, op: str, topic: str) -> bool:
+    """Whether a recorded ``/harness/bridge`` frame is a marker, not a frame a client sent."""
+    return direction == DIRECTION_IN and connection == 0 and op == "" and topic in MARKERS
+
+
+class RecordSink(Protocol):
+    """What the core writes to the recording (:class:`harness.recording.Recorder` is one)."""
+
+    def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None: ...
+
+    def write_bridge_frame(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        direction: int,
+        connection: int,
+        seq: int,
+        op: str,
+        topic: str,
+        text: str | None = None,
+        data: bytes | None = None,
+    ) -> None: ...
+
+    def write_applied_input(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        ctrl: npt.ArrayLike,
+        kinematic_joints: Sequence[str] = (),
+        qpos_index: npt.ArrayLike = (),
+        qpos_value: npt.ArrayLike = (),
+        qvel_index: npt.ArrayLike = (),
+        qvel_value: npt.ArrayLike = (),
+        mocap_pos: npt.ArrayLike = (),
+        mocap_quat: npt.ArrayLike = (),
+        qfrc_applied: npt.ArrayLike = (),
+        xfrc_applied: npt.ArrayLike = (),
+    ) -> None: ...
+
+    def write_physics_state(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None: ...
+
+
+MessageCallback = Callable[[Mapping[str, Any], int], None]
+ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
+
+
+class Graph(Protocol):
+    """The core's view of the ROS graph it publishes on (an in-process bridge or a client of
+    an external server): synchronous, called only between steps."""
+
+    def has_subscribers(self, topic: str) -> bool: ...
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None: ...
+
+    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None: ...
+
+    def serve(self, service: str, type: str, handler: ServiceHandler) -> None: ...
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        """Tell one client something (a ``status`` frame), where the transport can."""
+        ...
+
+
+def _check_name(value: str, what: str) -> str:
+    parts = value.strip("/").split("/")
+    if not value.strip("/") or not all(p and (p[0].isalpha() or p[0] == "_") for p in parts):
+        raise SessionConfigError(f"{what} {value!r} is not a valid ROS name")
+    if not all(c.isalnum() or c in "_/" for c in value):
+        raise SessionConfigError(f"{what} {value!r} is not a valid ROS name")
+    return value
+
+
+@dataclass(frozen=True)
+class SessionTopics:
+    """The resolved names of the robot's topics."""
+
+    joint_states: str
+    joint_command: str
+    joint_trajectory: str
+    tf: str
+    robot_description: str
+    forward: Mapping[CommandField, str] = field(default_factory=dict)
+    clock: str = _CLOCK
+    rosout: str = _ROSOUT
+
+
+def _hz(value: float | None) -> str:
+    return "" if value is None else repr(float(value))
+
+
+@dataclass(frozen=True)
+class CoreOptions:
+    """Everything besides the robot that decides what a core does (validated on creation);
+    :meth:`to_metadata`/:meth:`from_metadata` carry it through a recording's metadata.
+
+    ``start``: a free-running clock (``fast``, ``realtime``) steps from the start (``"now"``),
+    starts paused (``"paused"``: :meth:`SessionCore.set_paused`), or starts paused until its
+    first client connects (``"on_client"``, the shell's job); lockstep takes only ``"now"``.
+    ``record_bridge_frames``: whether bridge frames and markers are recorded (without them a
+    recording cannot be replayed at ``--level full``). ``max_step_request``: the most steps
+    one ``/harness/step`` request may ask for (a larger request fails, nothing stepped)."""
+
+    clock: ClockMode = "lockstep"
+    namespace: str = ""
+    kinematic_limits: KinematicLimits = "clamp"
+    state_every: int = 1
+    joint_states_hz: float = 100.0
+    tf_hz: float | None = None
+    clock_hz: float | None = None
+    joint_command_topic: str = "joint_command"
+    start: StartMode = "now"
+    record_bridge_frames: bool = True
+    max_step_request: int = DEFAULT_MAX_STEP_REQUEST
+
+    def __post_init__(self) -> None:
+        if self.clock not in CLOCK_MODES:
+            raise SessionConfigError(
+                f"clock must be one of {', '.join(CLOCK_MODES)}, not {self.clock!r}"
+            )
+        if self.start not in START_MODES:
+            raise SessionConfigError(
+                f"start must be one of {', '.join(START_MODES)}, not {self.start!r}"
+            )
+        if self.clock == "lockstep" and self.start != "now":
+            raise SessionConfigError(
+                f"start={self.start!r} applies to the fast and realtime clocks: a lockstep "
+                "clock moves only when asked"
+            )
+        if not isinstance(self.record_bridge_frames, bool):
+            raise SessionConfigError(
+                f"record_bridge_frames must be True or False, not {self.record_bridge_frames!r}"
+            )
+        if (
+            not isinstance(self.max_step_request, int)
+            or isinstance(self.max_step_request, bool)
+            or self.max_step_request < 1
+        ):
+            raise SessionConfigError(
+                f"max_step_request must be an integer >= 1, not {self.max_step_request!r}"
+            )
+        if not isinstance(self.state_every, int) or self.state_every < 1:
+            raise SessionConfigError(
+                f"state_every must be an integer >= 1, not {self.state_every!r}"
+            )
+        for what, hz in (
+            ("joint_states_hz", self.joint_states_hz),
+            ("tf_hz", self.tf_hz),
+            ("clock_hz", self.clock_hz),
+        ):
+            if hz is not None and not (
+                isinstance(hz, int | float) and math.isfinite(hz) and hz >= 0
+            ):
+                raise SessionConfigError(f"{what} must be >= 0 Hz, not {hz!r}")
+        if self.namespace:
+            object.__setattr__(
+                self, "namespace", _check_name(self.namespace, "namespace").strip("/")
+            )
+        if self.kinematic_limits not in ("clamp", "allow"):
+            raise SessionConfigError(
+                f"kinematic_limits must be 'clamp' or 'allow', not {self.kinematic_limits!r}"
+            )
+
+    def to_metadata(self) -> dict[str, str]:
+        """The recording metadata keys of these options (all strings)."""
+        return {
+            "clock": self.clock,
+            "kinematic_limits": self.kinematic_limits,
+            "namespace": self.namespace,
+            "joint_states_hz": repr(float(self.joint_states_hz)),
+            "tf_hz": _hz(self.tf_hz),
+            "clock_hz": _hz(self.clock_hz),
+            "joint_command_topic": self.joint_command_topic,
+            "start": self.start,
+            "bridge_frames": "true" if self.record_bridge_frames else "false",
+            "max_step_request": str(self.max_step_request),
+        }  # state_every: the recorder writes it
+
+    @classmethod
+    def from_metadata(cls, metadata: Mapping[str, str]) -> CoreOptions:
+        """The options of a recorded session (keys a recording lacks keep their defaults)."""
+        defaults = cls()
+
+        def number(key: str, default: float | None) -> float | None:
+            text = metadata.get(key)
+            if text is None or text == "":
+                return default
+            try:
+                return float(text)
+            except ValueError:
+                raise SessionConfigError(f"metadata {key!r} is {text!r}, not a number") from None
+
+        hz = number("joint_states_hz", defaults.joint_states_hz)
+        every = metadata.get("state_every", "1")
+        if not every.isdigit():
+            raise SessionConfigError(f"metadata 'state_every' is {every!r}, not an integer")
+        cap = metadata.get("max_step_request", str(defaults.max_step_request))
+        if not cap.isdigit():
+            raise SessionConfigError(f"metadata 'max_step_request' is {cap!r}, not an integer")
+        return cls(
+            clock=metadata.get("clock", defaults.clock),  # type: ignore[arg-type]
+            namespace=metadata.get("namespace", ""),
+            kinematic_limits=metadata.get(  # type: ignore[arg-type]
+                "kinematic_limits", defaults.kinematic_limits
+            ),
+            state_every=int(every),
+            joint_states_hz=defaults.joint_states_hz if hz is None else hz,
+            tf_hz=number("tf_hz", None),
+            clock_hz=number("clock_hz", None),
+            joint_command_topic=metadata.get("joint_command_topic", "joint_command"),
+            start=metadata.get("start", defaults.start),  # type: ignore[arg-type]
+            record_bridge_frames=metadata.get("bridge_frames", "true") != "false",
+            max_step_request=int(cap),
+        )
+
+
+class SessionBridge(Bridge):
+    """The session's rosbridge protocol core: every frame is processed at the simulation's
+    current time, and inputs that are not client frames (a socket closing, a wall-clock call
+    timeout, a status the transport sends by itself) are reported to ``on_marker`` before they
+    take effect, so that a recording can hold them."""
+
+    def __init__(self, clock: Callable[[], int]) -> None:
+        super().__init__()
+        self._clock = clock
+        self._inside = 0
+        self.on_marker: Callable[[str, dict[str, Any]], None] | None = None
+        self.on_connect: Callable[[int], None] | None = None
+        """Called with the id of every connection opened (the shell counts clients)."""
+        self.on_disconnect: Callable[[int], None] | None = None
+        """Called with the id of every connection closed."""
+
+    @contextlib.contextmanager
+    def _core(self) -> Any:
+        self._inside += 1
+        try:
+            yield
+        finally:
+            self._inside -= 1
+
+    def _marker(self, topic: str, args: dict[str, Any]) -> None:
+        if self.on_marker is not None:
+            self.on_marker(topic, args)
+
+    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
+        """Process one frame at the simulation's time (``now_ns`` is ignored: a step request
+        earlier in the same batch may have moved time)."""
+        with self._core():
+            return super().receive(connection, data, self._clock())
+
+    def connect(self, peer: str = "") -> int:
+        cid = super().connect(peer)
+        if self.on_connect is not None:
+            self.on_connect(cid)
+        return cid
+
+    def disconnect(self, connection: int) -> list[Output]:
+        was_open = connection in self.connections
+        if was_open:
+            self._marker(MARKER_DISCONNECT, {"connection": connection})
+        with self._core():
+            outputs = super().disconnect(connection)
+        if was_open and self.on_disconnect is not None:
+            self.on_disconnect(connection)
+        return outputs
+
+    def time_out_call(self, key: int) -> list[Output]:
+        self._marker(MARKER_CALL_TIMEOUT, {"call": key})
+        with self._core():
+            return super().time_out_call(key)
+
+    def status(self, connection: int, level: str, msg: str, id: Any = None) -> None:
+        if not self._inside:
+            self._marker(
+                MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg}
+            )
+        super().status(connection, level, msg, id)
+
+    def core_status(self, connection: int, level: str, msg: str) -> None:
+        """A status the session itself sends (not a transport's)."""
+        with self._core():
+            super().status(connection, level, msg)
+
+
+class BridgePort:
+    """The in-process graph of a :class:`SessionBridge` (the embedded server's side)."""
+
+    def __init__(self, bridge: SessionBridge) -> None:
+        self.bridge = bridge
+
+    def has_subscribers(self, topic: str) -> bool:
+        return bool(self.bridge.subscribers_of(topic))
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None:
+        self.bridge.publish(topic, type, msg, now_ns, latch=latch)
+
+    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None:
+        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type)
+
+    def serve(self, service: str, type: str, handler: ServiceHandler) -> None:
+        self.bridge.advertise_service(service, type, lambda call: handler(call.args))
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        self.bridge.core_status(connection, level, text)
+
+
+class _BridgeLogSink:
+    """Publishes every event except joint samples on ``/rosout`` over the bridge."""
+
+    name = "bridge-rosout"
+
+    def __init__(self, core: SessionCore) -> None:
+        self._core = core
+        self._delivered = 0
+
+    def emit(self, event: Event) -> None:
+        if isinstance(event, JointSample):
+            return
+        name = event.name if isinstance(event, LogMessage) else f"harness.{event.kind}"
+        self._core.publish(
+            _ROSOUT,
+            TYPE_LOG,
+            lambda: log_msg(event.sim_time_ns, int(event.level), name, event.message()),
+            record=False,
+        )
+        self._delivered += 1
+
+    def close(self) -> SinkReport:
+        return SinkReport(self.name, self._delivered, 0)
+
+
+class SessionCore:
+    """One session's logic, sans-I/O. ``robot``: the loaded robot (a fresh
+    :class:`~harness.sim.Simulation` of it is made); ``options``: see :class:`CoreOptions`;
+    ``recorder``: where bridge frames, markers, applied inputs, states and published messages
+    go; ``hub``: the event hub (its sinks and loggers; a ``/rosout`` publishing sink is added);
+    ``graph``: an external graph (client mode) instead of the core's own
+    :class:`SessionBridge` (:attr:`bridge`, None in client mode).
+
+    Call only from one thread. Driving it: :meth:`start` once, then at each step boundary
+    hand waiting frames to :attr:`bridge` (``receive``, ``disconnect``, ``time_out_call``) and
+    take its outputs (``drain``), and call :meth:`advance` for each step.
+    """
+
+    def __init__(
+        self,
+        robot: LoadedRobot,
+        options: CoreOptions,
+        *,
+        recorder: RecordSink | None = None,
+        hub: EventHub | None = None,
+        graph: Graph | None = None,
+    ) -> None:
+        self.robot = robot
+        self.options = options
+        self.clock: ClockMode = options.clock
+        self.namespace = options.namespace
+        self.sim = Simulation(robot, kinematic_limits=options.kinematic_limits)
+        self.robot_name = robot.name
+        self.recorder = recorder
+        self.hub = hub if hub is not None else EventHub()
+        self.hub.add_sink(_BridgeLogSink(self))
+        self.bridge: SessionBridge | None = None
+        if graph is None:
+            self.bridge = SessionBridge(lambda: self.sim.sim_time_ns)
+            graph = BridgePort(self.bridge)
+            if recorder is not None and options.record_bridge_frames:
+                self.bridge.tap = self._tap
+                self.bridge.on_marker = self._marker
+        self.graph: Graph = graph
+        self.topics = self._resolve_topics(options.joint_command_topic)
+        self.dt_ns = self.sim.dt_ns
+        hz = options.joint_states_hz
+        self._js_every = period_steps(hz, self.dt_ns)
+        self._tf_every = period_steps(hz if options.tf_hz is None else options.tf_hz, self.dt_ns)
+        self._clock_every = period_steps(
+            hz if options.clock_hz is None else options.clock_hz, self.dt_ns
+        )
+        self._state_every = options.state_every
+        self._joint_state_layout()
+        self.links = tuple(
+            link.name
+            for link in robot.description.links
+            if mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_BODY, link.name) >= 0
+        )
+        self._trajectory: Trajectory | None = None
+        self._trajectory_topic = ""
+        self._trajectory_warned: set[str] = set()
+        self._next_seq = 0
+        self.paused = options.start != "now"
+        self.failure: BaseException | None = None
+        """Why the simulation stopped (an unstable step, a recording error), else None."""
+        self.after_step: list[Callable[[], None]] = []
+        """Called after every step (the shell's ``run_until`` watchers)."""
+        self.on_clock_change: Callable[[], None] | None = None
+        """Called when a reset or pause changes how time should move (the shell re-paces)."""
+
+    # ----------------------------------------------------------------------------- set-up
+
+    def _resolve(self, name: str) -> str:
+        _check_name(name, "topic")
+        if name.startswith("/"):
+            return name
+        return f"/{self.namespace}/{name}" if self.namespace else f"/{name}"
+
+    def _resolve_topics(self, joint_command: str) -> SessionTopics:
+        return SessionTopics(
+            joint_states=self._resolve("joint_states"),
+            joint_command=self._resolve(joint_command),
+            joint_trajectory=self._resolve("joint_trajectory"),
+            tf=self._resolve("tf"),
+            robot_description=self._resolve("robot_description"),
+            forward=MappingProxyType({f: self._resolve(t) for f, t in FORWARD_TOPICS.items()}),
+        )
+
+    def _joint_state_layout(self) -> None:
+        model = self.sim.model
+        kinematic = set(self.sim.kinematic_joints)
+        names: list[str] = []
+        qadr: list[int] = []
+        dadr: list[int] = []
+        kin: list[bool] = []
+        slide_hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        for joint in self.robot.description.joints:
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
+            if jid < 0 or int(model.jnt_type[jid]) not in slide_hinge:
+                continue
+            names.append(joint.name)
+            qadr.append(int(model.jnt_qposadr[jid]))
+            dadr.append(int(model.jnt_dofadr[jid]))
+            kin.append(joint.name in kinematic)
+        self._js_names = tuple(names)
+        self._js_qadr = np.array(qadr, dtype=np.intp)
+        self._js_dadr = np.array(dadr, dtype=np.intp)
+        self._js_kin = np.array(kin, dtype=bool)
+
+    def start(self) -> None:
+        """Subscribe the command topics, serve the services, publish the latched robot
+        description and record/publish step 0."""
+        graph = self.graph
+        topics = self.topics
+        graph.subscribe(topics.joint_command, TYPE_JOINT_STATE, self._on_joint_command)
+        graph.subscribe(topics.joint_trajectory, TYPE_TRAJECTORY, self._on_trajectory)
+        for command_field, topic in topics.forward.items():
+            graph.subscribe(topic, TYPE_FORWARD, self._forward_handler(command_field, topic))
+        graph.serve(SERVICE_STEP, "harness_msgs/srv/Step", self._srv_step)
+        graph.serve(SERVICE_RESET, "std_srvs/srv/Trigger", self._srv_reset)
+        graph.serve(SERVICE_PAUSE, "std_srvs/srv/SetBool", self._srv_pause)
+        graph.serve(SERVICE_GET_STATE, "harness_msgs/srv/GetState", self._srv_get_state)
+
+    def publish_initial(self) -> None:
+        """Publish the latched robot description and record/publish step 0 (after
+        :meth:`start`, once the graph has settled)."""
+        description = self._description_text()
+        self.publish(
+            self.topics.robot_description, TYPE_STRING, lambda: {"data": description}, latch=True
+        )
+        self._after_state()
+
+    def _description_text(self) -> str:
+        for name, blob in self.robot.sources.items():
+            if name.startswith("model/"):
+                return blob.decode("utf-8", errors="replace")
+        return self.robot.mjcf
+
+    # ----------------------------------------------------------------------------- stepping
+
+    def fail(self, exc: BaseException) -> None:
+        """Stop the run: ``exc`` becomes :attr:`failure` (logged once)."""
+        if self.failure is None:
+            self.failure = exc
+            with contextlib.suppress(Exception):
+                self.log(Level.FATAL, f"the run failed: {exc}")
+
+    def check_running(self) -> None:
+        """Raise :class:`SessionClosedError` when the simulation has failed."""
+        if self.failure is not None:
+            raise SessionClosedError(
+                f"the simulation failed ({self.failure}); call reset() to start again"
+            )
+
+    def advance(self) -> None:
+        """One step: trajectory setpoints, the step, then recording, loggers, publishing."""
+        sim = self.sim
+        trajectory = self._trajectory
+        if trajectory is not None:
+            t_next = sim.sim_time_ns + self.dt_ns
+            positions, velocities = trajectory.commands(t_next)
+            notices = sim.set_positions(positions) if positions else []
+            if velocities:
+                notices += sim.set_velocities(velocities)
+            fresh = [n for n in notices if n.joint not in self._trajectory_warned]
+            if fresh:
+                self._trajectory_warned.update(n.joint for n in fresh)
+                self._report_notices(self._trajectory_topic, 0, fresh)
+            if t_next >= trajectory.end_ns:
+                self._trajectory = None
+        try:
+            sim.step()
+        except Exception as exc:
+            self.fail(exc)
+            raise
+        recorder = self.recorder
+        if recorder is not None and sim.input_changed:
+            applied = sim.last_input
+            assert applied is not None
+            recorder.write_applied_input(
+                step=applied.step,
+                sim_time_ns=applied.sim_time_ns,
+                ctrl=applied.ctrl,
+                kinematic_joints=applied.kinematic_joints,
+                qpos_index=applied.qpos_index,
+                qpos_value=applied.qpos_value,
+                qvel_index=applied.qvel_index,
+                qvel_value=applied.qvel_value,
+                mocap_pos=applied.mocap_pos,
+                mocap_quat=applied.mocap_quat,
+                qfrc_applied=applied.qfrc_applied,
+                xfrc_applied=applied.xfrc_applied,
+            )
+        if self.hub.loggers:
+            self.hub.observe(StepContext.of(sim, self.robot_name))
+        self._after_state()
+        for watcher in tuple(self.after_step):
+            watcher()
+
+    def _after_state(self) -> None:
+        """Record the state and publish what is due at the current step."""
+        sim = self.sim
+        k = sim.step_index
+        recorder = self.recorder
+        if recorder is not None and k % self._state_every == 0:
+            data = sim.data
+            recorder.write_physics_state(
+                step=k,
+                sim_time_ns=sim.sim_time_ns,
+                state_spec=sim.state_spec,
+                state=sim.get_state(),
+                qpos=data.qpos,
+                qvel=data.qvel,
+            )
+        topics = self.topics
+        if self._js_every and k % self._js_every == 0:
+            self.publish(topics.joint_states, TYPE_JOINT_STATE, self.joint_state)
+        if self._clock_every and k % self._clock_every == 0:
+            self.publish(topics.clock, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
+        if self._tf_every and k % self._tf_every == 0:
+            self.publish(topics.tf, TYPE_TF, self._tf)
+
+    def joint_state(self) -> dict[str, Any]:
+        """The ``sensor_msgs/msg/JointState`` of the current step."""
+        data = self.sim.data
+        effort: F64 = np.where(
+            self._js_kin, data.qfrc_applied[self._js_dadr], data.qfrc_actuator[self._js_dadr]
+        )
+        return joint_state_msg(
+            self.sim.sim_time_ns,
+            self._js_names,
+            data.qpos[self._js_qadr],
+            data.qvel[self._js_dadr],
+            effort,
+        )
+
+    def _tf(self) -> dict[str, Any]:
+        poses = self.sim.link_poses()
+        prefix = f"{self.namespace}/" if self.namespace else ""
+        return tf_msg(
+            self.sim.sim_time_ns, {n: poses[n] for n in self.links if n in poses}, "world", prefix
+        )
+
+    def publish(
+        self,
+        topic: str,
+        type: str,
+        build: Callable[[], Mapping[str, Any]],
+        *,
+        latch: bool = False,
+        record: bool = True,
+    ) -> None:
+        """Publish on the graph (when someone listens or ``latch``) and record (``record``);
+        ``build`` makes the message only when needed."""
+        recorder = self.recorder if record else None
+        send = latch or self.graph.has_subscribers(topic)
+        if recorder is None and not send:
+            return
+        msg = build()
+        now = self.sim.sim_time_ns
+        if recorder is not None:
+            recorder.write_message(topic, type, msg, sim_time_ns=now)
+        if send:
+            self.graph.publish(topic, type, msg, now, latch=latch)
+
+    # ----------------------------------------------------------------------------- frames
+
+    def _tap(self, record: TapRecord) -> None:
+        assert self.recorder is not None
+        k = self.sim.step_index
+        data = record.data
+        self._next_seq = record.seq + 1
+        self.recorder.write_bridge_frame(
+            step=k + 1 if record.direction == DIRECTION_IN else k,
+            sim_time_ns=k * self.dt_ns,
+            direction=record.direction,
+            connection=record.connection,
+            seq=record.seq,
+            op=record.op,
+            topic=record.name,
+            text=data if isinstance(data, str) else None,
+            data=data if isinstance(data, bytes) else None,
+        )
+
+    def _marker(self, topic: str, args: Mapping[str, Any]) -> None:
+        if self.recorder is None or self.bridge is None or not self.options.record_bridge_frames:
+            return
+        k = self.sim.step_index
+        self.recorder.write_bridge_frame(
+            step=k + 1,
+            sim_time_ns=k * self.dt_ns,
+            direction=DIRECTION_IN,
+            connection=0,
+            seq=self._next_seq,
+            op="",
+            topic=topic,
+            text=json.dumps(args, sort_keys=True),
+        )
+
+    def replay_frame(self, connection: int, op: str, topic: str, payload: str | bytes) -> None:
+        """Apply one recorded incoming frame or marker at the current step boundary, as the
+        live session did: opens ``connection`` (and any lower id not yet seen) first."""
+        bridge = self.bridge
+        if bridge is None:
+            raise SessionError("replay needs the session's own bridge (not client mode)")
+        if is_marker(DIRECTION_IN, connection, op, topic):
+            self._replay_marker(bridge, topic, payload)
+            return
+        self._open(bridge, connection)
+        bridge.receive(connection, payload, self.sim.sim_time_ns)
+
+    @staticmethod
+    def _open(bridge: SessionBridge, connection: int) -> None:
+        while connection not in bridge.connections and bridge.connect() < connection:
+            pass
+
+    def _replay_marker(self, bridge: SessionBridge, topic: str, payload: str | bytes) -> None:
+        try:
+            args = json.loads(payload)
+            if not isinstance(args, dict):
+                raise TypeError("not an object")
+            if topic == MARKER_DISCONNECT:
+                self._open(bridge, int(args["connection"]))
+                bridge.disconnect(int(args["connection"]))
+            elif topic == MARKER_CALL_TIMEOUT:
+                bridge.time_out_call(int(args["call"]))
+            elif topic == MARKER_TRANSPORT_STATUS:
+                bridge.status(int(args["connection"]), str(args["level"]), str(args["msg"]))
+            elif topic == MARKER_CLOSE:
+                self.record_close()
+            else:
+                self._replay_python(args)
+        except (ValueError, TypeError, KeyError) as exc:
+            raise SessionError(f"marker {topic} {payload!r} is malformed: {exc}") from None
+
+    def _replay_python(self, args: Mapping[str, Any]) -> None:
+        call = args["call"]
+        if call == "command":
+            self.command(
+                str(args["joint"]),
+                position=args.get("position"),
+                velocity=args.get("velocity"),
+                effort=args.get("effort"),
+            )
+        elif call == "set_positions":
+            self.set_positions({str(k): float(v) for k, v in args["positions"].items()})
+        elif call == "reset":
+            self.reset()
+        elif call == "pause":
+            self.set_paused(bool(args["paused"]))
+        else:
+            raise ValueError(f"unknown call {call!r}")
+
+    # ----------------------------------------------------------------------------- events
+
+    def log(self, level: Level, text: str) -> None:
+        """Emit a session log event (``/rosout``, sinks)."""
+        sim = self.sim
+        self.hub.emit(
+            [
+                LogMessage.of(
+                    step=sim.step_index,
+                    sim_time_ns=sim.sim_time_ns,
+                    robot=self.robot_name,
+                    text=text,
+                    level=level,
+                    name=_LOG_NAME,
+                )
+            ]
+        )
+
+    def _report_notices(self, topic: str, connection: int, notices: Sequence[Notice]) -> None:
+        for notice in notices:
+            text = f"{topic}: {notice.message}"
+            if connection:
+                self.graph.status(connection, "warning", text)
+            self.log(Level.WARNING, text)
+
+    def _refuse(self, topic: str, connection: int, reason: str) -> None:
+        text = f"{topic}: command refused: {reason}"
+        if connection:
+            self.graph.status(connection, "error", text)
+        self.log(Level.ERROR, text)
+
+    # ----------------------------------------------------------------------------- commands
+
+    def _command(
+        self, topic: str, connection: int, apply: Callable[[], list[Notice]], joints: set[str]
+    ) -> list[Notice]:
+        try:
+            notices = apply()
+        except CommandRefused as exc:
+            self._refuse(topic, connection, str(exc))
+            raise
+        if self._trajectory is not None:
+            self._trajectory = self._trajectory.without(joints)
+        self._report_notices(topic, connection, notices)
+        return notices
+
+    def _on_joint_command(self, msg: Mapping[str, Any], connection: int) -> None:
+        with contextlib.suppress(CommandRefused):
+            self._command(
+                self.topics.joint_command,
+                connection,
+                lambda: apply_joint_state(self.sim, msg),
+                set(msg["name"]),
+            )
+
+    def _forward_handler(
+        self, command_field: CommandField, topic: str
+    ) -> Callable[[Mapping[str, Any], int], None]:
+        def handle(msg: Mapping[str, Any], connection: int) -> None:
+            with contextlib.suppress(CommandRefused):
+                self._command(
+                    topic,
+                    connection,
+                    lambda: apply_forward(self.sim, command_field, msg),
+                    set(self.sim.joint_names),
+                )
+
+        return handle
+
+    def _on_trajectory(self, msg: Mapping[str, Any], connection: int) -> None:
+        topic = self.topics.joint_trajectory
+        try:
+            trajectory = parse_trajectory(self.sim, msg, self.sim.sim_time_ns)
+        except CommandRefused as exc:
+            self._refuse(topic, connection, str(exc))
+            return
+        self._trajectory = trajectory
+        self._trajectory_topic = topic
+        self._trajectory_warned = set()
+
+    def command(
+        self,
+        joint: str,
+        *,
+        position: float | None = None,
+        velocity: float | None = None,
+        effort: float | None = None,
+    ) -> list[Notice]:
+        """A Python command of one joint (recorded as a ``harness/python`` marker)."""
+        values = {
+            "position": None if position is None else float(position),
+            "velocity": None if velocity is None else float(velocity),
+            "effort": None if effort is None else float(effort),
+        }
+        self._marker(MARKER_PYTHON, {"call": "command", "joint": joint, **values})
+        return self._python_command(
+            lambda: self.sim.command(
+                joint,
+                position=values["position"],
+                velocity=values["velocity"],
+                effort=values["effort"],
+            ),
+            {joint},
+        )
+
+    def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
+        """Python position commands (recorded as a ``harness/python`` marker)."""
+        values = {str(name): float(value) for name, value in positions.items()}
+        self._marker(MARKER_PYTHON, {"call": "set_positions", "positions": values})
+        return self._python_command(lambda: self.sim.set_positions(values), set(values))
+
+    def _python_command(self, apply: Callable[[], list[Notice]], joints: set[str]) -> list[Notice]:
+        notices = apply()
+        if self._trajectory is not None:
+            self._trajectory = self._trajectory.without(joints)
+        self._report_notices("python", 0, notices)
+        return notices
+
+    # ----------------------------------------------------------------------------- services
+
+    def _srv_step(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
+        steps = int(request["steps"])
+        if steps > self.options.max_step_request:
+            raise SessionError(
+                f"{steps} steps requested, more than max_step_request="
+                f"{self.options.max_step_request} per call: nothing stepped; ask in several "
+                "calls"
+            )
+        self.check_running()
+        for _ in range(steps):
+            self.advance()
+        return {"sim_time": stamp(self.sim.sim_time_ns)}
+
+    def _srv_reset(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
+        return {"success": True, "message": self._reset()}
+
+    def _srv_pause(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
+        return {"success": True, "message": self._set_paused(bool(request["data"]))}
+
+    def _srv_get_state(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
+        return {
+            "step": self.sim.step_index,
+            "sim_time": stamp(self.sim.sim_time_ns),
+            "clock": self.clock,
+            "paused": self.paused,
+            "joint_state": self.joint_state(),
+        }
+
+    def reset(self) -> str:
+        """Back to the initial state, step numbering continuing (recorded as a marker)."""
+        self._marker(MARKER_PYTHON, {"call": "reset"})
+        return self._reset()
+
+    def _reset(self) -> str:
+        sim = self.sim
+        k = sim.step_index
+        sim.reset()
+        state = sim.get_state()
+        state[0] = k * self.dt_ns / 1e9  # mjSTATE_TIME first: step numbering continues
+        sim.set_state(state, k)
+        self._trajectory = None
+        self.failure = None
+        if self.on_clock_change is not None:
+            self.on_clock_change()
+        text = f"reset to the initial state at step {k} (step numbering continues)"
+        self.log(Level.WARNING, text)
+        self._after_state()
+        return text
+
+    def set_paused(self, paused: bool) -> str:
+        """Pause or resume a free-running clock (recorded as a marker); returns the text
+        ``/harness/pause`` answers."""
+        self._marker(MARKER_PYTHON, {"call": "pause", "paused": paused})
+        return self._set_paused(paused)
+
+    def _set_paused(self, paused: bool) -> str:
+        self.paused = paused
+        if self.on_clock_change is not None:
+            self.on_clock_change()
+        k = self.sim.step_index
+        if self.clock == "lockstep":
+            return f"lockstep clock: time moves only on {SERVICE_STEP} (step {k})"
+        return f"paused at step {k}" if paused else f"running from step {k}"
+
+    def record_close(self) -> None:
+        """Record the ``harness/close`` marker: the run ended after the current step."""
+        self._marker(MARKER_CLOSE, {"step": self.sim.step_index})
+
+    def finish(self) -> list[SinkReport]:
+        """End of run: loggers finish, sinks close; returns the sink reports."""
+        try:
+            if self.hub.loggers:
+                self.hub.finish(StepContext.of(self.sim, self.robot_name))
+        finally:
+            reports = self.hub.close()
+        return reports
