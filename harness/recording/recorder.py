@@ -420,6 +420,8 @@ class Recorder:
         normal: Sequence[float],
         duration_ns: int = 0,
         distance: float = 0.0,
+        begin_step: int = 0,
+        end_step: int = 0,
     ) -> None:
         """Record a collision begin (0), end (1) or near miss (2) (fields as in the .msg)."""
         if len(position) != 3 or len(normal) != 3:
@@ -443,6 +445,8 @@ class Recorder:
             normal=vector(x=float(normal[0]), y=float(normal[1]), z=float(normal[2])),
             duration_ns=duration_ns,
             distance=float(distance),
+            begin_step=begin_step,
+            end_step=end_step,
         )
         self._write(TOPIC_COLLISIONS, TYPE_COLLISION_EVENT, msg, sim_time_ns)
 

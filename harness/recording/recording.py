@@ -558,4 +558,7 @@ class Recording:
                 (float(n.x), float(n.y), float(n.z)),
                 int(m.duration_ns),
                 float(m.distance),
+                # Absent from recordings made before these fields existed.
+                int(getattr(m, "begin_step", 0)),
+                int(getattr(m, "end_step", 0)),
             )

@@ -108,6 +108,8 @@ class CollisionEvent:
     normal: tuple[float, float, float]
     duration_ns: int
     distance: float
+    begin_step: int = 0
+    end_step: int = 0
 
 
 class PhysicsStateArrays(NamedTuple):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 from pathlib import Path
 
 __all__ = ["add_arguments", "run"]
@@ -12,7 +13,14 @@ __all__ = ["add_arguments", "run"]
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``play`` subcommand's options."""
     parser.add_argument("file", type=Path, help="the recording (.mcap)")
+    parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=9090, help="WebSocket port (0: any free)")
+    parser.add_argument(
+        "--token",
+        default=os.environ.get("HARNESS_TOKEN") or None,
+        help="clients must present this token: ws://HOST:PORT/?token=TOKEN "
+        "(default: $HARNESS_TOKEN; none when unset)",
+    )
     parser.add_argument("--rate", type=float, default=1.0, help="sim time per wall time")
     parser.add_argument(
         "--start-paused", action="store_true", help="wait for /harness/step or /harness/resume"
@@ -23,7 +31,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 async def _main(args: argparse.Namespace) -> int:
     from harness.replay.play import Player
 
-    player = Player(args.file, port=args.port, rate=args.rate, start_paused=args.start_paused)
+    player = Player(
+        args.file,
+        host=args.host,
+        port=args.port,
+        rate=args.rate,
+        start_paused=args.start_paused,
+        token=args.token,
+    )
     url = await player.start()
     print(f"playing {args.file} on {url} ({len(player.items)} messages, steps "
           f"{player.first_step}..{player.last_step}, rate {args.rate:g})", flush=True)  # fmt: skip

@@ -104,6 +104,7 @@ class Player:
         port: int = 0,
         rate: float = 1.0,
         start_paused: bool = False,
+        token: str | None = None,
     ) -> None:
         if not rate > 0:
             raise RecordedDataError(f"rate must be > 0, got {rate!r}")
@@ -115,7 +116,7 @@ class Player:
         self.rate = rate
         self.paused = start_paused
         self.bridge = Bridge()
-        self.server = BridgeServer(self.bridge, host=host, port=port)
+        self.server = BridgeServer(self.bridge, host=host, port=port, token=token)
         self.step = self.first_step
         self._next = 0
         self._wake = asyncio.Event()

@@ -124,6 +124,8 @@ def test_jsonl_and_logging_carry_the_same_events_as_the_recording(scene, pusher,
             assert rec.normal_force == line["normal_force"]
         if line["event"] == "collision_end":
             assert rec.duration_ns == line["duration_ns"]
+            assert (rec.begin_step, rec.end_step) == (line["begin_step"], line["end_step"])
+            assert rec.end_step > rec.begin_step
     not_samples = [e for e in collect.events if e.kind != "joint_sample"]
     assert [(m.msg, m.level) for m in rosout] == [(e.message(), int(e.level)) for e in not_samples]
     stamps = [m.stamp.sec * 1_000_000_000 + m.stamp.nanosec for m in rosout]

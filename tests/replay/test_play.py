@@ -8,7 +8,9 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
 from websockets.asyncio.client import connect
+from websockets.exceptions import InvalidStatus
 
 from harness.recording import Recording
 from harness.replay.play import Player
@@ -94,3 +96,24 @@ def test_free_running_playback_delivers_every_frame_in_order(base_recording: Pat
     stamps, finished = asyncio.run(_free_running(base_recording, rate=50.0))
     assert finished
     assert stamps == recorded
+
+
+def test_playback_with_a_token_refuses_clients_without_it(base_recording: Path) -> None:
+    async def main() -> None:
+        player = Player(base_recording, start_paused=True, token="play-token")
+        url = await player.start()
+        try:
+            assert url.endswith("/?token=play-token")
+            with pytest.raises(InvalidStatus) as info:
+                async with connect(url.split("?")[0]):
+                    pass
+            assert info.value.response.status_code == 401
+            async with connect(url) as ws:
+                await ws.send(json.dumps({"op": "call_service", "service": "/rosapi/topics",
+                                          "id": "t"}))  # fmt: skip
+                answer = json.loads(await asyncio.wait_for(ws.recv(), 10))
+                assert "/joint_states" in answer["values"]["topics"]
+        finally:
+            await player.stop()
+
+    asyncio.run(main())

@@ -48,6 +48,8 @@ class EventRecorder(Protocol):
         normal: Sequence[float],
         duration_ns: int = 0,
         distance: float = 0.0,
+        begin_step: int = 0,
+        end_step: int = 0,
     ) -> None: ...
 
     def write_rosout(
@@ -92,7 +94,7 @@ class RecordingSink:
 
     def _write(self, event: Event) -> None:
         if isinstance(event, (CollisionBegin, CollisionEnd, NearMiss)):
-            duration_ns, distance = 0, 0.0
+            duration_ns, distance, begin_step, end_step = 0, 0.0, 0, 0
             if isinstance(event, NearMiss):
                 kind, penetration, force = KIND_NEAR_MISS, 0.0, 0.0
                 distance = event.distance
@@ -101,6 +103,7 @@ class RecordingSink:
                 penetration, force = event.penetration, event.normal_force
                 if isinstance(event, CollisionEnd):
                     duration_ns = event.duration_ns
+                    begin_step, end_step = event.begin_step, event.end_step
             self.recorder.write_collision_event(
                 step=event.step,
                 sim_time_ns=event.sim_time_ns,
@@ -116,6 +119,8 @@ class RecordingSink:
                 normal=event.normal,
                 duration_ns=duration_ns,
                 distance=distance,
+                begin_step=begin_step,
+                end_step=end_step,
             )
         if self.rosout:
             name = event.name if isinstance(event, LogMessage) else f"harness.{event.kind}"
