@@ -3,6 +3,11 @@
 URDF goes through MuJoCo's own URDF importer (mesh URIs resolved and converted first, a
 ``<mujoco><compiler fusestatic="false" .../>`` element so every link stays a named body), then
 one actuator per controllable joint, SRDF collision exclusions, the scene, compile.
+
+Every file a model uses (meshes of any format, MJCF textures, height fields, skins, the
+scene's) enters the spec as an in-memory asset named by its content
+(:mod:`harness.models.assets`): the compiled model is the same byte for byte whichever folder
+the project, the venv, the robot package or the mesh cache live in.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.models.assets import embed_files
 from harness.models.description import CONTROL_MODES, ControlMode, Pose, RobotModel
 from harness.models.errors import (
     CompileError,
@@ -101,7 +107,8 @@ class LoadedRobot:
     6 significant digits: for humans and viewers); ``mjb`` the exact binary model
     (``mj_saveModel``), the one to replay from. ``sources`` maps ``"<role>/<file name>"``
     (roles: model, srdf, scene) to the file bytes; ``sha256`` is of ``mjcf``; ``repairs``
-    lists every mass/inertia change made by ``repair_inertia``.
+    lists every mass/inertia change made by ``repair_inertia``. ``spec`` carries the mesh and
+    texture files in ``spec.assets`` (content-named): it compiles without the files.
     """
 
     name: str
@@ -140,7 +147,7 @@ def _source_path(source: str | Path) -> Path:
     return path
 
 
-def _sdf_api() -> tuple[Callable[..., RobotModel], Callable[[RobotModel], mujoco.MjSpec]]:
+def _sdf_api() -> tuple[Callable[..., RobotModel], Callable[..., mujoco.MjSpec]]:
     try:
         sdf: object = importlib.import_module("harness.models.sdf")
     except ImportError:
@@ -182,10 +189,12 @@ def _spec_from_file(path: Path) -> mujoco.MjSpec:
         raise CompileError(f"{path}: {_mujoco_message(exc)}") from None
 
 
-def _spec_from_string(xml: str, source: str) -> mujoco.MjSpec:
+def _spec_from_string(
+    xml: str, source: str, assets: Mapping[str, bytes] | None = None
+) -> mujoco.MjSpec:
     try:
         with _mujoco_warnings():
-            return mujoco.MjSpec.from_string(xml)
+            return mujoco.MjSpec.from_string(xml, assets=dict(assets or {}))
     except ValueError as exc:
         raise CompileError(f"{source}: {_mujoco_message(exc)}") from None
 
@@ -370,7 +379,9 @@ def _add_srdf_excludes(
     return raw
 
 
-def _scene_spec(scene: str | Path | None, source: str) -> tuple[mujoco.MjSpec, Path]:
+def _scene_spec(
+    scene: str | Path | None, source: str, cache_dir: str | Path | None
+) -> tuple[mujoco.MjSpec, Path]:
     if scene is None:
         scene = "floor"
     path = SCENES.get(str(scene)) if isinstance(scene, str) else None
@@ -381,7 +392,9 @@ def _scene_spec(scene: str | Path | None, source: str) -> tuple[mujoco.MjSpec, P
                 f"{source}: scene {str(scene)!r} is neither a file nor one of {sorted(SCENES)}"
             )
     read_xml_file(path)
-    return _spec_from_file(path), path
+    spec = _spec_from_file(path)
+    embed_files(spec, source=str(path), cache_dir=cache_dir)
+    return spec, path
 
 
 def _repairs(
@@ -460,7 +473,7 @@ class _Robot:
                 cache_dir=cache_dir,
             )
             self.source_repairs, self.repaired_inertias = prepared.repairs, prepared.inertias
-            self.spec = _spec_from_string(prepared.xml, self.source)
+            self.spec = _spec_from_string(prepared.xml, self.source, prepared.assets)
             extension = harness_extension(root, self.description)
             self.extension_keys = extension.keyframes
             for joint_name, armature in extension.armature.items():
@@ -469,10 +482,11 @@ class _Robot:
             read_sdf, build_spec = _sdf_api()
             self.model_bytes = path.read_bytes()
             self.description = read_sdf(path)
-            self.spec = build_spec(self.description)
+            self.spec = build_spec(self.description, cache_dir=cache_dir)
         else:
             _, self.model_bytes = read_xml_file(path)
             self.spec = _spec_from_file(path)
+            embed_files(self.spec, source=self.source, cache_dir=cache_dir)
             self.description = _describe_mjcf(_compile(self.spec.copy(), self.source), path)
             self.existing_actuators = len(self.spec.actuators) > 0
         self.spec_keys = tuple(key.name for key in self.spec.keys)
@@ -700,7 +714,7 @@ def load_world(
         for number, obj in enumerate(objects):
             _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
-        spec, scene_path = _scene_spec(scene, world_source)
+        spec, scene_path = _scene_spec(scene, world_source, cache_dir)
         sources[f"scene/{scene_path.name}"] = scene_path.read_bytes()
         for number, obj in enumerate(objects):
             _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")

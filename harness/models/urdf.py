@@ -9,11 +9,13 @@ from __future__ import annotations
 import copy
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import MappingProxyType
 from typing import NamedTuple, cast
 
 import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
+from harness.models.assets import mesh_asset
 from harness.models.description import (
     Geometry,
     Inertial,
@@ -27,7 +29,6 @@ from harness.models.description import (
     Shape,
 )
 from harness.models.errors import ModelStructureError
-from harness.models.meshes import prepare_mesh
 from harness.models.resolve import PackageMap, resolve_uri
 from harness.models.xmlsafe import describe, read_xml_file
 
@@ -381,11 +382,13 @@ def read_urdf(path: str | Path) -> RobotModel:
 
 class PreparedURDF(NamedTuple):
     """What :func:`mujoco_urdf_xml` hands over: the URDF text for MuJoCo, the inertia
-    repairs made in it, and each repaired link's new tensor (ixx, ixy, ixz, iyy, iyz, izz)."""
+    repairs made in it, each repaired link's new tensor (ixx, ixy, ixz, iyy, iyz, izz), and
+    the mesh files the text names (asset name -> bytes, see :mod:`harness.models.assets`)."""
 
     xml: str
     repairs: tuple[str, ...]
     inertias: Mapping[str, tuple[float, ...]]
+    assets: Mapping[str, bytes] = MappingProxyType({})
 
 
 _INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
@@ -425,7 +428,8 @@ def mujoco_urdf_xml(
 ) -> PreparedURDF:
     """The URDF text to hand to MuJoCo's importer.
 
-    Mesh references are resolved and converted (absolute paths to files MuJoCo decodes);
+    Mesh references are resolved and converted, and named by content
+    (:func:`harness.models.assets.mesh_asset`): pass ``assets`` to ``MjSpec.from_string``;
     visual elements are dropped unless ``visuals``; a ``<mujoco><compiler>`` element keeps
     every link a named body (``fusestatic="false"``) and, with ``repair_inertia``, sets the
     mass/inertia bounds and ``balanceinertia``; non positive-definite tensors are fixed here.
@@ -440,6 +444,7 @@ def mujoco_urdf_xml(
                 parent.remove(visual)
     repairs: list[str] = []
     inertias: dict[str, tuple[float, ...]] = {}
+    assets: dict[str, bytes] = {}
     for link in doc.findall("link"):
         for mesh in link.findall("*/geometry/mesh"):
             uri = mesh.get("filename")
@@ -449,7 +454,9 @@ def mujoco_urdf_xml(
             found = resolve_uri(
                 uri, base_dir=base_dir, packages=packages, context=context, what="mesh"
             )
-            mesh.set("filename", str(prepare_mesh(found, cache_dir=cache_dir, context=context)))
+            asset = mesh_asset(found, cache_dir=cache_dir, context=context)
+            assets[asset.name] = asset.data
+            mesh.set("filename", asset.name)
         if repair_inertia:
             fixed = _repair_tensor(link)
             if fixed is not None:
@@ -479,4 +486,5 @@ def mujoco_urdf_xml(
     mujoco_el = etree.Element("mujoco")
     etree.SubElement(mujoco_el, "compiler", attrs)
     doc.insert(0, mujoco_el)
-    return PreparedURDF(etree.tostring(doc, encoding="unicode"), tuple(repairs), inertias)
+    xml = etree.tostring(doc, encoding="unicode")
+    return PreparedURDF(xml, tuple(repairs), inertias, MappingProxyType(assets))

@@ -211,7 +211,9 @@ class LoadedWorld:
     use prefixed names: ``Simulation.from_model(world.model, control=world.control)`` runs it.
     ``mjcf`` is for humans (6 significant digits), ``mjb`` the exact binary model, ``sha256``
     of ``mjcf``. ``sources`` maps ``"<role>/[<namespace>/]<file name>"`` (roles: model, srdf,
-    scene) to bytes. ``robots`` in the order given.
+    scene) to bytes. ``robots`` in the order given. ``spec`` carries the mesh and texture files
+    in ``spec.assets`` under content-derived names (see :mod:`harness.models.assets`), so
+    ``mjb`` and ``mjcf`` do not depend on where the files are installed.
     """
 
     name: str

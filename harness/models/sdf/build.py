@@ -19,9 +19,9 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
+from harness.models.assets import mesh_asset
 from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
 from harness.models.errors import ModelStructureError
-from harness.models.meshes import prepare_mesh
 from harness.models.sdf.errors import SdfWarning
 
 __all__ = ["SpanningTree", "build_spec", "spanning_tree"]
@@ -176,8 +176,15 @@ _GEOM_TYPES = {
 
 
 def _add_geom(
-    spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, shape: Shape, visual: bool
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    link: Link,
+    shape: Shape,
+    visual: bool,
+    assets: dict[str, bytes],
+    cache_dir: str | Path | None,
 ) -> None:
+    """Add the geom of ``shape``; a mesh's file goes into ``assets`` (name -> bytes)."""
     name = f"{link.name}/{shape.name}"
     where = f"link {link.name!r} {'visual' if visual else 'collision'} {shape.name!r}"
     pos, quat = _pos_quat(link.pose.inverse() * shape.pose)
@@ -188,11 +195,9 @@ def _add_geom(
         if not Path(path).is_file():
             raise ModelStructureError(f"{where}: mesh not found: {path!r}")
         mesh_name = f"mesh:{name}"
-        spec.add_mesh(
-            name=mesh_name,
-            file=str(prepare_mesh(path, context=where)),
-            scale=list(geometry.mesh_scale),
-        )
+        asset = mesh_asset(path, cache_dir=cache_dir, context=where)
+        assets[asset.name] = asset.data
+        spec.add_mesh(name=mesh_name, file=asset.name, scale=list(geometry.mesh_scale))
         geom.meshname = mesh_name
     else:
         geom.size = _geom_size(geometry, where)
@@ -256,16 +261,23 @@ def _add_loop(spec: mujoco.MjSpec, joint: Joint, parent_pose: Pose) -> None:
         eq.data = data
 
 
-def build_spec(model: RobotModel, *, visuals: bool = False) -> mujoco.MjSpec:
+def build_spec(
+    model: RobotModel, *, visuals: bool = False, cache_dir: str | Path | None = None
+) -> mujoco.MjSpec:
     """The bodies, joints, inertials, collision geoms (and, with ``visuals``, visual geoms
     that do not collide, group 1) and loop/mimic equalities of ``model``; the worldbody is
-    the model frame. Actuators and the scene are the caller's."""
+    the model frame. Actuators and the scene are the caller's.
+
+    Meshes are in ``spec.assets`` under content-derived names (see
+    :mod:`harness.models.assets`): the spec does not depend on where the files are.
+    ``cache_dir``: the converted-mesh cache (see :mod:`harness.models.meshes`)."""
     spec = mujoco.MjSpec()
     spec.modelname = model.name or "robot"
     spec.compiler.degree = False
     tree = spanning_tree(model)
     links = {link.name: link for link in model.links}
     bodies: dict[str, mujoco.MjsBody] = {"world": spec.worldbody}
+    assets: dict[str, bytes] = {}
     for name in tree.order:
         link = links[name]
         parent = tree.parent[name]
@@ -277,10 +289,12 @@ def build_spec(model: RobotModel, *, visuals: bool = False) -> mujoco.MjSpec:
             _add_joint(body, joint, link.pose, parent)
         _add_inertial(body, link)
         for shape in link.collisions:
-            _add_geom(spec, body, link, shape, visual=False)
+            _add_geom(spec, body, link, shape, False, assets, cache_dir)
         if visuals:
             for shape in link.visuals:
-                _add_geom(spec, body, link, shape, visual=True)
+                _add_geom(spec, body, link, shape, True, assets, cache_dir)
+    if assets:
+        spec.assets = assets
     for joint in tree.loops:
         parent_pose = links[joint.parent].pose if joint.parent != "world" else Pose()
         _add_loop(spec, joint, parent_pose)
