@@ -102,7 +102,18 @@ _SESSION_KEYS = (
     "joint_command_topic",
 )
 MARKER_KEYS = frozenset(
-    {"robot", "scenario", "mode", "clock", "scene", "collisions", "joint_limits", *_SESSION_KEYS}
+    {
+        "robot",
+        "robots",
+        "objects",
+        "scenario",
+        "mode",
+        "clock",
+        "scene",
+        "collisions",
+        "joint_limits",
+        *_SESSION_KEYS,
+    }
 )
 """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept."""
 _DYNAMIC = ("position", "velocity", "effort")
@@ -437,9 +448,19 @@ class _TestRun:
             from_file = _scenario_options(Path(path))
             scenario_text = from_file.pop("scenario_text")
             opts = {**from_file, **opts}
-        robot = _resolve_path(opts.pop("robot", "demo"), self.item, rootdir)
+        robots = opts.pop("robots", None)
+        robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.mode)
+        if robots is not None:
+            if options.get("mode") is not None:
+                pytest.fail(
+                    f"{self.item.nodeid}: harness option 'mode' applies to robot=; with "
+                    "robots= give each RobotSpec its control",
+                    pytrace=False,
+                )
+            robots, mode = _suite_robots(robots, self.settings.mode)
+            opts["robots"] = robots
         clock = opts.pop("clock", "lockstep")
         collisions = opts.pop("collisions", True)
         joint_limits = opts.pop("joint_limits", True)
@@ -453,7 +474,7 @@ class _TestRun:
                 lambda s: JointLimitLogger(
                     s.model,
                     **{
-                        "velocity_limits": limits_of(s.robot.description),
+                        "velocity_limits": limits_of(s.description),
                         "tolerance": _JOINT_LIMIT_TOLERANCE,
                         **jl,
                     },
@@ -466,7 +487,7 @@ class _TestRun:
         self.recordings.append(path)
         session = Session(
             robot,
-            mode=mode,
+            mode=None if robots is not None else mode,
             clock=clock,
             scene=scene,
             record_to=path,
@@ -649,6 +670,25 @@ class Golden:
                 f"if the change is intended: {run.update_command()}"
             )
         return report
+
+
+def _suite_robots(robots: Any, suite: str | None) -> tuple[list[Any], Any]:
+    """The marker's ``robots`` (RobotSpecs) with ``--harness-mode`` applied to each, and
+    the control mode the golden name carries (one mode, or MuJoCo joint name -> mode)."""
+    import dataclasses
+
+    specs = [dataclasses.replace(spec, control=suite_mode(spec.control, suite)) for spec in robots]
+    controls = [spec.control for spec in specs]
+    if all(isinstance(c, str) for c in controls) and len(set(controls)) == 1:
+        return specs, controls[0]
+    combined: dict[str, Any] = {}
+    for spec in specs:
+        prefix = f"{spec.namespace}/" if spec.namespace else ""
+        if isinstance(spec.control, Mapping):
+            combined.update({prefix + j: m for j, m in spec.control.items()})
+        else:
+            combined[prefix + "*"] = spec.control
+    return specs, combined
 
 
 def mode_label(mode: Any) -> str:

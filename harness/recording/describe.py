@@ -1,10 +1,25 @@
-"""Metadata and attachments of a run, built from a loaded robot and its scenario."""
+"""Metadata and attachments of a run, built from a loaded robot (or a world of several robots)
+and its scenario.
+
+A world (``harness.models.LoadedWorld``) adds two metadata keys, JSON, from which replay
+rebuilds the same world (``harness.replay.source.rebuild_run``):
+
+- ``robots``: one object per robot, in the world's order: ``namespace``, ``source`` (its
+  ``source/`` attachment, e.g. ``"model/left/demo_arm.urdf"``), ``pose`` (the placement used,
+  ``[x, y, z, qw, qx, qy, qz]``, or null for the world origin), ``control`` (its own joint ->
+  mode), ``srdf`` (attachment or null) and, when the run knows the robot's ``RobotSpec``
+  (``specs``), its ``initial_positions``, ``gains``, ``visuals`` and ``repair_inertia``;
+- ``objects``: the primitives added to the world (``name``, ``shape``, ``size``, ``pose``,
+  ``mass``, ``rgba``).
+
+``control_modes`` then holds every robot's joints by MuJoCo (prefixed) name.
+"""
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple, Protocol
 
 from harness.recording.layout import (
@@ -14,7 +29,7 @@ from harness.recording.layout import (
     ATTACHMENT_SOURCE_PREFIX,
 )
 
-__all__ = ["LoadedRobotLike", "RunDescription", "describe_run"]
+__all__ = ["LoadedRobotLike", "RunDescription", "describe_run", "world_metadata"]
 
 
 class LoadedRobotLike(Protocol):
@@ -49,6 +64,62 @@ def _integrator_name(value: int) -> str:
     return str(mujoco.mjtIntegrator(int(value)).name).removeprefix("mjINT_")
 
 
+def _pose(pose: Any) -> list[float] | None:
+    if pose is None:
+        return None
+    values = pose.as_list() if hasattr(pose, "as_list") else list(pose)
+    return [float(v) for v in values]
+
+
+def _placement(pose: Any) -> list[float] | None:
+    values = _pose(pose)
+    return None if values is None or values == [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0] else values
+
+
+def world_metadata(
+    world: Any, specs: Sequence[Any] | None = None, objects: Sequence[Any] = ()
+) -> dict[str, str]:
+    """The ``robots`` and ``objects`` metadata of a world (see the module docstring):
+    ``world`` a ``LoadedWorld``, ``specs`` the ``RobotSpec`` each robot was loaded from
+    (same order) when known, ``objects`` the ``WorldObject``\\ s added."""
+    robots: list[dict[str, Any]] = []
+    for index, view in enumerate(world.robots):
+        sources = sorted(view.sources)
+        entry: dict[str, Any] = {
+            "namespace": view.namespace,
+            "source": next((n for n in sources if n.startswith("model/")), None),
+            "pose": _placement(view.placement),
+            "control": {str(j): str(m) for j, m in view.control.items()},
+            "srdf": next((n for n in sources if n.startswith("srdf/")), None),
+        }
+        if specs is not None and index < len(specs):
+            spec = specs[index]
+            entry["initial_positions"] = {
+                str(j): float(v) for j, v in dict(spec.initial_positions).items()
+            }
+            entry["gains"] = (
+                None if spec.gains is None else {str(j): float(v) for j, v in spec.gains.items()}
+            )
+            entry["visuals"] = bool(spec.visuals)
+            entry["repair_inertia"] = bool(spec.repair_inertia)
+        robots.append(entry)
+    listed = [
+        {
+            "name": obj.name,
+            "shape": obj.shape,
+            "size": [float(v) for v in obj.size],
+            "pose": _pose(obj.pose),
+            "mass": None if obj.mass is None else float(obj.mass),
+            "rgba": None if obj.rgba is None else [float(v) for v in obj.rgba],
+        }
+        for obj in objects
+    ]
+    return {
+        "robots": json.dumps(robots, sort_keys=True),
+        "objects": json.dumps(listed, sort_keys=True),
+    }
+
+
 def describe_run(
     robot: LoadedRobotLike,
     *,
@@ -56,11 +127,14 @@ def describe_run(
     scenario: str | bytes | None = None,
     scenario_name: str = "scenario.yaml",
     extra: Mapping[str, str] | None = None,
+    specs: Sequence[Any] | None = None,
+    objects: Sequence[Any] = (),
 ) -> RunDescription:
     """The ``harness`` metadata (timestep, integrator, seed, model SHA-256, control modes,
-    robot name) and the attachments (the exact compiled model as MJB, the compiled MJCF for
-    reading, source files under ``source/``, the
-    scenario under ``scenario/<scenario_name>``) of a run of ``robot``."""
+    robot name; for a world its ``robots`` and ``objects``, see :func:`world_metadata`) and
+    the attachments (the exact compiled model as MJB, the compiled MJCF for reading, source
+    files under ``source/``, the scenario under ``scenario/<scenario_name>``) of a run of
+    ``robot`` (a ``LoadedRobot`` or a ``LoadedWorld``)."""
     timestep = float(robot.model.opt.timestep)
     control = {str(joint): str(mode) for joint, mode in robot.control.items()}
     metadata = {
@@ -71,6 +145,7 @@ def describe_run(
         "seed": str(seed),
         "model_sha256": robot.sha256,
         "control_modes": json.dumps(control, sort_keys=True),
+        **(world_metadata(robot, specs, objects) if hasattr(robot, "robots") else {}),
         **(extra or {}),
     }
     attachments = {

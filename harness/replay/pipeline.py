@@ -40,10 +40,10 @@ import numpy.typing as npt
 
 from harness.errors import HarnessError
 from harness.events import EventHub, Logger
-from harness.models import LoadedRobot
+from harness.models import LoadedRobot, LoadedWorld
 from harness.recording import AppliedInput, BridgeFrame, Recording
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
-from harness.replay.source import open_recording, read_states, rebuild_robot, resolve_model
+from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
 from harness.session.core import CoreOptions, SessionCore, is_marker
 
 __all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
@@ -385,8 +385,8 @@ class _Checker:
             )  # fmt: skip
 
 
-def _session_robot(rec: Recording) -> LoadedRobot:
-    robot = rebuild_robot(rec)
+def _session_robot(rec: Recording) -> LoadedRobot | LoadedWorld:
+    robot = rebuild_run(rec)
     expected = rec.metadata.get("model_sha256", "")
     if expected and robot.sha256 != expected:
         raise RecordedDataError(

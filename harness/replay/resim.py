@@ -8,7 +8,9 @@ other mode re-simulates these targets from the recorded initial configuration wi
 controllable joint ``kinematic`` (written each step, limits *not* clamped: that is what
 teleporting does) or ``dynamic`` (position servos with the model's default gains, clamped to
 the joint range as a servo's ctrlrange is). The robot is rebuilt from the recording's source
-attachments with :func:`harness.models.load_robot`.
+attachments with :func:`harness.models.load_robot` (a world of several robots with
+:func:`harness.models.load_world`: :func:`harness.replay.source.rebuild_run`; its joints are
+named by their MuJoCo, prefixed, names).
 
 Both runs (the recorded one, replayed from its own inputs, and the re-simulation) are
 measured the same way, per step: tracking error ``|q - q_target|``, limit violation
@@ -31,7 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import HarnessError
-from harness.models import LoadedRobot
+from harness.models import RobotModel
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.source import (
     check_states_fit,
@@ -39,7 +41,8 @@ from harness.replay.source import (
     open_recording,
     read_inputs,
     read_states,
-    rebuild_robot,
+    rebuild_run,
+    run_description,
 )
 from harness.replay.verify import Progress
 from harness.sim import InstabilityError, Simulation
@@ -269,14 +272,14 @@ def _measure(
     control: str,
     trace: _Trace,
     targets: F64,
-    robot: LoadedRobot,
+    model: mujoco.MjModel,
+    description: RobotModel,
     joints: Sequence[str],
     unstable_at: int | None,
 ) -> _Measured:
     steps = np.array(trace.steps, dtype=np.int64)
     q = np.stack(trace.q)
     v = np.stack(trace.v)
-    model = robot.model
     lower = np.full(len(joints), -np.inf)
     upper = np.full(len(joints), np.inf)
     vmax = np.full(len(joints), np.nan)
@@ -285,7 +288,7 @@ def _measure(
         if model.jnt_limited[jid]:
             lower[i], upper[i] = model.jnt_range[jid]
         try:
-            limit = robot.description.joint(name).limits.velocity
+            limit = description.joint(name).limits.velocity
         except KeyError:
             limit = None
         if limit:
@@ -379,10 +382,10 @@ def resimulate(
     started = time.perf_counter()
     with open_recording(path, allow_damaged=allow_damaged) as rec:
         recorded_modes = control_modes(rec)
-        recorded_robot = rebuild_robot(rec)
+        recorded_robot = rebuild_run(rec)
         other_mode = "kinematic" if mode == "kinematic" else "position"
         try:
-            other_robot = rebuild_robot(rec, {j: other_mode for j in recorded_modes})  # type: ignore[misc]
+            other_robot = rebuild_run(rec, {j: other_mode for j in recorded_modes})  # type: ignore[misc]
         except HarnessError as exc:
             raise LevelUnavailableError(f"--mode {mode}: {exc}") from None
         states = read_states(rec)
@@ -448,8 +451,10 @@ def resimulate(
         raise RecordedDataError(f"{path}: the re-simulation failed at its first step")
 
     rec_m = _measure("recorded", _describe(recorded_modes), rec_trace, targets,
-                     recorded_robot, joints, None)  # fmt: skip
-    re_m = _measure("resimulated", mode, re_trace, targets, other_robot, joints, unstable)
+                     recorded_robot.model, run_description(recorded_robot), joints,
+                     None)  # fmt: skip
+    re_m = _measure("resimulated", mode, re_trace, targets, other_robot.model,
+                    run_description(other_robot), joints, unstable)  # fmt: skip
     rec_summary, re_summary = rec_m.summary, re_m.summary
     findings = _findings("recorded", joints, rec_m, th) + _findings("resimulated", joints, re_m, th)
     if unstable is not None:

@@ -6,7 +6,10 @@ Which model a recording is replayed with, in order of preference:
 1. ``model.mjb``: the exact binary model (``LoadedRobot.mjb``), bit for bit what was simulated;
 2. the source attachments (``source/model/...``, ``source/scene/...``) rebuilt with
    :func:`harness.models.load_robot` and the recorded control modes, accepted only when the
-   rebuilt MJCF's SHA-256 equals the recorded ``model_sha256``;
+   rebuilt MJCF's SHA-256 equals the recorded ``model_sha256``; a recording of several robots
+   (metadata ``robots``, see :mod:`harness.recording.describe`) is rebuilt with
+   :func:`harness.models.load_world`: the same robots, namespaces, poses, control modes,
+   initial positions, objects, scene and timestep (:func:`rebuild_run`);
 3. ``model.mjcf.xml``, the compiled MJCF: MuJoCo writes it with 6 significant digits, so it is
    exact only for models that were written at full precision (hand-written MJCF); its SHA-256
    must equal ``model_sha256``.
@@ -23,14 +26,25 @@ import tempfile
 import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
 from harness.errors import HarnessError
-from harness.models import DEMO_URDF, SCENES, LoadedRobot, load_robot
+from harness.models import (
+    DEMO_URDF,
+    SCENES,
+    LoadedRobot,
+    LoadedWorld,
+    Pose,
+    RobotModel,
+    RobotSpec,
+    WorldObject,
+    load_robot,
+    load_world,
+)
 from harness.models.description import CONTROL_MODES, ControlMode
 from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
 from harness.recording.layout import ATTACHMENT_MODEL, ATTACHMENT_SOURCE_PREFIX, TOPIC_STATE
@@ -52,7 +66,10 @@ __all__ = [
     "read_inputs",
     "read_states",
     "rebuild_robot",
+    "rebuild_run",
+    "rebuild_world",
     "resolve_model",
+    "run_description",
     "state_blocks",
 ]
 
@@ -140,12 +157,162 @@ def _sources(rec: Recording) -> dict[str, bytes]:
     }
 
 
+def _write_sources(sources: Mapping[str, bytes], root: Path) -> None:
+    for name, blob in sources.items():
+        target = (root / name).resolve()
+        if not target.is_relative_to(root.resolve()):
+            raise ModelAttachmentError(f"source attachment {name!r} leaves its folder")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(blob)
+
+
+def _scene(sources: Mapping[str, bytes], root: Path) -> str | Path | None:
+    scenes = [n for n in sources if n.startswith("scene/")]
+    if not scenes:
+        return None
+    for named, scene_path in SCENES.items():
+        if sources[scenes[0]] == scene_path.read_bytes():
+            return named
+    return root / scenes[0]
+
+
+def _model_source(sources: Mapping[str, bytes], name: str, root: Path) -> str | Path:
+    return "demo" if sources[name] == DEMO_URDF.read_bytes() else root / name
+
+
+def _json_metadata(rec: Recording, key: str) -> list[dict[str, Any]]:
+    raw = rec.metadata.get(key, "[]")
+    try:
+        value = json.loads(raw)
+    except json.JSONDecodeError:
+        value = None
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise RecordedDataError(
+            f"{rec.path}: metadata {key!r} is {raw[:80]!r}, not a JSON list of objects"
+        )
+    return value
+
+
+def _pose(values: Any, where: str) -> Pose | None:
+    if values is None:
+        return None
+    if not isinstance(values, list) or len(values) != 7:
+        raise RecordedDataError(f"{where}: pose {values!r} is not [x, y, z, qw, qx, qy, qz]")
+    x, y, z, qw, qx, qy, qz = (float(v) for v in values)
+    return Pose((x, y, z), (qw, qx, qy, qz))
+
+
+def _robot_spec(
+    entry: Mapping[str, Any],
+    where: str,
+    sources: Mapping[str, bytes],
+    root: Path,
+    control: ControlMode | Mapping[str, ControlMode] | None,
+) -> RobotSpec:
+    namespace = str(entry["namespace"])
+    prefix = f"{namespace}/" if namespace else ""
+    source = entry["source"]
+    if source not in sources:
+        raise ModelAttachmentError(
+            f"{where}: its source {source!r} is not attached (sources: {', '.join(sources)})"
+        )
+    recorded: dict[str, ControlMode] = dict(entry["control"])
+    modes: ControlMode | dict[str, ControlMode] = recorded
+    if isinstance(control, str):
+        modes = control
+    elif control is not None:
+        modes = {j: control.get(prefix + j, m) for j, m in recorded.items()}
+    srdf = entry.get("srdf")
+    return RobotSpec(
+        _model_source(sources, source, root),
+        namespace=namespace,
+        pose=_pose(entry.get("pose"), where),
+        control=modes,
+        gains=entry.get("gains"),
+        srdf=None if srdf is None else root / srdf,
+        visuals=bool(entry.get("visuals", False)),
+        repair_inertia=bool(entry.get("repair_inertia", False)),
+        initial_positions=dict(entry.get("initial_positions") or {}),
+    )
+
+
+def rebuild_world(
+    rec: Recording, control: ControlMode | Mapping[str, ControlMode] | None = None
+) -> LoadedWorld:
+    """The world of a recording of several robots (metadata ``robots``) rebuilt from its
+    source attachments with :func:`harness.models.load_world`. ``control``: one mode for
+    every joint, or MuJoCo (prefixed) joint name -> mode (joints not named keep their
+    recorded mode); default: the recorded modes."""
+    sources = _sources(rec)
+    entries = _json_metadata(rec, "robots")
+    if not entries:
+        raise ModelAttachmentError(f"{rec.path}: metadata 'robots' lists no robot")
+    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
+        root = Path(tmp)
+        _write_sources(sources, root)
+        try:
+            specs = [
+                _robot_spec(entry, f"{rec.path}: metadata robots[{i}]", sources, root, control)
+                for i, entry in enumerate(entries)
+            ]
+            objects = [
+                WorldObject(
+                    name=str(obj["name"]),
+                    shape=obj["shape"],
+                    size=tuple(float(v) for v in obj["size"]),
+                    pose=obj.get("pose"),
+                    mass=obj.get("mass"),
+                    rgba=None if obj.get("rgba") is None else tuple(obj["rgba"]),
+                )
+                for obj in _json_metadata(rec, "objects")
+            ]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RecordedDataError(
+                f"{rec.path}: metadata 'robots'/'objects' is malformed: {exc!r}"
+            ) from None
+        timestep = rec.metadata.get("timestep")
+        try:
+            return load_world(
+                specs,
+                scene=_scene(sources, root),
+                objects=objects,
+                timestep=float(timestep) if timestep else None,
+            )
+        except HarnessError as exc:
+            raise ModelAttachmentError(
+                f"{rec.path}: cannot rebuild the world from its source attachments: {exc}"
+            ) from None
+
+
+def rebuild_run(
+    rec: Recording, control: ControlMode | Mapping[str, ControlMode] | None = None
+) -> LoadedRobot | LoadedWorld:
+    """What the recorded run simulated, rebuilt from its sources: :func:`rebuild_world` for a
+    recording of a world (metadata ``robots``), else :func:`rebuild_robot`."""
+    if "robots" in rec.metadata:
+        return rebuild_world(rec, control)
+    return rebuild_robot(rec, control)
+
+
+def run_description(loaded: LoadedRobot | LoadedWorld) -> RobotModel:
+    """The description of a rebuilt run: the robot's, or every robot's by MuJoCo name."""
+    if isinstance(loaded, LoadedWorld):
+        return loaded.combined_description()
+    return loaded.description
+
+
 def rebuild_robot(
     rec: Recording, control: ControlMode | Mapping[str, ControlMode] | None = None
 ) -> LoadedRobot:
     """The robot rebuilt from the source attachments with ``control`` (default: the recorded
     control modes). The bundled demo robot and named scenes are recognised by content and
-    loaded from the package (so they get the demo's ``home`` keyframe, as when recorded)."""
+    loaded from the package (so they get the demo's ``home`` keyframe, as when recorded).
+    A recording of several robots needs :func:`rebuild_world` (or :func:`rebuild_run`)."""
+    if "robots" in rec.metadata:
+        raise ModelAttachmentError(
+            f"{rec.path}: a recording of a world of several robots: rebuild it with "
+            "rebuild_world() or rebuild_run()"
+        )
     sources = _sources(rec)
     models = [n for n in sources if n.startswith("model/")]
     scenes = [n for n in sources if n.startswith("scene/")]
@@ -198,7 +365,7 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
             problems.append(f"{ATTACHMENT_MJB}: {' '.join(str(exc).split())}")
     if any(n.startswith(ATTACHMENT_SOURCE_PREFIX + "model/") for n in names):
         try:
-            robot = rebuild_robot(rec)
+            robot = rebuild_run(rec)
         except HarnessError as exc:
             problems.append(str(exc))
         else:

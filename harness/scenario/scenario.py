@@ -122,7 +122,10 @@ _LOGGER_KEYS: dict[str, tuple[str, ...]] = {
 
 @dataclass(frozen=True)
 class RobotSpec:
-    """One robot: ``robot`` is a built-in name or the resolved model file."""
+    """One robot: ``robot`` is a built-in name or the resolved model file. ``name``: the
+    scenario's name for it (``robot``, ``robot1``, ... when not given); ``named``: whether
+    the file gave the name (a given name is the robot's namespace when a run has several
+    robots, see :func:`harness.scenario.world.robot_namespaces`)."""
 
     robot: str | Path
     name: str
@@ -132,6 +135,7 @@ class RobotSpec:
     subscribers: tuple[Subscriber, ...] = ()
     controllers: tuple[Controller, ...] = ()
     loggers: tuple[LoggerSpec, ...] = ()
+    named: bool = False
 
 
 @dataclass(frozen=True)
@@ -428,6 +432,7 @@ class _Builder:
                 self.logger(lg, [*path, "loggers", i])
                 for i, lg in enumerate(data.get("loggers", []))
             ),
+            named="name" in data,
         )
 
     def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:

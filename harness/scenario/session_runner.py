@@ -1,13 +1,16 @@
 """The product's iteration runner: one :class:`harness.session.Session` per iteration.
 
-For one :class:`~harness.scenario.results.IterationSpec` it builds the world
-(:func:`harness.scenario.world.build_robot`), starts a Session on a free port of the
-scenario's bridge address, recording to the iteration's ``recording.mcap``, with
+For one :class:`~harness.scenario.results.IterationSpec` it plans the world
+(:func:`harness.scenario.world.plan_world`: every robot with its pose, control modes, initial
+positions and namespace), starts a Session of those robots on a free port of the scenario's
+bridge address, recording to the iteration's ``recording.mcap``, with
 
-- loggers: the robot's ``CollisionLogger``/``JointLogger`` entries mapped onto
-  :mod:`harness.events` (a default collision logger when the scenario lists none and the
-  criteria judge collisions), a ``JointLimitLogger`` (position and URDF velocity limits, with
-  the criteria's tolerance), a joint logger at ``logging.frequency`` when ``logging.enable``;
+- loggers: each robot's ``CollisionLogger``/``JointLogger`` entries mapped onto
+  :mod:`harness.events` (its bodies and joints by MuJoCo name, ``<namespace>/<link>`` when
+  the run has several robots; a default collision logger over every robot when the scenario
+  lists none and the criteria judge collisions), a ``JointLimitLogger`` over every robot's
+  joints (position and URDF velocity limits, with the criteria's tolerance), a joint logger
+  at ``logging.frequency`` when ``logging.enable``;
 - sinks: the ``logging`` section's destinations (:func:`harness.events.logging_config_from_scene`);
 - an observer that hashes every step's ``mjSTATE_INTEGRATION`` state (initial state first),
   tracks joint ranges against limits and samples joint traces for the report.
@@ -61,7 +64,7 @@ from harness.events import (
     logging_config_from_scene,
     velocity_limits,
 )
-from harness.models import LoadedRobot
+from harness.models import LoadedWorld
 from harness.scenario._validation import format_path
 from harness.scenario.client import run_client
 from harness.scenario.errors import ScenarioError
@@ -80,11 +83,10 @@ from harness.scenario.scenario import (
     ClientSpec,
     CollisionLoggerSpec,
     JointLoggerSpec,
-    RobotSpec,
     Scenario,
 )
 from harness.scenario.scenario import LoggingConfig as ScenarioLogging
-from harness.scenario.world import build_robot, joint_command_topic, kinematic_limits
+from harness.scenario.world import kinematic_limits, plan_world
 from harness.session import Session, SessionError, StartMode
 
 __all__ = ["SessionHost", "SessionIterationRunner", "logging_section", "steps_for"]
@@ -243,46 +245,61 @@ class _Observer:
         )
 
 
-def _robot_loggers(scenario: Scenario, robot: RobotSpec, loaded: LoadedRobot) -> list[Logger]:
+def _robot_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
     """The scenario's loggers as harness.events loggers; errors name the key path."""
-    model = loaded.model
+    model = world.model
     where = str(scenario.source) if scenario.source is not None else "<scenario>"
-    links = [link.name for link in loaded.description.links if _is_body(model, link.name)]
     loggers: list[Logger] = []
+    every_link: list[str] = []
     has_collision = has_joint = False
-    for i, spec in enumerate(robot.loggers):
-        path = format_path(["robots", 0, "loggers", i])
-        try:
-            if isinstance(spec, CollisionLoggerSpec):
-                has_collision = True
-                loggers.append(
-                    CollisionLogger(
-                        model,
-                        robot_bodies=links,
-                        self_collision=spec.self_collision,
-                        robot_vs_world_only=spec.robot_vs_world_only,
-                        ignore=spec.ignore_pairs,
-                        min_force=spec.min_force,
-                        debounce_steps=max(1, spec.debounce_steps),
-                        near_miss_distance=spec.near_miss_distance,
-                        name=f"collisions[{i}]",
+    for index, (robot, view) in enumerate(zip(scenario.robots, world.robots, strict=True)):
+        links = [
+            view.mujoco_name(link.name)
+            for link in view.description.links
+            if _is_body(model, view.mujoco_name(link.name))
+        ]
+        every_link += links
+        several = len(world.robots) > 1
+        for i, spec in enumerate(robot.loggers):
+            path = format_path(["robots", index, "loggers", i])
+            name = f"robots[{index}].loggers[{i}]" if several else None
+            try:
+                if isinstance(spec, CollisionLoggerSpec):
+                    has_collision = True
+                    loggers.append(
+                        CollisionLogger(
+                            model,
+                            robot_bodies=links,
+                            self_collision=spec.self_collision,
+                            robot_vs_world_only=spec.robot_vs_world_only,
+                            ignore=[
+                                (_body(view, model, a), _body(view, model, b))
+                                for a, b in spec.ignore_pairs
+                            ],
+                            min_force=spec.min_force,
+                            debounce_steps=max(1, spec.debounce_steps),
+                            near_miss_distance=spec.near_miss_distance,
+                            name=name or f"collisions[{i}]",
+                        )
                     )
-                )
-            elif isinstance(spec, JointLoggerSpec):
-                has_joint = True
-                loggers.append(
-                    JointLogger(
-                        model,
-                        joints=list(spec.joints) or None,
-                        rate_hz=spec.rate,
-                        name=f"joints[{i}]",
+                elif isinstance(spec, JointLoggerSpec):
+                    has_joint = True
+                    joints = [view.mujoco_name(j) for j in spec.joints]
+                    if not joints and several:
+                        joints = [view.mujoco_name(j) for j in view.control]
+                    loggers.append(
+                        JointLogger(
+                            model,
+                            joints=joints or None,
+                            rate_hz=spec.rate,
+                            name=name or f"joints[{i}]",
+                        )
                     )
-                )
-        except LoggerConfigError as exc:
-            raise ScenarioError([f"{where}: {path}: {exc}"]) from None
+            except LoggerConfigError as exc:
+                raise ScenarioError([f"{where}: {path}: {exc}"]) from None
     if not has_collision and scenario.criteria.no_collisions:
         loggers.append(
-            CollisionLogger(model, robot_bodies=links, debounce_steps=_DEFAULT_DEBOUNCE_STEPS)
+            CollisionLogger(model, robot_bodies=every_link, debounce_steps=_DEFAULT_DEBOUNCE_STEPS)
         )
     try:
         logging = logging_config_from_scene(logging_section(scenario.logging))
@@ -290,8 +307,9 @@ def _robot_loggers(scenario: Scenario, robot: RobotSpec, loaded: LoadedRobot) ->
         raise ScenarioError([f"{where}: {exc}"]) from None
     if logging.enable and not has_joint:
         loggers.append(JointLogger(model, rate_hz=logging.frequency_hz))
-    joints = [j.name for j in loaded.description.controllable_joints]
-    speed = velocity_limits(loaded.description)
+    description = world.combined_description()
+    joints = [j.name for j in description.controllable_joints]
+    speed = velocity_limits(description)
     loggers.append(
         JointLimitLogger(
             model,
@@ -301,6 +319,12 @@ def _robot_loggers(scenario: Scenario, robot: RobotSpec, loaded: LoadedRobot) ->
         )
     )
     return loggers
+
+
+def _body(view: Any, model: mujoco.MjModel, name: str) -> str:
+    """A body a robot's logger names: the robot's own link (prefixed), else a world body."""
+    own = view.mujoco_name(name)
+    return own if _is_body(model, own) else name
 
 
 def _is_body(model: mujoco.MjModel, name: str) -> bool:
@@ -353,8 +377,8 @@ class SessionIterationRunner:
             raise ConfigError("the scenario lists no robot")
         spec.out_dir.mkdir(parents=True, exist_ok=True)
         spec.recording_path.parent.mkdir(parents=True, exist_ok=True)
-        loaded = build_robot(scenario, spec.out_dir)
-        expected = steps_for(spec.sim_time_limit, round(float(loaded.model.opt.timestep) * 1e9))
+        plan = plan_world(scenario, spec.out_dir)
+        expected = steps_for(spec.sim_time_limit, round(scenario.timestep * 1e9))
         every = max(1, math.ceil(expected / max(1, self.trace_samples)))
         observers: list[_Observer] = []
 
@@ -371,7 +395,8 @@ class SessionIterationRunner:
         if clock.mode != "lockstep":
             start = "paused" if spec.client is None else "on_client"
         session = Session(
-            loaded,
+            robots=plan.robots,
+            scene=plan.scene,
             kinematic_limits=kinematic_limits(robot_spec),
             clock=clock.mode,
             rate=clock.rate,
@@ -381,12 +406,19 @@ class SessionIterationRunner:
             port=spec.port,
             record_to=spec.recording_path if scenario.recording.enabled else None,
             state_every=scenario.recording.state_every,
-            joint_command_topic=joint_command_topic(robot_spec),
-            loggers=[observer, *_robot_loggers(scenario, robot_spec, loaded)],
+            joint_command_topic=plan.command_topics,
+            loggers=[observer],
             sinks=sinks,
             seed=spec.seed,
             scenario=scenario_text,
         )
+        try:
+            assert session.world is not None
+            for logger in _robot_loggers(scenario, session.world):
+                session.add_logger(logger)  # before the first step: as if given above
+        except BaseException:
+            session.close()
+            raise
         dt_ns = session.dt_ns
         limit = steps_for(spec.sim_time_limit, dt_ns)
         outcome: ClientOutcome | None = None
@@ -434,7 +466,7 @@ class SessionIterationRunner:
             recording=session.record_path,
             collisions=collisions,
             joint_limits=limits,
-            traces=obs.traces(velocity_limits(loaded.description)),
+            traces=obs.traces(velocity_limits(session.description)),
             state_digest=obs.digest.hexdigest(),
             client=outcome,
             port=port,

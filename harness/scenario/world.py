@@ -1,20 +1,26 @@
-"""The world of one iteration: a scenario's map, objects, robot pose, control modes and
-initial joint positions turned into the :class:`~harness.models.LoadedRobot` a Session runs.
+"""The world of one iteration: a scenario's map, objects, robots (poses, control modes, initial
+joint positions, namespaces) turned into the :func:`harness.models.load_world` call a Session
+runs.
 
 What goes where, so that replay can rebuild it:
 
 - ``environment.map``, ``objects`` and ``timestep`` become the *scene*: the built-in scene or
   the MJCF world file as is when there is nothing to add, else a generated MJCF world
   (``scene.xml`` in the iteration's folder) holding the map's content plus the objects. The
-  scene file travels in the recording as a source attachment, so ``resimulate`` (which
-  rebuilds the robot from its sources) sees the objects too.
-- ``robots[].controllers`` become the control modes passed to the loader.
-- ``robots[].position``/``orientation`` and ``initial_joint_positions`` are applied to the
-  compiled spec afterwards (the robot's attachment frame is moved; the ``home`` keyframe,
-  which the Simulation starts from, is rewritten). The exact binary model (``model.mjb``)
-  carries them, so ``verify`` replays them bit for bit; ``resimulate`` starts from the
-  recorded initial state (so initial joint positions hold there too) but rebuilds the robot
-  at the origin.
+  scene file travels in the recording as a source attachment.
+- each ``robots[]`` entry becomes a :class:`harness.models.RobotSpec`: ``controllers`` its
+  control modes, ``position``/``orientation`` its pose (x y z, then fixed-axis roll pitch
+  yaw), ``initial_joint_positions`` its ``initial_positions`` (the ``home`` keyframe the
+  Simulation starts from). The recording's ``robots`` metadata holds all of it, so
+  ``resimulate`` and ``--level full`` rebuild the same world.
+
+Namespaces (:func:`robot_namespaces`): a scenario with one robot runs it in the empty
+namespace (global topics ``/joint_states``, ``/joint_command``, ...), as before. With several
+robots each robot's topics live under ``/<namespace>/``: a robot's ``name`` given in the file
+is its namespace; a robot without one (the original format has no ``name``) takes its model's
+name (``demo_arm``), made unique with ``_1``, ``_2``, ... (``demo_arm``, ``demo_arm_1``). Its
+subscribers' topics are put under the namespace (``/joint_command`` becomes
+``/<namespace>/joint_command``; a topic already under ``/<namespace>/`` stays).
 
 :func:`check_runnable` lists what the session-backed runner cannot run, each problem naming
 the scenario file and the key path.
@@ -22,17 +28,24 @@ the scenario file and the key path.
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
 import math
-import warnings
+import re
 from collections.abc import Mapping
 from pathlib import Path
+from typing import NamedTuple
 
 import mujoco
-import numpy as np
 
-from harness.models import SCENES, ControlMode, LoadedRobot, load_description, load_robot
+from harness.errors import ModelError
+from harness.models import (
+    SCENES,
+    ControlMode,
+    LoadedRobot,
+    LoadedWorld,
+    load_description,
+    load_world,
+)
+from harness.models import RobotSpec as WorldRobot
 from harness.models.description import RobotModel
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
@@ -42,20 +55,23 @@ from harness.sim import KinematicLimits
 __all__ = [
     "DEFAULT_JOINT_COMMAND_TOPIC",
     "TRAJECTORY_TOPIC",
-    "build_robot",
+    "WorldPlan",
+    "build_world",
     "check_runnable",
     "control_modes",
     "initial_positions",
     "joint_command_topic",
     "kinematic_limits",
+    "plan_world",
     "require_runnable",
+    "robot_namespaces",
     "scene_for",
 ]
 
 DEFAULT_JOINT_COMMAND_TOPIC = "/joint_command"
 """The Session's joint command topic when a robot lists no JointStateSubscriber."""
 TRAJECTORY_TOPIC = "/joint_trajectory"
-"""The only trajectory topic the Session serves (for a robot without a namespace)."""
+"""The trajectory topic the Session serves for a robot (under its namespace, if any)."""
 _HINGE_LIKE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 _SHAPES = {
     "box": mujoco.mjtGeom.mjGEOM_BOX,
@@ -77,13 +93,6 @@ def check_runnable(scenario: Scenario) -> list[str]:
     def problem(path: list[str | int], value: object, text: str) -> None:
         problems.append(f"{where}: {format_path(path)}: {value!r} {text}")
 
-    if len(scenario.robots) > 1:
-        problem(
-            ["robots", 1],
-            scenario.robots[1].name,
-            f"is a second robot: a run simulates one robot per scenario (this one lists "
-            f"{len(scenario.robots)}); split it into one scenario per robot",
-        )
     env_map = scenario.environment.map
     if isinstance(env_map, Path) and env_map.suffix.lower() in (".sdf", ".world"):
         problem(
@@ -91,7 +100,8 @@ def check_runnable(scenario: Scenario) -> list[str]:
             str(env_map),
             "is an SDF world: a run's map must be a built-in scene or an MJCF world file",
         )
-    for index, robot in enumerate(scenario.robots[:1]):
+    several = len(scenario.robots) > 1
+    for index, robot in enumerate(scenario.robots):
         state_topics = [
             (i, s) for i, s in enumerate(robot.subscribers) if s.type == "JointStateSubscriber"
         ]
@@ -103,11 +113,16 @@ def check_runnable(scenario: Scenario) -> list[str]:
                 f"(here {state_topics[0][1].topic!r})",
             )
         for i, sub in enumerate(robot.subscribers):
-            if sub.type == "JointTrajectorySubscriber" and sub.topic != TRAJECTORY_TOPIC:
+            if sub.type != "JointTrajectorySubscriber":
+                continue
+            served = TRAJECTORY_TOPIC
+            if several and sub.topic != TRAJECTORY_TOPIC:
+                served = f"/{robot_namespaces(scenario)[index]}{TRAJECTORY_TOPIC}"
+            if sub.topic not in (TRAJECTORY_TOPIC, served):
                 problem(
                     ["robots", index, "subscribers", i, "topic"],
                     sub.topic,
-                    f"is not served: trajectories are taken on {TRAJECTORY_TOPIC!r} only",
+                    f"is not served: trajectories are taken on {served!r} only",
                 )
         limits = {c.beyond_limits for c in robot.controllers if c.mode == "kinematic"}
         if len(limits) > 1:
@@ -116,6 +131,16 @@ def check_runnable(scenario: Scenario) -> list[str]:
                 sorted(limits),
                 "mix beyond_limits values: kinematic joints of one robot share one policy",
             )
+    policies = [kinematic_limits(robot) for robot in scenario.robots]
+    for index, policy in enumerate(policies[1:], start=1):
+        if policy != policies[0]:
+            problem(
+                ["robots", index, "controllers"],
+                policy,
+                f"differs from robots[0]'s beyond_limits ({policies[0]!r}): the kinematic "
+                "joints of one run share one policy",
+            )
+            break
     return problems
 
 
@@ -156,13 +181,47 @@ def kinematic_limits(robot: RobotSpec) -> KinematicLimits:
     return "allow" if allow else "clamp"
 
 
-def joint_command_topic(robot: RobotSpec) -> str:
+def joint_command_topic(robot: RobotSpec, namespace: str = "") -> str:
     """The JointStateSubscriber's topic (the original's default ``/joint/states``), else
-    :data:`DEFAULT_JOINT_COMMAND_TOPIC`."""
+    :data:`DEFAULT_JOINT_COMMAND_TOPIC`; with a ``namespace``, relative to it (a topic
+    already under ``/<namespace>/`` stays absolute)."""
+    topic = DEFAULT_JOINT_COMMAND_TOPIC
     for sub in robot.subscribers:
         if sub.type == "JointStateSubscriber":
-            return sub.topic
-    return DEFAULT_JOINT_COMMAND_TOPIC
+            topic = sub.topic
+            break
+    if not namespace or topic.startswith(f"/{namespace}/"):
+        return topic
+    return topic.lstrip("/")
+
+
+def _segment(name: str) -> str:
+    """``name`` as a ROS name segment (a letter first, letters, digits, single ``_``)."""
+    text = re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", name)).strip("_")
+    return text if text[:1].isalpha() else f"robot_{text}".rstrip("_")
+
+
+def robot_namespaces(scenario: Scenario) -> tuple[str, ...]:
+    """Each robot's namespace (see the module docstring): ``("",)`` for a lone robot; with
+    several, a given ``name``, else the model's name made unique (``demo_arm``,
+    ``demo_arm_1``, ...)."""
+    robots = scenario.robots
+    if len(robots) <= 1:
+        return ("",) * len(robots)
+    used = {r.name for r in robots if r.named}
+    out: list[str] = []
+    for robot in robots:
+        if robot.named:
+            out.append(robot.name)
+            continue
+        base = _segment(load_description(robot.robot).name)
+        candidate, number = base, 0
+        while candidate in used:
+            number += 1
+            candidate = f"{base}_{number}"
+        used.add(candidate)
+        out.append(candidate)
+    return tuple(out)
 
 
 def scene_for(scenario: Scenario, folder: Path) -> str | Path:
@@ -233,96 +292,68 @@ def _add_object(spec: mujoco.MjSpec, obj: SceneObject) -> None:
     body.add_geom(**geom_options)
 
 
-def build_robot(scenario: Scenario, folder: Path) -> LoadedRobot:
-    """Load the scenario's (single) robot into its world (see the module docstring)."""
+class WorldPlan(NamedTuple):
+    """What :func:`harness.models.load_world` (or ``Session(robots=..., scene=...)``) gets
+    for a scenario: one :class:`harness.models.RobotSpec` per robot, the scene, and per
+    robot namespace its joint command topic."""
+
+    robots: tuple[WorldRobot, ...]
+    scene: str | Path
+    command_topics: Mapping[str, str]
+
+
+def _joint_names(description: RobotModel) -> list[str]:
+    return [j.name for j in description.joints if j.type in ("revolute", "continuous", "prismatic")]
+
+
+def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
+    """The world of ``scenario`` (see the module docstring); a generated scene goes to
+    ``folder``. Errors name the scenario file and the key path."""
     require_runnable(scenario)
-    robot = scenario.robots[0]
-    modes = control_modes(robot, load_description(robot.robot), ["robots", 0], _where(scenario))
-    loaded = load_robot(robot.robot, control=modes, scene=scene_for(scenario, folder))
-    posed = robot.position != (0.0, 0.0, 0.0) or robot.orientation != (0.0, 0.0, 0.0)
-    if not posed and not robot.initial_joint_positions:
-        return loaded
-    return _edit(loaded, robot, scenario)
-
-
-def _edit(loaded: LoadedRobot, robot: RobotSpec, scenario: Scenario) -> LoadedRobot:
-    spec = loaded.spec
-    before = loaded.model
-    home = {k.name: k for k in spec.keys}.get("home")
-    index = 0
-    positions: dict[str, float] = {}
-    key_qpos = before.key_qpos[0] if home is not None else before.qpos0
-    for j in range(before.njnt):
-        if int(before.jnt_type[j]) in _HINGE_LIKE:
-            positions[before.joint(j).name] = float(key_qpos[before.jnt_qposadr[j]])
-    wanted = dict(robot.initial_joint_positions)
-    unknown = sorted(set(wanted) - set(positions))
-    if unknown:
-        raise ScenarioError(
-            [
-                f"{_where(scenario)}: robots[{index}].initial_joint_positions.{name}: "
-                f"{wanted[name]!r} names no hinge or slide joint of the robot (joints: "
-                f"{', '.join(sorted(positions))})"
-                for name in unknown
-            ]
-        )
-    positions.update(wanted)
-
-    links = {link.name for link in loaded.description.links}
-    top = [b for b in spec.worldbody.bodies if b.name in links]
-    quat = _quat(robot.orientation)
-    for body in top:
-        frame = body.frame
-        if frame is not None:
-            frame.pos = list(robot.position)
-            frame.quat = quat
-        else:
-            pos = np.zeros(3)
-            mujoco.mju_rotVecQuat(pos, np.asarray(body.pos, dtype=float), np.asarray(quat))
-            composed = np.zeros(4)
-            mujoco.mju_mulQuat(composed, np.asarray(quat), np.asarray(body.quat, dtype=float))
-            body.pos = (pos + np.asarray(robot.position)).tolist()
-            body.quat = composed.tolist()
-    with warnings.catch_warnings():
-        # The loader attached the robot with an empty prefix on purpose (names unchanged).
-        warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
-        for key in list(spec.keys):
-            spec.delete(key)
-        layout = _compile(spec, scenario, index)
-        qpos = np.array(layout.qpos0, dtype=float)
-        for name, value in positions.items():
-            qpos[layout.jnt_qposadr[layout.joint(name).id]] = value
-        ctrl = [
-            positions.get(joint, 0.0) if loaded.control.get(joint) == "position" else 0.0
-            for joint in loaded.actuated
+    where = _where(scenario)
+    namespaces = robot_namespaces(scenario)
+    robots: list[WorldRobot] = []
+    problems: list[str] = []
+    for index, (robot, namespace) in enumerate(zip(scenario.robots, namespaces, strict=True)):
+        description = load_description(robot.robot)
+        modes = control_modes(robot, description, ["robots", index], where)
+        joints = _joint_names(description)
+        problems += [
+            f"{where}: robots[{index}].initial_joint_positions.{name}: {value!r} names no "
+            f"hinge or slide joint of the robot (joints: {', '.join(sorted(joints))})"
+            for name, value in robot.initial_joint_positions.items()
+            if name not in joints
         ]
-        spec.add_key(name="home", qpos=qpos.tolist(), ctrl=ctrl)
-        model = _compile(spec, scenario, index)
-        mjcf = spec.to_xml()
-    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
-    mujoco.mj_saveModel(model, None, buffer)
-    return dataclasses.replace(
-        loaded,
-        model=model,
-        mjcf=mjcf,
-        mjb=buffer.tobytes(),
-        sha256=hashlib.sha256(mjcf.encode()).hexdigest(),
-    )
+        posed = robot.position != (0.0, 0.0, 0.0) or robot.orientation != (0.0, 0.0, 0.0)
+        robots.append(
+            WorldRobot(
+                robot.robot,
+                namespace=namespace,
+                pose=[*robot.position, *robot.orientation] if posed else None,
+                control=modes,
+                initial_positions=dict(robot.initial_joint_positions),
+            )
+        )
+    if problems:
+        raise ScenarioError(problems)
+    topics = {
+        namespace: joint_command_topic(robot, namespace)
+        for robot, namespace in zip(scenario.robots, namespaces, strict=True)
+    }
+    return WorldPlan(tuple(robots), scene_for(scenario, folder), topics)
 
 
-def _compile(spec: mujoco.MjSpec, scenario: Scenario, index: int) -> mujoco.MjModel:
+def build_world(scenario: Scenario, folder: Path) -> LoadedWorld:
+    """Load the world of ``scenario`` (:func:`plan_world`, then
+    :func:`harness.models.load_world`); a model error names the scenario file."""
+    plan = plan_world(scenario, folder)
     try:
-        return spec.compile()
-    except ValueError as exc:
-        raise ScenarioError(
-            [
-                f"{_where(scenario)}: robots[{index}]: the posed robot does not compile: "
-                f"{' '.join(str(exc).split())}"
-            ]
-        ) from None
+        return load_world(plan.robots, scene=plan.scene)
+    except ModelError as exc:
+        raise ScenarioError([f"{_where(scenario)}: {exc}"]) from None
 
 
-def initial_positions(loaded: LoadedRobot) -> Mapping[str, float]:
+def initial_positions(loaded: LoadedRobot | LoadedWorld) -> Mapping[str, float]:
     """The ``home`` keyframe's hinge/slide joint positions (for reports and tests)."""
     model = loaded.model
     key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")

@@ -7,14 +7,17 @@ Three command styles, all taking effect at the next step boundary:
   ``position[i]`` apply where that index exists; the field matching the joint's control mode
   is used (``position`` for kinematic and position joints, ``velocity``, ``effort``).
 - ``std_msgs/msg/Float64MultiArray`` on the ros2_control-style forward command topics
-  (:data:`FORWARD_TOPICS`): one value per controllable joint, in the simulation's joint order
-  (``Simulation.joint_names``).
+  (:data:`FORWARD_TOPICS`): one value per controllable joint of the robot, in the simulation's
+  joint order (``joint_names`` of the :class:`CommandTarget`).
 - ``trajectory_msgs/msg/JointTrajectory`` on ``joint_trajectory``: see :class:`Trajectory`.
 
 A message that names an unknown joint, has a wrong array length or a non-finite value is
 refused as a whole (:class:`~harness.session.errors.CommandRefused`; nothing changes). Values
 beyond a joint's limits are clamped by the simulation (dynamic modes always, kinematic mode when
 ``kinematic_limits="clamp"``) and reported as :class:`~harness.sim.Notice`\\ s.
+
+Each function acts on a :class:`CommandTarget`: a :class:`~harness.sim.Simulation` (every joint,
+MuJoCo names) or one robot's :class:`~harness.sim.RobotJoints` (its own, unprefixed, names).
 """
 
 from __future__ import annotations
@@ -23,16 +26,18 @@ import bisect
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from harness.models.description import ControlMode
 from harness.session.errors import CommandRefused
-from harness.sim import CommandError, CommandField, Notice, Simulation
+from harness.sim import CommandError, CommandField, Notice
 
 __all__ = [
     "FORWARD_TOPICS",
+    "CommandTarget",
     "Trajectory",
     "apply_forward",
     "apply_joint_state",
@@ -49,11 +54,40 @@ FORWARD_TOPICS: Mapping[CommandField, str] = {
 """Forward command topic (relative to the robot's namespace) per commanded field."""
 
 
+class CommandTarget(Protocol):
+    """The joints a command topic drives (:class:`~harness.sim.Simulation` or
+    :class:`~harness.sim.RobotJoints`)."""
+
+    @property
+    def joint_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def control(self) -> Mapping[str, ControlMode]: ...
+
+    def joint_positions(self) -> F64: ...
+
+    def joint_commands(self) -> F64: ...
+
+    def set_positions(self, positions: Mapping[str, float]) -> list[Notice]: ...
+
+    def set_velocities(self, velocities: Mapping[str, float]) -> list[Notice]: ...
+
+    def set_efforts(self, efforts: Mapping[str, float]) -> list[Notice]: ...
+
+    def command_joint_state(
+        self,
+        name: Sequence[str],
+        position: Sequence[float] = (),
+        velocity: Sequence[float] = (),
+        effort: Sequence[float] = (),
+    ) -> list[Notice]: ...
+
+
 def _duration_ns(value: Mapping[str, Any]) -> int:
     return int(value["sec"]) * 1_000_000_000 + int(value["nanosec"])
 
 
-def apply_joint_state(sim: Simulation, msg: Mapping[str, Any]) -> list[Notice]:
+def apply_joint_state(sim: CommandTarget, msg: Mapping[str, Any]) -> list[Notice]:
     """Apply a ``sensor_msgs/msg/JointState`` command (canonical rosbridge dict)."""
     try:
         return sim.command_joint_state(msg["name"], msg["position"], msg["velocity"], msg["effort"])
@@ -61,7 +95,7 @@ def apply_joint_state(sim: Simulation, msg: Mapping[str, Any]) -> list[Notice]:
         raise CommandRefused(str(exc)) from None
 
 
-def apply_forward(sim: Simulation, field: CommandField, msg: Mapping[str, Any]) -> list[Notice]:
+def apply_forward(sim: CommandTarget, field: CommandField, msg: Mapping[str, Any]) -> list[Notice]:
     """Apply a ``std_msgs/msg/Float64MultiArray`` forward command of ``field``."""
     data: Sequence[float] = msg["data"]
     names = sim.joint_names
@@ -145,7 +179,7 @@ class Trajectory:
         )
 
 
-def parse_trajectory(sim: Simulation, msg: Mapping[str, Any], now_ns: int) -> Trajectory:
+def parse_trajectory(sim: CommandTarget, msg: Mapping[str, Any], now_ns: int) -> Trajectory:
     """Validate a ``trajectory_msgs/msg/JointTrajectory`` (canonical rosbridge dict) received at
     simulation time ``now_ns``. It starts at ``header.stamp`` when that is non-zero, else at
     ``now_ns``."""

@@ -42,7 +42,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Literal, Protocol
@@ -60,7 +60,7 @@ from harness.events import (
     StepContext,
 )
 from harness.events.events import Event
-from harness.models import LoadedRobot
+from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.rosbridge import DIRECTION_IN, Bridge, Output, TapRecord
 from harness.session.commands import (
     FORWARD_TOPICS,
@@ -90,7 +90,7 @@ from harness.session.topics import (
     stamp,
     tf_msg,
 )
-from harness.sim import CommandField, KinematicLimits, Notice, Simulation
+from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
 
 __all__ = [
     "CLOCK_MODES",
@@ -106,6 +106,7 @@ __all__ = [
     "CoreOptions",
     "Graph",
     "RecordSink",
+    "RobotChannels",
     "SessionBridge",
     "SessionCore",
     "SessionTopics",
@@ -142,6 +143,7 @@ SERVICE_PAUSE = "/harness/pause"
 SERVICE_GET_STATE = "/harness/get_state"
 _ROSOUT = "/rosout"
 _CLOCK = "/clock"
+_TF = "/tf"
 _LOG_NAME = "harness.session"
 
 
@@ -257,8 +259,10 @@ class CoreOptions:
     starts paused (``"paused"``: :meth:`SessionCore.set_paused`), or starts paused until its
     first client connects (``"on_client"``, the shell's job); lockstep takes only ``"now"``.
     ``record_bridge_frames``: whether bridge frames and markers are recorded (without them a
-    recording cannot be replayed at ``--level full``). ``max_step_request``: the most steps
-    one ``/harness/step`` request may ask for (a larger request fails, nothing stepped)."""
+    recording cannot be replayed at ``--level full``). ``joint_command_topic``: one name for
+    every robot, or robot namespace -> name (robots not listed: ``"joint_command"``).
+    ``max_step_request``: the most steps one ``/harness/step`` request may ask for (a larger
+    request fails, nothing stepped)."""
 
     clock: ClockMode = "lockstep"
     namespace: str = ""
@@ -267,7 +271,7 @@ class CoreOptions:
     joint_states_hz: float = 100.0
     tf_hz: float | None = None
     clock_hz: float | None = None
-    joint_command_topic: str = "joint_command"
+    joint_command_topic: str | Mapping[str, str] = "joint_command"
     start: StartMode = "now"
     record_bridge_frames: bool = True
     max_step_request: int = DEFAULT_MAX_STEP_REQUEST
@@ -319,6 +323,27 @@ class CoreOptions:
             raise SessionConfigError(
                 f"kinematic_limits must be 'clamp' or 'allow', not {self.kinematic_limits!r}"
             )
+        topics = self.joint_command_topic
+        if isinstance(topics, Mapping):
+            for namespace, topic in topics.items():
+                if not isinstance(namespace, str) or not isinstance(topic, str):
+                    raise SessionConfigError(
+                        f"joint_command_topic[{namespace!r}] must map a namespace to a topic "
+                        f"name, not {topic!r}"
+                    )
+                _check_name(topic, f"joint_command_topic[{namespace!r}]")
+            object.__setattr__(self, "joint_command_topic", MappingProxyType(dict(topics)))
+        elif not isinstance(topics, str):
+            raise SessionConfigError(
+                f"joint_command_topic must be a topic name or namespace -> name, not {topics!r}"
+            )
+
+    def command_topic(self, namespace: str) -> str:
+        """The joint command topic name of the robot with ``namespace``."""
+        topics = self.joint_command_topic
+        if isinstance(topics, str):
+            return topics
+        return topics.get(namespace, "joint_command")
 
     def to_metadata(self) -> dict[str, str]:
         """The recording metadata keys of these options (all strings)."""
@@ -329,7 +354,9 @@ class CoreOptions:
             "joint_states_hz": repr(float(self.joint_states_hz)),
             "tf_hz": _hz(self.tf_hz),
             "clock_hz": _hz(self.clock_hz),
-            "joint_command_topic": self.joint_command_topic,
+            "joint_command_topic": self.joint_command_topic
+            if isinstance(self.joint_command_topic, str)
+            else json.dumps(dict(self.joint_command_topic), sort_keys=True),
             "start": self.start,
             "bridge_frames": "true" if self.record_bridge_frames else "false",
             "max_step_request": str(self.max_step_request),
@@ -356,6 +383,16 @@ class CoreOptions:
         cap = metadata.get("max_step_request", str(defaults.max_step_request))
         if not cap.isdigit():
             raise SessionConfigError(f"metadata 'max_step_request' is {cap!r}, not an integer")
+        topic_text = metadata.get("joint_command_topic", "joint_command")
+        command_topic: str | dict[str, str] = topic_text
+        if topic_text.startswith("{"):
+            try:
+                command_topic = dict(json.loads(topic_text))
+            except (ValueError, TypeError):
+                raise SessionConfigError(
+                    f"metadata 'joint_command_topic' is {topic_text!r}, not a topic name or "
+                    "a JSON object of namespace -> topic"
+                ) from None
         return cls(
             clock=metadata.get("clock", defaults.clock),  # type: ignore[arg-type]
             namespace=metadata.get("namespace", ""),
@@ -366,7 +403,7 @@ class CoreOptions:
             joint_states_hz=defaults.joint_states_hz if hz is None else hz,
             tf_hz=number("tf_hz", None),
             clock_hz=number("clock_hz", None),
-            joint_command_topic=metadata.get("joint_command_topic", "joint_command"),
+            joint_command_topic=command_topic,
             start=metadata.get("start", defaults.start),  # type: ignore[arg-type]
             record_bridge_frames=metadata.get("bridge_frames", "true") != "false",
             max_step_request=int(cap),
@@ -490,13 +527,82 @@ class _BridgeLogSink:
         return SinkReport(self.name, self._delivered, 0)
 
 
+class RobotChannels:
+    """One robot of a session, as its topics see it: ``namespace`` (ROS), ``prefix`` (of its
+    MuJoCo names), its own ``description`` (unprefixed names), its controllable ``joints``
+    (:class:`~harness.sim.RobotJoints`), resolved ``topics``, ``links`` (MuJoCo body names of
+    its links: the ``/tf`` child frames are ``<namespace>/<link>``) and the latched
+    ``robot_description`` text. Holds the robot's trajectory in progress."""
+
+    def __init__(
+        self,
+        sim: Simulation,
+        namespace: str,
+        prefix: str,
+        description: RobotModel,
+        control: Iterable[str],
+        topics: SessionTopics,
+        description_text: str,
+    ) -> None:
+        self.namespace = namespace
+        self.prefix = prefix
+        self.description = description
+        self.joints = RobotJoints(sim, control, prefix)
+        self.topics = topics
+        self.description_text = description_text
+        model = sim.model
+        self.links = tuple(
+            prefix + link.name
+            for link in description.links
+            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, prefix + link.name) >= 0
+        )
+        frame_prefix = f"{namespace}/" if namespace else ""
+        self.frames = tuple(frame_prefix + link.removeprefix(prefix) for link in self.links)
+        kinematic = set(sim.kinematic_joints)
+        names: list[str] = []
+        qadr: list[int] = []
+        dadr: list[int] = []
+        kin: list[bool] = []
+        slide_hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        for joint in description.joints:
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, prefix + joint.name)
+            if jid < 0 or int(model.jnt_type[jid]) not in slide_hinge:
+                continue
+            names.append(joint.name)
+            qadr.append(int(model.jnt_qposadr[jid]))
+            dadr.append(int(model.jnt_dofadr[jid]))
+            kin.append(prefix + joint.name in kinematic)
+        self.js_names = tuple(names)
+        """The joints in its ``joint_states`` (every hinge and slide joint, unprefixed)."""
+        self.js_qadr = np.array(qadr, dtype=np.intp)
+        self.js_dadr = np.array(dadr, dtype=np.intp)
+        self.js_kin = np.array(kin, dtype=bool)
+        self.trajectory: Trajectory | None = None
+        self.trajectory_topic = ""
+        self.trajectory_warned: set[str] = set()
+
+    def drop_from_trajectory(self, joints: Iterable[str]) -> None:
+        """Stop the trajectory driving ``joints`` (the robot's own names)."""
+        if self.trajectory is not None:
+            self.trajectory = self.trajectory.without(set(joints))
+
+
+def _source_text(sources: Mapping[str, bytes], fallback: str) -> str:
+    for name, blob in sources.items():
+        if name.startswith("model/"):
+            return blob.decode("utf-8", errors="replace")
+    return fallback
+
+
 class SessionCore:
-    """One session's logic, sans-I/O. ``robot``: the loaded robot (a fresh
-    :class:`~harness.sim.Simulation` of it is made); ``options``: see :class:`CoreOptions`;
-    ``recorder``: where bridge frames, markers, applied inputs, states and published messages
-    go; ``hub``: the event hub (its sinks and loggers; a ``/rosout`` publishing sink is added);
-    ``graph``: an external graph (client mode) instead of the core's own
-    :class:`SessionBridge` (:attr:`bridge`, None in client mode).
+    """One session's logic, sans-I/O. ``robot``: a loaded robot (one robot, its topics under
+    ``options.namespace``) or a :class:`~harness.models.LoadedWorld` (each robot's topics under
+    its own namespace, one global ``/tf``); a fresh :class:`~harness.sim.Simulation` of it is
+    made. ``options``: see :class:`CoreOptions`; ``recorder``: where bridge frames, markers,
+    applied inputs, states and published messages go; ``hub``: the event hub (its sinks and
+    loggers; a ``/rosout`` publishing sink is added); ``graph``: an external graph (client
+    mode) instead of the core's own :class:`SessionBridge` (:attr:`bridge`, None in client
+    mode).
 
     Call only from one thread. Driving it: :meth:`start` once, then at each step boundary
     hand waiting frames to :attr:`bridge` (``receive``, ``disconnect``, ``time_out_call``) and
@@ -505,7 +611,7 @@ class SessionCore:
 
     def __init__(
         self,
-        robot: LoadedRobot,
+        robot: LoadedRobot | LoadedWorld,
         options: CoreOptions,
         *,
         recorder: RecordSink | None = None,
@@ -516,6 +622,11 @@ class SessionCore:
         self.options = options
         self.clock: ClockMode = options.clock
         self.namespace = options.namespace
+        if isinstance(robot, LoadedWorld) and options.namespace:
+            raise SessionConfigError(
+                f"namespace {options.namespace!r} applies to a session of one robot: the robots "
+                "of a world take their namespaces from their RobotSpec"
+            )
         self.sim = Simulation(robot, kinematic_limits=options.kinematic_limits)
         self.robot_name = robot.name
         self.recorder = recorder
@@ -529,7 +640,11 @@ class SessionCore:
                 self.bridge.tap = self._tap
                 self.bridge.on_marker = self._marker
         self.graph: Graph = graph
-        self.topics = self._resolve_topics(options.joint_command_topic)
+        self.robots = self._robot_channels(robot)
+        """Every robot's topics, joints and links, in the world's order."""
+        self.topics = self.robots[0].topics
+        self.links = tuple(link for r in self.robots for link in r.links)
+        """MuJoCo body names of every robot's links."""
         self.dt_ns = self.sim.dt_ns
         hz = options.joint_states_hz
         self._js_every = period_steps(hz, self.dt_ns)
@@ -538,15 +653,10 @@ class SessionCore:
             hz if options.clock_hz is None else options.clock_hz, self.dt_ns
         )
         self._state_every = options.state_every
-        self._joint_state_layout()
-        self.links = tuple(
-            link.name
-            for link in robot.description.links
-            if mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_BODY, link.name) >= 0
-        )
-        self._trajectory: Trajectory | None = None
-        self._trajectory_topic = ""
-        self._trajectory_warned: set[str] = set()
+        tf_topics: dict[str, list[RobotChannels]] = {}
+        for channels in self.robots:
+            tf_topics.setdefault(channels.topics.tf, []).append(channels)
+        self._tf_topics = tuple((topic, tuple(rs)) for topic, rs in tf_topics.items())
         self._next_seq = 0
         self.paused = options.start != "now"
         self.failure: BaseException | None = None
@@ -558,71 +668,113 @@ class SessionCore:
 
     # ----------------------------------------------------------------------------- set-up
 
-    def _resolve(self, name: str) -> str:
+    @staticmethod
+    def _resolve(name: str, namespace: str) -> str:
         _check_name(name, "topic")
         if name.startswith("/"):
             return name
-        return f"/{self.namespace}/{name}" if self.namespace else f"/{name}"
+        return f"/{namespace}/{name}" if namespace else f"/{name}"
 
-    def _resolve_topics(self, joint_command: str) -> SessionTopics:
+    def _topics(self, namespace: str, tf: str | None) -> SessionTopics:
+        def resolve(name: str) -> str:
+            return self._resolve(name, namespace)
+
         return SessionTopics(
-            joint_states=self._resolve("joint_states"),
-            joint_command=self._resolve(joint_command),
-            joint_trajectory=self._resolve("joint_trajectory"),
-            tf=self._resolve("tf"),
-            robot_description=self._resolve("robot_description"),
-            forward=MappingProxyType({f: self._resolve(t) for f, t in FORWARD_TOPICS.items()}),
+            joint_states=resolve("joint_states"),
+            joint_command=resolve(self.options.command_topic(namespace)),
+            joint_trajectory=resolve("joint_trajectory"),
+            tf=resolve("tf") if tf is None else tf,
+            robot_description=resolve("robot_description"),
+            forward=MappingProxyType({f: resolve(t) for f, t in FORWARD_TOPICS.items()}),
         )
 
-    def _joint_state_layout(self) -> None:
-        model = self.sim.model
-        kinematic = set(self.sim.kinematic_joints)
-        names: list[str] = []
-        qadr: list[int] = []
-        dadr: list[int] = []
-        kin: list[bool] = []
-        slide_hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-        for joint in self.robot.description.joints:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
-            if jid < 0 or int(model.jnt_type[jid]) not in slide_hinge:
-                continue
-            names.append(joint.name)
-            qadr.append(int(model.jnt_qposadr[jid]))
-            dadr.append(int(model.jnt_dofadr[jid]))
-            kin.append(joint.name in kinematic)
-        self._js_names = tuple(names)
-        self._js_qadr = np.array(qadr, dtype=np.intp)
-        self._js_dadr = np.array(dadr, dtype=np.intp)
-        self._js_kin = np.array(kin, dtype=bool)
+    def _robot_channels(self, robot: LoadedRobot | LoadedWorld) -> tuple[RobotChannels, ...]:
+        sim = self.sim
+        if isinstance(robot, LoadedRobot):
+            return (
+                RobotChannels(
+                    sim,
+                    self.namespace,
+                    "",
+                    robot.description,
+                    robot.control,
+                    self._topics(self.namespace, None),
+                    _source_text(robot.sources, robot.mjcf),
+                ),
+            )
+        out = tuple(
+            RobotChannels(
+                sim,
+                view.namespace,
+                view.prefix,
+                view.description,
+                view.control,
+                self._topics(view.namespace, _TF),
+                _source_text(view.sources, robot.mjcf),
+            )
+            for view in robot.robots
+        )
+        owner: dict[str, str] = {}
+        for channels in out:
+            topics = channels.topics
+            for topic in (
+                topics.joint_states,
+                topics.joint_command,
+                topics.joint_trajectory,
+                topics.robot_description,
+                *topics.forward.values(),
+            ):
+                if topic in owner:
+                    raise SessionConfigError(
+                        f"topic {topic} is robot {channels.namespace or '(no namespace)'!r}'s and "
+                        f"robot {owner[topic] or '(no namespace)'!r}'s: give each robot its own "
+                        "(a relative joint_command_topic lives under each namespace)"
+                    )
+                owner[topic] = channels.namespace
+        return out
+
+    def robot_channels(self, namespace: str) -> RobotChannels:
+        """The robot with ``namespace`` (:class:`SessionError` naming the namespaces if none)."""
+        for channels in self.robots:
+            if channels.namespace == namespace:
+                return channels
+        raise SessionError(
+            f"no robot with namespace {namespace!r} (robots: "
+            f"{', '.join(repr(r.namespace) for r in self.robots)})"
+        )
 
     def start(self) -> None:
-        """Subscribe the command topics, serve the services, publish the latched robot
-        description and record/publish step 0."""
+        """Subscribe every robot's command topics and serve the services."""
         graph = self.graph
-        topics = self.topics
-        graph.subscribe(topics.joint_command, TYPE_JOINT_STATE, self._on_joint_command)
-        graph.subscribe(topics.joint_trajectory, TYPE_TRAJECTORY, self._on_trajectory)
-        for command_field, topic in topics.forward.items():
-            graph.subscribe(topic, TYPE_FORWARD, self._forward_handler(command_field, topic))
+        for channels in self.robots:
+            topics = channels.topics
+            graph.subscribe(
+                topics.joint_command, TYPE_JOINT_STATE, self._joint_command_handler(channels)
+            )
+            graph.subscribe(
+                topics.joint_trajectory, TYPE_TRAJECTORY, self._trajectory_handler(channels)
+            )
+            for command_field, topic in topics.forward.items():
+                graph.subscribe(
+                    topic, TYPE_FORWARD, self._forward_handler(channels, command_field, topic)
+                )
         graph.serve(SERVICE_STEP, "harness_msgs/srv/Step", self._srv_step)
         graph.serve(SERVICE_RESET, "std_srvs/srv/Trigger", self._srv_reset)
         graph.serve(SERVICE_PAUSE, "std_srvs/srv/SetBool", self._srv_pause)
         graph.serve(SERVICE_GET_STATE, "harness_msgs/srv/GetState", self._srv_get_state)
 
     def publish_initial(self) -> None:
-        """Publish the latched robot description and record/publish step 0 (after
+        """Publish every robot's latched description and record/publish step 0 (after
         :meth:`start`, once the graph has settled)."""
-        description = self._description_text()
-        self.publish(
-            self.topics.robot_description, TYPE_STRING, lambda: {"data": description}, latch=True
-        )
+        for channels in self.robots:
+            text = channels.description_text
+            self.publish(
+                channels.topics.robot_description,
+                TYPE_STRING,
+                lambda text=text: {"data": text},  # type: ignore[misc]
+                latch=True,
+            )
         self._after_state()
-
-    def _description_text(self) -> str:
-        for name, blob in self.robot.sources.items():
-            if name.startswith("model/"):
-                return blob.decode("utf-8", errors="replace")
-        return self.robot.mjcf
 
     # ----------------------------------------------------------------------------- stepping
 
@@ -643,19 +795,9 @@ class SessionCore:
     def advance(self) -> None:
         """One step: trajectory setpoints, the step, then recording, loggers, publishing."""
         sim = self.sim
-        trajectory = self._trajectory
-        if trajectory is not None:
-            t_next = sim.sim_time_ns + self.dt_ns
-            positions, velocities = trajectory.commands(t_next)
-            notices = sim.set_positions(positions) if positions else []
-            if velocities:
-                notices += sim.set_velocities(velocities)
-            fresh = [n for n in notices if n.joint not in self._trajectory_warned]
-            if fresh:
-                self._trajectory_warned.update(n.joint for n in fresh)
-                self._report_notices(self._trajectory_topic, 0, fresh)
-            if t_next >= trajectory.end_ns:
-                self._trajectory = None
+        for channels in self.robots:
+            if channels.trajectory is not None:
+                self._trajectory_setpoint(channels)
         try:
             sim.step()
         except Exception as exc:
@@ -685,6 +827,22 @@ class SessionCore:
         for watcher in tuple(self.after_step):
             watcher()
 
+    def _trajectory_setpoint(self, channels: RobotChannels) -> None:
+        trajectory = channels.trajectory
+        assert trajectory is not None
+        t_next = self.sim.sim_time_ns + self.dt_ns
+        positions, velocities = trajectory.commands(t_next)
+        joints = channels.joints
+        notices = joints.set_positions(positions) if positions else []
+        if velocities:
+            notices += joints.set_velocities(velocities)
+        fresh = [n for n in notices if n.joint not in channels.trajectory_warned]
+        if fresh:
+            channels.trajectory_warned.update(n.joint for n in fresh)
+            self._report_notices(channels.trajectory_topic, 0, fresh)
+        if t_next >= trajectory.end_ns:
+            channels.trajectory = None
+
     def _after_state(self) -> None:
         """Record the state and publish what is due at the current step."""
         sim = self.sim
@@ -700,34 +858,60 @@ class SessionCore:
                 qpos=data.qpos,
                 qvel=data.qvel,
             )
-        topics = self.topics
         if self._js_every and k % self._js_every == 0:
-            self.publish(topics.joint_states, TYPE_JOINT_STATE, self.joint_state)
+            for channels in self.robots:
+                self.publish(
+                    channels.topics.joint_states,
+                    TYPE_JOINT_STATE,
+                    lambda channels=channels: self._joint_state_of(channels),  # type: ignore[misc]
+                )
         if self._clock_every and k % self._clock_every == 0:
-            self.publish(topics.clock, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
+            self.publish(_CLOCK, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
         if self._tf_every and k % self._tf_every == 0:
-            self.publish(topics.tf, TYPE_TF, self._tf)
+            for topic, robots in self._tf_topics:
+                self.publish(
+                    topic,
+                    TYPE_TF,
+                    lambda robots=robots: self._tf(robots),  # type: ignore[misc]
+                )
 
-    def joint_state(self) -> dict[str, Any]:
-        """The ``sensor_msgs/msg/JointState`` of the current step."""
+    def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
         data = self.sim.data
         effort: F64 = np.where(
-            self._js_kin, data.qfrc_applied[self._js_dadr], data.qfrc_actuator[self._js_dadr]
+            channels.js_kin,
+            data.qfrc_applied[channels.js_dadr],
+            data.qfrc_actuator[channels.js_dadr],
         )
+        names = channels.js_names if not prefix else [prefix + n for n in channels.js_names]
         return joint_state_msg(
             self.sim.sim_time_ns,
-            self._js_names,
-            data.qpos[self._js_qadr],
-            data.qvel[self._js_dadr],
+            names,
+            data.qpos[channels.js_qadr],
+            data.qvel[channels.js_dadr],
             effort,
         )
 
-    def _tf(self) -> dict[str, Any]:
+    def joint_state(self) -> dict[str, Any]:
+        """The ``sensor_msgs/msg/JointState`` of the current step: the robot's, or with
+        several robots every robot's joints by MuJoCo (prefixed) name."""
+        if len(self.robots) == 1 and not self.robots[0].prefix:
+            return self._joint_state_of(self.robots[0])
+        parts = [self._joint_state_of(r, r.prefix) for r in self.robots]
+        merged = parts[0]
+        for part in parts[1:]:
+            for key in ("name", "position", "velocity", "effort"):
+                merged[key] = [*merged[key], *part[key]]
+        return merged
+
+    def _tf(self, robots: Sequence[RobotChannels]) -> dict[str, Any]:
         poses = self.sim.link_poses()
-        prefix = f"{self.namespace}/" if self.namespace else ""
-        return tf_msg(
-            self.sim.sim_time_ns, {n: poses[n] for n in self.links if n in poses}, "world", prefix
-        )
+        frames = {
+            frame: poses[link]
+            for channels in robots
+            for link, frame in zip(channels.links, channels.frames, strict=True)
+            if link in poses
+        }
+        return tf_msg(self.sim.sim_time_ns, frames, "world")
 
     def publish(
         self,
@@ -873,51 +1057,67 @@ class SessionCore:
     # ----------------------------------------------------------------------------- commands
 
     def _command(
-        self, topic: str, connection: int, apply: Callable[[], list[Notice]], joints: set[str]
+        self,
+        channels: RobotChannels,
+        topic: str,
+        connection: int,
+        apply: Callable[[], list[Notice]],
+        joints: Iterable[str],
     ) -> list[Notice]:
         try:
             notices = apply()
         except CommandRefused as exc:
             self._refuse(topic, connection, str(exc))
             raise
-        if self._trajectory is not None:
-            self._trajectory = self._trajectory.without(joints)
+        channels.drop_from_trajectory(joints)
         self._report_notices(topic, connection, notices)
         return notices
 
-    def _on_joint_command(self, msg: Mapping[str, Any], connection: int) -> None:
-        with contextlib.suppress(CommandRefused):
-            self._command(
-                self.topics.joint_command,
-                connection,
-                lambda: apply_joint_state(self.sim, msg),
-                set(msg["name"]),
-            )
-
-    def _forward_handler(
-        self, command_field: CommandField, topic: str
+    def _joint_command_handler(
+        self, channels: RobotChannels
     ) -> Callable[[Mapping[str, Any], int], None]:
         def handle(msg: Mapping[str, Any], connection: int) -> None:
             with contextlib.suppress(CommandRefused):
                 self._command(
-                    topic,
+                    channels,
+                    channels.topics.joint_command,
                     connection,
-                    lambda: apply_forward(self.sim, command_field, msg),
-                    set(self.sim.joint_names),
+                    lambda: apply_joint_state(channels.joints, msg),
+                    msg["name"],
                 )
 
         return handle
 
-    def _on_trajectory(self, msg: Mapping[str, Any], connection: int) -> None:
-        topic = self.topics.joint_trajectory
-        try:
-            trajectory = parse_trajectory(self.sim, msg, self.sim.sim_time_ns)
-        except CommandRefused as exc:
-            self._refuse(topic, connection, str(exc))
-            return
-        self._trajectory = trajectory
-        self._trajectory_topic = topic
-        self._trajectory_warned = set()
+    def _forward_handler(
+        self, channels: RobotChannels, command_field: CommandField, topic: str
+    ) -> Callable[[Mapping[str, Any], int], None]:
+        def handle(msg: Mapping[str, Any], connection: int) -> None:
+            with contextlib.suppress(CommandRefused):
+                self._command(
+                    channels,
+                    topic,
+                    connection,
+                    lambda: apply_forward(channels.joints, command_field, msg),
+                    channels.joints.joint_names,
+                )
+
+        return handle
+
+    def _trajectory_handler(
+        self, channels: RobotChannels
+    ) -> Callable[[Mapping[str, Any], int], None]:
+        def handle(msg: Mapping[str, Any], connection: int) -> None:
+            topic = channels.topics.joint_trajectory
+            try:
+                trajectory = parse_trajectory(channels.joints, msg, self.sim.sim_time_ns)
+            except CommandRefused as exc:
+                self._refuse(topic, connection, str(exc))
+                return
+            channels.trajectory = trajectory
+            channels.trajectory_topic = topic
+            channels.trajectory_warned = set()
+
+        return handle
 
     def command(
         self,
@@ -927,7 +1127,8 @@ class SessionCore:
         velocity: float | None = None,
         effort: float | None = None,
     ) -> list[Notice]:
-        """A Python command of one joint (recorded as a ``harness/python`` marker)."""
+        """A Python command of one joint by its MuJoCo name (recorded as a ``harness/python``
+        marker)."""
         values = {
             "position": None if position is None else float(position),
             "velocity": None if velocity is None else float(velocity),
@@ -945,15 +1146,18 @@ class SessionCore:
         )
 
     def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
-        """Python position commands (recorded as a ``harness/python`` marker)."""
+        """Python position commands by MuJoCo joint names (recorded as a ``harness/python``
+        marker)."""
         values = {str(name): float(value) for name, value in positions.items()}
         self._marker(MARKER_PYTHON, {"call": "set_positions", "positions": values})
         return self._python_command(lambda: self.sim.set_positions(values), set(values))
 
     def _python_command(self, apply: Callable[[], list[Notice]], joints: set[str]) -> list[Notice]:
         notices = apply()
-        if self._trajectory is not None:
-            self._trajectory = self._trajectory.without(joints)
+        for channels in self.robots:
+            own = [j.removeprefix(channels.prefix) for j in joints if channels.joints.owns(j)]
+            if own:
+                channels.drop_from_trajectory(own)
         self._report_notices("python", 0, notices)
         return notices
 
@@ -999,7 +1203,8 @@ class SessionCore:
         state = sim.get_state()
         state[0] = k * self.dt_ns / 1e9  # mjSTATE_TIME first: step numbering continues
         sim.set_state(state, k)
-        self._trajectory = None
+        for channels in self.robots:
+            channels.trajectory = None
         self.failure = None
         if self.on_clock_change is not None:
             self.on_clock_change()

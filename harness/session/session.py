@@ -1,5 +1,5 @@
-"""`Session`: one run. A :class:`~harness.sim.Simulation` of one robot on the rosbridge bridge,
-driven by one clock, recorded, observed by loggers.
+"""`Session`: one run. A :class:`~harness.sim.Simulation` of one robot, or of several robots in
+one world, on the rosbridge bridge, driven by one clock, recorded, observed by loggers.
 
 Threading and the one rule
 --------------------------
@@ -50,6 +50,24 @@ Topics (relative names live under the robot's namespace, ``/<ns>/...``; ``/clock
 (latched ``std_msgs/msg/String``: the source URDF/SDF/MJCF text), ``/rosout`` (log events);
 commands on ``joint_command``, ``joint_trajectory`` and the forward controller topics
 (:mod:`harness.session.commands`).
+
+Several robots (``robots=[RobotSpec(...), ...]``, :func:`harness.models.load_world`)
+------------------------------------------------------------------------------------
+Every robot's topics live under its own namespace: ``/<ns>/joint_states``,
+``/<ns>/joint_command`` (or its ``joint_command_topic``), ``/<ns>/joint_trajectory``,
+``/<ns>/forward_{position,velocity,effort}_controller/commands`` and the latched
+``/<ns>/robot_description`` (that robot's source file). Joint names in these messages are the
+robot's own, unprefixed (``joint1``); forward commands take the robot's joints in its order
+(:meth:`Session.joint_names_of`). One global ``/tf`` carries every robot's links in ``world``
+with child frame ids ``<ns>/<link>`` (the tf_prefix convention, the same string as the
+link's MuJoCo body name); a robot in the empty namespace keeps plain link names. ``/clock``,
+``/rosout`` and ``/harness/*`` stay global, and ``/harness/get_state`` answers every joint by
+its MuJoCo name (``<ns>/joint1``). The Python API (:meth:`Session.command`,
+:meth:`Session.set_positions`, :attr:`Session.joint_names`) uses MuJoCo names too; the reads
+take ``namespace=`` for one robot's joints in its order. Control modes are per joint of each
+robot (``RobotSpec.control``); ``kinematic_limits`` is the session's. A one-robot session
+(``robot=``) is unchanged: its ``namespace`` puts all of its topics, ``tf`` included, under
+``/<namespace>/`` and prefixes its frame ids.
 
 Refused commands
 ----------------
@@ -110,7 +128,7 @@ import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable, Coroutine, Iterable, Mapping
+from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, TypeVar
@@ -120,7 +138,16 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.events import EventHub, Logger, RecordingSink, Sink, SinkReport
-from harness.models import ControlMode, LoadedRobot, load_robot
+from harness.models import (
+    ControlMode,
+    LoadedRobot,
+    LoadedWorld,
+    RobotModel,
+    RobotSpec,
+    WorldObject,
+    load_robot,
+    load_world,
+)
 from harness.recording import Recorder, describe_run
 from harness.session.core import (
     CLOCK_MODES,
@@ -159,30 +186,38 @@ class Session:
     call :meth:`close`): teardown stops stepping, closes every connection and the server,
     joins the thread and closes the recording, also when the ``with`` body raised.
 
-    ``robot``: ``"demo"``, a model file path or a :class:`~harness.models.LoadedRobot`.
+    ``robot``: ``"demo"`` (the default), a model file path or a
+    :class:`~harness.models.LoadedRobot`. ``robots``: instead of ``robot``, several robots in
+    one world: :class:`~harness.models.RobotSpec`\\ s (loaded with ``scene`` and ``objects``
+    by :func:`~harness.models.load_world`) or a :class:`~harness.models.LoadedWorld` (see the
+    module docstring for their topics).
     ``mode``: control mode of every joint or joint -> mode (only when the session loads the
-    robot; default ``"position"``). ``kinematic_limits``: kinematic commands beyond limits are
-    ``"clamp"``\\ ed or ``"allow"``\\ ed (the original framework's "jumping"). ``clock``:
-    ``"lockstep"`` (default), ``"fast"`` or ``"realtime"`` (x ``rate``). ``namespace``: topics
-    under ``/<namespace>/``. ``host``/``port``: where the embedded server listens (port 0: any
-    free port, see :attr:`url`; a non-loopback host issues an ``ExposedServerWarning``);
-    ``token``: clients must present it (``?token=`` on the URL or ``Authorization: Bearer``;
-    :attr:`url` carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server
-    to use instead (client mode). ``record_to``: an MCAP path (``state_every``: physics state
-    every N steps). ``joint_states_hz``, ``tf_hz``, ``clock_hz``: publication rates in
-    simulation time (``tf_hz``/``clock_hz`` default to ``joint_states_hz``; 0 turns one off).
-    ``loggers``: loggers or factories ``f(session) -> Logger``; ``sinks``: event sinks besides
-    the recording and ``/rosout``. ``scene``, ``seed``, ``scenario``: passed to the loader and
-    the recording's metadata. ``start``: ``"now"``, ``"paused"`` or ``"on_client"`` (free-running
-    clocks only, see the module docstring). ``record_bridge_frames``: record the bridge frames
-    and markers (default True). ``max_step_request``: the most steps one ``/harness/step``
-    request may ask for.
+    robot; default ``"position"``; with ``robots`` each RobotSpec has its ``control``).
+    ``kinematic_limits``: kinematic commands beyond limits are ``"clamp"``\\ ed or ``"allow"``\\ ed
+    (the original framework's "jumping"). ``clock``: ``"lockstep"`` (default), ``"fast"`` or
+    ``"realtime"`` (x ``rate``). ``namespace``: topics under ``/<namespace>/`` (one robot; with
+    ``robots`` each has its own). ``host``/``port``: where the embedded server listens (port 0: any
+    free port, see :attr:`url`; a non-loopback host issues an ``ExposedServerWarning``); ``token``:
+    clients must present it (``?token=`` on the URL or ``Authorization: Bearer``; :attr:`url`
+    carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server to use instead
+    (client mode). ``record_to``: an MCAP path (``state_every``: physics state every N steps).
+    ``joint_states_hz``, ``tf_hz``, ``clock_hz``: publication rates in simulation time
+    (``tf_hz``/``clock_hz`` default to ``joint_states_hz``; 0 turns one off).
+    ``joint_command_topic``: the JointState command topic, relative to each robot's namespace or
+    absolute; or namespace -> topic per robot. ``loggers``: loggers or factories ``f(session) ->
+    Logger``; ``sinks``: event sinks besides the recording and ``/rosout``. ``scene``, ``seed``,
+    ``scenario``: passed to the loader and the recording's metadata. ``start``: ``"now"``,
+    ``"paused"`` or ``"on_client"`` (free-running clocks only, see the module docstring).
+    ``record_bridge_frames``: record the bridge frames and markers (default True).
+    ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
     """
 
     def __init__(
         self,
-        robot: str | Path | LoadedRobot = "demo",
+        robot: str | Path | LoadedRobot | None = None,
         *,
+        robots: Sequence[RobotSpec] | LoadedWorld | None = None,
+        objects: Sequence[WorldObject] = (),
         mode: ControlMode | Mapping[str, ControlMode] | None = None,
         kinematic_limits: KinematicLimits = "clamp",
         clock: ClockMode = "lockstep",
@@ -197,7 +232,7 @@ class Session:
         joint_states_hz: float = 100.0,
         tf_hz: float | None = None,
         clock_hz: float | None = None,
-        joint_command_topic: str = "joint_command",
+        joint_command_topic: str | Mapping[str, str] = "joint_command",
         loggers: Iterable[Logger | LoggerFactory] = (),
         sinks: Iterable[Sink] = (),
         scene: str | Path | None = None,
@@ -246,17 +281,10 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        if isinstance(robot, LoadedRobot):
-            if mode is not None:
-                raise SessionConfigError(
-                    "mode applies only when the session loads the robot: this LoadedRobot "
-                    "was built with its control modes (load_robot(..., control=...))"
-                )
-            loaded = robot
-        else:
-            loaded = load_robot(robot, control=mode or "position", scene=scene)
-        self.robot: LoadedRobot = loaded
-        """The loaded robot (description, compiled model, sources)."""
+        loaded = _load(robot, robots, objects, mode, scene, namespace)
+        self._loaded: LoadedRobot | LoadedWorld = loaded
+        self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
+        """The loaded world of a session of ``robots`` (None for ``robot=``)."""
         self.robot_name = loaded.name
         self._anchor: tuple[float, int] | None = None
         self.record_path = Path(record_to) if record_to is not None else None
@@ -267,6 +295,8 @@ class Session:
                     loaded,
                     seed=seed,
                     scenario=scenario,
+                    specs=robots if isinstance(robots, Sequence) else None,
+                    objects=objects,
                     extra={
                         **options.to_metadata(),
                         "rate": repr(self.rate),
@@ -597,29 +627,74 @@ class Session:
 
     @property
     def joint_names(self) -> tuple[str, ...]:
-        """The controllable joints, in the order of forward commands and per-joint arrays."""
+        """The controllable joints (MuJoCo names), in the order of the per-joint arrays (and of
+        a one-robot session's forward commands)."""
         return self.sim.joint_names
 
     @property
     def link_names(self) -> tuple[str, ...]:
-        """The robot's links that are MuJoCo bodies (the /tf child frames)."""
+        """The robots' links that are MuJoCo bodies, by MuJoCo name (``<ns>/<link>`` in a
+        world)."""
         return self.core.links
 
-    def joint_positions(self) -> F64:
-        """Positions of :attr:`joint_names`."""
-        return self._call(self.sim.joint_positions)
+    @property
+    def robot(self) -> LoadedRobot:
+        """The loaded robot of a one-robot session (``robot=``); a session of ``robots`` has
+        :attr:`world` instead."""
+        if isinstance(self._loaded, LoadedRobot):
+            return self._loaded
+        raise SessionError(
+            "this session runs a world of several robots: use session.world (and "
+            "session.description for one description of every robot)"
+        )
 
-    def joint_velocities(self) -> F64:
-        """Velocities of :attr:`joint_names`."""
-        return self._call(self.sim.joint_velocities)
+    @property
+    def description(self) -> RobotModel:
+        """The run's robot description: the robot's, or for a world every robot's with MuJoCo
+        (prefixed) names and world-frame poses."""
+        loaded = self._loaded
+        if isinstance(loaded, LoadedRobot):
+            return loaded.description
+        return loaded.combined_description()
 
-    def joint_efforts(self) -> F64:
-        """Efforts of :attr:`joint_names` (see :meth:`harness.sim.Simulation.joint_efforts`)."""
-        return self._call(self.sim.joint_efforts)
+    @property
+    def namespaces(self) -> tuple[str, ...]:
+        """Every robot's namespace, in the world's order (``("",)`` or the one robot's
+        ``namespace`` for a one-robot session)."""
+        return tuple(r.namespace for r in self.core.robots)
 
-    def joint_commands(self) -> F64:
-        """The current command of each joint of :attr:`joint_names`."""
-        return self._call(self.sim.joint_commands)
+    @property
+    def robot_topics(self) -> Mapping[str, SessionTopics]:
+        """Namespace -> that robot's resolved topics."""
+        return {r.namespace: r.topics for r in self.core.robots}
+
+    def joint_names_of(self, namespace: str) -> tuple[str, ...]:
+        """The controllable joints of the robot with ``namespace``, unprefixed, in the order of
+        its forward commands and of the reads with ``namespace=``."""
+        return self.core.robot_channels(namespace).joints.joint_names
+
+    def _read(self, what: str, namespace: str | None) -> F64:
+        if namespace is None:
+            return self._call(getattr(self.sim, what))
+        joints = self.core.robot_channels(namespace).joints
+        return self._call(getattr(joints, what))
+
+    def joint_positions(self, namespace: str | None = None) -> F64:
+        """Positions of :attr:`joint_names` (or of :meth:`joint_names_of` ``namespace``)."""
+        return self._read("joint_positions", namespace)
+
+    def joint_velocities(self, namespace: str | None = None) -> F64:
+        """Velocities of :attr:`joint_names` (or of :meth:`joint_names_of` ``namespace``)."""
+        return self._read("joint_velocities", namespace)
+
+    def joint_efforts(self, namespace: str | None = None) -> F64:
+        """Efforts of :attr:`joint_names` (or of one robot's; see
+        :meth:`harness.sim.Simulation.joint_efforts`)."""
+        return self._read("joint_efforts", namespace)
+
+    def joint_commands(self, namespace: str | None = None) -> F64:
+        """The current command of each joint of :attr:`joint_names` (or of one robot's)."""
+        return self._read("joint_commands", namespace)
 
     def get_state(self) -> F64:
         """The full ``mjSTATE_INTEGRATION`` state."""
@@ -767,3 +842,52 @@ class Session:
     def __repr__(self) -> str:
         state = "closed" if self._closed else getattr(self, "url", "starting")
         return f"Session({self.robot_name!r}, clock={self.clock!r}, {state})"
+
+
+def _load(
+    robot: str | Path | LoadedRobot | None,
+    robots: Sequence[RobotSpec] | LoadedWorld | None,
+    objects: Sequence[WorldObject],
+    mode: ControlMode | Mapping[str, ControlMode] | None,
+    scene: str | Path | None,
+    namespace: str,
+) -> LoadedRobot | LoadedWorld:
+    """What a session runs: ``robot`` loaded (or as given), or the world of ``robots``."""
+    if robots is None:
+        if objects:
+            raise SessionConfigError(
+                "objects are added to a world: give the robots as robots=[RobotSpec(...)]"
+            )
+        if isinstance(robot, LoadedRobot):
+            if mode is not None:
+                raise SessionConfigError(
+                    "mode applies only when the session loads the robot: this LoadedRobot "
+                    "was built with its control modes (load_robot(..., control=...))"
+                )
+            return robot
+        return load_robot(
+            "demo" if robot is None else robot, control=mode or "position", scene=scene
+        )
+    if robot is not None:
+        raise SessionConfigError("give robot= (one robot) or robots= (a world), not both")
+    if mode is not None:
+        raise SessionConfigError(
+            "mode applies to robot=; with robots= give each RobotSpec its control"
+        )
+    if namespace:
+        raise SessionConfigError(
+            f"namespace {namespace!r} applies to robot=; with robots= give each RobotSpec its "
+            "namespace"
+        )
+    if isinstance(robots, LoadedWorld):
+        if objects or scene is not None:
+            raise SessionConfigError(
+                "scene and objects are part of a LoadedWorld already: pass them to load_world"
+            )
+        return robots
+    specs = list(robots)
+    if not specs or not all(isinstance(spec, RobotSpec) for spec in specs):
+        raise SessionConfigError(
+            f"robots must be a non-empty list of RobotSpec or a LoadedWorld, not {robots!r}"
+        )
+    return load_world(specs, scene=scene, objects=objects)

@@ -10,6 +10,7 @@ from harness.sim.errors import (
     TimestepError,
 )
 from harness.sim.inputs import AppliedInput, advance, replay
+from harness.sim.robots import RobotJoints
 from harness.sim.simulation import (
     STATE_SPEC,
     CommandField,
@@ -32,6 +33,7 @@ __all__ = [
     "KinematicLimits",
     "Notice",
     "Observer",
+    "RobotJoints",
     "RobotLike",
     "Simulation",
     "StateError",

@@ -64,11 +64,16 @@ class AppliedInput(NamedTuple):
     xfrc_applied: F64
 
     def same_physics(self, other: AppliedInput) -> bool:
-        """True when both write exactly the same values (``step`` and time are ignored)."""
+        """True when both write exactly the same values, bit for bit (``step`` and time are
+        ignored; ``-0.0`` differs from ``0.0``: MuJoCo keeps the sign in the state)."""
         arrays = _ARRAY_FIELDS
         return self.kinematic_joints == other.kinematic_joints and all(
-            np.array_equal(getattr(self, f), getattr(other, f)) for f in arrays
+            _same_bits(getattr(self, f), getattr(other, f)) for f in arrays
         )
+
+
+def _same_bits(a: npt.NDArray[np.generic], b: npt.NDArray[np.generic]) -> bool:
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
 def _write(model: mujoco.MjModel, data: mujoco.MjData, inp: AppliedInput) -> None:

@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from harness.errors import SimulationError
 from harness.models.description import CONTROL_MODES, ControlMode, RobotModel
+from harness.models.world import LoadedWorld
 from harness.sim.contacts import ContactSet, extract_contacts
 from harness.sim.errors import (
     CommandError,
@@ -157,13 +158,15 @@ def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
 class Simulation:
     """A MuJoCo model stepped deterministically, with a control mode per controllable joint.
 
-    Build it from a loaded robot (``Simulation(load_robot(...))``) or from a compiled model
-    (:meth:`from_model`). ``kinematic_limits`` decides what a kinematic joint does with a command
-    beyond its position limits: ``"clamp"`` to the limit (reported as a :class:`Notice`) or
-    ``"allow"`` it, reproducing the original framework's teleport "jumping". Dynamic modes always
-    clamp to the model's and the description's limits. The initial state is the model's
-    ``keyframe`` (default ``"home"``, used when the model has one, as the demo robot does:
-    its zero configuration is outside joint 4's range), else ``qpos0``.
+    Build it from a loaded robot (``Simulation(load_robot(...))``), a world of several robots
+    (``Simulation(load_world(...))``: joints by their MuJoCo, prefixed, names; per robot see
+    :class:`harness.sim.RobotJoints`) or from a compiled model (:meth:`from_model`).
+    ``kinematic_limits`` decides what a kinematic joint does with a command beyond its position
+    limits: ``"clamp"`` to the limit (reported as a :class:`Notice`) or ``"allow"`` it,
+    reproducing the original framework's teleport "jumping". Dynamic modes always clamp to the
+    model's and the description's limits. The initial state is the model's ``keyframe`` (default
+    ``"home"``, used when the model has one, as the demo robot does: its zero configuration is
+    outside joint 4's range), else ``qpos0``.
 
     The model must not be edited while the simulation runs; write inputs only through the
     command methods (never into ``data`` directly), or they are not recorded.
@@ -178,12 +181,15 @@ class Simulation:
 
     def __init__(
         self,
-        robot: RobotLike,
+        robot: RobotLike | LoadedWorld,
         *,
         kinematic_limits: KinematicLimits = "clamp",
         keyframe: str | None = "home",
     ) -> None:
-        self._setup(robot.model, robot.control, robot.description, kinematic_limits, keyframe)
+        description = (
+            robot.combined_description() if isinstance(robot, LoadedWorld) else robot.description
+        )
+        self._setup(robot.model, robot.control, description, kinematic_limits, keyframe)
 
     @classmethod
     def from_model(

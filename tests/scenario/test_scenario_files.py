@@ -246,7 +246,7 @@ def test_schema_and_dataclasses_agree():
     assert _props("") - {"$schema", "ros"} == _fields(sc.Scenario) - {"bridge", "source"}
     assert set(top["ros"]["properties"]["bridge"]["properties"]) == _fields(sc.Bridge)
     assert _props("environment") == _fields(sc.Environment)
-    assert _props("robot") == _fields(sc.RobotSpec)
+    assert _props("robot") == _fields(sc.RobotSpec) - {"named"}
     assert _props("subscriber") == _fields(sc.Subscriber)
     assert _props("controller") - {"type"} == _fields(sc.Controller)
     assert _props("object") == _fields(sc.SceneObject)

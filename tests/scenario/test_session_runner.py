@@ -221,20 +221,31 @@ def test_original_framework_configs_run_end_to_end(tmp_path):
 def test_scenarios_the_runner_cannot_run_are_refused_with_the_key_path(tmp_path, capsys):
     two = _scenario(tmp_path, "two.yaml")
     doc = yaml.safe_load(two.read_text())
-    doc["robots"].append({"robot": "demo", "name": "second"})
+    doc["robots"].append(
+        {
+            "robot": "demo",
+            "name": "second",
+            "controllers": [
+                {"type": "JointController", "mode": "kinematic", "beyond_limits": "allow"}
+            ],
+        }
+    )
     doc["robots"][0]["subscribers"].append(
         {"type": "JointTrajectorySubscriber", "topic": "/arm/trajectory"}
     )
     two.write_text(yaml.safe_dump(doc))
     assert cli.main(["run", str(two), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert "robots[1]: 'second' is a second robot" in err
-    assert "robots[0].subscribers[1].topic: '/arm/trajectory' is not served" in err
+    assert "robots[1].controllers: 'allow' differs from robots[0]'s beyond_limits" in err
+    assert (
+        "robots[0].subscribers[1].topic: '/arm/trajectory' is not served: trajectories are "
+        "taken on '/two_link/joint_trajectory' only"
+    ) in err
     assert not (tmp_path / "o").exists()
 
 
 def test_unknown_initial_joint_is_a_config_error_with_the_key_path(tmp_path):
-    from harness.scenario.world import build_robot
+    from harness.scenario.world import build_world
 
     path = _scenario(tmp_path)
     doc = yaml.safe_load(path.read_text())
@@ -242,7 +253,7 @@ def test_unknown_initial_joint_is_a_config_error_with_the_key_path(tmp_path):
     doc["robots"][0]["position"] = [1, 0, 0]
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(Exception, match=r"robots\[0\]\.initial_joint_positions\.elbow: 1\.0"):
-        build_robot(Scenario.load(path), tmp_path)
+        build_world(Scenario.load(path), tmp_path)
 
 
 def _comparable(result):
