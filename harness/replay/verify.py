@@ -43,7 +43,7 @@ from harness.replay.source import (
     resolve_model,
     state_blocks,
 )
-from harness.sim.inputs import AppliedInput
+from harness.sim.inputs import AppliedInput, write_input
 
 if TYPE_CHECKING:
     from harness.replay.pipeline import PipelineReport
@@ -191,22 +191,6 @@ def _mismatch(actual: F64, expected: F64, atol: float, rtol: float) -> npt.NDArr
         close = np.abs(actual - expected) <= atol + rtol * np.abs(expected)
     same_nan = np.isnan(actual) & np.isnan(expected)
     return ~(close | same_nan)
-
-
-def _write_input(model: mujoco.MjModel, data: mujoco.MjData, inp: AppliedInput) -> None:
-    """What :func:`harness.sim.inputs.advance` writes before the step (kinematic writes apart)."""
-    data.ctrl[:] = inp.ctrl
-    if inp.mocap_pos.size:
-        data.mocap_pos[:] = inp.mocap_pos.reshape(model.nmocap, 3)
-        data.mocap_quat[:] = inp.mocap_quat.reshape(model.nmocap, 4)
-    if inp.qfrc_applied.size:
-        data.qfrc_applied[:] = inp.qfrc_applied
-    else:
-        data.qfrc_applied[:] = 0.0
-    if inp.xfrc_applied.size:
-        data.xfrc_applied[:] = inp.xfrc_applied.reshape(model.nbody, 6)
-    else:
-        data.xfrc_applied[:] = 0.0
 
 
 def _body_deltas(
@@ -385,7 +369,7 @@ def _replay(
         current = inputs[position]
         position += 1
     if current is not None:
-        _write_input(model, data, current)
+        write_input(model, data, current)
     next_input = inputs[position].step if position < len(inputs) else -1
 
     scratch = np.empty((_SEGMENT, block.state.shape[1]), dtype=np.float64)
@@ -402,7 +386,7 @@ def _replay(
                 current = inputs[position]
                 position += 1
                 next_input = inputs[position].step if position < len(inputs) else -1
-                _write_input(model, data, current)
+                write_input(model, data, current)
             end = min(block_last, done + _SEGMENT)
             if next_input > done + 1:
                 end = min(end, next_input - 1)

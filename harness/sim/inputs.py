@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from harness.sim.errors import StateError
 
-__all__ = ["AppliedInput", "advance", "replay"]
+__all__ = ["AppliedInput", "advance", "replay", "write_input"]
 
 F64 = npt.NDArray[np.float64]
 U32 = npt.NDArray[np.uint32]
@@ -76,7 +76,9 @@ def _same_bits(a: npt.NDArray[np.generic], b: npt.NDArray[np.generic]) -> bool:
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
-def _write(model: mujoco.MjModel, data: mujoco.MjData, inp: AppliedInput) -> None:
+def write_input(model: mujoco.MjModel, data: mujoco.MjData, inp: AppliedInput) -> None:
+    """Write ``inp``'s ctrl, mocap poses and applied forces into ``data`` (what :func:`advance`
+    writes before the step, kinematic qpos/qvel writes apart)."""
     data.ctrl[:] = inp.ctrl
     if inp.mocap_pos.size:
         data.mocap_pos[:] = inp.mocap_pos.reshape(model.nmocap, 3)
@@ -96,7 +98,7 @@ def advance(model: mujoco.MjModel, data: mujoco.MjData, inp: AppliedInput) -> No
 
     No stability checks: :class:`~harness.sim.Simulation` adds them around its own loop.
     """
-    _write(model, data, inp)
+    write_input(model, data, inp)
     if inp.qpos_index.size:
         data.qpos[inp.qpos_index] = inp.qpos_value
         data.qvel[inp.qvel_index] = inp.qvel_value

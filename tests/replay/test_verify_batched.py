@@ -19,7 +19,7 @@ from harness.recording import Recording
 from harness.replay import verify
 from harness.replay.errors import RecordedDataError
 from harness.sim import Simulation
-from harness.sim.inputs import AppliedInput, advance
+from harness.sim.inputs import AppliedInput, advance, write_input
 
 verify_module = importlib.import_module("harness.replay.verify")
 SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -65,7 +65,7 @@ def test_segments_are_bit_identical_to_advance(helper: ModuleType, control: str)
     actual = np.empty_like(expected)
     batch = verify_module._Batch(model, SPEC)
     for inp, rows in ((first, actual[:150]), (second, actual[150:])):
-        verify_module._write_input(model, data, inp)
+        write_input(model, data, inp)
         if inp.qpos_index.size:
             verify_module._step_kinematic(model, data, inp, rows, SPEC)
         else:
