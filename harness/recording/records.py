@@ -12,6 +12,10 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+# One type for one concept: the input the simulation applied is the same record live and read
+# back (it mirrors harness_msgs/msg/AppliedInput).
+from harness.sim.inputs import AppliedInput
+
 __all__ = [
     "AppliedInput",
     "BridgeFrame",
@@ -58,24 +62,6 @@ class BridgeFrame:
     def payload(self) -> str | bytes:
         """The frame as it was sent: ``data`` for binary frames, ``text`` otherwise."""
         return self.data if self.binary else self.text
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class AppliedInput:
-    """The physics input applied before ``step`` (holds until the next one)."""
-
-    step: int
-    sim_time_ns: int
-    ctrl: F64
-    kinematic_joints: tuple[str, ...]
-    qpos_index: U32
-    qpos_value: F64
-    qvel_index: U32
-    qvel_value: F64
-    mocap_pos: F64
-    mocap_quat: F64
-    qfrc_applied: F64
-    xfrc_applied: F64
 
 
 @dataclass(frozen=True, slots=True, eq=False)
