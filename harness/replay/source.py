@@ -315,7 +315,6 @@ def rebuild_robot(
         )
     sources = _sources(rec)
     models = [n for n in sources if n.startswith("model/")]
-    scenes = [n for n in sources if n.startswith("scene/")]
     if len(models) != 1:
         raise ModelAttachmentError(
             f"{rec.path}: expected one 'source/model/...' attachment to rebuild the robot, "
@@ -324,22 +323,10 @@ def rebuild_robot(
     modes = control_modes(rec) if control is None else control
     with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
         root = Path(tmp)
-        for name, blob in sources.items():
-            target = root / name
-            target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_bytes(blob)
-        model_name = models[0]
-        source: str | Path = root / model_name
-        if sources[model_name] == DEMO_URDF.read_bytes():
-            source = "demo"
-        scene: str | Path | None = None
-        if scenes:
-            scene = root / scenes[0]
-            for named, scene_path in SCENES.items():
-                if sources[scenes[0]] == scene_path.read_bytes():
-                    scene = named
+        _write_sources(sources, root)
+        source = _model_source(sources, models[0], root)
         try:
-            return load_robot(source, control=modes, scene=scene)
+            return load_robot(source, control=modes, scene=_scene(sources, root))
         except HarnessError as exc:
             raise ModelAttachmentError(
                 f"{rec.path}: cannot rebuild the robot from its source attachments: {exc}"
