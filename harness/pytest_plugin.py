@@ -63,6 +63,7 @@ import contextlib
 import os
 import re
 import shlex
+import shutil
 import tempfile
 from collections.abc import Callable, Generator, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -709,8 +710,7 @@ def _shown(path: Path, rootdir: Path) -> str:
 
 
 def _first(entries: Iterable[DiffEntry]) -> DiffEntry:
-    ordered = sorted(entries, key=lambda e: (e.step < 0, e.step))
-    return ordered[0]
+    return min(entries, key=lambda e: (e.step < 0, e.step))
 
 
 def _format_entry(e: DiffEntry) -> str:
@@ -728,8 +728,7 @@ def _write_atomically(source: Path, target: Path) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:
         with os.fdopen(fd, "wb") as out, open(source, "rb") as src:
-            while block := src.read(1 << 20):
-                out.write(block)
+            shutil.copyfileobj(src, out)
             out.flush()
             os.fsync(out.fileno())
         os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a project file

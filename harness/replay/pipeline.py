@@ -45,22 +45,12 @@ from harness.recording import AppliedInput, BridgeFrame, Recording
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
 from harness.session.core import CoreOptions, SessionCore, is_marker
+from harness.sim.inputs import ARRAY_FIELDS
 
 __all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
 
 MismatchKind = Literal["frame", "input", "state", "schedule"]
 _EXCERPT = 160
-_INPUT_FIELDS = (
-    "ctrl",
-    "qpos_index",
-    "qpos_value",
-    "qvel_index",
-    "qvel_value",
-    "mocap_pos",
-    "mocap_quat",
-    "qfrc_applied",
-    "xfrc_applied",
-)
 
 
 @dataclass(frozen=True)
@@ -292,7 +282,7 @@ class _Checker:
                             tuple(kinematic_joints))
             )  # fmt: skip
             return
-        for name in _INPUT_FIELDS:
+        for name in ARRAY_FIELDS:
             dtype = np.uint32 if name.endswith("_index") else np.float64
             want = np.asarray(getattr(expected, name), dtype=dtype)
             got = np.asarray(actual[name], dtype=dtype).reshape(-1)

@@ -47,7 +47,12 @@ from harness.models import (
 )
 from harness.models.description import CONTROL_MODES, ControlMode
 from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
-from harness.recording.layout import ATTACHMENT_MODEL, ATTACHMENT_SOURCE_PREFIX, TOPIC_STATE
+from harness.recording.layout import (
+    ATTACHMENT_MODEL,
+    ATTACHMENT_MODEL_BINARY,
+    ATTACHMENT_SOURCE_PREFIX,
+    TOPIC_STATE,
+)
 from harness.replay.errors import (
     ModelAttachmentError,
     RecordedDataError,
@@ -56,7 +61,6 @@ from harness.replay.errors import (
 from harness.sim.inputs import AppliedInput
 
 __all__ = [
-    "ATTACHMENT_MJB",
     "RecordedStates",
     "check_chunks",
     "check_states_fit",
@@ -75,9 +79,6 @@ __all__ = [
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
-
-ATTACHMENT_MJB = "model.mjb"
-"""The exact binary model (``mj_saveModel``): what bit-exact replay needs."""
 
 
 def open_recording(
@@ -335,7 +336,7 @@ def rebuild_robot(
 
 def _model_from_mjb(blob: bytes) -> mujoco.MjModel:
     with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
-        path = Path(tmp) / ATTACHMENT_MJB
+        path = Path(tmp) / ATTACHMENT_MODEL_BINARY
         path.write_bytes(blob)
         return mujoco.MjModel.from_binary_path(str(path))
 
@@ -345,11 +346,11 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
     names = set(rec.attachment_names)
     expected_sha = rec.metadata.get("model_sha256", "")
     problems: list[str] = []
-    if ATTACHMENT_MJB in names:
+    if ATTACHMENT_MODEL_BINARY in names:
         try:
-            return _model_from_mjb(rec.attachment(ATTACHMENT_MJB)), ATTACHMENT_MJB
+            return _model_from_mjb(rec.attachment(ATTACHMENT_MODEL_BINARY)), ATTACHMENT_MODEL_BINARY
         except (ValueError, OSError) as exc:
-            problems.append(f"{ATTACHMENT_MJB}: {' '.join(str(exc).split())}")
+            problems.append(f"{ATTACHMENT_MODEL_BINARY}: {' '.join(str(exc).split())}")
     if any(n.startswith(ATTACHMENT_SOURCE_PREFIX + "model/") for n in names):
         try:
             robot = rebuild_run(rec)
@@ -378,7 +379,7 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
             ) from None
         return model, f"{ATTACHMENT_MODEL} (MJCF text, 6 significant digits)"
     raise ModelAttachmentError(
-        f"{rec.path}: no usable model attachment ({ATTACHMENT_MJB}, source/model/..., "
+        f"{rec.path}: no usable model attachment ({ATTACHMENT_MODEL_BINARY}, source/model/..., "
         f"{ATTACHMENT_MODEL}); has: {', '.join(sorted(names)) or 'none'}"
         + (f" ({'; '.join(problems)})" if problems else "")
     )

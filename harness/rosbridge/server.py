@@ -377,9 +377,15 @@ class BridgeServer:
             peer.queue.clear()
             peer.by_key.clear()
             peer.bytes = 0
-            self._closers.add(asyncio.ensure_future(peer.ws.close(1008, "send queue overflow")))
+            self._close_later(peer.ws, 1008, "send queue overflow")
             return
         peer.wake.set()
+
+    def _close_later(self, ws: ServerConnection, code: int = 1000, reason: str = "") -> None:
+        # Held until done (an unreferenced task may be collected mid-close), then forgotten.
+        closer = asyncio.ensure_future(ws.close(code, reason))
+        self._closers.add(closer)
+        closer.add_done_callback(self._closers.discard)
 
     def _drop(self, peer: _Peer, entry: _Entry) -> None:
         entry.alive = False
@@ -451,4 +457,4 @@ class BridgeServer:
         peer = self._peers.get(connection)
         if peer is None:
             raise FrameError(f"no open connection {connection}")
-        self._closers.add(asyncio.ensure_future(peer.ws.close()))
+        self._close_later(peer.ws)

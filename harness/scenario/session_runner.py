@@ -43,6 +43,7 @@ import sys
 import time
 from dataclasses import dataclass, replace
 from typing import Any
+from urllib.parse import urlsplit
 
 import mujoco
 import numpy as np
@@ -170,7 +171,7 @@ class _Observer:
         self._commanded = np.array(
             [modes[j] in ("position", "kinematic") for j in self.joints], dtype=bool
         )
-        self._state = np.zeros(mujoco.mj_stateSize(model, sim.state_spec))
+        self._state = np.zeros(sim.state_size)
         self._spec = sim.state_spec
         self.digest = hashlib.sha256()
         mujoco.mj_getState(model, sim.data, self._state, self._spec)
@@ -425,7 +426,7 @@ class SessionIterationRunner:
         stepper_error: BaseException | None = None
         try:
             host = SessionHost(session)
-            port = int(session.url.rsplit(":", 1)[1])
+            port = urlsplit(session.url).port or 0  # the URL may end in /?token=...
             if clock.mode != "lockstep":
                 session.pause_at(limit)  # before the clock starts
             if spec.client is None:

@@ -28,7 +28,6 @@ the scenario file and the key path.
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -46,7 +45,7 @@ from harness.models import (
     load_world,
 )
 from harness.models import RobotSpec as WorldRobot
-from harness.models.description import RobotModel
+from harness.models.description import Pose, RobotModel
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import RobotSpec, Scenario, SceneObject
@@ -263,24 +262,9 @@ def _map_name(env_map: str | Path) -> str:
     return env_map.name if isinstance(env_map, Path) else env_map
 
 
-def _quat(rpy: tuple[float, float, float]) -> list[float]:
-    """w-x-y-z quaternion of fixed-axis roll, pitch, yaw (URDF convention)."""
-    r, p, y = (a / 2 for a in rpy)
-    cr, sr = math.cos(r), math.sin(r)
-    cp, sp = math.cos(p), math.sin(p)
-    cy, sy = math.cos(y), math.sin(y)
-    return [
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ]
-
-
 def _add_object(spec: mujoco.MjSpec, obj: SceneObject) -> None:
-    body = spec.worldbody.add_body(
-        name=obj.name, pos=list(obj.position), quat=_quat(obj.orientation)
-    )
+    pose = Pose.from_xyz_rpy(obj.position, obj.orientation)
+    body = spec.worldbody.add_body(name=obj.name, pos=list(pose.xyz), quat=list(pose.quat))
     geom_options: dict[str, object] = {"name": obj.name, "type": _SHAPES[obj.shape]}
     size = list(obj.size) + [0.0] * (3 - len(obj.size))
     geom_options["size"] = size

@@ -20,13 +20,13 @@ import numpy.typing as npt
 
 from harness.sim.errors import StateError
 
-__all__ = ["AppliedInput", "advance", "replay", "write_input"]
+__all__ = ["ARRAY_FIELDS", "AppliedInput", "advance", "replay", "write_input"]
 
 F64 = npt.NDArray[np.float64]
 U32 = npt.NDArray[np.uint32]
 
 
-_ARRAY_FIELDS = (
+ARRAY_FIELDS = (
     "ctrl",
     "qpos_index",
     "qpos_value",
@@ -66,7 +66,7 @@ class AppliedInput(NamedTuple):
     def same_physics(self, other: AppliedInput) -> bool:
         """True when both write exactly the same values, bit for bit (``step`` and time are
         ignored; ``-0.0`` differs from ``0.0``: MuJoCo keeps the sign in the state)."""
-        arrays = _ARRAY_FIELDS
+        arrays = ARRAY_FIELDS
         return self.kinematic_joints == other.kinematic_joints and all(
             _same_bits(getattr(self, f), getattr(other, f)) for f in arrays
         )
