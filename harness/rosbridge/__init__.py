@@ -4,6 +4,8 @@ ROS 2 message validation and a client for external rosbridge servers. Knows noth
 - :class:`Bridge` (``protocol.py``): the shared graph and per-connection state;
   ``receive(connection, frame, now_ns) -> list[Output]``; in-process publishers,
   subscribers, service and action servers; the frame tap.
+- ``graph.py``: the graph's records (topics, services, actions) and its queries;
+  ``rosapi.py``: the ``/rosapi`` services over them (neither imports ``protocol.py``).
 - :class:`BridgeServer` (``server.py``): WebSocket I/O, immediate or queued ingestion.
 - :class:`TypeRegistry` (``types.py``): message/service/action definitions.
 - :class:`BridgeClient` (``client.py``): client mode with reconnect.

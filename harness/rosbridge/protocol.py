@@ -22,12 +22,24 @@ import math
 import re
 import struct
 import zlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Final, NamedTuple
 
 from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
+from harness.rosbridge.graph import (
+    COMPRESSION_RANK,
+    ActionEntry,
+    Graph,
+    Message,
+    ServiceEntry,
+    SubParams,
+    Subscription,
+    TopicEntry,
+    normalize,
+)
+from harness.rosbridge.rosapi import install as install_rosapi
 from harness.rosbridge.types import TypeRegistry
 
 __all__ = [
@@ -47,7 +59,6 @@ __all__ = [
 DIRECTION_IN: Final = 0
 DIRECTION_OUT: Final = 1
 LEVELS: Final = {"info": 0, "warning": 1, "error": 2, "none": 3}
-_COMPRESSION_RANK = {"none": 0, "png": 1, "cbor": 2, "cbor-raw": 3}
 _NAME = re.compile(r"~?/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*/?\Z")
 _BAD_INPUT = (FrameError, ConversionError, TypeNameError, UnknownTypeError)
 _DECODER = json.JSONDecoder()
@@ -89,20 +100,6 @@ class TapRecord(NamedTuple):
 
 
 FrameTap = Callable[[TapRecord], None]
-
-
-class Message(NamedTuple):
-    """A message published on the graph; ``connection`` 0 means in-process."""
-
-    topic: str
-    type: str
-    msg: dict[str, Any]
-    connection: int
-
-
-def _normalize(name: str) -> str:
-    name = name.rstrip("/") or "/"
-    return name if name.startswith("/") else "/" + name
 
 
 def _png(text: str) -> str:
@@ -164,66 +161,6 @@ def _name_field(obj: Mapping[str, Any], op: str, key: str) -> str:
     if not _NAME.match(value):
         raise FrameError(f"{op}: Invalid {key} name {value!r}")
     return value
-
-
-@dataclass
-class _SubParams:
-    throttle_ns: int
-    queue_length: int
-    fragment_size: int | None
-    compression: str
-
-
-@dataclass
-class _Subscription:
-    spelled: str
-    params: dict[Any, _SubParams] = field(default_factory=dict)
-    throttle_ns: int = 0
-    queue_length: int = 0
-    fragment_size: int | None = None
-    compression: str = "none"
-    last_sent_ns: int | None = None
-
-    def recompute(self) -> None:
-        ps = list(self.params.values())
-        self.throttle_ns = min(p.throttle_ns for p in ps)
-        # 0 asks for no particular bound (the bridge default applies)
-        lengths = [p.queue_length for p in ps if p.queue_length > 0]
-        self.queue_length = min(lengths) if lengths else 0
-        sizes = [p.fragment_size for p in ps if p.fragment_size is not None]
-        self.fragment_size = min(sizes) if sizes else None
-        self.compression = max((p.compression for p in ps), key=_COMPRESSION_RANK.__getitem__)
-
-
-@dataclass
-class _Topic:
-    name: str
-    type: str | None = None
-    publishers: dict[int, set[Any]] = field(default_factory=dict)
-    latching: set[int] = field(default_factory=set)
-    subscribers: dict[int, _Subscription] = field(default_factory=dict)
-    local: list[Callable[[Message], None]] = field(default_factory=list)
-    latched: dict[str, Any] | None = None
-
-
-@dataclass
-class _Service:
-    name: str
-    spelled: str
-    type: str
-    provider: int
-    handler: Callable[[ServiceCall], Any] | None
-    count: int = 0
-
-
-@dataclass
-class _Action:
-    name: str
-    spelled: str
-    type: str
-    provider: int
-    handler: Callable[[ActionGoal], None] | None
-    count: int = 0
 
 
 @dataclass
@@ -305,7 +242,7 @@ class _PendingCall:
     caller: int
     caller_id: Any
     spelled: str
-    service: _Service
+    service: ServiceEntry
     provider_id: str | None
     callback: Callable[[bool, Any], None] | None = None
     call: ServiceCall | None = None
@@ -316,13 +253,13 @@ class _PendingGoal:
     caller: int
     caller_id: Any
     spelled: str
-    action: _Action
+    action: ActionEntry
     feedback: bool
     provider_id: str | None
     goal: ActionGoal | None = None
 
 
-class Bridge:
+class Bridge(Graph):
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
     ``tap`` sees every frame in and out; ``call_timeout_s`` is the default service-call
@@ -343,6 +280,7 @@ class Bridge:
         rosapi: bool = True,
         distro: str = "humble",
     ) -> None:
+        super().__init__()
         self.registry = registry if registry is not None else TypeRegistry()
         self.tap = tap
         self.call_timeout_s = call_timeout_s
@@ -357,9 +295,6 @@ class Bridge:
         self._next_conn = 1
         self._next_key = 1
         self._conns: dict[int, _Connection] = {}
-        self._topics: dict[str, _Topic] = {}
-        self._services: dict[str, _Service] = {}
-        self._actions: dict[str, _Action] = {}
         self._calls: dict[int, _PendingCall] = {}
         self._call_by_provider: dict[tuple[int, str], int] = {}
         self._goals: dict[int, _PendingGoal] = {}
@@ -368,9 +303,7 @@ class Bridge:
         self._outbox: list[Output] = []
         self._now_ns = 0
         if rosapi:
-            from harness.rosbridge.rosapi import install
-
-            install(self)
+            install_rosapi(self)
 
     # -- connections ---------------------------------------------------------------------
 
@@ -588,25 +521,6 @@ class Bridge:
 
     # -- topics -------------------------------------------------------------------------
 
-    def _topic(self, name: str) -> _Topic:
-        key = _normalize(name)
-        t = self._topics.get(key)
-        if t is None:
-            t = self._topics[key] = _Topic(key)
-        return t
-
-    def _gc_topic(self, t: _Topic) -> None:
-        if not t.publishers and not t.subscribers and not t.local:
-            self._topics.pop(t.name, None)
-
-    def _establish(self, t: _Topic, full: str) -> None:
-        if t.type is not None and t.type != full:
-            raise FrameError(
-                f"Tried to register topic {t.name} with type {full} but it is already "
-                f"established with type {t.type}"
-            )
-        t.type = full
-
     def _op_advertise(self, c: int, obj: Mapping[str, Any]) -> None:
         topic = _name_field(obj, "advertise", "topic")
         full = self.registry.resolve_message(_field(obj, "advertise", "type", str))
@@ -624,7 +538,7 @@ class Bridge:
 
     def _op_unadvertise(self, c: int, obj: Mapping[str, Any]) -> None:
         topic = _name_field(obj, "unadvertise", "topic")
-        t = self._topics.get(_normalize(topic))
+        t = self._topics.get(normalize(topic))
         ids = t.publishers.get(c) if t else None
         if t is None or ids is None:
             raise FrameError(f"unadvertise: topic {topic} is not advertised by this client")
@@ -645,7 +559,7 @@ class Bridge:
         topic = _name_field(obj, "publish", "topic")
         msg = _field(obj, "publish", "msg", dict, {})
         latch = _field(obj, "publish", "latch", bool, False)
-        t = self._topics.get(_normalize(topic))
+        t = self._topics.get(normalize(topic))
         if t is None or t.type is None:
             raise FrameError(
                 f"publish: Cannot infer topic type for topic {topic} as it is not yet advertised"
@@ -653,7 +567,7 @@ class Bridge:
         canonical = from_json(self.registry, t.type, msg, self._now_ns)
         self._deliver(t, canonical, c, latch or c in t.latching)
 
-    def _deliver(self, t: _Topic, msg: dict[str, Any], sender: int, latch: bool) -> None:
+    def _deliver(self, t: TopicEntry, msg: dict[str, Any], sender: int, latch: bool) -> None:
         assert t.type is not None
         if latch:
             t.latched = msg
@@ -665,9 +579,9 @@ class Bridge:
 
     def _send_to_subscriber(
         self,
-        t: _Topic,
+        t: TopicEntry,
         cid: int,
-        sub: _Subscription,
+        sub: Subscription,
         msg: dict[str, Any],
         frames: dict[str, str] | None = None,
     ) -> None:
@@ -732,13 +646,13 @@ class Bridge:
                 f"subscribe: topic {topic} has no type yet; messages flow once it is advertised",
                 obj.get("id"),
             )
-        if compression not in _COMPRESSION_RANK:
+        if compression not in COMPRESSION_RANK:
             compression = "none"
         sub = t.subscribers.get(c)
         new = sub is None
         if sub is None:
-            sub = t.subscribers[c] = _Subscription(topic)
-        sub.params[obj.get("id")] = _SubParams(
+            sub = t.subscribers[c] = Subscription(topic)
+        sub.params[obj.get("id")] = SubParams(
             throttle * 1_000_000, queue_length, fragment_size, compression
         )
         sub.recompute()
@@ -747,7 +661,7 @@ class Bridge:
 
     def _op_unsubscribe(self, c: int, obj: Mapping[str, Any]) -> None:
         topic = _name_field(obj, "unsubscribe", "topic")
-        t = self._topics.get(_normalize(topic))
+        t = self._topics.get(normalize(topic))
         sub = t.subscribers.get(c) if t else None
         if t is None or sub is None:
             raise FrameError(f"unsubscribe: this client is not subscribed to {topic}")
@@ -781,7 +695,7 @@ class Bridge:
         msg_id = obj.get("id")
         args = obj.get("args", {})
         timeout = _field(obj, "call_service", "timeout", float, None)
-        svc = self._services.get(_normalize(spelled))
+        svc = self._services.get(normalize(spelled))
         if svc is None:
             self._service_failure(c, spelled, f"Service {spelled} does not exist", msg_id)
             return
@@ -805,7 +719,7 @@ class Bridge:
 
     def _start_call(
         self,
-        svc: _Service,
+        svc: ServiceEntry,
         caller: int,
         caller_id: Any,
         spelled: str,
@@ -929,7 +843,7 @@ class Bridge:
     def _op_advertise_service(self, c: int, obj: Mapping[str, Any]) -> None:
         spelled = _name_field(obj, "advertise_service", "service")
         full = self.registry.resolve_service(_field(obj, "advertise_service", "type", str))
-        name = _normalize(spelled)
+        name = normalize(spelled)
         existing = self._services.get(name)
         if existing is not None and existing.provider == 0:
             raise FrameError(f"advertise_service: service {name} is provided by the harness")
@@ -940,11 +854,11 @@ class Bridge:
                 f"advertise_service: service {name} taken over from another client",
                 obj.get("id"),
             )
-        self._services[name] = _Service(name, spelled, full, c, None)
+        self._services[name] = ServiceEntry(name, spelled, full, c, None)
 
     def _op_unadvertise_service(self, c: int, obj: Mapping[str, Any]) -> None:
         spelled = _name_field(obj, "unadvertise_service", "service")
-        svc = self._services.get(_normalize(spelled))
+        svc = self._services.get(normalize(spelled))
         if svc is None or svc.provider != c:
             raise FrameError(
                 f"unadvertise_service: service {spelled} is not advertised by this client"
@@ -969,7 +883,7 @@ class Bridge:
         spelled = _name_field(obj, "send_action_goal", "action")
         msg_id = obj.get("id")
         feedback = _field(obj, "send_action_goal", "feedback", bool, False)
-        act = self._actions.get(_normalize(spelled))
+        act = self._actions.get(normalize(spelled))
         if act is None:
             self._action_failure(c, spelled, f"Action {spelled} does not exist", msg_id)
             return
@@ -1067,7 +981,7 @@ class Bridge:
 
     def _op_cancel_action_goal(self, c: int, obj: Mapping[str, Any]) -> None:
         spelled = _name_field(obj, "cancel_action_goal", "action")
-        key = self._goal_by_caller.get((c, obj.get("id"), _normalize(spelled)))
+        key = self._goal_by_caller.get((c, obj.get("id"), normalize(spelled)))
         if key is None:
             raise FrameError(
                 f"cancel_action_goal: no active goal with id {obj.get('id')} on {spelled}"
@@ -1122,15 +1036,15 @@ class Bridge:
     def _op_advertise_action(self, c: int, obj: Mapping[str, Any]) -> None:
         spelled = _name_field(obj, "advertise_action", "action")
         full = self.registry.resolve_action(_field(obj, "advertise_action", "type", str))
-        name = _normalize(spelled)
+        name = normalize(spelled)
         existing = self._actions.get(name)
         if existing is not None and existing.provider == 0:
             raise FrameError(f"advertise_action: action {name} is provided by the harness")
-        self._actions[name] = _Action(name, spelled, full, c, None)
+        self._actions[name] = ActionEntry(name, spelled, full, c, None)
 
     def _op_unadvertise_action(self, c: int, obj: Mapping[str, Any]) -> None:
         spelled = _name_field(obj, "unadvertise_action", "action")
-        act = self._actions.get(_normalize(spelled))
+        act = self._actions.get(normalize(spelled))
         if act is None or act.provider != c:
             raise FrameError(
                 f"unadvertise_action: action {spelled} is not advertised by this client"
@@ -1270,12 +1184,14 @@ class Bridge:
     ) -> None:
         """Provide ``service`` in-process: ``handler(call)`` returns the response values or
         :data:`DEFERRED` (then answers later with ``call.respond``/``call.fail``)."""
-        name = _normalize(service)
-        self._services[name] = _Service(name, name, self.registry.resolve_service(type), 0, handler)
+        name = normalize(service)
+        self._services[name] = ServiceEntry(
+            name, name, self.registry.resolve_service(type), 0, handler
+        )
 
     def unadvertise_service(self, service: str) -> None:
         """Remove an in-process service."""
-        svc = self._services.get(_normalize(service))
+        svc = self._services.get(normalize(service))
         if svc is not None and svc.provider == 0:
             del self._services[svc.name]
 
@@ -1290,7 +1206,7 @@ class Bridge:
         """Call any service in-process; ``callback(ok, values_or_error_text)`` runs when it
         answers (maybe immediately)."""
         self._now_ns = now_ns
-        svc = self._services.get(_normalize(service))
+        svc = self._services.get(normalize(service))
         if svc is None:
             callback(False, f"Service {service} does not exist")
             return
@@ -1302,56 +1218,20 @@ class Bridge:
     ) -> None:
         """Provide ``action`` in-process: ``handler(goal)`` starts the goal and later calls
         ``goal.feedback``/``goal.finish``."""
-        name = _normalize(action)
-        self._actions[name] = _Action(name, name, self.registry.resolve_action(type), 0, handler)
+        name = normalize(action)
+        self._actions[name] = ActionEntry(
+            name, name, self.registry.resolve_action(type), 0, handler
+        )
 
     def unadvertise_action(self, action: str) -> None:
         """Remove an in-process action server."""
-        act = self._actions.get(_normalize(action))
+        act = self._actions.get(normalize(action))
         if act is not None and act.provider == 0:
             del self._actions[act.name]
 
     def set_now(self, now_ns: int) -> None:
         """Set the sim time used by in-process answers (deferred responses, feedback)."""
         self._now_ns = now_ns
-
-    # -- graph queries (rosapi) ---------------------------------------------------------
-
-    def topics(self) -> Iterator[tuple[str, str]]:
-        """``(topic, type)`` of every typed topic, sorted by name."""
-        for name in sorted(self._topics):
-            t = self._topics[name]
-            if t.type is not None:
-                yield name, t.type
-
-    def topic_type(self, topic: str) -> str | None:
-        """The type of ``topic``, None if unknown."""
-        t = self._topics.get(_normalize(topic))
-        return t.type if t else None
-
-    def services(self) -> Iterator[tuple[str, str, int]]:
-        """``(service, type, provider connection)`` sorted by name (0 = in-process)."""
-        for name in sorted(self._services):
-            s = self._services[name]
-            yield name, s.type, s.provider
-
-    def actions(self) -> Iterator[tuple[str, str, int]]:
-        """``(action, type, provider connection)`` sorted by name (0 = in-process)."""
-        for name in sorted(self._actions):
-            a = self._actions[name]
-            yield name, a.type, a.provider
-
-    def publishers_of(self, topic: str) -> list[int]:
-        """Connections publishing ``topic`` (0 = in-process), sorted."""
-        t = self._topics.get(_normalize(topic))
-        return sorted(t.publishers) if t else []
-
-    def subscribers_of(self, topic: str) -> list[int]:
-        """Connections subscribed to ``topic`` (0 = in-process subscribers), sorted."""
-        t = self._topics.get(_normalize(topic))
-        if t is None:
-            return []
-        return sorted(set(t.subscribers) | ({0} if t.local else set()))
 
     @property
     def now_ns(self) -> int:

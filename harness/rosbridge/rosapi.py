@@ -9,16 +9,49 @@ clients advertise, subscribes to what they subscribe, provides their services),
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, Protocol
 
 from harness.rosbridge.errors import TypeNameError, UnknownTypeError
 from harness.rosbridge.types import FLOAT_TYPES, TypeRegistry
 
-if TYPE_CHECKING:
-    from harness.rosbridge.protocol import Bridge, ServiceCall
+__all__ = ["NODES", "Host", "Request", "install", "typedefs"]
 
-__all__ = ["NODES", "install", "typedefs"]
+
+class Request(Protocol):
+    """One call of a rosapi service (the bridge's ``ServiceCall``)."""
+
+    @property
+    def args(self) -> Mapping[str, Any]: ...
+
+
+class Host(Protocol):
+    """What rosapi reads and registers on (the bridge): its graph queries, type registry,
+    parameters and time, and in-process service registration."""
+
+    registry: TypeRegistry
+    params: dict[str, str]
+    distro: str
+
+    @property
+    def now_ns(self) -> int: ...
+
+    def topics(self) -> Iterator[tuple[str, str]]: ...
+
+    def topic_type(self, topic: str) -> str | None: ...
+
+    def services(self) -> Iterator[tuple[str, str, int]]: ...
+
+    def actions(self) -> Iterator[tuple[str, str, int]]: ...
+
+    def publishers_of(self, topic: str) -> list[int]: ...
+
+    def subscribers_of(self, topic: str) -> list[int]: ...
+
+    def advertise_service(
+        self, service: str, type: str, handler: Callable[[Request], Mapping[str, Any]]
+    ) -> None: ...
+
 
 NODES = ("/harness", "/rosapi", "/rosbridge_websocket")
 
@@ -62,19 +95,19 @@ def typedefs(registry: TypeRegistry, name: str) -> list[dict[str, Any]]:
     return out
 
 
-def install(bridge: Bridge) -> None:
+def install(bridge: Host) -> None:
     """Advertise every rosapi service on ``bridge`` (in-process)."""
     reg = bridge.registry
 
-    def topics(call: ServiceCall) -> Mapping[str, Any]:
+    def topics(call: Request) -> Mapping[str, Any]:
         pairs = list(bridge.topics())
         return {"topics": [p[0] for p in pairs], "types": [p[1] for p in pairs]}
 
-    def topics_for_type(call: ServiceCall) -> Mapping[str, Any]:
+    def topics_for_type(call: Request) -> Mapping[str, Any]:
         want = _resolve(reg.resolve_message, call.args["type"])
         return {"topics": [n for n, t in bridge.topics() if t == want]}
 
-    def topics_and_raw_types(call: ServiceCall) -> Mapping[str, Any]:
+    def topics_and_raw_types(call: Request) -> Mapping[str, Any]:
         pairs = list(bridge.topics())
         return {
             "topics": [p[0] for p in pairs],
@@ -82,32 +115,32 @@ def install(bridge: Bridge) -> None:
             "typedefs_full_text": [reg.definition_text(p[1]) for p in pairs],
         }
 
-    def topic_type(call: ServiceCall) -> Mapping[str, Any]:
+    def topic_type(call: Request) -> Mapping[str, Any]:
         return {"type": bridge.topic_type(call.args["topic"]) or ""}
 
-    def services(call: ServiceCall) -> Mapping[str, Any]:
+    def services(call: Request) -> Mapping[str, Any]:
         return {"services": [s[0] for s in bridge.services()]}
 
-    def services_for_type(call: ServiceCall) -> Mapping[str, Any]:
+    def services_for_type(call: Request) -> Mapping[str, Any]:
         want = _resolve(reg.resolve_service, call.args["type"])
         return {"services": [s[0] for s in bridge.services() if s[1] == want]}
 
-    def service_type(call: ServiceCall) -> Mapping[str, Any]:
+    def service_type(call: Request) -> Mapping[str, Any]:
         name = _abs(call.args["service"])
         return {"type": next((s[1] for s in bridge.services() if s[0] == name), "")}
 
-    def service_providers(call: ServiceCall) -> Mapping[str, Any]:
+    def service_providers(call: Request) -> Mapping[str, Any]:
         name = _abs(call.args["service"])
         return {"providers": [_node(s[2]) for s in bridge.services() if s[0] == name]}
 
-    def service_node(call: ServiceCall) -> Mapping[str, Any]:
+    def service_node(call: Request) -> Mapping[str, Any]:
         name = _abs(call.args["service"])
         return {"node": next((_node(s[2]) for s in bridge.services() if s[0] == name), "")}
 
-    def nodes(call: ServiceCall) -> Mapping[str, Any]:
+    def nodes(call: Request) -> Mapping[str, Any]:
         return {"nodes": list(NODES)}
 
-    def node_details(call: ServiceCall) -> Mapping[str, Any]:
+    def node_details(call: Request) -> Mapping[str, Any]:
         node = call.args["node"]
         if node not in NODES:
             return {"subscribing": [], "publishing": [], "services": []}
@@ -132,32 +165,32 @@ def install(bridge: Bridge) -> None:
             ],
         }
 
-    def action_servers(call: ServiceCall) -> Mapping[str, Any]:
+    def action_servers(call: Request) -> Mapping[str, Any]:
         return {"action_servers": [a[0] for a in bridge.actions()]}
 
-    def publishers(call: ServiceCall) -> Mapping[str, Any]:
+    def publishers(call: Request) -> Mapping[str, Any]:
         return {"publishers": sorted({_node(c) for c in bridge.publishers_of(call.args["topic"])})}
 
-    def subscribers(call: ServiceCall) -> Mapping[str, Any]:
+    def subscribers(call: Request) -> Mapping[str, Any]:
         return {
             "subscribers": sorted({_node(c) for c in bridge.subscribers_of(call.args["topic"])})
         }
 
-    def message_details(call: ServiceCall) -> Mapping[str, Any]:
+    def message_details(call: Request) -> Mapping[str, Any]:
         return {"typedefs": typedefs(reg, _resolve(reg.resolve_message, call.args["type"]))}
 
-    def request_details(call: ServiceCall) -> Mapping[str, Any]:
+    def request_details(call: Request) -> Mapping[str, Any]:
         srv = reg.service(_resolve(reg.resolve_service, call.args["type"]))
         return {"typedefs": typedefs(reg, srv.request)}
 
-    def response_details(call: ServiceCall) -> Mapping[str, Any]:
+    def response_details(call: Request) -> Mapping[str, Any]:
         srv = reg.service(_resolve(reg.resolve_service, call.args["type"]))
         return {"typedefs": typedefs(reg, srv.response)}
 
-    def get_param(call: ServiceCall) -> Mapping[str, Any]:
+    def get_param(call: Request) -> Mapping[str, Any]:
         return {"value": bridge.params.get(call.args["name"], call.args["default_value"])}
 
-    def set_param(call: ServiceCall) -> Mapping[str, Any]:
+    def set_param(call: Request) -> Mapping[str, Any]:
         value = call.args["value"]
         try:
             json.loads(value)
@@ -166,24 +199,24 @@ def install(bridge: Bridge) -> None:
         bridge.params[call.args["name"]] = value
         return {}
 
-    def has_param(call: ServiceCall) -> Mapping[str, Any]:
+    def has_param(call: Request) -> Mapping[str, Any]:
         return {"exists": call.args["name"] in bridge.params}
 
-    def delete_param(call: ServiceCall) -> Mapping[str, Any]:
+    def delete_param(call: Request) -> Mapping[str, Any]:
         bridge.params.pop(call.args["name"], None)
         return {}
 
-    def get_param_names(call: ServiceCall) -> Mapping[str, Any]:
+    def get_param_names(call: Request) -> Mapping[str, Any]:
         return {"names": sorted(bridge.params)}
 
-    def get_time(call: ServiceCall) -> Mapping[str, Any]:
+    def get_time(call: Request) -> Mapping[str, Any]:
         now = bridge.now_ns
         return {"time": {"sec": now // 1_000_000_000, "nanosec": now % 1_000_000_000}}
 
-    def get_ros_version(call: ServiceCall) -> Mapping[str, Any]:
+    def get_ros_version(call: Request) -> Mapping[str, Any]:
         return {"version": 2, "distro": bridge.distro}
 
-    table: dict[str, tuple[str, Callable[[ServiceCall], Mapping[str, Any]]]] = {
+    table: dict[str, tuple[str, Callable[[Request], Mapping[str, Any]]]] = {
         "topics": ("Topics", topics),
         "topics_for_type": ("TopicsForType", topics_for_type),
         "topics_and_raw_types": ("TopicsAndRawTypes", topics_and_raw_types),
