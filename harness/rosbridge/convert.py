@@ -69,6 +69,9 @@ def _fail(msg_type: str, expected: str, path: str, value: object) -> ConversionE
 
 
 def _zero(registry: TypeRegistry, f: Field) -> Any:
+    """A field's value when a message omits it: the definition's default, else zero."""
+    if f.default is not None:
+        return list(f.default) if isinstance(f.default, list) else f.default
     if f.length is not None:
         if not f.fixed:
             return b"" if f.type in _BYTE_TYPES else []
@@ -91,7 +94,8 @@ def _zero_scalar(registry: TypeRegistry, f: Field) -> Any:
 
 
 def default_message(registry: TypeRegistry, msg_type: str) -> dict[str, Any]:
-    """The canonical message of ``msg_type`` with every field at its default."""
+    """The canonical message of ``msg_type`` with every field at its default (the value
+    the ROS 2 definition declares, else zero)."""
     return {f.name: _zero(registry, f) for f in registry.message(msg_type).fields}
 
 
@@ -100,7 +104,8 @@ def from_json(
 ) -> dict[str, Any]:
     """Validate a JSON value against ``msg_type`` and return the canonical message.
 
-    Missing fields take defaults; an unknown field or a wrong field type raises
+    Missing fields take the definition's defaults (``geometry_msgs/msg/Quaternion`` w = 1.0),
+    else zero; an unknown field or a wrong field type raises
     :class:`ConversionError` naming the field path and the types; a ``std_msgs/Header``
     given without ``stamp`` gets ``now_ns``."""
     if not isinstance(value, dict):

@@ -2,6 +2,12 @@
 services and actions, and the queries rosapi answers from. Pure records, no protocol: the
 :class:`~harness.rosbridge.protocol.Bridge` builds on :class:`Graph`, and
 :mod:`harness.rosbridge.rosapi` reads it.
+
+Every registration names the ROS node it belongs to, as a real robot's graph shows it: what
+clients advertise, subscribe and serve belongs to :data:`CLIENT_NODE`; an in-process
+registration carries the node given to the bridge's ``advertise``/``publish``/``subscribe``/
+``advertise_service``/``advertise_action`` (``node=``, default :data:`HARNESS_NODE`), e.g.
+``/robot_state_publisher`` or ``/joint_trajectory_controller``.
 """
 
 from __future__ import annotations
@@ -13,9 +19,13 @@ from typing import Any, Final, NamedTuple
 from harness.rosbridge.errors import FrameError
 
 __all__ = [
+    "CLIENT_NODE",
     "COMPRESSION_RANK",
+    "HARNESS_NODE",
+    "ROSAPI_NODE",
     "ActionEntry",
     "Graph",
+    "LocalSubscriber",
     "Message",
     "ServiceEntry",
     "SubParams",
@@ -26,6 +36,12 @@ __all__ = [
 
 COMPRESSION_RANK: Final = {"none": 0, "png": 1, "cbor": 2, "cbor-raw": 3}
 """Subscription compressions by precedence (the highest asked for wins)."""
+HARNESS_NODE: Final = "/harness"
+"""The node of in-process registrations that name none."""
+CLIENT_NODE: Final = "/rosbridge_websocket"
+"""The node of everything clients advertise, subscribe and serve (clients are not nodes)."""
+ROSAPI_NODE: Final = "/rosapi"
+"""The node of the ``/rosapi`` services."""
 
 
 class Message(NamedTuple):
@@ -41,6 +57,13 @@ def normalize(name: str) -> str:
     """A topic, service or action name made absolute, without a trailing slash."""
     name = name.rstrip("/") or "/"
     return name if name.startswith("/") else "/" + name
+
+
+class LocalSubscriber(NamedTuple):
+    """An in-process subscription: ``callback`` and the ``node`` it belongs to."""
+
+    callback: Callable[[Message], None]
+    node: str
 
 
 @dataclass
@@ -78,15 +101,16 @@ class Subscription:
 
 @dataclass
 class TopicEntry:
-    """A topic: its type once established, publishers by connection (advertisement ids),
-    client subscriptions, in-process callbacks and the latched message."""
+    """A topic: its type once established, publishers by connection (a client's advertisement
+    ids; for connection 0 the publishing node names), client subscriptions, in-process
+    subscribers and the latched message."""
 
     name: str
     type: str | None = None
     publishers: dict[int, set[Any]] = field(default_factory=dict)
     latching: set[int] = field(default_factory=set)
     subscribers: dict[int, Subscription] = field(default_factory=dict)
-    local: list[Callable[[Message], None]] = field(default_factory=list)
+    local: list[LocalSubscriber] = field(default_factory=list)
     latched: dict[str, Any] | None = None
 
 
@@ -100,6 +124,7 @@ class ServiceEntry:
     provider: int
     handler: Callable[[Any], Any] | None
     count: int = 0
+    node: str = CLIENT_NODE
 
 
 @dataclass
@@ -112,6 +137,7 @@ class ActionEntry:
     provider: int
     handler: Callable[[Any], None] | None
     count: int = 0
+    node: str = CLIENT_NODE
 
 
 class Graph:
@@ -178,3 +204,45 @@ class Graph:
         if t is None:
             return []
         return sorted(set(t.subscribers) | ({0} if t.local else set()))
+
+    def publisher_nodes(self, topic: str) -> list[str]:
+        """The nodes publishing ``topic``, sorted."""
+        t = self._topics.get(normalize(topic))
+        if t is None:
+            return []
+        nodes = {CLIENT_NODE for c in t.publishers if c != 0}
+        nodes.update(str(n) for n in t.publishers.get(0, ()))
+        return sorted(nodes)
+
+    def subscriber_nodes(self, topic: str) -> list[str]:
+        """The nodes subscribed to ``topic``, sorted."""
+        t = self._topics.get(normalize(topic))
+        if t is None:
+            return []
+        nodes = {sub.node for sub in t.local}
+        if t.subscribers:
+            nodes.add(CLIENT_NODE)
+        return sorted(nodes)
+
+    def service_nodes(self) -> Iterator[tuple[str, str, str]]:
+        """``(service, type, node)`` sorted by name."""
+        for name in sorted(self._services):
+            s = self._services[name]
+            yield name, s.type, s.node
+
+    def action_nodes(self) -> Iterator[tuple[str, str, str]]:
+        """``(action, type, node)`` sorted by name."""
+        for name in sorted(self._actions):
+            a = self._actions[name]
+            yield name, a.type, a.node
+
+    def node_names(self) -> list[str]:
+        """Every node of the graph, sorted: :data:`HARNESS_NODE`, :data:`CLIENT_NODE` and
+        :data:`ROSAPI_NODE` always, and every node an in-process registration names."""
+        nodes = {HARNESS_NODE, CLIENT_NODE, ROSAPI_NODE}
+        for t in self._topics.values():
+            nodes.update(str(n) for n in t.publishers.get(0, ()))
+            nodes.update(sub.node for sub in t.local)
+        nodes.update(s.node for s in self._services.values())
+        nodes.update(a.node for a in self._actions.values())
+        return sorted(nodes)

@@ -4,8 +4,10 @@ One :class:`Bridge` holds the shared graph (topics, services, actions, params) a
 of every connection. ``receive(connection, text_or_bytes, now_ns)`` processes one incoming
 frame and returns the :class:`Output` frames to send; there are no sockets and no clocks: the
 caller passes the current simulation time. The simulation side uses the same graph
-in-process (:meth:`Bridge.publish`, :meth:`Bridge.subscribe`, :meth:`Bridge.advertise_service`,
-:meth:`Bridge.advertise_action`).
+in-process (:meth:`Bridge.advertise`, :meth:`Bridge.publish`, :meth:`Bridge.subscribe`,
+:meth:`Bridge.advertise_service`, :meth:`Bridge.advertise_action`), each registration under a
+ROS node name (``node=``, default ``/harness``) that rosapi shows (see
+:mod:`harness.rosbridge.graph`).
 
 Outputs produced outside ``receive`` (a deferred service answer, an in-process publish)
 collect in an outbox; :meth:`Bridge.drain` returns them and ``on_pending`` (if set) is called
@@ -30,8 +32,10 @@ from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
 from harness.rosbridge.graph import (
     COMPRESSION_RANK,
+    HARNESS_NODE,
     ActionEntry,
     Graph,
+    LocalSubscriber,
     Message,
     ServiceEntry,
     SubParams,
@@ -574,8 +578,8 @@ class Bridge(Graph):
         frames: dict[str, str] = {}
         for cid, sub in t.subscribers.items():
             self._send_to_subscriber(t, cid, sub, msg, frames)
-        for callback in list(t.local):
-            callback(Message(t.name, t.type, msg, sender))
+        for local in list(t.local):
+            local.callback(Message(t.name, t.type, msg, sender))
 
     def _send_to_subscriber(
         self,
@@ -1139,23 +1143,53 @@ class Bridge(Graph):
 
     # -- simulation side ----------------------------------------------------------------
 
-    def advertise(self, topic: str, type: str, *, latch: bool = False) -> None:
-        """Declare an in-process publisher of ``topic`` (establishes its type)."""
+    def advertise(
+        self, topic: str, type: str, *, latch: bool = False, node: str = HARNESS_NODE
+    ) -> None:
+        """Declare an in-process publisher of ``topic`` belonging to ``node`` (establishes
+        its type: from then on a client that advertises or subscribes to ``topic`` with
+        another type gets a status error). ``latch`` keeps the last message for late
+        subscribers."""
         t = self._topic(topic)
         self._establish(t, self.registry.resolve_message(type))
-        t.publishers.setdefault(0, set()).add(None)
+        t.publishers.setdefault(0, set()).add(node)
         if latch:
             t.latching.add(0)
 
+    def unadvertise(self, topic: str, *, node: str = HARNESS_NODE) -> None:
+        """Remove ``node``'s in-process publisher of ``topic``."""
+        t = self._topics.get(normalize(topic))
+        nodes = t.publishers.get(0) if t is not None else None
+        if t is None or nodes is None:
+            return
+        nodes.discard(node)
+        if not nodes:
+            del t.publishers[0]
+            t.latching.discard(0)
+            self._gc_topic(t)
+
     def publish(
-        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+        self,
+        topic: str,
+        type: str,
+        msg: Mapping[str, Any],
+        now_ns: int,
+        *,
+        latch: bool = False,
+        node: str | None = None,
     ) -> None:
         """Publish from the simulation: validated against ``type``, delivered to every
-        subscriber; outputs go to the outbox. ``latch`` keeps it for late subscribers."""
+        subscriber; outputs go to the outbox. ``latch`` keeps it for late subscribers.
+        ``node`` joins the topic's publishers; without one, a topic nobody in-process has
+        advertised gets :data:`HARNESS_NODE`."""
         self._now_ns = now_ns
         t = self._topic(topic)
         self._establish(t, self.registry.resolve_message(type))
-        t.publishers.setdefault(0, set()).add(None)
+        nodes = t.publishers.setdefault(0, set())
+        if node is not None:
+            nodes.add(node)
+        elif not nodes:
+            nodes.add(HARNESS_NODE)
         if latch:
             t.latching.add(0)
         assert t.type is not None
@@ -1163,30 +1197,41 @@ class Bridge(Graph):
         self._deliver(t, canonical, 0, latch or 0 in t.latching)
 
     def subscribe(
-        self, topic: str, callback: Callable[[Message], None], type: str | None = None
+        self,
+        topic: str,
+        callback: Callable[[Message], None],
+        type: str | None = None,
+        *,
+        node: str = HARNESS_NODE,
     ) -> Callable[[], None]:
-        """Call ``callback`` with every message published on ``topic`` by anyone; returns a
-        function that removes the subscription."""
+        """Call ``callback`` with every message published on ``topic`` by anyone, as a
+        subscriber belonging to ``node``; returns a function that removes the subscription."""
         t = self._topic(topic)
         if type is not None:
             self._establish(t, self.registry.resolve_message(type))
-        t.local.append(callback)
+        sub = LocalSubscriber(callback, node)
+        t.local.append(sub)
 
         def remove() -> None:
-            if callback in t.local:
-                t.local.remove(callback)
+            if sub in t.local:
+                t.local.remove(sub)
                 self._gc_topic(t)
 
         return remove
 
     def advertise_service(
-        self, service: str, type: str, handler: Callable[[ServiceCall], Any]
+        self,
+        service: str,
+        type: str,
+        handler: Callable[[ServiceCall], Any],
+        *,
+        node: str = HARNESS_NODE,
     ) -> None:
-        """Provide ``service`` in-process: ``handler(call)`` returns the response values or
-        :data:`DEFERRED` (then answers later with ``call.respond``/``call.fail``)."""
+        """Provide ``service`` in-process as ``node``: ``handler(call)`` returns the response
+        values or :data:`DEFERRED` (then answers later with ``call.respond``/``call.fail``)."""
         name = normalize(service)
         self._services[name] = ServiceEntry(
-            name, name, self.registry.resolve_service(type), 0, handler
+            name, name, self.registry.resolve_service(type), 0, handler, node=node
         )
 
     def unadvertise_service(self, service: str) -> None:
@@ -1214,13 +1259,18 @@ class Bridge(Graph):
         self._start_call(svc, 0, None, service, request, timeout, callback)
 
     def advertise_action(
-        self, action: str, type: str, handler: Callable[[ActionGoal], None]
+        self,
+        action: str,
+        type: str,
+        handler: Callable[[ActionGoal], None],
+        *,
+        node: str = HARNESS_NODE,
     ) -> None:
-        """Provide ``action`` in-process: ``handler(goal)`` starts the goal and later calls
-        ``goal.feedback``/``goal.finish``."""
+        """Provide ``action`` in-process as ``node``: ``handler(goal)`` starts the goal and
+        later calls ``goal.feedback``/``goal.finish``."""
         name = normalize(action)
         self._actions[name] = ActionEntry(
-            name, name, self.registry.resolve_action(type), 0, handler
+            name, name, self.registry.resolve_action(type), 0, handler, node=node
         )
 
     def unadvertise_action(self, action: str) -> None:

@@ -1,9 +1,14 @@
 """rosapi: the graph-introspection services under ``/rosapi`` (types ``rosapi_msgs/srv/*``),
 answered in-process from the bridge's own graph, type registry and parameters.
 
-Clients are not ROS nodes; the graph has three: ``/rosbridge_websocket`` (publishes what
-clients advertise, subscribes to what they subscribe, provides their services),
-``/rosapi`` and ``/harness`` (the simulation side).
+Clients are not ROS nodes: ``/rosbridge_websocket`` publishes what clients advertise,
+subscribes to what they subscribe and provides their services and actions. ``/rosapi``
+provides these services; ``/harness`` and every node an in-process registration names
+(``/robot_state_publisher``, ``/joint_state_broadcaster``, controllers...) the rest.
+``node_details`` lists an action server's node's hidden action endpoints as ROS 2 does
+(services ``<action>/_action/send_goal``, ``cancel_goal``, ``get_result``; topics
+``<action>/_action/feedback``, ``status``); the other answers list actions only in
+``action_servers``.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ from typing import Any, Protocol
 from harness.rosbridge.errors import TypeNameError, UnknownTypeError
 from harness.rosbridge.types import FLOAT_TYPES, TypeRegistry
 
-__all__ = ["NODES", "Host", "Request", "install", "typedefs"]
+__all__ = ["Host", "Request", "install", "typedefs"]
 
 
 class Request(Protocol):
@@ -48,16 +53,29 @@ class Host(Protocol):
 
     def subscribers_of(self, topic: str) -> list[int]: ...
 
+    def publisher_nodes(self, topic: str) -> list[str]: ...
+
+    def subscriber_nodes(self, topic: str) -> list[str]: ...
+
+    def service_nodes(self) -> Iterator[tuple[str, str, str]]: ...
+
+    def action_nodes(self) -> Iterator[tuple[str, str, str]]: ...
+
+    def node_names(self) -> list[str]: ...
+
     def advertise_service(
-        self, service: str, type: str, handler: Callable[[Request], Mapping[str, Any]]
+        self,
+        service: str,
+        type: str,
+        handler: Callable[[Request], Mapping[str, Any]],
+        *,
+        node: str = ...,
     ) -> None: ...
 
 
-NODES = ("/harness", "/rosapi", "/rosbridge_websocket")
-
-
-def _node(connection: int) -> str:
-    return "/harness" if connection == 0 else "/rosbridge_websocket"
+_ROSAPI_NODE = "/rosapi"
+_ACTION_SERVICES = ("cancel_goal", "get_result", "send_goal")
+_ACTION_TOPICS = ("feedback", "status")
 
 
 def _example(type_: str, is_message: bool, count: int | None) -> str:
@@ -131,50 +149,39 @@ def install(bridge: Host) -> None:
 
     def service_providers(call: Request) -> Mapping[str, Any]:
         name = _abs(call.args["service"])
-        return {"providers": [_node(s[2]) for s in bridge.services() if s[0] == name]}
+        return {"providers": [s[2] for s in bridge.service_nodes() if s[0] == name]}
 
     def service_node(call: Request) -> Mapping[str, Any]:
         name = _abs(call.args["service"])
-        return {"node": next((_node(s[2]) for s in bridge.services() if s[0] == name), "")}
+        return {"node": next((s[2] for s in bridge.service_nodes() if s[0] == name), "")}
 
     def nodes(call: Request) -> Mapping[str, Any]:
-        return {"nodes": list(NODES)}
+        return {"nodes": bridge.node_names()}
 
     def node_details(call: Request) -> Mapping[str, Any]:
         node = call.args["node"]
-        if node not in NODES:
-            return {"subscribing": [], "publishing": [], "services": []}
-        if node == "/rosapi":
-            return {
-                "subscribing": [],
-                "publishing": [],
-                "services": [s[0] for s in bridge.services() if s[0].startswith("/rosapi/")],
-            }
-        local = node == "/harness"
-
-        def mine(conns: list[int]) -> bool:
-            return any((c == 0) == local for c in conns)
-
+        actions = [a[0] for a in bridge.action_nodes() if a[2] == node]
+        topics = [n for n, _ in bridge.topics()]
         return {
-            "subscribing": [n for n, _ in bridge.topics() if mine(bridge.subscribers_of(n))],
-            "publishing": [n for n, _ in bridge.topics() if mine(bridge.publishers_of(n))],
-            "services": [
-                s[0]
-                for s in bridge.services()
-                if (s[2] == 0) == local and not s[0].startswith("/rosapi/")
-            ],
+            "subscribing": [n for n in topics if node in bridge.subscriber_nodes(n)],
+            "publishing": sorted(
+                [n for n in topics if node in bridge.publisher_nodes(n)]
+                + [f"{a}/_action/{t}" for a in actions for t in _ACTION_TOPICS]
+            ),
+            "services": sorted(
+                [s[0] for s in bridge.service_nodes() if s[2] == node]
+                + [f"{a}/_action/{s}" for a in actions for s in _ACTION_SERVICES]
+            ),
         }
 
     def action_servers(call: Request) -> Mapping[str, Any]:
         return {"action_servers": [a[0] for a in bridge.actions()]}
 
     def publishers(call: Request) -> Mapping[str, Any]:
-        return {"publishers": sorted({_node(c) for c in bridge.publishers_of(call.args["topic"])})}
+        return {"publishers": bridge.publisher_nodes(call.args["topic"])}
 
     def subscribers(call: Request) -> Mapping[str, Any]:
-        return {
-            "subscribers": sorted({_node(c) for c in bridge.subscribers_of(call.args["topic"])})
-        }
+        return {"subscribers": bridge.subscriber_nodes(call.args["topic"])}
 
     def message_details(call: Request) -> Mapping[str, Any]:
         return {"typedefs": typedefs(reg, _resolve(reg.resolve_message, call.args["type"]))}
@@ -243,7 +250,7 @@ def install(bridge: Host) -> None:
         "get_ros_version": ("GetROSVersion", get_ros_version),
     }
     for name, (srv, fn) in table.items():
-        bridge.advertise_service(f"/rosapi/{name}", f"rosapi_msgs/srv/{srv}", fn)
+        bridge.advertise_service(f"/rosapi/{name}", f"rosapi_msgs/srv/{srv}", fn, node=_ROSAPI_NODE)
 
 
 def _abs(name: str) -> str:

@@ -8,6 +8,7 @@ definition is compiled once into :class:`MessageDef` records the converters walk
 
 from __future__ import annotations
 
+import ast
 import re
 from importlib import resources
 from pathlib import Path
@@ -46,12 +47,17 @@ FLOAT_TYPES = frozenset({"float32", "float64"})
 _EMPTY_MEMBER = "structure_needs_at_least_one_member"
 _IDENT = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 _KINDS = ("msg", "srv", "action")
+_BOOLS = {"true": True, "false": False, "1": True, "0": False}
+# rosbags' typestores drop the default values of field definitions; these are the non-zero
+# ones of the ROS 2 definitions the stores hold (geometry_msgs/msg/Quaternion.msg: w 1).
+_STORE_DEFAULTS: dict[str, dict[str, Any]] = {"geometry_msgs/msg/Quaternion": {"w": 1.0}}
 
 
 class Field(NamedTuple):
     """One field: ``type`` is a primitive name or a full message name (``is_message``);
     ``length`` is None for a scalar, else the array length (``fixed``) or sequence bound
-    (0 = unbounded); ``string_bound`` bounds ``string<=N``."""
+    (0 = unbounded); ``string_bound`` bounds ``string<=N``; ``default`` is the default value
+    the definition declares (``float64 w 1``), None when it declares none."""
 
     name: str
     type: str
@@ -59,6 +65,7 @@ class Field(NamedTuple):
     length: int | None
     fixed: bool
     string_bound: int
+    default: Any = None
 
 
 class MessageDef(NamedTuple):
@@ -126,6 +133,7 @@ class TypeRegistry:
         self._services: dict[str, ServiceDef] = {}
         self._actions: dict[str, ActionDef] = {}
         self._texts: dict[str, str] = {}
+        self._defaults: dict[str, dict[str, str]] = {}
         if bundled:
             root = resources.files("harness.rosbridge") / "interfaces"
             for pkg in sorted(root.iterdir(), key=lambda e: e.name):
@@ -193,6 +201,12 @@ class TypeRegistry:
         self.store.register({full: (consts, fields)})
         self._compiled.pop(full, None)
         self._texts[full] = text
+        self._defaults[full] = _declared_defaults(text)
+        try:
+            self.message(full)  # a default that does not fit its field fails here, not later
+        except TypeNameError:
+            del self._defaults[full]  # the fields stay usable, without the bad defaults
+            raise
 
     # -- lookup -------------------------------------------------------------------------
 
@@ -244,6 +258,17 @@ class TypeRegistry:
             else:
                 typ, bound = rest
                 fields.append(Field(fname, str(typ), False, count, fixed, int(bound)))
+        declared = self._defaults.get(name)
+        if declared is not None:
+            fields = [
+                f._replace(default=_default_value(name, f, declared[f.name]))
+                if f.name in declared
+                else f
+                for f in fields
+            ]
+        else:
+            known = _STORE_DEFAULTS.get(name, {})
+            fields = [f._replace(default=known.get(f.name)) for f in fields]
         compiled = MessageDef(name, tuple(fields), tuple((c[0], c[1], c[2]) for c in consts))
         self._compiled[name] = compiled
         return compiled
@@ -314,3 +339,69 @@ def _field_type_text(f: Field) -> str:
     if f.fixed:
         return f"{base}[{f.length}]"
     return f"{base}[<={f.length}]" if f.length else f"{base}[]"
+
+
+def _declared_defaults(text: str) -> dict[str, str]:
+    """``field -> default text`` of the fields of a ``.msg`` text that declare a default
+    (``TYPE NAME DEFAULT``; constants ``TYPE NAME=VALUE`` are not fields)."""
+    out: dict[str, str] = {}
+    for raw in text.splitlines():
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        parts = line.split(None, 2)
+        if len(parts) < 3 or "=" in parts[1] or parts[2].startswith("="):
+            continue
+        rest = parts[2]
+        if rest[0] in "\"'":
+            end = rest.find(rest[0], 1)
+            while end > 0 and rest[end - 1] == "\\":
+                end = rest.find(rest[0], end + 1)
+            value = rest[: end + 1] if end > 0 else rest
+        else:
+            value = rest.split("#", 1)[0].strip()
+        if value:
+            out[parts[1]] = value
+    return out
+
+
+def _default_value(msg: str, f: Field, text: str) -> Any:
+    """The typed value of a declared default; :class:`TypeNameError` when it does not fit."""
+    try:
+        if f.length is not None:
+            items = ast.literal_eval(re.sub(r"\b(true|false)\b", lambda m: m[0].title(), text))
+            if not isinstance(items, (list, tuple)):
+                raise ValueError("not a list")
+            values = [_scalar_default(f, repr(v) if isinstance(v, str) else str(v)) for v in items]
+            if f.fixed and len(values) != f.length:
+                raise ValueError(f"{len(values)} values for {f.length}")
+            return bytes(values) if f.type in ("uint8", "char") else values
+        return _scalar_default(f, text)
+    except (ValueError, SyntaxError) as exc:
+        raise TypeNameError(
+            f"{msg}: default {text!r} of field {f.name} is not a valid {f.type}: {exc}"
+        ) from None
+
+
+def _scalar_default(f: Field, text: str) -> Any:
+    if f.type in FLOAT_TYPES:
+        return float(text)
+    if f.type in INT_RANGES:
+        value = int(text, 0)
+        lo, hi = INT_RANGES[f.type]
+        if not lo <= value <= hi:
+            raise ValueError("out of range")
+        return value
+    if f.type == "bool":
+        key = text.lower()
+        if key not in _BOOLS:
+            raise ValueError("expected true or false")
+        return _BOOLS[key]
+    if f.type in ("string", "wstring"):
+        if len(text) >= 2 and text[0] == text[-1] and text[0] in "\"'":
+            value = ast.literal_eval(text)
+            if not isinstance(value, str):
+                raise ValueError("not a string")
+            return value
+        return text
+    raise ValueError("messages take no default")

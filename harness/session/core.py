@@ -75,7 +75,9 @@ from harness.session.errors import (
     SessionConfigError,
     SessionError,
 )
+from harness.session.tf import RobotFrames, TfTree
 from harness.session.topics import (
+    HARNESS_NODE,
     TYPE_CLOCK,
     TYPE_FORWARD,
     TYPE_JOINT_STATE,
@@ -83,12 +85,13 @@ from harness.session.topics import (
     TYPE_STRING,
     TYPE_TF,
     TYPE_TRAJECTORY,
+    TopicDef,
     clock_msg,
     joint_state_msg,
     log_msg,
     period_steps,
+    robot_topic_defs,
     stamp,
-    tf_msg,
 )
 from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
 
@@ -144,6 +147,7 @@ SERVICE_GET_STATE = "/harness/get_state"
 _ROSOUT = "/rosout"
 _CLOCK = "/clock"
 _TF = "/tf"
+_TF_STATIC = "/tf_static"
 _LOG_NAME = "harness.session"
 
 
@@ -210,6 +214,11 @@ class Graph(Protocol):
 
     def has_subscribers(self, topic: str) -> bool: ...
 
+    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
+        """Put ``topic`` on the graph with its type before anything is published, as a
+        publisher belonging to ``node`` (``latch``: transient local)."""
+        ...
+
     def publish(
         self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
     ) -> None: ...
@@ -242,6 +251,7 @@ class SessionTopics:
     tf: str
     robot_description: str
     forward: Mapping[CommandField, str] = field(default_factory=dict)
+    tf_static: str = _TF_STATIC
     clock: str = _CLOCK
     rosout: str = _ROSOUT
 
@@ -487,6 +497,9 @@ class BridgePort:
     def has_subscribers(self, topic: str) -> bool:
         return bool(self.bridge.subscribers_of(topic))
 
+    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
+        self.bridge.advertise(topic, type, latch=latch, node=node)
+
     def publish(
         self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
     ) -> None:
@@ -587,6 +600,11 @@ class RobotChannels:
             self.trajectory = self.trajectory.without(set(joints))
 
 
+def _frames(channels: RobotChannels) -> RobotFrames:
+    prefix = f"{channels.namespace}/" if channels.namespace else ""
+    return RobotFrames(channels.description, channels.prefix, prefix)
+
+
 def _source_text(sources: Mapping[str, bytes], fallback: str) -> str:
     for name, blob in sources.items():
         if name.startswith("model/"):
@@ -653,10 +671,16 @@ class SessionCore:
             hz if options.clock_hz is None else options.clock_hz, self.dt_ns
         )
         self._state_every = options.state_every
-        tf_topics: dict[str, list[RobotChannels]] = {}
+        tf_topics: dict[tuple[str, str], list[RobotChannels]] = {}
         for channels in self.robots:
-            tf_topics.setdefault(channels.topics.tf, []).append(channels)
-        self._tf_topics = tuple((topic, tuple(rs)) for topic, rs in tf_topics.items())
+            key = (channels.topics.tf, channels.topics.tf_static)
+            tf_topics.setdefault(key, []).append(channels)
+        self._tf_trees = tuple(
+            (tf, tf_static, TfTree(self.sim.model, (_frames(r) for r in rs)))
+            for (tf, tf_static), rs in tf_topics.items()
+        )
+        self.published = self._published_topics()
+        """Every topic the simulation publishes (type, node, latched), in advertising order."""
         self._next_seq = 0
         self.paused = options.start != "now"
         self.failure: BaseException | None = None
@@ -686,7 +710,24 @@ class SessionCore:
             tf=resolve("tf") if tf is None else tf,
             robot_description=resolve("robot_description"),
             forward=MappingProxyType({f: resolve(t) for f, t in FORWARD_TOPICS.items()}),
+            tf_static=resolve("tf_static") if tf is None else _TF_STATIC,
         )
+
+    def _published_topics(self) -> tuple[TopicDef, ...]:
+        defs: list[TopicDef] = []
+        for channels in self.robots:
+            topics = channels.topics
+            defs += robot_topic_defs(
+                channels.namespace,
+                joint_states=topics.joint_states if self._js_every else None,
+                tf=topics.tf if self._tf_every else None,
+                tf_static=topics.tf_static,
+                robot_description=topics.robot_description,
+            )
+        if self._clock_every:
+            defs.append(TopicDef(_CLOCK, TYPE_CLOCK, HARNESS_NODE))
+        defs.append(TopicDef(_ROSOUT, TYPE_LOG, HARNESS_NODE))
+        return tuple(defs)
 
     def _robot_channels(self, robot: LoadedRobot | LoadedWorld) -> tuple[RobotChannels, ...]:
         sim = self.sim
@@ -744,8 +785,13 @@ class SessionCore:
         )
 
     def start(self) -> None:
-        """Subscribe every robot's command topics and serve the services."""
+        """Advertise every published topic, subscribe every robot's command topics and
+        serve the services."""
         graph = self.graph
+        for published in self.published:
+            graph.advertise(
+                published.name, published.type, node=published.node, latch=published.latched
+            )
         for channels in self.robots:
             topics = channels.topics
             graph.subscribe(
@@ -764,8 +810,16 @@ class SessionCore:
         graph.serve(SERVICE_GET_STATE, "harness_msgs/srv/GetState", self._srv_get_state)
 
     def publish_initial(self) -> None:
-        """Publish every robot's latched description and record/publish step 0 (after
-        :meth:`start`, once the graph has settled)."""
+        """Publish every robot's latched description and static transforms and record/publish
+        step 0 (after :meth:`start`, once the graph has settled)."""
+        poses = self.sim.link_poses()
+        for _, tf_static, tree in self._tf_trees:
+            self.publish(
+                tf_static,
+                TYPE_TF,
+                lambda tree=tree: tree.message(tree.static, poses, self.sim.sim_time_ns),  # type: ignore[misc]
+                latch=True,
+            )
         for channels in self.robots:
             text = channels.description_text
             self.publish(
@@ -868,11 +922,13 @@ class SessionCore:
         if self._clock_every and k % self._clock_every == 0:
             self.publish(_CLOCK, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
         if self._tf_every and k % self._tf_every == 0:
-            for topic, robots in self._tf_topics:
+            for topic, _, tree in self._tf_trees:
                 self.publish(
                     topic,
                     TYPE_TF,
-                    lambda robots=robots: self._tf(robots),  # type: ignore[misc]
+                    lambda tree=tree: tree.message(  # type: ignore[misc]
+                        tree.moving, self.sim.link_poses(), self.sim.sim_time_ns
+                    ),
                 )
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
@@ -902,16 +958,6 @@ class SessionCore:
             for key in ("name", "position", "velocity", "effort"):
                 merged[key] = [*merged[key], *part[key]]
         return merged
-
-    def _tf(self, robots: Sequence[RobotChannels]) -> dict[str, Any]:
-        poses = self.sim.link_poses()
-        frames = {
-            frame: poses[link]
-            for channels in robots
-            for link, frame in zip(channels.links, channels.frames, strict=True)
-            if link in poses
-        }
-        return tf_msg(self.sim.sim_time_ns, frames, "world")
 
     def publish(
         self,

@@ -132,6 +132,12 @@ class ClientPort:
 
         self._last = asyncio.ensure_future(chained())
 
+    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
+        """Advertise on the external server (whose graph names the node itself)."""
+        if topic not in self._advertised:
+            self._advertised.add(topic)
+            self._send(self.client.advertise(topic, type, latch=latch))
+
     def publish(
         self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
     ) -> None:

@@ -199,11 +199,15 @@ def test_namespace_and_rosapi(
         client = client_factory(session.url)
         client.subscribe("/arm1/joint_states", "sensor_msgs/msg/JointState")
         client.subscribe("/arm1/tf", "tf2_msgs/msg/TFMessage")
+        client.subscribe("/arm1/tf_static", "tf2_msgs/msg/TFMessage")
         client.step(5)
         tf = client.messages("/arm1/tf")[-1]
-        frames = [t["child_frame_id"] for t in tf["transforms"]]
-        assert frames[0] == "arm1/link0"
-        assert {t["header"]["frame_id"] for t in tf["transforms"]} == {"world"}
+        parents = {t["child_frame_id"]: t["header"]["frame_id"] for t in tf["transforms"]}
+        assert parents["arm1/link1"] == "arm1/link0"
+        assert parents["arm1/left_finger"] == "arm1/hand"
+        (static,) = client.messages("/arm1/tf_static")
+        fixed = {t["child_frame_id"]: t["header"]["frame_id"] for t in static["transforms"]}
+        assert fixed == {"arm1/link0": "world", "arm1/hand": "arm1/link7"}
         topics = client.call("/rosapi/topics")["values"]
         assert "/arm1/joint_states" in topics["topics"]
         assert "/arm1/joint_command" in topics["topics"]

@@ -98,6 +98,7 @@ def test_topics_names_and_frames_of_a_two_robot_session():
         with connect(session.url) as client:
             description = client.subscribe("/right/robot_description", "std_msgs/msg/String")
             tf = client.subscribe("/tf", "tf2_msgs/msg/TFMessage")
+            tf_static = client.subscribe("/tf_static", "tf2_msgs/msg/TFMessage")
             states = client.subscribe("/left/joint_states", JOINT_STATE)
             text = description.wait_for_message(sim_timeout=0.1)["data"]
             assert '<robot name="demo_arm"' in text
@@ -106,10 +107,18 @@ def test_topics_names_and_frames_of_a_two_robot_session():
             frames = {
                 t["child_frame_id"]: t for t in tf.wait_for_message(sim_timeout=0.1)["transforms"]
             }
-            assert {"left/link0", "right/link0", "left/hand", "right/hand"} <= set(frames)
-            assert frames["left/link0"]["transform"]["translation"]["y"] == pytest.approx(-0.7)
-            assert frames["right/link0"]["transform"]["translation"]["y"] == pytest.approx(0.7)
-            assert all(t["header"]["frame_id"] == "world" for t in frames.values())
+            assert {"left/link1", "right/link1", "left/left_finger"} <= set(frames)
+            assert frames["right/link1"]["header"]["frame_id"] == "right/link0"
+            # fixed transforms of both robots come latched on the one /tf_static
+            fixed = {
+                t["child_frame_id"]: t
+                for t in tf_static.wait_for_message(sim_timeout=0.1)["transforms"]
+            }
+            assert set(fixed) == {"left/link0", "right/link0", "left/hand", "right/hand"}
+            assert fixed["left/link0"]["transform"]["translation"]["y"] == pytest.approx(-0.7)
+            assert fixed["right/link0"]["transform"]["translation"]["y"] == pytest.approx(0.7)
+            assert fixed["left/link0"]["header"]["frame_id"] == "world"
+            assert fixed["left/hand"]["header"]["frame_id"] == "left/link7"
             # A robot's command topics take its own joint names only.
             client.publish(
                 "/left/joint_command", JOINT_STATE, {"name": ["right/joint1"], "position": [1.0]}
