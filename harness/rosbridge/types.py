@@ -379,7 +379,7 @@ def _default_value(msg: str, f: Field, text: str) -> Any:
         return _scalar_default(f, text)
     except (ValueError, SyntaxError) as exc:
         raise TypeNameError(
-            f"{msg}: default {text!r} of field {f.name} is not a valid {f.type}: {exc}"
+            f"{msg}: default {text!r} of field {f.name} is not a valid {_field_type_text(f)}: {exc}"
         ) from None
 
 

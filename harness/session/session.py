@@ -46,10 +46,17 @@ time, clock mode and joint state.
 Topics (relative names live under the robot's namespace, ``/<ns>/...``; ``/clock``,
 ``/rosout`` and ``/harness/*`` are global): published ``joint_states``
 (``sensor_msgs/msg/JointState``, every joint with a position), ``/clock``, ``tf``
-(``tf2_msgs/msg/TFMessage``: each robot link's pose in ``world``), ``robot_description``
-(latched ``std_msgs/msg/String``: the source URDF/SDF/MJCF text), ``/rosout`` (log events);
-commands on ``joint_command``, ``joint_trajectory`` and the forward controller topics
-(:mod:`harness.session.commands`).
+(``tf2_msgs/msg/TFMessage``: each moving link's pose in its parent link's frame, following
+the description's joints; a floating or mocap root's in ``world``), ``tf_static`` (latched
+``tf2_msgs/msg/TFMessage``, once: fixed joints, sensor mounts, a base fixed to ``world``;
+:mod:`harness.session.tf`), ``robot_description`` (latched ``std_msgs/msg/String``: the
+source URDF/SDF/MJCF text), ``/rosout`` (log events); commands on ``joint_command``,
+``joint_trajectory`` and the forward controller topics (:mod:`harness.session.commands`).
+Every published topic is on the graph with its type from the start (a client that advertises
+or subscribes to one with another type gets a status error), under the node a real robot
+shows: ``robot_state_publisher`` (``tf``, ``tf_static``, ``robot_description``) and
+``joint_state_broadcaster`` (``joint_states``) in the robot's namespace, ``/harness``
+(``/clock``, ``/rosout``, ``/harness/*``); :attr:`SessionCore.published` lists them.
 
 Several robots (``robots=[RobotSpec(...), ...]``, :func:`harness.models.load_world`)
 ------------------------------------------------------------------------------------
@@ -58,16 +65,17 @@ Every robot's topics live under its own namespace: ``/<ns>/joint_states``,
 ``/<ns>/forward_{position,velocity,effort}_controller/commands`` and the latched
 ``/<ns>/robot_description`` (that robot's source file). Joint names in these messages are the
 robot's own, unprefixed (``joint1``); forward commands take the robot's joints in its order
-(:meth:`Session.joint_names_of`). One global ``/tf`` carries every robot's links in ``world``
-with child frame ids ``<ns>/<link>`` (the tf_prefix convention, the same string as the
-link's MuJoCo body name); a robot in the empty namespace keeps plain link names. ``/clock``,
+(:meth:`Session.joint_names_of`). One global ``/tf`` and one latched ``/tf_static`` carry
+every robot's tree with frame ids ``<ns>/<link>`` (the tf_prefix convention, the same string
+as the link's MuJoCo body name), each robot's root in ``world``; a robot in the empty
+namespace keeps plain link names. ``/clock``,
 ``/rosout`` and ``/harness/*`` stay global, and ``/harness/get_state`` answers every joint by
 its MuJoCo name (``<ns>/joint1``). The Python API (:meth:`Session.command`,
 :meth:`Session.set_positions`, :attr:`Session.joint_names`) uses MuJoCo names too; the reads
 take ``namespace=`` for one robot's joints in its order. Control modes are per joint of each
 robot (``RobotSpec.control``); ``kinematic_limits`` is the session's. A one-robot session
-(``robot=``) is unchanged: its ``namespace`` puts all of its topics, ``tf`` included, under
-``/<namespace>/`` and prefixes its frame ids.
+(``robot=``) is unchanged: its ``namespace`` puts all of its topics, ``tf`` and ``tf_static``
+included, under ``/<namespace>/`` and prefixes its frame ids.
 
 Refused commands
 ----------------
