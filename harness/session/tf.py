@@ -11,7 +11,7 @@ kinematics, so the tree composes to exactly the world poses the simulation has.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,7 +22,7 @@ import numpy.typing as npt
 from harness.models import RobotModel
 from harness.session.topics import stamp
 
-__all__ = ["WORLD_FRAME", "RobotFrames", "TfEdge", "TfTree", "transforms_msg"]
+__all__ = ["WORLD_FRAME", "RobotFrames", "TfEdge", "TfTree", "relative_pose"]
 
 F64 = npt.NDArray[np.float64]
 
@@ -98,20 +98,29 @@ class TfTree:
     ) -> dict[str, Any]:
         """The ``tf2_msgs/msg/TFMessage`` of ``edges`` from the bodies' world ``poses``
         (:meth:`harness.sim.Simulation.link_poses`)."""
-        if not edges:
-            return {"transforms": []}
-        identity = (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
-        parent = [identity if e.parent_body is None else poses[e.parent_body] for e in edges]
-        child = [poses[e.child_body] for e in edges]
-        xyz, quat = relative(
-            np.array([p[0] for p in parent]),
-            np.array([p[1] for p in parent]),
-            np.array([c[0] for c in child]),
-            np.array([c[1] for c in child]),
-        )
-        return transforms_msg(
-            sim_time_ns, [e.parent for e in edges], [e.child for e in edges], xyz, quat
-        )
+        time = stamp(sim_time_ns)
+        # plain floats: for a few transforms numpy's per-call cost dominates
+        flat: dict[str | None, list[float]] = {None: [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]}
+        for e in edges:
+            for body in (e.parent_body, e.child_body):
+                if body is not None and body not in flat:
+                    xyz, quat = poses[body]
+                    flat[body] = xyz.tolist() + quat.tolist()
+        transforms = []
+        for e in edges:
+            p, c = flat[e.parent_body], flat[e.child_body]
+            (x, y, z), (w, rx, ry, rz) = relative_pose(p[:3], p[3:], c[:3], c[3:])
+            transforms.append(
+                {
+                    "header": {"stamp": time, "frame_id": e.parent},
+                    "child_frame_id": e.child,
+                    "transform": {
+                        "translation": {"x": x, "y": y, "z": z},
+                        "rotation": {"x": rx, "y": ry, "z": rz, "w": w},
+                    },
+                }
+            )
+        return {"transforms": transforms}
 
 
 def _can_move(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
@@ -125,53 +134,35 @@ def _can_move(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
     return False
 
 
-def relative(parent_xyz: F64, parent_quat: F64, child_xyz: F64, child_quat: F64) -> tuple[F64, F64]:
-    """Each child's pose in its parent's frame (rows of world positions, quaternions w-x-y-z)."""
-    conj = parent_quat * np.array([1.0, -1.0, -1.0, -1.0])
-    xyz = _rotate(conj, child_xyz - parent_xyz)
-    return xyz, _multiply(conj, child_quat)
+Vec = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
 
 
-def _multiply(a: F64, b: F64) -> F64:
-    aw, ax, ay, az = a.T
-    bw, bx, by, bz = b.T
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=1,
+def relative_pose(
+    parent_xyz: Sequence[float],
+    parent_quat: Sequence[float],
+    child_xyz: Sequence[float],
+    child_quat: Sequence[float],
+) -> tuple[Vec, Quat]:
+    """The child's pose in its parent's frame, from both world poses (quaternions w-x-y-z)."""
+    w, x, y, z = parent_quat[0], -parent_quat[1], -parent_quat[2], -parent_quat[3]
+    dx = child_xyz[0] - parent_xyz[0]
+    dy = child_xyz[1] - parent_xyz[1]
+    dz = child_xyz[2] - parent_xyz[2]
+    # v + w t + u x t with t = 2 u x v: the difference rotated by the parent's inverse
+    tx = 2.0 * (y * dz - z * dy)
+    ty = 2.0 * (z * dx - x * dz)
+    tz = 2.0 * (x * dy - y * dx)
+    xyz = (
+        dx + w * tx + (y * tz - z * ty),
+        dy + w * ty + (z * tx - x * tz),
+        dz + w * tz + (x * ty - y * tx),
     )
-
-
-def _rotate(q: F64, v: F64) -> F64:
-    w = q[:, :1]
-    u = q[:, 1:]
-    t = 2.0 * np.cross(u, v)
-    rotated: F64 = v + w * t + np.cross(u, t)
-    return rotated
-
-
-def transforms_msg(
-    sim_time_ns: int, parents: list[str], children: list[str], xyz: F64, quat: F64
-) -> dict[str, Any]:
-    """A ``tf2_msgs/msg/TFMessage``: transform ``i`` takes ``children[i]`` into
-    ``parents[i]`` (rows of ``xyz`` and ``quat`` w-x-y-z)."""
-    time = stamp(sim_time_ns)
-    transforms = []
-    for parent, child, (x, y, z), (w, qx, qy, qz) in zip(
-        parents, children, xyz.tolist(), quat.tolist(), strict=True
-    ):
-        transforms.append(
-            {
-                "header": {"stamp": time, "frame_id": parent},
-                "child_frame_id": child,
-                "transform": {
-                    "translation": {"x": x, "y": y, "z": z},
-                    "rotation": {"x": qx, "y": qy, "z": qz, "w": w},
-                },
-            }
-        )
-    return {"transforms": transforms}
+    bw, bx, by, bz = child_quat
+    quat = (
+        w * bw - x * bx - y * by - z * bz,
+        w * bx + x * bw + y * bz - z * by,
+        w * by - x * bz + y * bw + z * bx,
+        w * bz + x * by - y * bx + z * bw,
+    )
+    return xyz, quat
