@@ -89,6 +89,7 @@ from harness.session.topics import (
     clock_msg,
     joint_state_msg,
     log_msg,
+    node_name,
     period_steps,
     robot_topic_defs,
     stamp,
@@ -223,9 +224,17 @@ class Graph(Protocol):
         self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
     ) -> None: ...
 
-    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None: ...
+    def subscribe(
+        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
+    ) -> None:
+        """Call ``callback`` with each message on ``topic``, as a subscriber of ``node``."""
+        ...
 
-    def serve(self, service: str, type: str, handler: ServiceHandler) -> None: ...
+    def serve(
+        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
+    ) -> None:
+        """Answer ``service`` with ``handler``, as a service of ``node``."""
+        ...
 
     def status(self, connection: int, level: str, text: str) -> None:
         """Tell one client something (a ``status`` frame), where the transport can."""
@@ -505,11 +514,15 @@ class BridgePort:
     ) -> None:
         self.bridge.publish(topic, type, msg, now_ns, latch=latch)
 
-    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None:
-        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type)
+    def subscribe(
+        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
+    ) -> None:
+        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type, node=node)
 
-    def serve(self, service: str, type: str, handler: ServiceHandler) -> None:
-        self.bridge.advertise_service(service, type, lambda call: handler(call.args))
+    def serve(
+        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
+    ) -> None:
+        self.bridge.advertise_service(service, type, lambda call: handler(call.args), node=node)
 
     def status(self, connection: int, level: str, text: str) -> None:
         self.bridge.core_status(connection, level, text)
@@ -801,8 +814,12 @@ class SessionCore:
                 topics.joint_trajectory, TYPE_TRAJECTORY, self._trajectory_handler(channels)
             )
             for command_field, topic in topics.forward.items():
+                controller = FORWARD_TOPICS[command_field].split("/")[0]
                 graph.subscribe(
-                    topic, TYPE_FORWARD, self._forward_handler(channels, command_field, topic)
+                    topic,
+                    TYPE_FORWARD,
+                    self._forward_handler(channels, command_field, topic),
+                    node=node_name(channels.namespace, controller),
                 )
         graph.serve(SERVICE_STEP, "harness_msgs/srv/Step", self._srv_step)
         graph.serve(SERVICE_RESET, "std_srvs/srv/Trigger", self._srv_reset)

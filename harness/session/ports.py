@@ -12,6 +12,7 @@ from harness.errors import BridgeError
 from harness.rosbridge import BridgeClient, BridgeServer, TypeRegistry
 from harness.rosbridge.convert import from_json
 from harness.session.core import Graph, MessageCallback, ServiceHandler, SessionBridge
+from harness.session.topics import HARNESS_NODE
 
 __all__ = ["ClientPort", "Graph", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
 
@@ -133,7 +134,8 @@ class ClientPort:
         self._last = asyncio.ensure_future(chained())
 
     def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
-        """Advertise on the external server (whose graph names the node itself)."""
+        """Advertise on the external server (whose graph names the node itself: ``node`` is
+        not sent, here and in :meth:`subscribe`/:meth:`serve`)."""
         if topic not in self._advertised:
             self._advertised.add(topic)
             self._send(self.client.advertise(topic, type, latch=latch))
@@ -146,7 +148,9 @@ class ClientPort:
             self._send(self.client.advertise(topic, type, latch=latch))
         self._send(self.client.publish(topic, msg))
 
-    def subscribe(self, topic: str, type: str, callback: MessageCallback) -> None:
+    def subscribe(
+        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
+    ) -> None:
         def on_message(raw: dict[str, Any]) -> None:
             try:
                 msg = from_json(self.registry, type, raw, self._now_ns)
@@ -157,7 +161,9 @@ class ClientPort:
 
         self._send(self.client.subscribe(topic, type, on_message))
 
-    def serve(self, service: str, type: str, handler: ServiceHandler) -> None:
+    def serve(
+        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
+    ) -> None:
         async def answer(request: dict[str, Any]) -> Mapping[str, Any]:
             response = handler(request)
             await self.settle()  # what the call published goes out before its answer

@@ -28,13 +28,6 @@ NODE_DIR = Path(__file__).resolve().parents[1] / "node"
 JS_SCRIPT = NODE_DIR / "graph_roslibjs.mjs"
 NODE = shutil.which("node")
 FOLLOW = "/arm_controller/follow_joint_trajectory"
-COMMANDS = [
-    "/forward_effort_controller/commands",
-    "/forward_position_controller/commands",
-    "/forward_velocity_controller/commands",
-    "/joint_command",
-    "/joint_trajectory",
-]
 
 
 def _serve_controller_action(session: Session) -> None:
@@ -71,6 +64,9 @@ def _check_graph(out: dict[str, Any]) -> None:
     assert out["tf_static_type"] == "tf2_msgs/msg/TFMessage"
     assert out["nodes"] == [
         "/arm_controller",
+        "/forward_effort_controller",
+        "/forward_position_controller",
+        "/forward_velocity_controller",
         "/harness",
         "/joint_state_broadcaster",
         "/robot_state_publisher",
@@ -90,7 +86,13 @@ def _check_graph(out: dict[str, Any]) -> None:
     }
     harness = details["/harness"]
     assert harness["publishing"] == ["/clock", "/rosout"]
-    assert harness["subscribing"] == COMMANDS
+    assert harness["subscribing"] == ["/joint_command", "/joint_trajectory"]
+    for kind in ("effort", "position", "velocity"):
+        assert details[f"/forward_{kind}_controller"] == {
+            "subscribing": [f"/forward_{kind}_controller/commands"],
+            "publishing": [],
+            "services": [],
+        }
     assert harness["services"] == [
         "/harness/get_state",
         "/harness/pause",
