@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import json
 import shutil
+import signal
 import subprocess
 import sys
 from collections.abc import Callable
@@ -256,3 +257,40 @@ def test_tf_follows_the_urdf_tree_and_composes_to_the_simulation(
         assert {t.child_frame_id for t in recorded.msg.transforms} == {"link0", "hand"}
         first_tf = next(recording.messages("/tf", decode=True))
         assert len(first_tf.msg.transforms) == len(moving)
+
+
+def test_harness_serve_survives_a_client_retyping_joint_states() -> None:
+    """The report's reproduction: before the fix, `harness serve` exited with "Tried to
+    register topic /joint_states with type sensor_msgs/msg/JointState but it is already
+    established with type std_msgs/msg/String"."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "harness", "serve", "--port", "0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        first = proc.stdout.readline()
+        assert first.startswith("harness serve: ws://127.0.0.1:"), first
+        url = first.split()[2]
+        intruder, bystander = Client(url), Client(url)
+        intruder.send({"op": "advertise", "topic": "/joint_states", "type": "std_msgs/String"})
+        status = intruder.recv_until(lambda f: f.get("op") == "status")
+        assert "/joint_states" in status["msg"]
+        assert "std_msgs/msg/String" in status["msg"]
+        bystander.subscribe("/joint_states", "sensor_msgs/msg/JointState")
+        for _ in range(3):  # several publishes of the realtime clock after the refusal
+            frame = bystander.recv_until(lambda f: f.get("topic") == "/joint_states")
+            assert frame["msg"]["name"][0] == "joint1"
+        intruder.close()
+        bystander.close()
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    assert "stopped at step" in out
