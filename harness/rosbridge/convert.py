@@ -201,7 +201,7 @@ def _array(
     elif not isinstance(v, list):
         raise _fail(msg_type, f"a list ({f.type}[])", path, v)
     else:
-        scalar = f._replace(length=None)
+        scalar = f._replace(length=None, default=None)
         items = [
             _scalar(registry, msg_type, scalar, x, f"{path}[{i}]", now_ns) for i, x in enumerate(v)
         ]
