@@ -44,6 +44,7 @@ import json
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from types import MappingProxyType
 from typing import Any, Literal, Protocol
 
@@ -831,12 +832,8 @@ class SessionCore:
         step 0 (after :meth:`start`, once the graph has settled)."""
         poses = self.sim.link_poses()
         for _, tf_static, tree in self._tf_trees:
-            self.publish(
-                tf_static,
-                TYPE_TF,
-                lambda tree=tree: tree.message(tree.static, poses, self.sim.sim_time_ns),  # type: ignore[misc]
-                latch=True,
-            )
+            build = partial(tree.message, tree.static, poses, self.sim.sim_time_ns)
+            self.publish(tf_static, TYPE_TF, build, latch=True)
         for channels in self.robots:
             text = channels.description_text
             self.publish(
@@ -940,13 +937,10 @@ class SessionCore:
             self.publish(_CLOCK, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
-                self.publish(
-                    topic,
-                    TYPE_TF,
-                    lambda tree=tree: tree.message(  # type: ignore[misc]
-                        tree.moving, self.sim.link_poses(), self.sim.sim_time_ns
-                    ),
-                )
+                self.publish(topic, TYPE_TF, partial(self._moving_tf, tree))
+
+    def _moving_tf(self, tree: TfTree) -> dict[str, Any]:
+        return tree.message(tree.moving, self.sim.link_poses(), self.sim.sim_time_ns)
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
         data = self.sim.data
