@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Protocol
 
 from harness.rosbridge.errors import TypeNameError, UnknownTypeError
+from harness.rosbridge.graph import ROSAPI_NODE
 from harness.rosbridge.types import FLOAT_TYPES, TypeRegistry
 
 __all__ = ["Host", "Request", "install", "typedefs"]
@@ -49,10 +50,6 @@ class Host(Protocol):
 
     def actions(self) -> Iterator[tuple[str, str, int]]: ...
 
-    def publishers_of(self, topic: str) -> list[int]: ...
-
-    def subscribers_of(self, topic: str) -> list[int]: ...
-
     def publisher_nodes(self, topic: str) -> list[str]: ...
 
     def subscriber_nodes(self, topic: str) -> list[str]: ...
@@ -73,7 +70,6 @@ class Host(Protocol):
     ) -> None: ...
 
 
-_ROSAPI_NODE = "/rosapi"
 _ACTION_SERVICES = ("cancel_goal", "get_result", "send_goal")
 _ACTION_TOPICS = ("feedback", "status")
 
@@ -250,7 +246,7 @@ def install(bridge: Host) -> None:
         "get_ros_version": ("GetROSVersion", get_ros_version),
     }
     for name, (srv, fn) in table.items():
-        bridge.advertise_service(f"/rosapi/{name}", f"rosapi_msgs/srv/{srv}", fn, node=_ROSAPI_NODE)
+        bridge.advertise_service(f"/rosapi/{name}", f"rosapi_msgs/srv/{srv}", fn, node=ROSAPI_NODE)
 
 
 def _abs(name: str) -> str:
