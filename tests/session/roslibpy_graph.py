@@ -1,9 +1,10 @@
 """A roslibpy client run in its own process (twisted's reactor runs once per process):
 python roslibpy_graph.py PORT
 
-Asks rosapi for the graph as tools do (get_topics, get_topic_type of each, get_nodes,
-get_node_details of every node, get_services, get_action_servers), steps the lockstep clock,
-then subscribes late to /tf_static. Prints everything as one JSON line, then "OK".
+Asks rosapi for the graph as tools do (get_topics; get_topic_type, get_message_details and
+/rosapi/publishers of each; get_nodes; get_node_details of every node; get_services;
+get_action_servers), steps the lockstep clock, then subscribes late to /tf_static. Prints
+everything as one JSON line, then "OK".
 """
 
 from __future__ import annotations
@@ -23,6 +24,14 @@ def main() -> int:
     ros.run(timeout=TIMEOUT)
     out: dict[str, Any] = {"topics": ros.get_topics(), "nodes": ros.get_nodes()}
     out["types"] = [ros.get_topic_type(topic) for topic in out["topics"]]
+    out["message_details"] = {
+        t: ros.get_message_details(t)["typedefs"][0]["type"] for t in set(out["types"])
+    }
+    publishers = roslibpy.Service(ros, "/rosapi/publishers", "rosapi/Publishers")
+    out["publishers"] = {
+        t: publishers.call(roslibpy.ServiceRequest({"topic": t}), timeout=TIMEOUT)["publishers"]
+        for t in out["topics"]
+    }
     out["details"] = {node: ros.get_node_details(node) for node in out["nodes"]}
     out["services"] = ros.get_services()
     out["tf_static_type"] = ros.get_topic_type("/tf_static")

@@ -31,6 +31,29 @@ NODE = shutil.which("node")
 FOLLOW = "/arm_controller/follow_joint_trajectory"
 
 
+EXPECTED_TOPICS = {
+    "/clock": "rosgraph_msgs/msg/Clock",
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/robot_description": "std_msgs/msg/String",
+    "/rosout": "rcl_interfaces/msg/Log",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "/tf_static": "tf2_msgs/msg/TFMessage",
+    "/forward_effort_controller/commands": "std_msgs/msg/Float64MultiArray",
+    "/forward_position_controller/commands": "std_msgs/msg/Float64MultiArray",
+    "/forward_velocity_controller/commands": "std_msgs/msg/Float64MultiArray",
+    "/joint_command": "sensor_msgs/msg/JointState",
+    "/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
+}
+EXPECTED_PUBLISHERS = {
+    "/clock": ["/harness"],
+    "/joint_states": ["/joint_state_broadcaster"],
+    "/robot_description": ["/robot_state_publisher"],
+    "/rosout": ["/harness"],
+    "/tf": ["/robot_state_publisher"],
+    "/tf_static": ["/robot_state_publisher"],
+}
+
+
 def _serve_controller_action(session: Session) -> None:
     """An in-process action server registered under its controller's node, as the
     controllers room does (the action type is a stand-in the bridge knows)."""
@@ -49,19 +72,7 @@ def _serve_controller_action(session: Session) -> None:
 
 def _check_graph(out: dict[str, Any]) -> None:
     pairs = dict(zip(out["topics"], out["types"], strict=True))
-    assert pairs == {
-        "/clock": "rosgraph_msgs/msg/Clock",
-        "/joint_states": "sensor_msgs/msg/JointState",
-        "/robot_description": "std_msgs/msg/String",
-        "/rosout": "rcl_interfaces/msg/Log",
-        "/tf": "tf2_msgs/msg/TFMessage",
-        "/tf_static": "tf2_msgs/msg/TFMessage",
-        "/forward_effort_controller/commands": "std_msgs/msg/Float64MultiArray",
-        "/forward_position_controller/commands": "std_msgs/msg/Float64MultiArray",
-        "/forward_velocity_controller/commands": "std_msgs/msg/Float64MultiArray",
-        "/joint_command": "sensor_msgs/msg/JointState",
-        "/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
-    }
+    assert pairs == EXPECTED_TOPICS
     assert out["tf_static_type"] == "tf2_msgs/msg/TFMessage"
     assert out["nodes"] == [
         "/arm_controller",
@@ -126,7 +137,11 @@ def test_roslibpy_sees_the_robot_graph(demo_position: LoadedRobot) -> None:
         assert proc.returncode == 0, proc.stdout + proc.stderr
         assert proc.stdout.splitlines()[-1] == "OK", proc.stdout
         assert session.step_index == 10  # the late subscription came after the steps
-    _check_graph(json.loads(proc.stdout.splitlines()[0]))
+    out = json.loads(proc.stdout.splitlines()[0])
+    _check_graph(out)
+    # every type on the graph has its definition; every published topic its publisher
+    assert out["message_details"] == {t: t for t in EXPECTED_TOPICS.values()}
+    assert {t: p for t, p in out["publishers"].items() if p} == EXPECTED_PUBLISHERS
 
 
 @pytest.mark.node
