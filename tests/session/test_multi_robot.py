@@ -119,6 +119,13 @@ def test_topics_names_and_frames_of_a_two_robot_session():
             assert fixed["right/link0"]["transform"]["translation"]["y"] == pytest.approx(0.7)
             assert fixed["left/link0"]["header"]["frame_id"] == "world"
             assert fixed["left/hand"]["header"]["frame_id"] == "left/link7"
+            # each robot's nodes live in its namespace; both publish the one /tf
+            assert client.call_service("/rosapi/publishers", {"topic": "/tf"}) == {
+                "publishers": ["/left/robot_state_publisher", "/right/robot_state_publisher"]
+            }
+            assert client.call_service("/rosapi/publishers", {"topic": "/left/joint_states"}) == {
+                "publishers": ["/left/joint_state_broadcaster"]
+            }
             # A robot's command topics take its own joint names only.
             client.publish(
                 "/left/joint_command", JOINT_STATE, {"name": ["right/joint1"], "position": [1.0]}
