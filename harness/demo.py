@@ -316,7 +316,7 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
     config = load_run_file(scenario_path)
     scenario = config.simulations[0].scenario
     robot = scenario.robots[0]
-    recorded_modes = {c.mode for c in robot.controllers} or {"position"}
+    recorded_modes = {c.mode for c in robot.controllers} or {ControlMode.POSITION}
     other: ResimMode = "dynamic" if recorded_modes == {"kinematic"} else "kinematic"
     print(
         f"harness demo: {scenario.name}: {scenario.description}\n"

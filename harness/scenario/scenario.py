@@ -422,7 +422,7 @@ class _Builder:
             ),
             controllers=tuple(
                 Controller(
-                    mode="position" if c["mode"] == "dynamic" else c["mode"],
+                    mode=ControlMode.parse(c["mode"]),
                     joints=tuple(c.get("joints", ())),
                     beyond_limits=c.get("beyond_limits", "clamp"),
                 )

@@ -157,7 +157,7 @@ def control_modes(
     key path): a controller without ``joints`` covers every joint; later controllers win;
     joints no controller names are ``position``."""
     controllable = [j.name for j in description.controllable_joints]
-    modes: dict[str, ControlMode] = dict.fromkeys(controllable, "position")
+    modes: dict[str, ControlMode] = dict.fromkeys(controllable, ControlMode.POSITION)
     problems = []
     for i, controller in enumerate(robot.controllers):
         for joint in controller.joints or controllable:
