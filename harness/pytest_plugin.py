@@ -134,7 +134,6 @@ _PLUGIN_MODULE = "harness.pytest_plugin"
 _DEFAULT_RECORD_DIR = ".harness/recordings"
 _DEFAULT_GOLDEN_DIR = "recordings"
 _DEFAULT_MODE = "position"  # harness.models.load_robot's control default
-_JOINT_LIMIT_TOLERANCE = 1e-4  # below it, an excess is servo/solver noise (rad, m, rad/s, m/s)
 
 
 class GoldenMismatch(AssertionError):
@@ -501,11 +500,9 @@ class _TestRun:
             loggers.append(
                 lambda s: JointLimitLogger(
                     s.model,
-                    **{
-                        "velocity_limits": limits_of(s.description),
-                        "tolerance": _JOINT_LIMIT_TOLERANCE,
-                        **jl,
-                    },
+                    # tolerance: the solver's soft-limit zone per joint unless the marker's
+                    # joint_limits gives one (harness.events.solver_limit_tolerance)
+                    **{"velocity_limits": limits_of(s.description), **jl},
                 )
             )
         sink = CollectingSink()

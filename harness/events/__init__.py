@@ -23,7 +23,12 @@ from harness.events.events import (
     NearMiss,
     VelocityLimitExceeded,
 )
-from harness.events.joints import JointLimitLogger, JointLogger, velocity_limits
+from harness.events.joints import (
+    JointLimitLogger,
+    JointLogger,
+    solver_limit_tolerance,
+    velocity_limits,
+)
 from harness.events.logger import EventHub, Logger, StepContext, period_ns_from_hz
 from harness.events.sinks import (
     CollectingSink,
@@ -68,5 +73,6 @@ __all__ = [
     "create_sink",
     "logging_config_from_scene",
     "period_ns_from_hz",
+    "solver_limit_tolerance",
     "velocity_limits",
 ]

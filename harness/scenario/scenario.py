@@ -198,12 +198,23 @@ class Recording:
 
 @dataclass(frozen=True)
 class Criteria:
-    """Pass/fail criteria judged on every iteration."""
+    """Pass/fail criteria judged on every iteration; the defaults pass a correct run.
+
+    ``no_collisions``: a robot's contacts fail the run, except ``allowed_collisions`` (body
+    pairs, shell-style patterns), contacts between world objects only (a box resting on a
+    table: recorded, judged only with ``world_collisions``) and contacts present at the start
+    (a robot resting on its table: judged only with ``initial_contacts``).
+    ``joint_limit_tolerance``: how far beyond a position limit a joint may go; ``None`` (the
+    default) is the solver's own soft-limit zone of each joint
+    (:func:`harness.events.solver_limit_tolerance`). See :func:`criteria_settings`.
+    """
 
     no_collisions: bool = True
     allowed_collisions: tuple[tuple[str, str], ...] = ()
+    world_collisions: bool = False
+    initial_contacts: bool = False
     joint_limits: bool = True
-    joint_limit_tolerance: float = 0.0
+    joint_limit_tolerance: float | None = None
     deterministic: bool = False
 
 
@@ -326,8 +337,14 @@ class _Builder:
             criteria=Criteria(
                 no_collisions=crit.get("no_collisions", True),
                 allowed_collisions=tuple((a, b) for a, b in crit.get("allowed_collisions", [])),
+                world_collisions=crit.get("world_collisions", False),
+                initial_contacts=crit.get("initial_contacts", False),
                 joint_limits=crit.get("joint_limits", True),
-                joint_limit_tolerance=float(crit.get("joint_limit_tolerance", 0.0)),
+                joint_limit_tolerance=(
+                    None
+                    if crit.get("joint_limit_tolerance") is None
+                    else float(crit["joint_limit_tolerance"])
+                ),
                 deterministic=crit.get("deterministic", False),
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
