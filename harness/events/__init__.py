@@ -10,7 +10,12 @@ typed events to every :class:`~harness.events.sinks.Sink`. At the end of the run
 from __future__ import annotations
 
 from harness.events.collision import CollisionLogger
-from harness.events.config import LoggingConfig, SinkSpec, logging_config_from_scene
+from harness.events.config import (
+    LOGGING_SCHEMA,
+    LoggingConfig,
+    SinkSpec,
+    logging_config_from_scene,
+)
 from harness.events.errors import LoggerConfigError, SinkError
 from harness.events.events import (
     CollisionBegin,
@@ -43,6 +48,7 @@ from harness.events.sinks import (
 )
 
 __all__ = [
+    "LOGGING_SCHEMA",
     "CollectingSink",
     "CollisionBegin",
     "CollisionEnd",

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from harness.events.config import LoggingConfig, logging_config_from_scene
+from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
@@ -36,11 +38,9 @@ __all__ = [
     "CollisionLoggerSpec",
     "Controller",
     "Criteria",
-    "Destination",
     "Environment",
     "JointLoggerSpec",
     "LoggerSpec",
-    "LoggingConfig",
     "Recording",
     "RobotSpec",
     "Scenario",
@@ -146,24 +146,7 @@ class Bridge:
     port: int = 9090
 
 
-@dataclass(frozen=True)
-class Destination:
-    """A log sink of the original ``logging`` section (type Seq) or one of ours."""
-
-    type: Literal["Seq", "JsonLines", "Logging"]
-    endpoint: str | None = None
-    api_key: str | None = None
-    path: Path | None = None
-    logger: str | None = None
-
-
-@dataclass(frozen=True)
-class LoggingConfig:
-    """The original ``logging`` section: ``frequency`` is the joint log rate in sim Hz."""
-
-    enable: bool = False
-    frequency: float = 1.0
-    destination: Destination | None = None
+_LOGGING_OFF = LoggingConfig(enable=False)  # a scenario without a logging section
 
 
 @dataclass(frozen=True)
@@ -241,7 +224,7 @@ class Scenario:
     environment: Environment = Environment()
     description: str = ""
     bridge: Bridge = Bridge()
-    logging: LoggingConfig = LoggingConfig()
+    logging: LoggingConfig = _LOGGING_OFF
     timestep: float = 0.002
     duration: float = 10.0
     seed: int = 0
@@ -323,7 +306,7 @@ class _Builder:
                 ip=ros_bridge.get("ip", "127.0.0.1"),
                 port=self.port(ros_bridge.get("port", 9090)),
             ),
-            logging=self.logging(data.get("logging", {})),
+            logging=self.logging(data.get("logging")),
             timestep=float(data.get("timestep", 0.002)),
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
@@ -476,27 +459,15 @@ class _Builder:
             near_miss_distance=None if near is None else float(near),
         )
 
-    def logging(self, data: dict[str, Any]) -> LoggingConfig:
-        dest = data.get("destination")
-        destination = None
-        if dest is not None:
-            needs = {"Seq": "endpoint", "JsonLines": "path", "Logging": None}[dest["type"]]
-            if needs is not None and needs not in dest:
-                self.problem(
-                    ["logging", "destination"], dest, f"needs {needs!r} for type {dest['type']}"
-                )
-            destination = Destination(
-                type=dest["type"],
-                endpoint=dest.get("endpoint"),
-                api_key=dest.get("api_key"),
-                path=(self.base / dest["path"]).resolve() if "path" in dest else None,
-                logger=dest.get("logger"),
-            )
-        return LoggingConfig(
-            enable=data.get("enable", False),
-            frequency=float(data.get("frequency", 1.0)),
-            destination=destination,
-        )
+    def logging(self, data: dict[str, Any] | None) -> LoggingConfig:
+        """The ``logging`` section (schema-valid already): logging off without one."""
+        if data is None:
+            return _LOGGING_OFF
+        try:
+            return logging_config_from_scene(data, base_dir=self.base)
+        except LoggerConfigError as exc:
+            self.problems.append(f"{self.where}: {exc}")
+            return _LOGGING_OFF
 
     def object(self, data: dict[str, Any], index: int) -> SceneObject:
         counts = {"box": 3, "sphere": 1, "cylinder": 2}

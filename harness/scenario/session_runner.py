@@ -11,7 +11,8 @@ bridge address, recording to the iteration's ``recording.mcap``, with
   lists none and the criteria judge collisions), a ``JointLimitLogger`` over every robot's
   joints (position and URDF velocity limits, with the criteria's tolerance), a joint logger
   at ``logging.frequency`` when ``logging.enable``;
-- sinks: the ``logging`` section's destinations (:func:`harness.events.logging_config_from_scene`);
+- sinks: the ``logging`` section's destinations (``scenario.logging``, a
+  :class:`harness.events.LoggingConfig`);
 - an observer that hashes every step's ``mjSTATE_INTEGRATION`` state (initial state first),
   tracks joint ranges against limits and samples joint traces for the report.
 
@@ -63,7 +64,6 @@ from harness.events import (
     LoggerConfigError,
     Sink,
     StepContext,
-    logging_config_from_scene,
     solver_limit_tolerance,
     velocity_limits,
 )
@@ -89,11 +89,10 @@ from harness.scenario.scenario import (
     JointLoggerSpec,
     Scenario,
 )
-from harness.scenario.scenario import LoggingConfig as ScenarioLogging
 from harness.scenario.world import kinematic_limits, plan_world
 from harness.session import Session, SessionError, StartMode
 
-__all__ = ["SessionHost", "SessionIterationRunner", "logging_section", "steps_for"]
+__all__ = ["SessionHost", "SessionIterationRunner", "robot_links", "steps_for"]
 
 F64 = npt.NDArray[np.float64]
 _PYTHON = ("python", "python3")
@@ -103,28 +102,6 @@ _DEFAULT_DEBOUNCE_STEPS = 5
 def steps_for(sim_time: float, dt_ns: int) -> int:
     """Steps needed to reach ``sim_time`` seconds (at least; whole steps)."""
     return max(0, math.ceil(round(sim_time * 1e9) / dt_ns))
-
-
-def logging_section(config: ScenarioLogging) -> dict[str, Any]:
-    """The scenario's parsed ``logging`` section back in the original's shape, for
-    :func:`harness.events.logging_config_from_scene`."""
-    section: dict[str, Any] = {"enable": config.enable, "frequency": config.frequency}
-    dest = config.destination
-    if dest is not None:
-        if dest.type == "Seq":
-            item: dict[str, Any] = {"type": "Seq"}
-            if dest.endpoint is not None:
-                item["endpoint"] = dest.endpoint
-            if dest.api_key is not None:
-                item["apiKey"] = dest.api_key
-        elif dest.type == "JsonLines":
-            item = {"type": "jsonl", "path": str(dest.path)}
-        else:
-            item = {"type": "logging"}
-            if dest.logger is not None:
-                item["logger"] = dest.logger
-        section["destination"] = item
-    return section
 
 
 class SessionHost:
@@ -311,10 +288,7 @@ def _robot_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
         loggers.append(
             CollisionLogger(model, robot_bodies=every_link, debounce_steps=_DEFAULT_DEBOUNCE_STEPS)
         )
-    try:
-        logging = logging_config_from_scene(logging_section(scenario.logging))
-    except LoggerConfigError as exc:
-        raise ScenarioError([f"{where}: {exc}"]) from None
+    logging = scenario.logging
     if logging.enable and not has_joint:
         loggers.append(JointLogger(model, rate_hz=logging.frequency_hz))
     description = world.combined_description()
@@ -344,9 +318,9 @@ def _is_body(model: mujoco.MjModel, name: str) -> bool:
 def _sinks(scenario: Scenario) -> list[Sink]:
     where = str(scenario.source) if scenario.source is not None else "<scenario>"
     try:
-        return logging_config_from_scene(logging_section(scenario.logging)).create_sinks()
+        return scenario.logging.create_sinks()
     except LoggerConfigError as exc:
-        raise ScenarioError([f"{where}: {exc}"]) from None
+        raise ScenarioError([f"{where}: logging: {exc}"]) from None
 
 
 def _client_command(client: ClientSpec) -> ClientSpec:
