@@ -36,7 +36,9 @@ Marker keys: ``robot`` (``"demo"``, a model path; relative paths resolve against
 file's folder), ``scenario`` (a scenario file: robot, scene, control modes, seed and collision
 logger options from it; marker keys win), ``mode`` (a control mode or joint -> mode),
 ``clock`` (default ``lockstep``), ``scene``, ``collisions`` (``CollisionLogger`` keyword
-arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False), and
+arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False; its
+default ``tolerance`` is the solver's soft-limit zone of each joint,
+:func:`harness.events.solver_limit_tolerance`, as in ``harness run``'s verdicts), and
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``. Markers on the module/class/function merge, the closest wins.

@@ -174,7 +174,7 @@ def print_summary(results: Sequence[IterationResult], console: Console) -> None:
         if settings:
             console.print(f"verdict settings of {simulation}:", highlight=False)
             for line in settings:
-                console.print(f"  {line}", highlight=False, markup=False)
+                console.print(f"  {line}", highlight=False, markup=False, soft_wrap=True)
     passed = sum(r.passed for r in results)
     console.print(f"{passed}/{len(results)} iterations passed")
 
