@@ -306,10 +306,10 @@ def judge(
         bad_j = [j for j in joint_limits if j.max_excess > tolerance(j)]
         if bad_j:
             worst = max(bad_j, key=lambda j: j.max_excess - tolerance(j))
-            steps = f" for {worst.violation_steps} step(s)" if fixed is None else ""
             detail = (
                 f"{len(bad_j)} joint(s) beyond limits; worst {worst.joint} by "
-                f"{worst.max_excess:.4g} (tolerance {tolerance(worst):.4g}){steps}"
+                f"{worst.max_excess:.4g} (tolerance {tolerance(worst):.4g}) "
+                f"for {worst.violation_steps} step(s)"
             )
         else:
             detail = f"{len(joint_limits)} joint(s) within limits"

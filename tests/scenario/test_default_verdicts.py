@@ -19,6 +19,7 @@ from harness.scenario import (
     iteration_specs,
     judge,
     load_run_file,
+    render_html,
     session_iteration_runner,
 )
 from harness.scenario.results import CollisionSummary, JointLimitSummary, criteria_settings
@@ -62,6 +63,9 @@ def test_original_runner_config_on_the_table_passes_both_iterations(original):
         finger = next(j for j in result.joint_limits if j.joint == "finger_joint1")
         assert 0 < finger.max_excess < finger.tolerance == pytest.approx(0.001)
         assert any("criteria.world_collisions" in s for s in result.settings)
+    page = render_html(results, original / "runner.json")
+    assert "Verdict settings" in page
+    assert "criteria.joint_limit_tolerance" in page
 
 
 def test_hitting_the_box_fails_naming_the_arm_link(original):
