@@ -126,16 +126,18 @@ def test_command_takes_precedence_and_launch_without_package(tmp_path):
                 "wallTimeout": 7,
             },
             {"name": "c", "scenario": "config.json"},
+            {"name": "d", "scenario": "config.json", "ros2Launch": "d.py", "wall_timeout": 8},
         ],
     }
     (tmp_path / "run.yaml").write_text(yaml.safe_dump(runner))
     config = load_run_file(tmp_path / "run.yaml")
-    a, b, c = config.simulations
+    a, b, c, d = config.simulations
     assert config.workers == 3
     assert a.client.command == ("python3", "my_client.py", "--fast", "two words")
     assert a.client.env == {"X": "1"}
     assert b.client.command == ("ros2", "launch", "/abs/demo.launch.py")
     assert b.client.wall_timeout == 7.0
+    assert d.client.wall_timeout == 8.0  # our snake_case spelling of the same option
     assert c.client is None
     assert c.sim_time_limit == c.scenario.duration == 10.0
 

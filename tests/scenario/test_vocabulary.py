@@ -2,12 +2,14 @@
 ``position``, and one validator (the JSON Schema) for the logging section in both spellings
 of the Seq API key."""
 
+import json
+
 import pytest
 
 from harness import cli
 from harness.events import SeqSink, SinkSpec
 from harness.models import load_robot
-from harness.scenario import Scenario, ScenarioError
+from harness.scenario import Scenario, ScenarioError, load_run_file
 from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
 
 
@@ -69,3 +71,11 @@ def test_serve_and_replay_accept_the_same_spellings(capsys):
         cli.main(["serve", "--mode", "servo"])
     assert info.value.code == 2
     assert "invalid choice: 'servo'" in capsys.readouterr().err
+
+
+def test_runner_wall_timeout_in_one_spelling_at_a_time(tmp_path):
+    (tmp_path / "s.yaml").write_text("robots: [{robot: demo}]\n")
+    sim = {"scenario": "s.yaml", "command": "true", "wall_timeout": 5, "wallTimeout": 6}
+    (tmp_path / "run.json").write_text(json.dumps({"simulations": [sim]}))
+    with pytest.raises(ScenarioError, match=r"give only one of 'wall_timeout' and 'wallTimeout'"):
+        load_run_file(tmp_path / "run.json")
