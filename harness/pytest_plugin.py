@@ -392,7 +392,7 @@ def _scenario_options(path: Path) -> dict[str, Any]:
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode
-        options["kinematic_limits"] = controllers[0].beyond_limits
+        options["kinematic_limits"] = controllers[0].kinematic_limits
     elif controllers:
         options["mode"] = {j: c.mode for c in controllers for j in c.joints}
     for logger in spec.loggers:

@@ -78,11 +78,13 @@ class Subscriber:
 
 @dataclass(frozen=True)
 class Controller:
-    """Control mode for ``joints`` (empty = every joint of the robot)."""
+    """Control mode for ``joints`` (empty = every joint of the robot); ``kinematic_limits``:
+    kinematic commands beyond a limit are clamped or allowed (the file may spell it
+    ``beyond_limits``, its earlier name)."""
 
     mode: ControlMode
     joints: tuple[str, ...] = ()
-    beyond_limits: Literal["clamp", "allow"] = "clamp"
+    kinematic_limits: Literal["clamp", "allow"] = "clamp"
 
 
 @dataclass(frozen=True)
@@ -424,7 +426,7 @@ class _Builder:
                 Controller(
                     mode=ControlMode.parse(c["mode"]),
                     joints=tuple(c.get("joints", ())),
-                    beyond_limits=c.get("beyond_limits", "clamp"),
+                    kinematic_limits=c.get("kinematic_limits", c.get("beyond_limits", "clamp")),
                 )
                 for c in data.get("controllers", [])
             ),

@@ -246,7 +246,7 @@ def test_schema_and_dataclasses_agree():
     assert _props("environment") == _fields(sc.Environment)
     assert _props("robot") == _fields(sc.RobotSpec) - {"named"}
     assert _props("subscriber") == _fields(sc.Subscriber)
-    assert _props("controller") - {"type"} == _fields(sc.Controller)
+    assert _props("controller") - {"type", "beyond_limits"} == _fields(sc.Controller)
     assert _props("object") == _fields(sc.SceneObject)
     assert _props("recording") == _fields(sc.Recording)
     assert _props("criteria") == _fields(sc.Criteria)

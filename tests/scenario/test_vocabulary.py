@@ -79,3 +79,12 @@ def test_runner_wall_timeout_in_one_spelling_at_a_time(tmp_path):
     (tmp_path / "run.json").write_text(json.dumps({"simulations": [sim]}))
     with pytest.raises(ScenarioError, match=r"give only one of 'wall_timeout' and 'wallTimeout'"):
         load_run_file(tmp_path / "run.json")
+
+
+def test_kinematic_limits_is_spelled_as_in_session_marker_and_cli():
+    for key in ("kinematic_limits", "beyond_limits"):
+        doc = {"robots": [{"robot": "demo", "controllers": [{"mode": "kinematic", key: "allow"}]}]}
+        assert Scenario.from_mapping(doc).robots[0].controllers[0].kinematic_limits == "allow"
+    both = {"mode": "kinematic", "kinematic_limits": "allow", "beyond_limits": "clamp"}
+    with pytest.raises(ScenarioError, match="give only one of 'kinematic_limits' and 'beyond_l"):
+        Scenario.from_mapping({"robots": [{"robot": "demo", "controllers": [both]}]})
