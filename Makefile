@@ -7,7 +7,7 @@ NODE_DIR := tests/node
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test bench bench-quick fuzz lint install node-deps system-deps clean
+.PHONY: demo test bench bench-quick bench-readme goldens fuzz lint install node-deps system-deps clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -53,11 +53,21 @@ lint: install
 test: install node-deps system-deps lint
 	$(PY) -m pytest -n 2 $(PYTEST_ARGS)
 
+# `make bench` prints the table and writes bench/results/latest.json (no tracked file changes);
+# `make bench-readme` runs it and also rewrites the README's benchmark table.
 bench: install
 	$(PY) bench/run.py
 
 bench-quick: install
 	$(PY) bench/run.py --quick
+
+bench-readme: install
+	$(PY) bench/run.py --readme
+
+# Re-record the golden recordings of the bundled scenarios (recordings/scenarios/*.mcap) after
+# an intended behaviour change; `make test` checks them (tests/goldens).
+goldens: install
+	$(PY) -m harness.scenario.goldens --update
 
 # Longer fuzzing than `make test` runs: hypothesis with more examples, then atheris
 # (coverage-guided) on each target for two minutes.

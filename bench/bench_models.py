@@ -1,9 +1,9 @@
 """Cold start: a fresh interpreter imports harness.models, loads the demo robot and compiles it.
 
 Judged against a bare interpreter that only imports mujoco and compiles the same model from
-an MJCF string (the floor any loader stands on), measured in the same run; target < 300 ms
-absolute. Printed beside the original framework's start-up per run (Unreal 6.0-6.8 s,
-Gazebo 3.0-3.4 s, thesis table 5.4).
+an MJCF string (the floor any loader stands on), measured in the same run; target: at most
+twice the floor (ratio >= 0.5), whatever the machine. Printed beside the original framework's
+start-up per run (Unreal 6.0-6.8 s, Gazebo 3.0-3.4 s, thesis table 5.4).
 """
 
 from __future__ import annotations
@@ -22,6 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 OURS = "from harness.models import load_robot; load_robot('demo')"
 LIMIT = "import sys, mujoco; mujoco.MjModel.from_xml_string(open(sys.argv[1]).read())"
+MIN_RATIO = 0.5
+"""Cold start may take at most twice the bare ``import mujoco`` + compile of the same model."""
 UNREAL = (6.0, 6.8)
 GAZEBO = (3.0, 3.4)
 
@@ -59,8 +61,8 @@ def run(quick: bool) -> list[Row]:
             ours=ours * 1e3,
             limit=limit * 1e3,
             unit="ms",
-            target="< 300 ms",
-            passed=ours < 0.3,
+            target=f"ratio >= {MIN_RATIO} (<= {1 / MIN_RATIO:g}x bare mujoco)",
+            passed=limit / ours >= MIN_RATIO,
             higher_is_better=False,
             note=note,
         )

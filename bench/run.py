@@ -1,13 +1,15 @@
 """Run every benchmark in ``bench/`` (or those named) and print one table of ratios.
 
-python bench/run.py [--quick] [--json PATH] [--readme PATH | --no-readme] [NAME ...]
+python bench/run.py [--quick] [--json PATH] [--readme [PATH]] [NAME ...]
 
 Each ``bench_<name>.py`` runs in its own interpreter (a crash, a hang or leftover memory in
 one cannot spoil the others; a module that fails becomes a failed row naming the error) with a
 time limit. The table goes to stdout, the rows and the machine to JSON (default
-``bench/results/latest.json``, or ``latest-quick.json`` with ``--quick``), and, when every
-benchmark ran, to the README section between the ``bench-table`` markers. Exit status 0 when
-every row met its target, 1 otherwise.
+``bench/results/latest.json``, or ``latest-quick.json`` with ``--quick``; untracked); no
+tracked file changes. With ``--readme`` (``make bench-readme``), when every benchmark ran, the
+table also replaces the README section between the ``bench-table`` markers. Every target is a
+ratio against a limit measured in the same run, so the exit status (0 when every row met its
+target, 1 otherwise) says whether the product is as good as it claims on this machine.
 """
 
 from __future__ import annotations
@@ -88,8 +90,14 @@ def main() -> int:
     parser.add_argument("names", nargs="*", help="benchmark module names (bench_<name>.py)")
     parser.add_argument("--quick", action="store_true", help="shorter runs (a few minutes)")
     parser.add_argument("--json", type=Path, default=None, help="where to write the rows")
-    parser.add_argument("--readme", type=Path, default=ROOT / "README.md")
-    parser.add_argument("--no-readme", action="store_true", help="leave the README alone")
+    parser.add_argument(
+        "--readme",
+        type=Path,
+        nargs="?",
+        const=ROOT / "README.md",
+        default=None,
+        help="also rewrite the benchmark table of this README (default README.md)",
+    )
     parser.add_argument("--child", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -134,7 +142,9 @@ def main() -> int:
         + "\n"
     )
     print(f"JSON: {json_path}")
-    if not args.names and not args.no_readme and args.readme.exists():
+    if args.readme is not None and args.names:
+        print("README not updated: a partial run (benchmarks named)")
+    elif args.readme is not None and args.readme.exists():
         header = f"Latest run: {kind}, {when}, {total / 60:.1f} min, on {host}."
         if update_readme(args.readme, rows, header):
             print(f"README table updated: {args.readme}")

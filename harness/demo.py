@@ -43,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import ConfigError, SimulationError
-from harness.models.description import CONTROL_MODES, ControlMode
+from harness.models.description import CONTROL_MODE_INPUTS, CONTROL_MODES, ControlMode
 
 if TYPE_CHECKING:
     from harness.replay import Finding, ResimReport
@@ -191,7 +191,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--mode",
-        choices=CONTROL_MODES,
+        choices=CONTROL_MODE_INPUTS,
         action="append",
         help="only this mode in the per-mode proof (repeatable)",
     )
@@ -260,7 +260,7 @@ class _Proof:
 
 def run(args: argparse.Namespace) -> int:
     """The showcase (see the module docstring); exit 0 when every check held."""
-    modes: tuple[ControlMode, ...] = tuple(args.mode or CONTROL_MODES)
+    modes = tuple(dict.fromkeys(ControlMode.parse(m) for m in args.mode or CONTROL_MODES))
     if args.worker:
         print(json.dumps(_as_json([run_mode(m, args.seconds) for m in modes])))
         return 0
@@ -316,7 +316,7 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
     config = load_run_file(scenario_path)
     scenario = config.simulations[0].scenario
     robot = scenario.robots[0]
-    recorded_modes = {c.mode for c in robot.controllers} or {"position"}
+    recorded_modes = {c.mode for c in robot.controllers} or {ControlMode.POSITION}
     other: ResimMode = "dynamic" if recorded_modes == {"kinematic"} else "kinematic"
     print(
         f"harness demo: {scenario.name}: {scenario.description}\n"

@@ -36,7 +36,9 @@ Marker keys: ``robot`` (``"demo"``, a model path; relative paths resolve against
 file's folder), ``scenario`` (a scenario file: robot, scene, control modes, seed and collision
 logger options from it; marker keys win), ``mode`` (a control mode or joint -> mode),
 ``clock`` (default ``lockstep``), ``scene``, ``collisions`` (``CollisionLogger`` keyword
-arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False), and
+arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False; its
+default ``tolerance`` is the solver's soft-limit zone of each joint,
+:func:`harness.events.solver_limit_tolerance`, as in ``harness run``'s verdicts), and
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``. Markers on the module/class/function merge, the closest wins.
@@ -45,9 +47,12 @@ Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir`
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
 ``--harness-keep-recordings {always,failed,never}`` (default ``failed``),
 ``--harness-update-goldens``, ``--harness-strict-bridge`` (a test whose bridge answered a
-client with an error ``status`` fails), ``--harness-mode {kinematic,dynamic}`` (run every
-session in kinematic or in dynamic control: dynamic keeps a test's own dynamic modes and turns
-kinematic ones into position control), ``--harness-golden-dir`` (default ``recordings``).
+client with an error ``status`` fails), ``--harness-mode {kinematic,position,dynamic}`` (run
+every session in kinematic or in dynamic control: ``position``, or its alias ``dynamic``, keeps
+a test's own dynamic modes and turns kinematic ones into position control),
+``--harness-golden-dir`` (default ``recordings``). Control modes are
+:class:`harness.vocabulary.ControlMode`: ``kinematic | position | velocity | effort``, with
+``dynamic`` accepted everywhere (marker, option, scenario) as ``position``.
 
 On failure the report gets a ``harness`` section: the recording's path, the
 ``harness replay`` command, the collision/joint-limit/log event summary, bridge errors and the
@@ -72,6 +77,8 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
+
 if TYPE_CHECKING:
     from harness.events import CollectingSink
     from harness.replay import DiffEntry, DiffReport
@@ -86,11 +93,18 @@ __all__ = [
     "HarnessSettings",
     "SessionFactory",
     "mode_label",
+    "parse_mode",
     "suite_mode",
 ]
 
 KEEP_CHOICES = ("always", "failed", "never")
-MODE_CHOICES = ("kinematic", "dynamic")
+MODE_CHOICES = tuple(
+    m
+    for m in CONTROL_MODE_INPUTS
+    if ControlMode(m) in (ControlMode.KINEMATIC, ControlMode.POSITION)
+)
+"""``--harness-mode``: ``kinematic`` (every joint), or ``position`` (alias ``dynamic``: every
+kinematic joint becomes a position servo, dynamic modes are kept)."""
 _SESSION_KEYS = (
     "rate",
     "namespace",
@@ -117,12 +131,11 @@ MARKER_KEYS = frozenset(
     }
 )
 """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept."""
-_DYNAMIC = ("position", "velocity", "effort")
+_DYNAMIC = (ControlMode.POSITION, ControlMode.VELOCITY, ControlMode.EFFORT)
 _PLUGIN_MODULE = "harness.pytest_plugin"
 _DEFAULT_RECORD_DIR = ".harness/recordings"
 _DEFAULT_GOLDEN_DIR = "recordings"
 _DEFAULT_MODE = "position"  # harness.models.load_robot's control default
-_JOINT_LIMIT_TOLERANCE = 1e-4  # below it, an excess is servo/solver noise (rad, m, rad/s, m/s)
 
 
 class GoldenMismatch(AssertionError):
@@ -212,7 +225,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         group,
         "--harness-mode",
         "harness_mode",
-        "run every session in kinematic or dynamic control",
+        "run every session in kinematic control, or position (alias dynamic): every "
+        "kinematic joint a position servo",
         default="",
         choices=MODE_CHOICES,
     )
@@ -266,6 +280,7 @@ def pytest_configure(config: pytest.Config) -> None:
         "the harness_session fixture (see harness.pytest_plugin)",
     )
     mode = _choice(config, "harness_mode", ("", *MODE_CHOICES), "")
+    mode = ControlMode.parse(mode).value if mode else ""  # one spelling: dynamic is position
     record_dir = _folder(config, "harness_record_dir", _DEFAULT_RECORD_DIR)
     worker = _worker_id(config)
     if worker is not None:
@@ -319,16 +334,29 @@ def _check_keys(where: str, options: Mapping[str, Any]) -> None:
         )
 
 
+def parse_mode(mode: Any, where: str = "harness option 'mode'") -> Any:
+    """A marker's ``mode`` (one mode or joint -> mode) with every spelling parsed
+    (``dynamic`` is ``position``): :class:`~harness.vocabulary.ControlMode` members."""
+    try:
+        if isinstance(mode, Mapping):
+            return {j: ControlMode.parse(m, f"{where}[{j!r}]") for j, m in mode.items()}
+        return None if mode is None else ControlMode.parse(mode, where)
+    except ValueError as exc:
+        pytest.fail(str(exc), pytrace=False)
+
+
 def suite_mode(mode: Any, suite: str | None) -> Any:
-    """The control mode a session runs in: the test's ``mode`` unless ``--harness-mode``
-    forces every joint kinematic, or every kinematic joint to position control."""
+    """The control mode a session runs in: the test's ``mode`` (parsed: ``dynamic`` is
+    ``position``) unless ``--harness-mode`` forces every joint kinematic, or every kinematic
+    joint to position control."""
+    mode = parse_mode(mode)
     if suite is None:
-        return mode if mode is not None else "position"
-    if suite == "kinematic":
-        return "kinematic"
+        return mode if mode is not None else ControlMode.POSITION
+    if ControlMode.parse(suite) is ControlMode.KINEMATIC:
+        return ControlMode.KINEMATIC
     if isinstance(mode, Mapping):
-        return {j: (m if m in _DYNAMIC else "position") for j, m in mode.items()}
-    return mode if mode in _DYNAMIC else "position"
+        return {j: (m if m in _DYNAMIC else ControlMode.POSITION) for j, m in mode.items()}
+    return mode if mode in _DYNAMIC else ControlMode.POSITION
 
 
 def _resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
@@ -364,7 +392,7 @@ def _scenario_options(path: Path) -> dict[str, Any]:
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode
-        options["kinematic_limits"] = controllers[0].beyond_limits
+        options["kinematic_limits"] = controllers[0].kinematic_limits
     elif controllers:
         options["mode"] = {j: c.mode for c in controllers for j in c.joints}
     for logger in spec.loggers:
@@ -474,11 +502,9 @@ class _TestRun:
             loggers.append(
                 lambda s: JointLimitLogger(
                     s.model,
-                    **{
-                        "velocity_limits": limits_of(s.description),
-                        "tolerance": _JOINT_LIMIT_TOLERANCE,
-                        **jl,
-                    },
+                    # tolerance: the solver's soft-limit zone per joint unless the marker's
+                    # joint_limits gives one (harness.events.solver_limit_tolerance)
+                    **{"velocity_limits": limits_of(s.description), **jl},
                 )
             )
         sink = CollectingSink()

@@ -10,7 +10,12 @@ typed events to every :class:`~harness.events.sinks.Sink`. At the end of the run
 from __future__ import annotations
 
 from harness.events.collision import CollisionLogger
-from harness.events.config import LoggingConfig, SinkSpec, logging_config_from_scene
+from harness.events.config import (
+    LOGGING_SCHEMA,
+    LoggingConfig,
+    SinkSpec,
+    logging_config_from_scene,
+)
 from harness.events.errors import LoggerConfigError, SinkError
 from harness.events.events import (
     CollisionBegin,
@@ -23,7 +28,12 @@ from harness.events.events import (
     NearMiss,
     VelocityLimitExceeded,
 )
-from harness.events.joints import JointLimitLogger, JointLogger, velocity_limits
+from harness.events.joints import (
+    JointLimitLogger,
+    JointLogger,
+    solver_limit_tolerance,
+    velocity_limits,
+)
 from harness.events.logger import EventHub, Logger, StepContext, period_ns_from_hz
 from harness.events.sinks import (
     CollectingSink,
@@ -38,6 +48,7 @@ from harness.events.sinks import (
 )
 
 __all__ = [
+    "LOGGING_SCHEMA",
     "CollectingSink",
     "CollisionBegin",
     "CollisionEnd",
@@ -68,5 +79,6 @@ __all__ = [
     "create_sink",
     "logging_config_from_scene",
     "period_ns_from_hz",
+    "solver_limit_tolerance",
     "velocity_limits",
 ]

@@ -6,28 +6,47 @@
 ```
 
 ``frequency`` is the joint logger's rate in Hz of *simulation* time. As a superset,
-``destination`` may also be a list, and ``type`` any sink name (``jsonl``, ``logging``, ...)
-whose other keys are that sink's options. Every other key is rejected with its key path.
+``destination`` may also be a list, and ``type`` any sink name (``JsonLines``/``jsonl``,
+``Logging``, a registered entry point, ...) whose other keys are that sink's options. The Seq
+API key is ``api_key`` (our spelling) or ``apiKey`` (the original's).
+
+One validator: :data:`LOGGING_SCHEMA` (``logging.schema.json``, which the scenario schema
+references for its ``logging`` key) is the only description of the keys; this module checks
+only what a schema cannot (the sink name is registered) and builds :class:`LoggingConfig`.
 """
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from harness.events.errors import LoggerConfigError
 from harness.events.sinks import Sink, available_sinks, create_sink
-from harness.events.sinks.seq import clef_url
+from harness.validation import format_path, schema_problems
 
-__all__ = ["DEFAULT_FREQUENCY_HZ", "LoggingConfig", "SinkSpec", "logging_config_from_scene"]
+__all__ = [
+    "DEFAULT_FREQUENCY_HZ",
+    "LOGGING_SCHEMA",
+    "LoggingConfig",
+    "SinkSpec",
+    "logging_config_from_scene",
+]
 
 DEFAULT_FREQUENCY_HZ = 1.0
 """The original framework's joint-logging rate (there: about once per wall-clock second)."""
 
-_SECTION_KEYS = ("enable", "frequency", "destination")
-_SEQ_KEYS = ("type", "endpoint", "apiKey")
+LOGGING_SCHEMA: dict[str, Any] = json.loads(
+    resources.files("harness.events").joinpath("logging.schema.json").read_text("utf-8")
+)
+"""The JSON Schema of the ``logging`` section (``$id`` ends in ``logging.schema.json``)."""
+
+_SINK_NAMES = {"jsonlines": "jsonl"}  # the scenario files' type names -> registered sink names
+_OPTION_NAMES = {"apiKey": "api_key"}  # the original's camelCase -> our keyword
 
 
 @dataclass(frozen=True)
@@ -56,71 +75,48 @@ class LoggingConfig:
         return [spec.create() for spec in self.destinations] if self.enable else []
 
 
-def _fail(path: str, problem: str) -> LoggerConfigError:
-    return LoggerConfigError(f"{path}: {problem}")
-
-
-def _check_keys(section: Mapping[str, Any], allowed: Sequence[str], path: str) -> None:
-    for key in section:
-        if key not in allowed:
-            raise _fail(f"{path}.{key}", f"unknown key (allowed: {', '.join(allowed)})")
-
-
-def _destination(item: Any, path: str) -> SinkSpec:
-    if not isinstance(item, Mapping):
-        raise _fail(path, f"must be an object, got {type(item).__name__}")
-    kind = item.get("type")
-    if not isinstance(kind, str) or not kind:
-        raise _fail(f"{path}.type", "required: a sink name such as 'Seq'")
-    name = kind.lower()
+def _destination(item: Mapping[str, Any], path: list[str | int], base: Path | None) -> SinkSpec:
+    kind = str(item["type"])
+    name = _SINK_NAMES.get(kind.lower(), kind.lower())
     if name not in available_sinks():
-        raise _fail(
-            f"{path}.type", f"unknown sink {kind!r} (known: {', '.join(available_sinks())})"
+        raise LoggerConfigError(
+            f"{format_path([*path, 'type'])}: unknown sink {kind!r} "
+            f"(known: Seq, JsonLines, Logging, {', '.join(available_sinks())})"
         )
-    if name != "seq":
-        return SinkSpec(name, tuple((k, v) for k, v in item.items() if k != "type"))
-    _check_keys(item, _SEQ_KEYS, path)
-    endpoint = item.get("endpoint", "http://localhost:5341")
-    if not isinstance(endpoint, str):
-        raise _fail(f"{path}.endpoint", f"must be a URL string, got {endpoint!r}")
-    try:
-        clef_url(endpoint)
-    except LoggerConfigError:
-        raise _fail(f"{path}.endpoint", f"must be an http(s) URL, got {endpoint!r}") from None
-    options: list[tuple[str, Any]] = [("endpoint", endpoint)]
-    if "apiKey" in item:
-        key = item["apiKey"]
-        if not isinstance(key, str):
-            raise _fail(f"{path}.apiKey", "must be a string")
-        options.append(("api_key", key))
-    return SinkSpec("seq", tuple(options))
+    options: dict[str, Any] = {}
+    for key, value in item.items():
+        if key == "type":
+            continue
+        if key == "path" and base is not None:
+            value = str((base / str(value)).resolve())
+        options[_OPTION_NAMES.get(key, key)] = value
+    return SinkSpec(name, tuple(options.items()))
 
 
-def logging_config_from_scene(section: Any, *, path: str = "logging") -> LoggingConfig:
-    """Parse the scene config's ``logging`` section (``path``: its key path, for messages).
-
-    Raises :class:`LoggerConfigError` naming the key path of the first bad value.
-    """
-    if not isinstance(section, Mapping):
-        raise _fail(path, f"must be an object, got {type(section).__name__}")
-    _check_keys(section, _SECTION_KEYS, path)
-    enable = section.get("enable", True)
-    if not isinstance(enable, bool):
-        raise _fail(f"{path}.enable", f"must be true or false, got {enable!r}")
-    frequency = section.get("frequency", DEFAULT_FREQUENCY_HZ)
-    if (
-        isinstance(frequency, bool)
-        or not isinstance(frequency, (int, float))
-        or not math.isfinite(frequency)
-        or frequency <= 0
-    ):
-        raise _fail(f"{path}.frequency", f"must be a positive number (Hz), got {frequency!r}")
+def logging_config_from_scene(
+    section: Any, *, path: str = "logging", base_dir: Path | None = None
+) -> LoggingConfig:
+    """Validate the scene config's ``logging`` section against :data:`LOGGING_SCHEMA` and
+    build it (``path``: its key path, for messages; ``base_dir``: where relative sink paths
+    resolve). Raises :class:`LoggerConfigError` listing every problem with its key path."""
+    where, _, key = path.rpartition(": ")
+    prefix: list[str | int] = [key or path]
+    problems = schema_problems(section, LOGGING_SCHEMA, where, path=prefix)
+    frequency = section.get("frequency") if isinstance(section, Mapping) else None
+    if isinstance(frequency, float) and not math.isfinite(frequency):  # not JSON: no schema
+        problems.append(f"{format_path([*prefix, 'frequency'])}: must be a finite number")
+    if problems:
+        raise LoggerConfigError("; ".join(problems))
     raw = section.get("destination", [])
     items = raw if isinstance(raw, list) else [raw]
-    if isinstance(raw, list):
-        specs = tuple(
-            _destination(item, f"{path}.destination[{i}]") for i, item in enumerate(items)
+    specs = tuple(
+        _destination(
+            item, [*prefix, "destination", *([i] if isinstance(raw, list) else [])], base_dir
         )
-    else:
-        specs = (_destination(raw, f"{path}.destination"),)
-    return LoggingConfig(enable=enable, frequency_hz=float(frequency), destinations=specs)
+        for i, item in enumerate(items)
+    )
+    return LoggingConfig(
+        enable=section.get("enable", True),
+        frequency_hz=float(section.get("frequency", DEFAULT_FREQUENCY_HZ)),
+        destinations=specs,
+    )

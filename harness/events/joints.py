@@ -20,7 +20,13 @@ from harness.events.events import Event, JointLimitViolation, JointSample, Veloc
 from harness.events.logger import StepContext, period_ns_from_hz
 from harness.models.description import RobotModel
 
-__all__ = ["JointLimitLogger", "JointLogger", "scalar_joints", "velocity_limits"]
+__all__ = [
+    "JointLimitLogger",
+    "JointLogger",
+    "scalar_joints",
+    "solver_limit_tolerance",
+    "velocity_limits",
+]
 
 _SCALAR = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -32,6 +38,22 @@ def scalar_joints(model: mujoco.MjModel) -> list[str]:
         for j in range(model.njnt)
         if int(model.jnt_type[j]) in _SCALAR and model.joint(j).name
     ]
+
+
+def solver_limit_tolerance(model: mujoco.MjModel, joint: int | str) -> float:
+    """How far MuJoCo's solver lets ``joint`` sit beyond its position limit by design: the
+    limit's ``margin`` plus its soft-constraint width ``solimp[2]``.
+
+    MuJoCo's limits are soft constraints: the constraint's impedance ramps from ``solimp[0]``
+    to ``solimp[1]`` over the first ``solimp[2]`` of penetration (MuJoCo's default: 0.001, in
+    the joint's unit: rad or m), so a joint held against its limit by an actuator or a contact
+    rests slightly inside that zone (the demo gripper at its stop: about 1e-6 m). An excess
+    within it is the solver working as configured; beyond it the limit was really broken. The
+    same value is the default tolerance of :class:`JointLimitLogger`, of the pytest plugin's
+    joint-limit logger and of the scenario runner's ``joint_limits`` verdict.
+    """
+    jid = joint if isinstance(joint, int) else model.joint(joint).id
+    return float(model.jnt_margin[jid] + model.jnt_solimp[jid][2])
 
 
 def velocity_limits(robot: RobotModel) -> dict[str, float]:
@@ -132,7 +154,7 @@ class _Watch:
         excess: npt.NDArray[np.float64],
         limit: npt.NDArray[np.float64],
         value: npt.NDArray[np.float64],
-        tolerance: float,
+        tolerance: float | npt.NDArray[np.float64],
         kind: type[JointLimitViolation] | type[VelocityLimitExceeded],
     ) -> list[Event]:
         over = excess > tolerance
@@ -192,7 +214,10 @@ class _Watch:
 class JointLimitLogger:
     """Limit violations (position outside the range of a limited joint) and velocity-limit
     excesses (``|qvel| > velocity_limits[joint]``), checked every step, of ``joints``
-    (default: every hinge and slide joint). An excess counts when it is above ``tolerance``.
+    (default: every hinge and slide joint). An excess counts when it is above ``tolerance``;
+    ``None`` (the default): a position excess counts beyond the solver's own soft-limit zone
+    (:func:`solver_limit_tolerance`, per joint) and a velocity excess (MuJoCo does not enforce
+    velocity limits, no solver softness is involved) beyond 0.
     Each episode gives one event when it ends (``end_step``: first step back within limits)."""
 
     def __init__(
@@ -201,7 +226,7 @@ class JointLimitLogger:
         *,
         joints: Sequence[str] | None = None,
         velocity_limits: Mapping[str, float] | None = None,
-        tolerance: float = 0.0,
+        tolerance: float | None = None,
         name: str = "joint_limits",
     ) -> None:
         who = f"joint limit logger {name!r}"
@@ -215,6 +240,12 @@ class JointLimitLogger:
         ranges = np.asarray(model.jnt_range)[limited].reshape(-1, 2)
         self._lower = ranges[:, 0].copy()
         self._upper = ranges[:, 1].copy()
+        self._pos_tolerance: float | npt.NDArray[np.float64] = (
+            np.array([solver_limit_tolerance(model, j) for j in limited], dtype=np.float64)
+            if tolerance is None
+            else tolerance
+        )
+        self._vel_tolerance = 0.0 if tolerance is None else tolerance
         vel = dict(velocity_limits or {})
         unknown = sorted(set(vel) - set(names))
         if unknown:
@@ -245,12 +276,12 @@ class JointLimitLogger:
             below = self._lower - q
             excess = np.maximum(above, below)
             limit = np.where(above >= below, self._upper, self._lower)
-            out += self._pos.update(ctx, excess, limit, q, self.tolerance, JointLimitViolation)
+            out += self._pos.update(ctx, excess, limit, q, self._pos_tolerance, JointLimitViolation)
         if self._vel_dof.size:
             v = ctx.data.qvel[self._vel_dof]
             excess = np.abs(v) - self._vel_limit
             out += self._vel.update(
-                ctx, excess, self._vel_limit, v, self.tolerance, VelocityLimitExceeded
+                ctx, excess, self._vel_limit, v, self._vel_tolerance, VelocityLimitExceeded
             )
         return out
 

@@ -29,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models.assets import embed_files
-from harness.models.description import CONTROL_MODES, ControlMode, Pose, RobotModel
+from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.errors import (
     CompileError,
     MasslessLinkError,
@@ -263,13 +263,13 @@ def _mujoco_warnings() -> Iterator[None]:
 def _resolve_control(
     description: RobotModel,
     joint_names: set[str],
-    control: ControlMode | Mapping[str, ControlMode],
+    control: ControlMode | str | Mapping[str, ControlMode | str],
     source: str,
 ) -> dict[str, ControlMode]:
     controllable = [j.name for j in description.controllable_joints if j.name in joint_names]
     if isinstance(control, str):
-        _check_mode(control, "control")
-        return {name: control for name in controllable}
+        mode = _check_mode(control, "control")
+        return dict.fromkeys(controllable, mode)
     unknown = sorted(set(control) - set(controllable))
     if unknown:
         raise ModelStructureError(
@@ -278,17 +278,15 @@ def _resolve_control(
         )
     modes: dict[str, ControlMode] = {}
     for name in controllable:
-        mode = control.get(name, "position")
-        _check_mode(mode, f"control[{name!r}]")
-        modes[name] = mode
+        modes[name] = _check_mode(control.get(name, ControlMode.POSITION), f"control[{name!r}]")
     return modes
 
 
-def _check_mode(mode: object, where: str) -> None:
-    if mode not in CONTROL_MODES:
-        raise ModelStructureError(
-            f"{where}: unknown control mode {mode!r} (expected one of {', '.join(CONTROL_MODES)})"
-        )
+def _check_mode(mode: object, where: str) -> ControlMode:
+    try:
+        return ControlMode.parse(mode, where)
+    except ValueError as exc:
+        raise ModelStructureError(str(exc)) from None
 
 
 def _held_inertia(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -582,7 +580,7 @@ def _add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
 def load_robot(
     source: str | Path = "demo",
     *,
-    control: ControlMode | Mapping[str, ControlMode] = "position",
+    control: ControlMode | str | Mapping[str, ControlMode | str] = ControlMode.POSITION,
     scene: str | Path | None = None,
     packages: PackageMap | None = None,
     srdf: str | Path | None = None,
@@ -967,9 +965,9 @@ def _existing_control(
         if joint not in own:
             continue
         bias: Any = model.actuator_biasprm[a]
-        mode: ControlMode = "effort"
+        mode = ControlMode.EFFORT
         if model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE:
-            mode = "position" if bias[1] != 0 else "velocity"
+            mode = ControlMode.POSITION if bias[1] != 0 else ControlMode.VELOCITY
         joint = joint.removeprefix(prefix)
         modes[joint] = mode
         actuated.append(joint)

@@ -16,8 +16,12 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
+from harness.vocabulary import CONTROL_MODE_INPUTS, CONTROL_MODES, DYNAMIC_ALIAS, ControlMode
+
 __all__ = [
     "CONTROL_MODES",
+    "CONTROL_MODE_INPUTS",
+    "DYNAMIC_ALIAS",
     "ControlMode",
     "Geometry",
     "Inertial",
@@ -38,12 +42,6 @@ Quat = tuple[float, float, float, float]
 JointType = Literal[
     "revolute", "continuous", "prismatic", "fixed", "floating", "planar", "ball", "screw"
 ]
-ControlMode = Literal["kinematic", "position", "velocity", "effort"]
-"""How a controllable joint is driven: ``kinematic`` (qpos written before each step, qvel by
-finite difference) or dynamic through an actuator (``position`` servo, ``velocity`` servo,
-``effort`` motor)."""
-CONTROL_MODES: tuple[ControlMode, ...] = ("kinematic", "position", "velocity", "effort")
-
 GeometryKind = Literal["box", "cylinder", "sphere", "capsule", "ellipsoid", "plane", "mesh"]
 
 

@@ -113,7 +113,7 @@ class RobotSpec:
     source: str | Path = "demo"
     namespace: str | None = None
     pose: PoseLike = None
-    control: ControlMode | Mapping[str, ControlMode] = "position"
+    control: ControlMode | str | Mapping[str, ControlMode | str] = ControlMode.POSITION
     gains: Mapping[str, float] | None = None
     packages: PackageMap | None = None
     srdf: str | Path | None = None

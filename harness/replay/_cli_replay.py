@@ -8,7 +8,17 @@ import json
 import sys
 from pathlib import Path
 
+from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
+
 __all__ = ["add_arguments", "run"]
+
+RESIM_MODE_INPUTS = tuple(
+    m
+    for m in CONTROL_MODE_INPUTS
+    if ControlMode(m) in (ControlMode.KINEMATIC, ControlMode.POSITION)
+)
+"""The spellings ``--mode`` accepts: the re-simulation runs every joint kinematic or every
+joint a position servo (``dynamic``, the product's name for it, or ``position``)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,9 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--mode",
-        choices=("kinematic", "dynamic"),
+        choices=RESIM_MODE_INPUTS,
         default=None,
-        help="re-simulate the recorded joint commands with every joint in this mode",
+        help="re-simulate the recorded joint commands with every joint kinematic, or every "
+        "joint a position servo (position, or its alias dynamic)",
     )
     parser.add_argument("--report", type=Path, default=None, help="write the report as JSON")
     parser.add_argument(
@@ -47,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from harness.replay.progress import progress_bar
 
     if args.mode is not None:
-        from harness.replay.resim import Thresholds, resimulate
+        from harness.replay.resim import ResimMode, Thresholds, resimulate
 
         defaults = Thresholds()
         thresholds = Thresholds(
@@ -56,10 +67,13 @@ def run(args: argparse.Namespace) -> int:
                 for name, value in defaults._asdict().items()
             }
         )
-        with progress_bar(f"re-simulating ({args.mode})") as progress:
+        mode: ResimMode = (
+            "kinematic" if ControlMode.parse(args.mode) is ControlMode.KINEMATIC else "dynamic"
+        )
+        with progress_bar(f"re-simulating ({mode})") as progress:
             resim = resimulate(
                 args.file,
-                args.mode,
+                mode,
                 thresholds=thresholds,
                 allow_damaged=args.allow_damaged,
                 progress=progress,

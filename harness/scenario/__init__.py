@@ -20,6 +20,7 @@ from harness.scenario.results import (
     JointTrace,
     Traces,
     Verdict,
+    criteria_settings,
     judge,
 )
 from harness.scenario.runfile import RunConfig, SimulationPlan, load_run_file
@@ -67,6 +68,7 @@ __all__ = [
     "Traces",
     "Verdict",
     "check_runnable",
+    "criteria_settings",
     "iteration_specs",
     "judge",
     "judge_determinism",

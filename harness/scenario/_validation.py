@@ -1,24 +1,19 @@
-"""Validation of configuration documents against the shipped JSON Schemas.
-
-jsonschema finds every violation with its location; this module turns each one into a line
-naming the file, the key path (``robots[0].position``) and the offending value, and turns
-"additional property" errors into "unknown key ... (did you mean ...?)".
-"""
+"""Reading scenario and runner documents, and validating them against the shipped JSON
+Schemas (the messages: :mod:`harness.validation`)."""
 
 from __future__ import annotations
 
-import difflib
 import json
-from collections.abc import Iterable, Sequence
 from functools import cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import jsonschema  # type: ignore[import-untyped]
 import yaml  # type: ignore[import-untyped,unused-ignore]
 
+from harness import validation
 from harness.scenario.errors import ScenarioError
+from harness.validation import format_path
 
 __all__ = [
     "MAX_DOCUMENT_BYTES",
@@ -27,6 +22,7 @@ __all__ = [
     "load_document",
     "schema",
     "schema_problems",
+    "validator",
 ]
 
 MAX_DOCUMENT_BYTES = 4 * 2**20
@@ -98,77 +94,18 @@ def load_document(path: Path) -> Any:
     return data
 
 
-def format_path(parts: Iterable[str | int]) -> str:
-    """``["robots", 0, "position"]`` -> ``robots[0].position`` (``<root>`` when empty)."""
-    out = ""
-    for part in parts:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += f".{part}" if out else str(part)
-    return out or "<root>"
+def validator(schema_name: str) -> Any:
+    """A jsonschema validator of schema ``schema_name`` with the schemas it references."""
+    from harness.events.config import LOGGING_SCHEMA
 
-
-def _value(value: Any) -> str:
-    text = json.dumps(value, default=str)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _describe(error: Any, source: str) -> list[str]:
-    path = list(error.absolute_path)
-    where = f"{source}: {format_path(path)}"
-    if error.validator == "additionalProperties" and isinstance(error.instance, dict):
-        known = sorted(error.schema.get("properties", {}))
-        lines = []
-        for key in error.instance:
-            if key in known:
-                continue
-            guess = difflib.get_close_matches(str(key), known, n=1)
-            hint = (
-                f" (did you mean {guess[0]!r}?)" if guess else f" (known keys: {', '.join(known)})"
-            )
-            lines.append(f"{source}: {format_path([*path, key])}: unknown key{hint}")
-        return lines
-    if error.validator == "required":
-        missing = error.message.split("'")[1] if "'" in error.message else error.message
-        return [f"{where}: missing required key {missing!r}"]
-    if error.validator == "enum":
-        allowed = ", ".join(repr(v) for v in error.validator_value)
-        return [f"{where}: {_value(error.instance)} is not one of {allowed}"]
-    if error.validator == "const":
-        return [f"{where}: {_value(error.instance)} must be {error.validator_value!r}"]
-    if error.validator == "type":
-        wanted = error.validator_value
-        wanted = " or ".join(wanted) if isinstance(wanted, list) else wanted
-        return [f"{where}: {_value(error.instance)} is not of type {wanted}"]
-    if error.validator == "anyOf":
-        # Explain with the branch whose type matches the value, when there is one.
-        for sub in error.context or ():
-            if sub.validator != "type":
-                return _describe(sub, source)
-        kinds = [s.get("type", "?") for s in error.validator_value]
-        expected = " or ".join(kinds)
-        return [f"{where}: {_value(error.instance)} is not a valid value (expected {expected})"]
-    if error.validator == "exclusiveMinimum":
-        return [f"{where}: {_value(error.instance)} must be greater than {error.validator_value}"]
-    if error.validator == "minimum":
-        return [f"{where}: {_value(error.instance)} must be at least {error.validator_value}"]
-    if error.validator == "maximum":
-        return [f"{where}: {_value(error.instance)} must be at most {error.validator_value}"]
-    if error.validator in ("minItems", "maxItems"):
-        return [f"{where}: {_value(error.instance)} has the wrong length ({error.message})"]
-    if error.validator == "pattern":
-        return [f"{where}: {_value(error.instance)} does not match {error.validator_value!r}"]
-    return [f"{where}: {_value(error.instance)}: {error.message}"]
+    return validation.validator(schema(schema_name), [LOGGING_SCHEMA])
 
 
 def schema_problems(document: Any, schema_name: str, source: str) -> list[str]:
-    """Every violation of schema ``schema_name`` in ``document``, one line each, in key order."""
-    validator = jsonschema.Draft202012Validator(schema(schema_name))
-    errors: Sequence[Any] = sorted(
-        validator.iter_errors(document), key=lambda e: [str(p) for p in e.absolute_path]
+    """Every violation of schema ``schema_name`` in ``document``, one line each, in key order
+    (the scenario schema's ``logging`` section is :data:`harness.events.LOGGING_SCHEMA`)."""
+    from harness.events.config import LOGGING_SCHEMA
+
+    return validation.schema_problems(
+        document, schema(schema_name), source, resources=[LOGGING_SCHEMA]
     )
-    problems: list[str] = []
-    for error in errors:
-        problems.extend(_describe(error, source))
-    return problems

@@ -167,6 +167,14 @@ def summary_table(results: Sequence[IterationResult]) -> Table:
 def print_summary(results: Sequence[IterationResult], console: Console) -> None:
     """Print the summary table and a one-line total."""
     console.print(summary_table(results))
+    shown: dict[str, tuple[str, ...]] = {}
+    for r in results:
+        shown.setdefault(r.simulation, r.settings)
+    for simulation, settings in shown.items():
+        if settings:
+            console.print(f"verdict settings of {simulation}:", highlight=False)
+            for line in settings:
+                console.print(f"  {line}", highlight=False, markup=False, soft_wrap=True)
     passed = sum(r.passed for r in results)
     console.print(f"{passed}/{len(results)} iterations passed")
 
@@ -416,6 +424,12 @@ def _iteration_section(r: IterationResult) -> str:
         )
         client = f"<p>Client: {html.escape(r.client.reason)}{log}</p>"
     notes = "".join(f'<p class="note">Note: {html.escape(n)}</p>' for n in r.notes)
+    if r.settings:
+        items = "".join(f"<li>{html.escape(s)}</li>" for s in r.settings)
+        notes += (
+            '<details class="settings"><summary>Verdict settings</summary>'
+            f"<ul>{items}</ul></details>"
+        )
     plots = (
         _joint_plots(r.traces)
         if r.traces is not None and r.traces.time

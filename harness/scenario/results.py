@@ -27,6 +27,7 @@ __all__ = [
     "JointTrace",
     "Traces",
     "Verdict",
+    "criteria_settings",
     "judge",
 ]
 
@@ -65,7 +66,9 @@ class Verdict:
 @dataclass(frozen=True)
 class CollisionSummary:
     """One contact episode between two bodies, in simulation seconds (``end`` None: still in
-    contact when the run ended)."""
+    contact when the run ended). ``body1`` is a robot's body when either is. ``world``: neither
+    body is a robot's (a box on a table); ``initial``: the pair was in contact at the start
+    (the first step's contacts are those of the initial state)."""
 
     body1: str
     body2: str
@@ -73,6 +76,8 @@ class CollisionSummary:
     end: float | None
     peak_depth: float
     peak_force: float
+    world: bool = False
+    initial: bool = False
 
 
 @dataclass(frozen=True)
@@ -87,6 +92,9 @@ class JointLimitSummary:
     max_position: float
     max_excess: float
     violation_steps: int
+    tolerance: float = 0.0
+    """The excess the solver allows this joint (:func:`harness.events.solver_limit_tolerance`);
+    ``violation_steps`` counts the steps beyond it."""
 
 
 @dataclass(frozen=True)
@@ -159,6 +167,8 @@ class IterationResult:
     wall_seconds: float = 0.0
     error: str | None = None
     notes: tuple[str, ...] = ()
+    settings: tuple[str, ...] = ()
+    """The verdict settings in force, each with how to change it (:func:`criteria_settings`)."""
 
     @property
     def passed(self) -> bool:
@@ -197,6 +207,66 @@ def _pair_allowed(a: str, b: str, allowed: Sequence[tuple[str, str]]) -> bool:
     return False
 
 
+def judged_collisions(
+    criteria: Criteria, collisions: Sequence[CollisionSummary]
+) -> list[CollisionSummary]:
+    """The episodes the collision verdict concerns: a robot's contacts that began after the
+    start, unless the criteria also judge world-only or initial contacts."""
+    return [
+        c
+        for c in collisions
+        if (criteria.world_collisions or not c.world)
+        and (criteria.initial_contacts or not c.initial)
+    ]
+
+
+def criteria_settings(criteria: Criteria) -> tuple[str, ...]:
+    """Every verdict setting in force, one line each, with the scenario key that changes it."""
+    lines: list[str] = []
+    if not criteria.no_collisions:
+        lines.append("collisions: not judged (criteria.no_collisions: true judges them)")
+    else:
+        allowed = ", ".join(f"{a} - {b}" for a, b in criteria.allowed_collisions) or "none"
+        lines += [
+            "collisions: a robot's contacts fail the run (criteria.no_collisions: false "
+            "turns the verdict off)",
+            f"collisions: allowed pairs: {allowed} (criteria.allowed_collisions: [[a, b]], "
+            "shell-style patterns)",
+            (
+                "collisions: contacts between world objects only are recorded, not judged "
+                "(criteria.world_collisions: true judges them)"
+                if not criteria.world_collisions
+                else "collisions: contacts between world objects are judged too "
+                "(criteria.world_collisions: false records them only)"
+            ),
+            (
+                "collisions: contacts present at the start are not violations "
+                "(criteria.initial_contacts: true judges them)"
+                if not criteria.initial_contacts
+                else "collisions: contacts present at the start are judged too "
+                "(criteria.initial_contacts: false exempts them)"
+            ),
+        ]
+    if not criteria.joint_limits:
+        lines.append("joint limits: not judged (criteria.joint_limits: true judges them)")
+    elif criteria.joint_limit_tolerance is None:
+        lines.append(
+            "joint limits: tolerance per joint = the solver's soft-limit zone (limit margin + "
+            "solimp width; 0.001 by MuJoCo's default) (criteria.joint_limit_tolerance: X sets one)"
+        )
+    else:
+        lines.append(
+            f"joint limits: tolerance {criteria.joint_limit_tolerance:g} for every joint "
+            "(criteria.joint_limit_tolerance; remove it for the solver's own per joint)"
+        )
+    lines.append(
+        "determinism: "
+        + ("judged across iterations" if criteria.deterministic else "not judged")
+        + " (criteria.deterministic, or harness run --check-determinism)"
+    )
+    return tuple(lines)
+
+
 def judge(
     criteria: Criteria,
     client: ClientOutcome | None,
@@ -209,10 +279,9 @@ def judge(
     if client is not None:
         verdicts.append(Verdict("client", client.passed, client.reason))
     if criteria.no_collisions:
+        judged = judged_collisions(criteria, collisions)
         bad = [
-            c
-            for c in collisions
-            if not _pair_allowed(c.body1, c.body2, criteria.allowed_collisions)
+            c for c in judged if not _pair_allowed(c.body1, c.body2, criteria.allowed_collisions)
         ]
         if bad:
             first = bad[0]
@@ -222,17 +291,25 @@ def judge(
                 f"force {first.peak_force:.4g} N)"
             )
         else:
-            allowed = len(collisions)
+            allowed = len(judged)
             detail = "no collisions" if not allowed else f"only allowed collisions ({allowed})"
+            unjudged = len(collisions) - len(judged)
+            if unjudged:
+                detail += f"; {unjudged} world or initial contact(s) recorded, not judged"
         verdicts.append(Verdict("collisions", not bad, detail))
     if criteria.joint_limits:
-        tol = criteria.joint_limit_tolerance
-        bad_j = [j for j in joint_limits if j.max_excess > tol]
+        fixed = criteria.joint_limit_tolerance
+
+        def tolerance(j: JointLimitSummary) -> float:
+            return j.tolerance if fixed is None else fixed
+
+        bad_j = [j for j in joint_limits if j.max_excess > tolerance(j)]
         if bad_j:
-            worst = max(bad_j, key=lambda j: j.max_excess)
+            worst = max(bad_j, key=lambda j: j.max_excess - tolerance(j))
             detail = (
                 f"{len(bad_j)} joint(s) beyond limits; worst {worst.joint} by "
-                f"{worst.max_excess:.4g} for {worst.violation_steps} step(s)"
+                f"{worst.max_excess:.4g} (tolerance {tolerance(worst):.4g}) "
+                f"for {worst.violation_steps} step(s)"
             )
         else:
             detail = f"{len(joint_limits)} joint(s) within limits"

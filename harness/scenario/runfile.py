@@ -12,7 +12,8 @@ Runner config mapping (original key -> ours):
 - ``maxSimTime`` -> the sim-time limit (seconds of simulation time; default: the scenario's
   ``duration``).
 - ``restartBridge`` and ``ueProject`` are accepted and ignored, with a notice.
-- ours: ``workers`` (local worker processes), ``env``, ``wallTimeout``.
+- ours: ``workers`` (local worker processes), ``env``, ``wall_timeout`` (the scenario
+  client's spelling; ``wallTimeout`` accepted, as this format is camelCase).
 """
 
 from __future__ import annotations
@@ -138,6 +139,7 @@ def _client(sim: dict[str, Any], scenario: Scenario, base: Path) -> ClientSpec |
         client = replace(client, env={**client.env, **sim["env"]})
     if "timeout" in sim:
         client = replace(client, readiness_timeout=float(sim["timeout"]))
-    if "wallTimeout" in sim:
-        client = replace(client, wall_timeout=float(sim["wallTimeout"]))
+    wall_timeout = sim.get("wall_timeout", sim.get("wallTimeout"))
+    if wall_timeout is not None:
+        client = replace(client, wall_timeout=float(wall_timeout))
     return client

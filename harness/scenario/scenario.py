@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from harness.events.config import LoggingConfig, logging_config_from_scene
+from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
@@ -36,11 +38,9 @@ __all__ = [
     "CollisionLoggerSpec",
     "Controller",
     "Criteria",
-    "Destination",
     "Environment",
     "JointLoggerSpec",
     "LoggerSpec",
-    "LoggingConfig",
     "Recording",
     "RobotSpec",
     "Scenario",
@@ -78,11 +78,13 @@ class Subscriber:
 
 @dataclass(frozen=True)
 class Controller:
-    """Control mode for ``joints`` (empty = every joint of the robot)."""
+    """Control mode for ``joints`` (empty = every joint of the robot); ``kinematic_limits``:
+    kinematic commands beyond a limit are clamped or allowed (the file may spell it
+    ``beyond_limits``, its earlier name)."""
 
     mode: ControlMode
     joints: tuple[str, ...] = ()
-    beyond_limits: Literal["clamp", "allow"] = "clamp"
+    kinematic_limits: Literal["clamp", "allow"] = "clamp"
 
 
 @dataclass(frozen=True)
@@ -146,24 +148,7 @@ class Bridge:
     port: int = 9090
 
 
-@dataclass(frozen=True)
-class Destination:
-    """A log sink of the original ``logging`` section (type Seq) or one of ours."""
-
-    type: Literal["Seq", "JsonLines", "Logging"]
-    endpoint: str | None = None
-    api_key: str | None = None
-    path: Path | None = None
-    logger: str | None = None
-
-
-@dataclass(frozen=True)
-class LoggingConfig:
-    """The original ``logging`` section: ``frequency`` is the joint log rate in sim Hz."""
-
-    enable: bool = False
-    frequency: float = 1.0
-    destination: Destination | None = None
+_LOGGING_OFF = LoggingConfig(enable=False)  # a scenario without a logging section
 
 
 @dataclass(frozen=True)
@@ -198,12 +183,23 @@ class Recording:
 
 @dataclass(frozen=True)
 class Criteria:
-    """Pass/fail criteria judged on every iteration."""
+    """Pass/fail criteria judged on every iteration; the defaults pass a correct run.
+
+    ``no_collisions``: a robot's contacts fail the run, except ``allowed_collisions`` (body
+    pairs, shell-style patterns), contacts between world objects only (a box resting on a
+    table: recorded, judged only with ``world_collisions``) and contacts present at the start
+    (a robot resting on its table: judged only with ``initial_contacts``).
+    ``joint_limit_tolerance``: how far beyond a position limit a joint may go; ``None`` (the
+    default) is the solver's own soft-limit zone of each joint
+    (:func:`harness.events.solver_limit_tolerance`). See :func:`criteria_settings`.
+    """
 
     no_collisions: bool = True
     allowed_collisions: tuple[tuple[str, str], ...] = ()
+    world_collisions: bool = False
+    initial_contacts: bool = False
     joint_limits: bool = True
-    joint_limit_tolerance: float = 0.0
+    joint_limit_tolerance: float | None = None
     deterministic: bool = False
 
 
@@ -230,7 +226,7 @@ class Scenario:
     environment: Environment = Environment()
     description: str = ""
     bridge: Bridge = Bridge()
-    logging: LoggingConfig = LoggingConfig()
+    logging: LoggingConfig = _LOGGING_OFF
     timestep: float = 0.002
     duration: float = 10.0
     seed: int = 0
@@ -312,7 +308,7 @@ class _Builder:
                 ip=ros_bridge.get("ip", "127.0.0.1"),
                 port=self.port(ros_bridge.get("port", 9090)),
             ),
-            logging=self.logging(data.get("logging", {})),
+            logging=self.logging(data.get("logging")),
             timestep=float(data.get("timestep", 0.002)),
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
@@ -326,8 +322,14 @@ class _Builder:
             criteria=Criteria(
                 no_collisions=crit.get("no_collisions", True),
                 allowed_collisions=tuple((a, b) for a, b in crit.get("allowed_collisions", [])),
+                world_collisions=crit.get("world_collisions", False),
+                initial_contacts=crit.get("initial_contacts", False),
                 joint_limits=crit.get("joint_limits", True),
-                joint_limit_tolerance=float(crit.get("joint_limit_tolerance", 0.0)),
+                joint_limit_tolerance=(
+                    None
+                    if crit.get("joint_limit_tolerance") is None
+                    else float(crit["joint_limit_tolerance"])
+                ),
                 deterministic=crit.get("deterministic", False),
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
@@ -422,9 +424,9 @@ class _Builder:
             ),
             controllers=tuple(
                 Controller(
-                    mode="position" if c["mode"] == "dynamic" else c["mode"],
+                    mode=ControlMode.parse(c["mode"]),
                     joints=tuple(c.get("joints", ())),
-                    beyond_limits=c.get("beyond_limits", "clamp"),
+                    kinematic_limits=c.get("kinematic_limits", c.get("beyond_limits", "clamp")),
                 )
                 for c in data.get("controllers", [])
             ),
@@ -459,27 +461,15 @@ class _Builder:
             near_miss_distance=None if near is None else float(near),
         )
 
-    def logging(self, data: dict[str, Any]) -> LoggingConfig:
-        dest = data.get("destination")
-        destination = None
-        if dest is not None:
-            needs = {"Seq": "endpoint", "JsonLines": "path", "Logging": None}[dest["type"]]
-            if needs is not None and needs not in dest:
-                self.problem(
-                    ["logging", "destination"], dest, f"needs {needs!r} for type {dest['type']}"
-                )
-            destination = Destination(
-                type=dest["type"],
-                endpoint=dest.get("endpoint"),
-                api_key=dest.get("api_key"),
-                path=(self.base / dest["path"]).resolve() if "path" in dest else None,
-                logger=dest.get("logger"),
-            )
-        return LoggingConfig(
-            enable=data.get("enable", False),
-            frequency=float(data.get("frequency", 1.0)),
-            destination=destination,
-        )
+    def logging(self, data: dict[str, Any] | None) -> LoggingConfig:
+        """The ``logging`` section (schema-valid already): logging off without one."""
+        if data is None:
+            return _LOGGING_OFF
+        try:
+            return logging_config_from_scene(data, base_dir=self.base)
+        except LoggerConfigError as exc:
+            self.problems.append(f"{self.where}: {exc}")
+            return _LOGGING_OFF
 
     def object(self, data: dict[str, Any], index: int) -> SceneObject:
         counts = {"box": 3, "sphere": 1, "cylinder": 2}

@@ -11,7 +11,8 @@ bridge address, recording to the iteration's ``recording.mcap``, with
   lists none and the criteria judge collisions), a ``JointLimitLogger`` over every robot's
   joints (position and URDF velocity limits, with the criteria's tolerance), a joint logger
   at ``logging.frequency`` when ``logging.enable``;
-- sinks: the ``logging`` section's destinations (:func:`harness.events.logging_config_from_scene`);
+- sinks: the ``logging`` section's destinations (``scenario.logging``, a
+  :class:`harness.events.LoggingConfig`);
 - an observer that hashes every step's ``mjSTATE_INTEGRATION`` state (initial state first),
   tracks joint ranges against limits and samples joint traces for the report.
 
@@ -52,6 +53,7 @@ import numpy.typing as npt
 from harness.errors import ConfigError
 from harness.events import (
     CollectingSink,
+    CollisionBegin,
     CollisionEnd,
     CollisionLogger,
     Event,
@@ -62,7 +64,7 @@ from harness.events import (
     LoggerConfigError,
     Sink,
     StepContext,
-    logging_config_from_scene,
+    solver_limit_tolerance,
     velocity_limits,
 )
 from harness.models import LoadedWorld
@@ -78,6 +80,7 @@ from harness.scenario.results import (
     JointTrace,
     Traces,
     Verdict,
+    criteria_settings,
     judge,
 )
 from harness.scenario.scenario import (
@@ -86,11 +89,10 @@ from harness.scenario.scenario import (
     JointLoggerSpec,
     Scenario,
 )
-from harness.scenario.scenario import LoggingConfig as ScenarioLogging
 from harness.scenario.world import kinematic_limits, plan_world
 from harness.session import Session, SessionError, StartMode
 
-__all__ = ["SessionHost", "SessionIterationRunner", "logging_section", "steps_for"]
+__all__ = ["SessionHost", "SessionIterationRunner", "robot_links", "steps_for"]
 
 F64 = npt.NDArray[np.float64]
 _PYTHON = ("python", "python3")
@@ -100,28 +102,6 @@ _DEFAULT_DEBOUNCE_STEPS = 5
 def steps_for(sim_time: float, dt_ns: int) -> int:
     """Steps needed to reach ``sim_time`` seconds (at least; whole steps)."""
     return max(0, math.ceil(round(sim_time * 1e9) / dt_ns))
-
-
-def logging_section(config: ScenarioLogging) -> dict[str, Any]:
-    """The scenario's parsed ``logging`` section back in the original's shape, for
-    :func:`harness.events.logging_config_from_scene`."""
-    section: dict[str, Any] = {"enable": config.enable, "frequency": config.frequency}
-    dest = config.destination
-    if dest is not None:
-        if dest.type == "Seq":
-            item: dict[str, Any] = {"type": "Seq"}
-            if dest.endpoint is not None:
-                item["endpoint"] = dest.endpoint
-            if dest.api_key is not None:
-                item["apiKey"] = dest.api_key
-        elif dest.type == "JsonLines":
-            item = {"type": "jsonl", "path": str(dest.path)}
-        else:
-            item = {"type": "logging"}
-            if dest.logger is not None:
-                item["logger"] = dest.logger
-        section["destination"] = item
-    return section
 
 
 class SessionHost:
@@ -154,7 +134,7 @@ class _Observer:
     name = "scenario-observer"
     period_ns = 0
 
-    def __init__(self, session: Session, every: int) -> None:
+    def __init__(self, session: Session, every: int, tolerance: float | None) -> None:
         sim = session.sim
         model = sim.model
         self._sim = sim
@@ -167,6 +147,10 @@ class _Observer:
         ranges = np.asarray(model.jnt_range)[ids].reshape(-1, 2)
         self.lower = np.where(limited, ranges[:, 0], -np.inf)
         self.upper = np.where(limited, ranges[:, 1], np.inf)
+        self.tolerance = np.array(
+            [solver_limit_tolerance(model, i) if tolerance is None else tolerance for i in ids],
+            dtype=np.float64,
+        )
         modes = sim.control
         self._commanded = np.array(
             [modes[j] in ("position", "kinematic") for j in self.joints], dtype=bool
@@ -186,6 +170,7 @@ class _Observer:
         self.vel: list[F64] = []
         self.cmd: list[F64] = []
         self.step = sim.step_index
+        self.first = sim.step_index + 1
         self._sample(sim.step_index, sim.sim_time_ns)
 
     def _sample(self, step: int, sim_time_ns: int) -> None:
@@ -202,7 +187,7 @@ class _Observer:
         np.minimum(self.qmin, q, out=self.qmin)
         np.maximum(self.qmax, q, out=self.qmax)
         beyond = np.maximum(self.lower - q, q - self.upper)
-        self.violations += beyond > 0
+        self.violations += beyond > self.tolerance
         np.maximum(self.excess, beyond, out=self.excess)
         self.step = ctx.step
         if ctx.step % self.every == 0:
@@ -222,6 +207,7 @@ class _Observer:
                 float(self.qmax[i]) if self.step else float(self.pos[0][i]),
                 float(self.excess[i]),
                 int(self.violations[i]),
+                float(self.tolerance[i]),
             )
             for i, joint in enumerate(self.joints)
         )
@@ -302,10 +288,7 @@ def _robot_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
         loggers.append(
             CollisionLogger(model, robot_bodies=every_link, debounce_steps=_DEFAULT_DEBOUNCE_STEPS)
         )
-    try:
-        logging = logging_config_from_scene(logging_section(scenario.logging))
-    except LoggerConfigError as exc:
-        raise ScenarioError([f"{where}: {exc}"]) from None
+    logging = scenario.logging
     if logging.enable and not has_joint:
         loggers.append(JointLogger(model, rate_hz=logging.frequency_hz))
     description = world.combined_description()
@@ -316,7 +299,7 @@ def _robot_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
             model,
             joints=joints,
             velocity_limits={j: v for j, v in speed.items() if j in joints},
-            tolerance=scenario.criteria.joint_limit_tolerance,
+            tolerance=scenario.criteria.joint_limit_tolerance,  # None: the solver's
         )
     )
     return loggers
@@ -335,9 +318,9 @@ def _is_body(model: mujoco.MjModel, name: str) -> bool:
 def _sinks(scenario: Scenario) -> list[Sink]:
     where = str(scenario.source) if scenario.source is not None else "<scenario>"
     try:
-        return logging_config_from_scene(logging_section(scenario.logging)).create_sinks()
+        return scenario.logging.create_sinks()
     except LoggerConfigError as exc:
-        raise ScenarioError([f"{where}: {exc}"]) from None
+        raise ScenarioError([f"{where}: logging: {exc}"]) from None
 
 
 def _client_command(client: ClientSpec) -> ClientSpec:
@@ -384,7 +367,7 @@ class SessionIterationRunner:
         observers: list[_Observer] = []
 
         def observer(session: Session) -> Logger:
-            built = _Observer(session, every)
+            built = _Observer(session, every, scenario.criteria.joint_limit_tolerance)
             observers.append(built)
             return built
 
@@ -446,7 +429,9 @@ class SessionIterationRunner:
         finally:
             session.close()
         obs = observers[0]
-        collisions = _collisions(collect.events, dt_ns)
+        collisions = _collisions(
+            collect.events, dt_ns, robot_links(session.world), obs.first, session.model
+        )
         limits = obs.limits()
         verdicts = list(judge(scenario.criteria, outcome, collisions, limits))
         problem = failure or stepper_error
@@ -473,21 +458,66 @@ class SessionIterationRunner:
             port=port,
             wall_seconds=time.monotonic() - started,
             notes=notes,
+            settings=criteria_settings(scenario.criteria),
         )
 
 
-def _collisions(events: list[Event], dt_ns: int) -> tuple[CollisionSummary, ...]:
-    episodes = [
-        CollisionSummary(
-            e.body1,
-            e.body2,
-            e.begin_step * dt_ns / 1e9,
-            None if e.at_finish else e.end_step * dt_ns / 1e9,
-            e.penetration,
-            e.normal_force,
-        )
-        for e in events
-        if isinstance(e, CollisionEnd)
+def robot_links(world: LoadedWorld | None) -> list[str]:
+    """The MuJoCo body names of every robot's links (``<namespace>/<link>`` with several)."""
+    if world is None:
+        return []
+    model = world.model
+    return [
+        view.mujoco_name(link.name)
+        for view in world.robots
+        for link in view.description.links
+        if _is_body(model, view.mujoco_name(link.name))
     ]
+
+
+def resting_depth(model: mujoco.MjModel, geom1: str, geom2: str) -> float:
+    """The penetration a contact between two geoms has at rest by the solver's design: the
+    larger contact margin plus the larger soft-contact width ``solimp[2]`` (MuJoCo's default
+    0.001 m), as for joint limits (:func:`harness.events.solver_limit_tolerance`)."""
+    ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in (geom1, geom2)]
+    ids = [i for i in ids if i >= 0]
+    if not ids:
+        return 0.0
+    return float(max(model.geom_margin[i] for i in ids) + max(model.geom_solimp[i][2] for i in ids))
+
+
+def _collisions(
+    events: list[Event], dt_ns: int, robot: list[str], first_step: int, model: mujoco.MjModel
+) -> tuple[CollisionSummary, ...]:
+    """Contact episodes, the robot's body first. ``initial``: in contact at ``first_step``
+    (the first step observed: its contacts are those of the initial state) no deeper than
+    :func:`resting_depth` (a robot placed *inside* a table is not resting on it)."""
+    bodies = set(robot)
+    resting = {
+        (e.body1, e.body2, e.step)
+        for e in events
+        if isinstance(e, CollisionBegin)
+        and e.step <= first_step
+        and e.penetration <= resting_depth(model, e.geom1, e.geom2)
+    }
+    episodes = []
+    for e in events:
+        if not isinstance(e, CollisionEnd):
+            continue
+        body1, body2 = e.body1, e.body2
+        if body2 in bodies and body1 not in bodies:
+            body1, body2 = body2, body1
+        episodes.append(
+            CollisionSummary(
+                body1,
+                body2,
+                e.begin_step * dt_ns / 1e9,
+                None if e.at_finish else e.end_step * dt_ns / 1e9,
+                e.penetration,
+                e.normal_force,
+                world=body1 not in bodies,
+                initial=(e.body1, e.body2, e.begin_step) in resting,
+            )
+        )
     episodes.sort(key=lambda c: (c.begin, c.body1, c.body2))
     return tuple(episodes)

@@ -123,12 +123,12 @@ def check_runnable(scenario: Scenario) -> list[str]:
                     sub.topic,
                     f"is not served: trajectories are taken on {served!r} only",
                 )
-        limits = {c.beyond_limits for c in robot.controllers if c.mode == "kinematic"}
+        limits = {c.kinematic_limits for c in robot.controllers if c.mode == "kinematic"}
         if len(limits) > 1:
             problem(
                 ["robots", index, "controllers"],
                 sorted(limits),
-                "mix beyond_limits values: kinematic joints of one robot share one policy",
+                "mix kinematic_limits values: kinematic joints of one robot share one policy",
             )
     policies = [kinematic_limits(robot) for robot in scenario.robots]
     for index, policy in enumerate(policies[1:], start=1):
@@ -136,7 +136,7 @@ def check_runnable(scenario: Scenario) -> list[str]:
             problem(
                 ["robots", index, "controllers"],
                 policy,
-                f"differs from robots[0]'s beyond_limits ({policies[0]!r}): the kinematic "
+                f"differs from robots[0]'s kinematic_limits ({policies[0]!r}): the kinematic "
                 "joints of one run share one policy",
             )
             break
@@ -157,7 +157,7 @@ def control_modes(
     key path): a controller without ``joints`` covers every joint; later controllers win;
     joints no controller names are ``position``."""
     controllable = [j.name for j in description.controllable_joints]
-    modes: dict[str, ControlMode] = dict.fromkeys(controllable, "position")
+    modes: dict[str, ControlMode] = dict.fromkeys(controllable, ControlMode.POSITION)
     problems = []
     for i, controller in enumerate(robot.controllers):
         for joint in controller.joints or controllable:
@@ -176,7 +176,7 @@ def control_modes(
 
 def kinematic_limits(robot: RobotSpec) -> KinematicLimits:
     """``"allow"`` when a kinematic controller lets commands pass the limits, else ``"clamp"``."""
-    allow = any(c.mode == "kinematic" and c.beyond_limits == "allow" for c in robot.controllers)
+    allow = any(c.mode == "kinematic" and c.kinematic_limits == "allow" for c in robot.controllers)
     return "allow" if allow else "clamp"
 
 

@@ -16,8 +16,8 @@ import threading
 import warnings
 from types import FrameType
 
-from harness.models.description import CONTROL_MODES
 from harness.session.session import CLOCK_MODES
+from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
 
 __all__ = ["add_arguments", "run"]
 
@@ -26,7 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``harness serve``."""
     parser.add_argument("--robot", default="demo", help="robot model file or 'demo' (default)")
     parser.add_argument(
-        "--mode", choices=CONTROL_MODES, default="position", help="control mode of every joint"
+        "--mode",
+        choices=CONTROL_MODE_INPUTS,
+        default="position",
+        help="control mode of every joint ('dynamic' is 'position')",
     )
     parser.add_argument(
         "--kinematic-limits",
@@ -76,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         with Session(
             args.robot,
-            mode=args.mode,
+            mode=ControlMode.parse(args.mode, "--mode"),
             kinematic_limits=args.kinematic_limits,
             clock=args.clock,
             rate=args.rate,
@@ -89,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
         ) as session:
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
             print(
-                f"harness serve: {session.url} robot {session.robot_name} ({args.mode}), "
+                f"harness serve: {session.url} robot {session.robot_name} "
+                f"({ControlMode.parse(args.mode)}), "
                 f"clock {clock}; Ctrl-C to stop",
                 flush=True,
             )

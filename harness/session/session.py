@@ -200,7 +200,8 @@ class Session:
     by :func:`~harness.models.load_world`) or a :class:`~harness.models.LoadedWorld` (see the
     module docstring for their topics).
     ``mode``: control mode of every joint or joint -> mode (only when the session loads the
-    robot; default ``"position"``; with ``robots`` each RobotSpec has its ``control``).
+    robot; default ``"position"``; ``"dynamic"`` is accepted as ``"position"``, see
+    :class:`harness.vocabulary.ControlMode`; with ``robots`` each RobotSpec has its ``control``).
     ``kinematic_limits``: kinematic commands beyond limits are ``"clamp"``\\ ed or ``"allow"``\\ ed
     (the original framework's "jumping"). ``clock``: ``"lockstep"`` (default), ``"fast"`` or
     ``"realtime"`` (x ``rate``). ``namespace``: topics under ``/<namespace>/`` (one robot; with
@@ -226,7 +227,7 @@ class Session:
         *,
         robots: Sequence[RobotSpec] | LoadedWorld | None = None,
         objects: Sequence[WorldObject] = (),
-        mode: ControlMode | Mapping[str, ControlMode] | None = None,
+        mode: ControlMode | str | Mapping[str, ControlMode | str] | None = None,
         kinematic_limits: KinematicLimits = "clamp",
         clock: ClockMode = "lockstep",
         rate: float = 1.0,
@@ -856,7 +857,7 @@ def _load(
     robot: str | Path | LoadedRobot | None,
     robots: Sequence[RobotSpec] | LoadedWorld | None,
     objects: Sequence[WorldObject],
-    mode: ControlMode | Mapping[str, ControlMode] | None,
+    mode: ControlMode | str | Mapping[str, ControlMode | str] | None,
     scene: str | Path | None,
     namespace: str,
 ) -> LoadedRobot | LoadedWorld:

@@ -142,12 +142,12 @@ def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:
     bias = model.actuator_biasprm[act]
     biastype = int(model.actuator_biastype[act])
     if biastype == int(mujoco.mjtBias.mjBIAS_NONE):
-        return "effort"
+        return ControlMode.EFFORT
     if biastype == int(mujoco.mjtBias.mjBIAS_AFFINE) and gain != 0.0 and bias[0] == 0.0:
         if bias[1] == -gain:
-            return "position"
+            return ControlMode.POSITION
         if bias[1] == 0.0 and bias[2] == -gain:
-            return "velocity"
+            return ControlMode.VELOCITY
     return None
 
 

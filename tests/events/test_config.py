@@ -8,6 +8,7 @@ from harness.events import (
     JsonLinesSink,
     LoggerConfigError,
     SeqSink,
+    SinkSpec,
     logging_config_from_scene,
 )
 
@@ -58,22 +59,22 @@ def test_superset_list_of_destinations(tmp_path):
 @pytest.mark.parametrize(
     ("section", "where"),
     [
-        ([], r"^logging: must be an object"),
-        ({"enable": "yes"}, r"^logging\.enable: must be true or false"),
-        ({"frequency": "1"}, r"^logging\.frequency: must be a positive number"),
+        ([], r"^logging: \[\] is not of type object"),
+        ({"enable": "yes"}, r"^logging\.enable: \"yes\" is not of type boolean"),
+        ({"frequency": "1"}, r"^logging\.frequency: \"1\" is not of type number"),
         ({"frequency": 0}, r"^logging\.frequency: "),
         ({"frequency": True}, r"^logging\.frequency: "),
         ({"frequency": float("nan")}, r"^logging\.frequency: "),
         ({"colour": 1}, r"^logging\.colour: unknown key"),
-        ({"destination": {"endpoint": "x"}}, r"^logging\.destination\.type: required"),
+        ({"destination": {"endpoint": "x"}}, r"^logging\.destination: missing required key 'type'"),
         ({"destination": {"type": "Kafka"}}, r"^logging\.destination\.type: unknown sink"),
         (
             {"destination": {"type": "Seq", "endpoint": "ftp://h"}},
-            r"^logging\.destination\.endpoint: must be an http\(s\) URL",
+            r"^logging\.destination\.endpoint: \"ftp://h\" does not match",
         ),
         (
             {"destination": {"type": "Seq", "apiKey": 5}},
-            r"^logging\.destination\.apiKey: must be a string",
+            r"^logging\.destination\.apiKey: 5 is not of type string",
         ),
         (
             {"destination": {"type": "Seq", "port": 5}},
@@ -81,13 +82,35 @@ def test_superset_list_of_destinations(tmp_path):
         ),
         (
             {"destination": [{"type": "Seq"}, "seq"]},
-            r"^logging\.destination\[1\]: must be an object",
+            r"^logging\.destination\[1\]: \"seq\" is not of type object",
         ),
     ],
 )
 def test_bad_values_name_the_key_path(section, where):
     with pytest.raises(LoggerConfigError, match=where):
         logging_config_from_scene(section)
+
+
+def test_api_key_in_both_spellings_gives_the_same_seq_sink():
+    specs = []
+    for key in ("api_key", "apiKey"):
+        section = {"destination": {"type": "Seq", "endpoint": "http://127.0.0.1:9", key: "k"}}
+        (spec,) = logging_config_from_scene(section).destinations
+        specs.append(spec)
+        (sink,) = logging_config_from_scene(section).create_sinks()
+        try:
+            assert isinstance(sink, SeqSink)
+            assert sink.url == "http://127.0.0.1:9/ingest/clef"
+        finally:
+            sink.close()
+    assert (
+        specs[0]
+        == specs[1]
+        == SinkSpec("seq", (("endpoint", "http://127.0.0.1:9"), ("api_key", "k")))
+    )
+    both = {"destination": {"type": "Seq", "api_key": "a", "apiKey": "b"}}
+    with pytest.raises(LoggerConfigError, match=r"give only one of 'api_key' and 'apiKey'"):
+        logging_config_from_scene(both)
 
 
 def test_key_path_prefix_for_scenario_files():

@@ -508,3 +508,46 @@ def test_golden_check_mid_test_keeps_the_session_running(pytester, run):
     ]
     with Recording(kept / "test_mid.mcap") as rec:
         assert rec.last_step == 40  # the full run, closed at the end of the test
+
+
+def test_marker_mode_dynamic_is_the_position_session(pytester, run, tmp_path):
+    """``mode="dynamic"`` (the product's word) gives the same session as ``mode="position"``:
+    control modes, compiled model, recorded state and golden name."""
+    out = tmp_path / "sessions.json"
+    pytester.makepyfile(
+        test_alias=f"""
+        import json, pathlib
+        import pytest
+
+        SEEN = {{}}
+
+        @pytest.mark.parametrize("mode", ["dynamic", "position"])
+        def test_mode(harness_session_factory, golden, request, mode):
+            session = harness_session_factory(mode=mode)
+            session.step(20)
+            SEEN[mode] = {{
+                "control": sorted(set(session.robot.control.values())),
+                "sha256": session.robot.sha256,
+                "qpos": session.sim.data.qpos.tolist(),
+                "golden": golden.path.name.replace(request.node.name, "<name>"),
+            }}
+            pathlib.Path({str(out)!r}).write_text(json.dumps(SEEN))
+        """
+    )
+    run("test_alias.py").assert_outcomes(passed=2)
+    seen = json.loads(out.read_text())
+    assert seen["dynamic"] == seen["position"]
+    assert seen["position"]["control"] == ["position"]
+    assert seen["position"]["golden"] == "<name>.mcap"  # no mode label: the default mode
+    pytester.makepyfile(
+        test_bad="""
+        import pytest
+
+        @pytest.mark.harness(mode="servo")
+        def test_bad(harness_session):
+            pass
+        """
+    )
+    result = run("test_bad.py")
+    result.assert_outcomes(errors=1)
+    result.stdout.fnmatch_lines(["*harness option 'mode': unknown control mode 'servo'*dynamic*"])

@@ -7,13 +7,13 @@ import shutil
 import sys
 from pathlib import Path
 
-import jsonschema
 import pytest
 import yaml
 
+from harness.events import LOGGING_SCHEMA, SinkSpec
 from harness.scenario import Scenario, ScenarioError, load_run_file
 from harness.scenario import scenario as sc
-from harness.scenario._validation import schema
+from harness.scenario._validation import schema, validator
 
 sys.path.insert(0, str(Path(__file__).parent))
 from scenario_testlib import DATA, EXAMPLES
@@ -37,7 +37,7 @@ def _is_runner(doc) -> bool:
 )
 def test_every_example_loads_and_validates_against_its_schema(path):
     doc = _document(path)
-    jsonschema.validate(doc, schema("runner" if _is_runner(doc) else "scenario"))
+    validator("runner" if _is_runner(doc) else "scenario").validate(doc)
     config = load_run_file(path)
     assert config.simulations
     for plan in config.simulations:
@@ -71,7 +71,7 @@ def test_original_scene_config_port_as_number():
     assert s.robots[0].subscribers == (sc.Subscriber("JointStateSubscriber", "/joint/states"),)
     assert s.robots[0].controllers == (sc.Controller("kinematic"),)
     assert s.logging.enable
-    assert s.logging.destination == sc.Destination("Seq", endpoint="http://localhost:5341")
+    assert s.logging.destinations == (SinkSpec("seq", (("endpoint", "http://localhost:5341"),)),)
 
 
 def test_original_scene_config_port_as_string_and_dynamic_mode():
@@ -126,16 +126,18 @@ def test_command_takes_precedence_and_launch_without_package(tmp_path):
                 "wallTimeout": 7,
             },
             {"name": "c", "scenario": "config.json"},
+            {"name": "d", "scenario": "config.json", "ros2Launch": "d.py", "wall_timeout": 8},
         ],
     }
     (tmp_path / "run.yaml").write_text(yaml.safe_dump(runner))
     config = load_run_file(tmp_path / "run.yaml")
-    a, b, c = config.simulations
+    a, b, c, d = config.simulations
     assert config.workers == 3
     assert a.client.command == ("python3", "my_client.py", "--fast", "two words")
     assert a.client.env == {"X": "1"}
     assert b.client.command == ("ros2", "launch", "/abs/demo.launch.py")
     assert b.client.wall_timeout == 7.0
+    assert d.client.wall_timeout == 8.0  # our snake_case spelling of the same option
     assert c.client is None
     assert c.sim_time_limit == c.scenario.duration == 10.0
 
@@ -221,11 +223,7 @@ def test_broken_configs_name_key_path_and_value(name, fragments, schema_level):
     if schema_level is None:
         return
     doc = _document(path)
-    errors = list(
-        jsonschema.Draft202012Validator(
-            schema("runner" if _is_runner(doc) else "scenario")
-        ).iter_errors(doc)
-    )
+    errors = list(validator("runner" if _is_runner(doc) else "scenario").iter_errors(doc))
     # The editor schema catches exactly the schema-level problems; file references and
     # built-in names are checked by the loader only.
     assert bool(errors) == schema_level
@@ -248,13 +246,13 @@ def test_schema_and_dataclasses_agree():
     assert _props("environment") == _fields(sc.Environment)
     assert _props("robot") == _fields(sc.RobotSpec) - {"named"}
     assert _props("subscriber") == _fields(sc.Subscriber)
-    assert _props("controller") - {"type"} == _fields(sc.Controller)
+    assert _props("controller") - {"type", "beyond_limits"} == _fields(sc.Controller)
     assert _props("object") == _fields(sc.SceneObject)
     assert _props("recording") == _fields(sc.Recording)
     assert _props("criteria") == _fields(sc.Criteria)
     assert _props("clock") == _fields(sc.Clock)
-    assert _props("logging") == _fields(sc.LoggingConfig)
-    assert set(top["logging"]["properties"]["destination"]["properties"]) == _fields(sc.Destination)
+    assert top["logging"]["$ref"] == "logging.schema.json"
+    assert LOGGING_SCHEMA["$id"].endswith("/logging.schema.json")
     assert _props("client") == _fields(sc.ClientSpec) - {"cwd"}
     assert _props("logger") - {"type"} == _fields(sc.CollisionLoggerSpec) | _fields(
         sc.JointLoggerSpec
