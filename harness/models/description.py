@@ -11,10 +11,14 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from harness.models.ros2_control import Ros2Control
+    from harness.models.xacro import XacroOrigin
 
 __all__ = [
     "CONTROL_MODES",
@@ -288,7 +292,10 @@ class ModelFrame:
 
 @dataclass(frozen=True)
 class RobotModel:
-    """A robot description in the model frame at the zero configuration."""
+    """A robot description in the model frame at the zero configuration.
+
+    ``ros2_control``: the URDF's ``<ros2_control>`` blocks (:mod:`harness.models.ros2_control`);
+    ``xacro``: where an expanded xacro description came from (entry file and arguments)."""
 
     name: str
     links: tuple[Link, ...]
@@ -296,6 +303,8 @@ class RobotModel:
     frames: tuple[ModelFrame, ...] = ()
     source: str | None = None
     format: Literal["urdf", "sdf", "mjcf"] = "urdf"
+    ros2_control: Ros2Control | None = None
+    xacro: XacroOrigin | None = None
 
     def link(self, name: str) -> Link:
         for link in self.links:
