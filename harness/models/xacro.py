@@ -1,5 +1,6 @@
-"""xacro robot descriptions, expanded with a maintained implementation (xacrodoc, built on the
-ROS ``xacro`` package) into a URDF that stays portable.
+"""xacro robot descriptions, expanded by the ROS ``xacro`` package itself (PyPI ``xacro``, the
+implementation ROS ships; one pass, as ``ros2 run xacro xacro`` does) into a URDF that stays
+portable.
 
 - Arguments are spelled as users spell them: ``NAME:=VALUE`` (:func:`parse_robot_arg`) on the
   CLI, ``robot_args={...}`` in Python, the marker and scenario files. An argument used
@@ -227,7 +228,6 @@ def _run_xacro(
 ) -> tuple[str, list[Path], dict[str, Path]]:
     """Expand under the lock: (URDF text, files read after the entry, packages found)."""
     import xacro
-    import xacrodoc
     from xacro import substitution_args
 
     found: dict[str, Path] = {}
@@ -237,15 +237,13 @@ def _run_xacro(
         found[name] = folder
         return str(folder.resolve())
 
+    # $(find) is xacro's one hook into ROS (ament_index_python): ours searches like package://
     previous = substitution_args._eval_find
     substitution_args._eval_find = find
     xacro.all_includes = []
-    xacro.init_stacks(str(path))
     try:
-        doc = xacrodoc.XacroDoc.from_file(
-            str(path), walk_up=False, subargs=dict(args), resolve_packages=False
-        )
-        text = str(doc.dom.toxml())
+        doc = xacro.process_file(str(path), mappings=dict(args))
+        text = str(doc.toxml())
     except Exception as exc:
         raise _error(exc, xacro, path, args) from None
     finally:
