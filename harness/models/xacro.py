@@ -10,12 +10,14 @@ portable.
   (:func:`harness.models.resolve.find_package`: the ``packages`` map, ``ROS_PACKAGE_PATH``,
   ``AMENT_PREFIX_PATH``, the folders above the file); ``$(arg)``, ``$(env)``, ``$(eval)``,
   includes, macros and ``xacro.load_yaml`` work as in ROS.
-- The expanded URDF keeps ``package://`` references: a mesh path the expansion made absolute
-  (``file://$(find pkg)/...``) inside a package it found is written back as
-  ``package://pkg/...``, so the text means the same on every machine.
+- The expanded URDF keeps ``package://`` references: a path the expansion made absolute
+  (``file://$(find pkg)/...`` in a mesh, ``$(find pkg)/config/x.yaml`` as an element's text)
+  inside a package it found is written back as ``package://pkg/...``, so the text means the
+  same on every machine.
 - :attr:`Expansion.sources` holds every file the expansion read (``xacro/<pkg>/<path>``) and
-  every existing mesh its ``package://`` references name (``package/<pkg>/<path>``): with the
-  expanded URDF they rebuild the robot with neither the package nor xacro installed.
+  every existing file its ``package://`` references name (``package/<pkg>/<path>``: meshes,
+  controller files): with the expanded URDF they rebuild the robot with neither the package
+  nor xacro installed.
 - Expansions are cached per process by content: the entry file, every file it read, the
   arguments, the packages found and the environment variables the files name; a test suite
   that loads one robot in 200 tests expands it once.
@@ -277,25 +279,35 @@ def _in_package(path: Path, folders: Mapping[str, Path]) -> tuple[str, str] | No
     return best
 
 
+def _package_uri(value: str, folders: Mapping[str, Path]) -> str | None:
+    """``package://pkg/path`` for an absolute path (or ``file://`` URI) inside a known
+    package, else None."""
+    plain = unquote(value[len("file://") :]) if value.startswith("file://") else value
+    if not os.path.isabs(plain):
+        return None
+    inside = _in_package(Path(os.path.normpath(plain)), folders)
+    return None if inside is None else f"package://{inside[0]}/{inside[1]}"
+
+
 def _portable(urdf: str, source: str, folders: Mapping[str, Path]) -> tuple[bytes, list[str]]:
-    """The URDF with absolute file references inside a known package written as
-    ``package://``; returns the text and every ``package://`` reference in it."""
+    """The URDF with absolute paths inside a known package written as ``package://`` (file
+    references, and text that is a path, e.g. a controllers YAML given through
+    ``$(find pkg)``); returns the text and every ``package://`` reference in it."""
     root = parse_xml(urdf.encode("utf-8"), source)
     references: list[str] = []
     for element in root.iter():
         uri = element.get("filename")
-        if uri is None:
-            continue
-        plain = unquote(uri[len("file://") :]) if uri.startswith("file://") else uri
-        if not uri.startswith("package://") and os.path.isabs(plain):
-            inside = _in_package(Path(os.path.normpath(plain)), folders)
-            if inside is not None:
-                uri = f"package://{inside[0]}/{inside[1]}"
-                element.set("filename", uri)
-        if uri.startswith("package://") and uri not in references:
+        if uri is not None:
+            uri = _package_uri(uri, folders) or uri
+            element.set("filename", uri)
+        text = (element.text or "").strip()
+        if uri is None and text and len(element) == 0:
+            uri = _package_uri(text, folders)
+            if uri is not None:
+                element.text = uri
+        if uri is not None and uri.startswith("package://") and uri not in references:
             references.append(uri)
-    text = _text(root)
-    return text, references
+    return _text(root), references
 
 
 def _text(root: Any) -> bytes:

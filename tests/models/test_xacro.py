@@ -52,9 +52,11 @@ def test_every_ur_type_loads_with_its_arguments(ur_type):
     assert robot.model.key("home").qpos.tolist() == pytest.approx(list(UR_HOME.values()))
     text = _expanded(robot)
     assert "package://ur_description/meshes/" in text
-    assert "file://" not in text and str(DESCRIPTIONS) not in text
+    assert "file://" not in text
+    assert str(DESCRIPTIONS) not in text
     [block] = description.ros2_control.blocks
-    assert block.plugin == "mock_components/GenericSystem" and block.simulated
+    assert block.plugin == "mock_components/GenericSystem"
+    assert block.simulated
     assert block.joints[1].initial_position == -1.57
     assert set(robot.control.values()) == {"position"}
     assert any(n.startswith("package/ur_description/meshes/") for n in robot.sources)
@@ -74,7 +76,8 @@ def test_absolute_mesh_paths_are_written_back_as_package_references():
     expansion = expand_xacro(UR_PLAIN, {"ur_type": "ur5e", "name": "ur", "force_abs_paths": True})
     text = expansion.urdf.decode()
     assert "package://ur_description/meshes/ur5e/collision/base.stl" in text
-    assert "file://" not in text and str(DESCRIPTIONS) not in text
+    assert "file://" not in text
+    assert str(DESCRIPTIONS) not in text
 
 
 @pytest.mark.parametrize(("robot", "repair"), [("fr3", False), ("fp3", False), ("fer", True)])
@@ -120,6 +123,10 @@ def test_mobile_base_takes_its_control_modes_from_its_command_interfaces():
         warnings.simplefilter("error", HardwareReplacedWarning)
         sim = load_robot(DD100, robot_args={"is_sim": True})
     assert sim.description.ros2_control.blocks[0].plugin == "ign_ros2_control/IgnitionSystem"
+    # the controllers file given as $(find clearpath_control)/... stays a package reference
+    text = _expanded(sim)
+    assert "<parameters>package://clearpath_control/config/dd100/control.yaml</parameters>" in text
+    assert "package/clearpath_control/config/dd100/control.yaml" in sim.sources
 
 
 def test_package_reference_through_every_search_place(tmp_path, monkeypatch):
@@ -234,7 +241,8 @@ def test_cli_loads_a_xacro_robot_with_robot_args(capsys):
     )
     out = capsys.readouterr().out
     assert code == 0
-    assert "model ur (urdf" in out and "shoulder_pan_joint" in out
+    assert "model ur (urdf" in out
+    assert "shoulder_pan_joint" in out
 
 
 def test_missing_package_is_one_line_naming_it_and_every_place(tmp_path, capsys, monkeypatch):
@@ -248,8 +256,10 @@ def test_missing_package_is_one_line_naming_it_and_every_place(tmp_path, capsys,
     code, err = _cli(capsys, str(path))
     assert code == 2
     assert err.count("\n") == 1
-    assert "unknown package 'nowhere_description'" in err and str(path) in err
-    assert str(tmp_path / "ws") in err and str(tmp_path / "ros" / "share") in err
+    assert "unknown package 'nowhere_description'" in err
+    assert str(path) in err
+    assert str(tmp_path / "ws") in err
+    assert str(tmp_path / "ros" / "share") in err
     assert f"the folders above {tmp_path.resolve()}" in err
 
 
@@ -257,7 +267,8 @@ def test_undefined_argument_is_one_line_naming_it_and_the_file(capsys):
     code, err = _cli(capsys, str(UR), "--robot-arg", "ur_type:=ur5e")
     assert code == 2
     assert err.count("\n") == 1
-    assert f"{UR}: undefined argument 'name'" in err and "given: ur_type" in err
+    assert f"{UR}: undefined argument 'name'" in err
+    assert "given: ur_type" in err
 
 
 def test_xacro_syntax_error_is_one_line_naming_the_file_and_line(tmp_path, capsys):
