@@ -27,11 +27,13 @@ xacro keeps its state in module globals, so expansions run one at a time (a lock
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import os
 import re
 import threading
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -225,6 +227,53 @@ def _error(exc: Exception, xacro_module: Any, path: Path, args: Mapping[str, str
     return XacroError(f"{where}: xacro: {text or type(exc).__name__}")
 
 
+@contextmanager
+def _c_yaml(xacro_module: Any) -> Iterator[None]:
+    """While xacro runs, ``yaml.safe_load`` (what ``xacro.load_yaml`` calls) parses with
+    libyaml's C parser (same documents, same values, 30x faster than the pure-Python one that
+    took a third of a description package's expansion) and xacro's unit tags."""
+    import yaml  # type: ignore[import-untyped,unused-ignore]
+
+    base = getattr(yaml, "CSafeLoader", None)
+    if base is None:
+        yield
+        return
+    global _YAML_LOADER
+    if _YAML_LOADER is None:
+        loader: Any = type("XacroCSafeLoader", (base,), {})
+        for unit in xacro_module.ConstructUnits:
+            loader.add_constructor(unit.value.tag, unit.constructor)
+        _YAML_LOADER = loader
+    chosen = _YAML_LOADER
+    previous = yaml.safe_load
+
+    def safe_load(stream: Any) -> Any:
+        return yaml.load(stream, Loader=chosen)
+
+    yaml.safe_load = safe_load
+    try:
+        yield
+    finally:
+        yaml.safe_load = previous
+
+
+_YAML_LOADER: Any = None
+
+
+@contextmanager
+def _no_gc() -> Iterator[None]:
+    """No cyclic garbage collection while xacro builds its DOM: its thousands of nodes set
+    off full collections of everything the process holds (MuJoCo, numpy), a third of a cold
+    expansion; reference counting still frees what is dropped."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
 def _run_xacro(
     path: Path, args: Mapping[str, str], packages: PackageMap | None
 ) -> tuple[str, list[Path], dict[str, Path]]:
@@ -244,8 +293,9 @@ def _run_xacro(
     substitution_args._eval_find = find
     xacro.all_includes = []
     try:
-        doc = xacro.process_file(str(path), mappings=dict(args))
-        text = str(doc.toxml())
+        with _c_yaml(xacro), _no_gc():
+            doc = xacro.process_file(str(path), mappings=dict(args))
+            text = str(doc.toxml())
     except Exception as exc:
         raise _error(exc, xacro, path, args) from None
     finally:
