@@ -32,6 +32,7 @@ import hashlib
 import os
 import re
 import threading
+import warnings
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -49,6 +50,7 @@ __all__ = [
     "XACRO_SUFFIX",
     "Expansion",
     "RobotArgs",
+    "UnusedRobotArgWarning",
     "XacroOrigin",
     "clear_cache",
     "expand_xacro",
@@ -65,6 +67,11 @@ _XACRO_NAMESPACE = re.compile(rb"xmlns:xacro\s*=\s*[\"'][^\"']*xacro", re.I)
 _ARG_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-.]*")
 _ENV_USE = re.compile(r"\$\((?:env|optenv)\s+([A-Za-z_][A-Za-z0-9_]*)")
 _LOCK = threading.Lock()
+
+
+class UnusedRobotArgWarning(UserWarning):
+    """A robot argument was given that none of the files the expansion read mentions (xacro
+    ignores it: often a misspelled name)."""
 
 
 @dataclass(frozen=True)
@@ -455,8 +462,18 @@ def expand_xacro(
         packages=MappingProxyType(dict(folders)),
     )
     env_names: list[str] = []
-    for blob in (sources[k] for k in keys):
-        env_names += _ENV_USE.findall(blob.decode("utf-8", errors="replace"))
+    texts = [sources[k].decode("utf-8", errors="replace") for k in keys]
+    for text in texts:
+        env_names += _ENV_USE.findall(text)
+    for name in given:
+        mention = re.compile(rf"(?<![\w.-]){re.escape(name)}(?![\w.-])")
+        if not any(mention.search(text) for text in texts):
+            warnings.warn(
+                f"{entry}: robot argument {name!r} is mentioned by none of the {len(texts)} "
+                "files the expansion read (xacro ignores it; misspelled?)",
+                UnusedRobotArgWarning,
+                stacklevel=2,
+            )
     env_names += ["ROS_PACKAGE_PATH", "AMENT_PREFIX_PATH"]
     fingerprint = _fingerprint(
         [entry.resolve(), *read, *mesh_paths], found, env_names, packages, entry.parent

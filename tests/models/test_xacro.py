@@ -15,7 +15,13 @@ from harness.cli import main
 from harness.models import load_description, load_robot
 from harness.models.errors import UnknownPackageError, XacroError
 from harness.models.ros2_control import HardwareReplacedWarning
-from harness.models.xacro import clear_cache, expand_xacro, is_xacro, normalize_args
+from harness.models.xacro import (
+    UnusedRobotArgWarning,
+    clear_cache,
+    expand_xacro,
+    is_xacro,
+    normalize_args,
+)
 
 DESCRIPTIONS = Path(__file__).resolve().parents[1] / "data" / "descriptions"
 UR = DESCRIPTIONS / "ur_description" / "urdf" / "ur_mocked.urdf.xacro"
@@ -291,3 +297,11 @@ def test_bad_robot_arg_spelling_is_a_usage_error(capsys):
         main(["inspect-model", str(UR), "--robot-arg", "ur_type=ur5e"])
     assert info.value.code == 2
     assert "is not NAME:=VALUE" in capsys.readouterr().err
+
+
+def test_an_argument_no_file_mentions_is_named_in_a_warning():
+    with pytest.warns(UnusedRobotArgWarning, match="'ur_tpye' is mentioned by none"):
+        expand_xacro(UR_PLAIN, {"ur_type": "ur5e", "name": "ur", "ur_tpye": "ur3"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnusedRobotArgWarning)
+        expand_xacro(UR_PLAIN, {"ur_type": "ur3", "name": "ur", "safety_limits": "true"})
