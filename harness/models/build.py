@@ -482,7 +482,7 @@ class _Robot:
                 reference=str(robot.source),
             )  # fmt: skip
             root, self.model_bytes, self.extra_sources = urdf.root, urdf.data, urdf.extra
-            self.path = path = urdf.path  # a xacro robot records its expanded URDF
+            self.path = urdf.path  # a xacro robot is recorded as its expanded URDF
             self.description = describe_urdf(root, self.source, urdf.origin)
             warn_replaced_hardware(self.description.ros2_control, self.source)
             prepared = mujoco_urdf_xml(

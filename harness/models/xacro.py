@@ -159,7 +159,7 @@ def normalize_args(
 
 # ------------------------------------------------------------------------------- the cache
 
-_Key = tuple[str, tuple[tuple[str, str], ...], tuple[tuple[str, str], ...]]
+_Key = tuple[str, str, tuple[tuple[str, str], ...], tuple[tuple[str, str], ...]]
 _CACHE: dict[_Key, list[tuple[tuple[tuple[str, str], ...], Expansion]]] = {}
 
 
@@ -427,6 +427,7 @@ def expand_xacro(
     given = normalize_args(args)
     key: _Key = (
         str(entry.resolve()),
+        reference or str(path),
         tuple(sorted(given.items())),
         tuple(sorted((str(k), str(Path(v).resolve())) for k, v in (packages or {}).items())),
     )

@@ -17,7 +17,7 @@ import pytest
 from harness import Session
 from harness.models.ros2_control import HardwareReplacedWarning
 from harness.recording import Recording
-from harness.replay import verify
+from harness.replay import diff, verify
 from harness.replay.source import open_recording, rebuild_run
 
 DESCRIPTIONS = Path(__file__).resolve().parents[1] / "data" / "descriptions"
@@ -87,9 +87,12 @@ def test_holds_records_and_replays_without_its_package(tmp_path, packages, entry
 def test_replay_cli_with_the_package_deleted(tmp_path):
     shutil.copytree(DESCRIPTIONS / "ur_description", tmp_path / "ur_description")
     entry = tmp_path / "ur_description" / "urdf" / "ur_mocked.urdf.xacro"
-    path = tmp_path / "ur.mcap"
-    with Session(str(entry), robot_args={"ur_type": "ur5e", "name": "ur"}, record_to=path) as s:
-        s.step(20)
+    path, again = tmp_path / "ur.mcap", tmp_path / "again.mcap"
+    for target in (path, again):
+        with Session(
+            str(entry), robot_args={"ur_type": "ur5e", "name": "ur"}, record_to=target
+        ) as s:
+            s.step(20)
     shutil.rmtree(tmp_path / "ur_description")
     for extra in ([], ["--mode", "kinematic"]):
         done = subprocess.run(
@@ -101,3 +104,6 @@ def test_replay_cli_with_the_package_deleted(tmp_path):
         assert done.returncode == 0, done.stdout + done.stderr
     with Recording(path) as rec:
         assert rec.metadata["robot_args"] == '{"name": "ur", "ur_type": "ur5e"}'
+    report = diff(path, again)
+    assert report.same, report.entries
+    assert report.steps_compared == 21
