@@ -305,3 +305,18 @@ def test_an_argument_no_file_mentions_is_named_in_a_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error", UnusedRobotArgWarning)
         expand_xacro(UR_PLAIN, {"ur_type": "ur3", "name": "ur", "safety_limits": "true"})
+
+
+def test_franka_multi_arm_takes_list_arguments():
+    path = FRANKA / "multi_arm" / "multi_arm.urdf.xacro"
+    with pytest.warns(HardwareReplacedWarning, match="MultiFrankaHardwareInterface"):
+        robot = load_robot(
+            path, robot_args={"arm_prefixes": "['west','east']", "ros2_control": "true"}
+        )
+    joints = [j.name for j in robot.description.controllable_joints]
+    assert joints[0] == "west_fr3_joint1"
+    assert joints[8] == "east_fr3_joint1"
+    assert len(joints) == 16
+    west, east = (robot.description.link(f"{side}_fr3_link0").pose for side in ("west", "east"))
+    assert west.xyz[1] == pytest.approx(0.1)  # xyz_values' default
+    assert east.xyz[1] == pytest.approx(-0.1)
