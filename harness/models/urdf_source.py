@@ -101,7 +101,7 @@ def initial_keyframes(
 ) -> Mapping[str, Mapping[str, float]]:
     """``keys`` (a URDF's ``<harness>`` keyframes) with a ``home`` key made of the
     ``<ros2_control>`` ``initial_value`` positions when the file has no ``home`` of its own
-    (joints the model does not drive are left out)."""
+    (joints the model does not drive are left out; mimic followers follow their leader)."""
     control = description.ros2_control
     if control is None or "home" in keys:
         return keys
@@ -109,6 +109,10 @@ def initial_keyframes(
     home = {j: v for j, v in control.initial_positions.items() if j in joints}
     if not home:
         return keys
+    for joint in description.joints:  # mimic followers start where their leader puts them
+        lead = home.get(joint.mimic.joint) if joint.mimic is not None else None
+        if joint.mimic is not None and lead is not None:
+            home[joint.name] = joint.mimic.multiplier * lead + joint.mimic.offset
     return MappingProxyType({**keys, "home": MappingProxyType(home)})
 
 
