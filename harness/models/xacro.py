@@ -371,8 +371,8 @@ def _text(root: Any) -> bytes:
     """UTF-8 XML text of an lxml element, with a declaration."""
     from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-    data: bytes = etree.tostring(root, xml_declaration=True, encoding="utf-8")
-    return data + b"\n"
+    data: bytes = etree.tostring(root, xml_declaration=True, encoding="utf-8", pretty_print=True)
+    return data
 
 
 def _source_key(path: Path, entry: Path, folders: Mapping[str, Path]) -> str:
