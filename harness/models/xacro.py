@@ -212,21 +212,30 @@ def _current_file(xacro_module: Any, fallback: Path) -> str:
     return str(stack[-1]) if stack else str(fallback)
 
 
-def _error(exc: Exception, xacro_module: Any, path: Path, args: Mapping[str, str]) -> HarnessError:
-    from xml.parsers.expat import ExpatError
-
+def _missing_arg(exc: Exception) -> str | None:
+    """The argument name of an undefined ``$(arg name)`` (None for any other error)."""
     from xacro.substitution_args import ArgException
 
-    where = _current_file(xacro_module, path)
+    cause = _cause(exc)
+    return str(cause) if isinstance(cause, ArgException) else None
+
+
+def _error(
+    exc: Exception, where: str, args: Mapping[str, str], missing: Sequence[str]
+) -> HarnessError:
+    from xml.parsers.expat import ExpatError
+
     cause = _cause(exc)
     if isinstance(cause, HarnessError):
         return type(cause)(f"{where}: {cause}")
-    if isinstance(cause, ArgException):
+    if missing:
         given = ", ".join(sorted(args)) or "none"
+        names = ", ".join(repr(m) for m in missing)
+        plural = "s" if len(missing) > 1 else ""
+        options = " ".join(f"--robot-arg {m}:=VALUE" for m in missing)
         return XacroError(
-            f"{where}: undefined argument {str(cause)!r} (not declared with a default and not "
-            f"given; given: {given}; pass it as --robot-arg {cause}:=VALUE or "
-            f"robot_args={{{str(cause)!r}: ...}})"
+            f"{where}: undefined argument{plural} {names} (used, not declared with a default "
+            f"and not given; given: {given}; pass {options} or robot_args={{{missing[0]!r}: ...}})"
         )
     if isinstance(exc, ExpatError):
         return XacroError(f"{where}:{exc.lineno}: malformed XML: {exc}")
@@ -281,10 +290,16 @@ def _no_gc() -> Iterator[None]:
             gc.enable()
 
 
+_MAX_MISSING = 20  # undefined arguments looked for before reporting them
+
+
 def _run_xacro(
     path: Path, args: Mapping[str, str], packages: PackageMap | None
 ) -> tuple[str, list[Path], dict[str, Path]]:
-    """Expand under the lock: (URDF text, files read after the entry, packages found)."""
+    """Expand under the lock: (URDF text, files read after the entry, packages found).
+
+    An undefined ``$(arg)`` is looked for again with that argument set to a placeholder, so
+    the error names every argument the user must give (up to the first other error)."""
     import xacro
     from xacro import substitution_args
 
@@ -298,13 +313,28 @@ def _run_xacro(
     # $(find) is xacro's one hook into ROS (ament_index_python): ours searches like package://
     previous = substitution_args._eval_find
     substitution_args._eval_find = find
-    xacro.all_includes = []
+    missing: list[str] = []
+    first: tuple[Exception, str] | None = None
     try:
-        with _c_yaml(xacro), _no_gc():
-            doc = xacro.process_file(str(path), mappings=dict(args))
-            text = str(doc.toxml())
-    except Exception as exc:
-        raise _error(exc, xacro, path, args) from None
+        while True:
+            xacro.all_includes = []
+            try:
+                with _c_yaml(xacro), _no_gc():
+                    doc = xacro.process_file(
+                        str(path), mappings={**args, **dict.fromkeys(missing, "0")}
+                    )
+                    text = str(doc.toxml())
+            except Exception as exc:
+                name = _missing_arg(exc)
+                if first is None:
+                    first = (exc, _current_file(xacro, path))
+                if name is None or name in missing or len(missing) >= _MAX_MISSING:
+                    break
+                missing.append(name)
+                continue
+            break
+        if first is not None:
+            raise _error(first[0], first[1], args, missing) from None
     finally:
         substitution_args._eval_find = previous
         read = [Path(p) for p in xacro.all_includes]

@@ -277,6 +277,24 @@ def test_undefined_argument_is_one_line_naming_it_and_the_file(capsys):
     assert "given: ur_type" in err
 
 
+def test_every_undefined_argument_is_named_at_once(tmp_path, capsys):
+    path = tmp_path / "cell.urdf.xacro"
+    path.write_text(
+        '<robot name="cell" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:arg name="given_one" default="x"/>'
+        '<link name="$(arg arm_prefix)base"/><link name="tool_$(arg tool)"/>'
+        '<link name="$(arg given_one)"/></robot>'
+    )
+    code, err = _cli(capsys, str(path))
+    assert code == 2
+    assert err.count("\n") == 1
+    assert "undefined arguments 'arm_prefix', 'tool'" in err
+    assert "--robot-arg arm_prefix:=VALUE --robot-arg tool:=VALUE" in err
+    assert (
+        _cli(capsys, str(path), "--robot-arg", "arm_prefix:=a_", "--robot-arg", "tool:=t")[0] == 0
+    )
+
+
 def test_xacro_syntax_error_is_one_line_naming_the_file_and_line(tmp_path, capsys):
     (tmp_path / "part.xacro").write_text(
         '<robot xmlns:xacro="http://www.ros.org/wiki/xacro">\n<link name="a">\n</robot>\n'
