@@ -12,8 +12,8 @@ portable.
   includes, macros and ``xacro.load_yaml`` work as in ROS.
 - The expanded URDF keeps ``package://`` references: a path the expansion made absolute
   (``file://$(find pkg)/...`` in a mesh, ``$(find pkg)/config/x.yaml`` as an element's text)
-  inside a package it found is written back as ``package://pkg/...``, so the text means the
-  same on every machine.
+  inside a package it found, or a mesh path relative to the entry file that leads into one, is
+  written as ``package://pkg/...``, so the text means the same on every machine.
 - :attr:`Expansion.sources` holds every file the expansion read (``xacro/<pkg>/<path>``) and
   every existing file its ``package://`` references name (``package/<pkg>/<path>``: meshes,
   controller files): with the expanded URDF they rebuild the robot with neither the package
@@ -366,30 +366,37 @@ def _in_package(path: Path, folders: Mapping[str, Path]) -> tuple[str, str] | No
     return best
 
 
-def _package_uri(value: str, folders: Mapping[str, Path]) -> str | None:
+def _package_uri(value: str, folders: Mapping[str, Path], base: Path | None) -> str | None:
     """``package://pkg/path`` for an absolute path (or ``file://`` URI) inside a known
-    package, else None."""
+    package, or a relative one (from ``base``, the entry file's folder) that leads into one;
+    else None."""
     plain = unquote(value[len("file://") :]) if value.startswith("file://") else value
-    if not os.path.isabs(plain):
+    if "://" in plain or not plain:
         return None
+    if not os.path.isabs(plain):
+        if base is None:
+            return None
+        plain = str(base / plain)
     inside = _in_package(Path(os.path.normpath(plain)), folders)
     return None if inside is None else f"package://{inside[0]}/{inside[1]}"
 
 
-def _portable(urdf: str, source: str, folders: Mapping[str, Path]) -> tuple[bytes, list[str]]:
-    """The URDF with absolute paths inside a known package written as ``package://`` (file
-    references, and text that is a path, e.g. a controllers YAML given through
-    ``$(find pkg)``); returns the text and every ``package://`` reference in it."""
-    root = parse_xml(urdf.encode("utf-8"), source)
+def _portable(urdf: str, entry: Path, folders: Mapping[str, Path]) -> tuple[bytes, list[str]]:
+    """The URDF with paths into a known package written as ``package://`` (file references,
+    absolute or relative to the entry file, and text that is an absolute path, e.g. a
+    controllers YAML given through ``$(find pkg)``); returns the text and every
+    ``package://`` reference in it."""
+    root = parse_xml(urdf.encode("utf-8"), str(entry))
+    base = entry.resolve().parent
     references: list[str] = []
     for element in root.iter():
         uri = element.get("filename")
         if uri is not None:
-            uri = _package_uri(uri, folders) or uri
+            uri = _package_uri(uri, folders, base) or uri
             element.set("filename", uri)
         text = (element.text or "").strip()
         if uri is None and text and len(element) == 0:
-            uri = _package_uri(text, folders)
+            uri = _package_uri(text, folders, None)
             if uri is not None:
                 element.text = uri
         if uri is not None and uri.startswith("package://") and uri not in references:
@@ -474,7 +481,7 @@ def expand_xacro(
                 return cached
         text, read, found = _run_xacro(entry, given, packages)
     folders = _packages_of(entry, found)
-    urdf, references = _portable(text, str(entry), folders)
+    urdf, references = _portable(text, entry, folders)
     sources: dict[str, bytes] = {}
     for file in (entry.resolve(), *read):
         try:

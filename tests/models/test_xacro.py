@@ -338,3 +338,21 @@ def test_franka_multi_arm_takes_list_arguments():
     west, east = (robot.description.link(f"{side}_fr3_link0").pose for side in ("west", "east"))
     assert west.xyz[1] == pytest.approx(0.1)  # xyz_values' default
     assert east.xyz[1] == pytest.approx(-0.1)
+
+
+def test_a_relative_mesh_path_into_a_package_becomes_a_package_reference(tmp_path):
+    package = tmp_path / "cell_description"
+    shutil.copytree(DESCRIPTIONS / "ur_description" / "meshes" / "ur5e", package / "meshes")
+    (package / "package.xml").write_text("<package><name>cell_description</name></package>")
+    (package / "urdf").mkdir()
+    (package / "urdf" / "cell.urdf.xacro").write_text(
+        """<robot name="cell" xmlns:xacro="http://www.ros.org/wiki/xacro">
+          <link name="base"><collision><geometry>
+            <mesh filename="../meshes/collision/base.stl"/></geometry></collision>
+          <inertial><mass value="1"/>
+            <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+          </link></robot>"""
+    )
+    robot = load_robot(package / "urdf" / "cell.urdf.xacro")
+    assert 'filename="package://cell_description/meshes/collision/base.stl"' in _expanded(robot)
+    assert "package/cell_description/meshes/collision/base.stl" in robot.sources
