@@ -117,6 +117,20 @@ def format_table(model: RobotModel) -> str:
         lines += ["", "frames"]
         for f in model.frames:
             lines.append(f"  {f.name} (on {f.attached_to})  {_pose(f.pose.as_list())}")
+    if model.xacro is not None:
+        args = " ".join(f"{k}:={v}" for k, v in model.xacro.args.items())
+        lines += ["", f"expanded from {model.xacro.source}" + (f" with {args}" if args else "")]
+    if model.ros2_control is not None:
+        lines += ["", "ros2_control (joint: command interfaces; initial position)"]
+        for block in model.ros2_control.blocks:
+            note = "" if block.simulated else " (a real driver: the simulation stands in)"
+            lines.append(f"  {block.name}: {block.plugin or 'no plugin'}{note}")
+            for joint in block.joints:
+                initial = joint.initial_position
+                lines.append(
+                    f"    {joint.name}: {', '.join(joint.command_names) or '-'}"
+                    + ("" if initial is None else f"; {initial:.4g}")
+                )
     return "\n".join(lines)
 
 

@@ -249,6 +249,9 @@ def test_cli_loads_a_xacro_robot_with_robot_args(capsys):
     assert code == 0
     assert "model ur (urdf" in out
     assert "shoulder_pan_joint" in out
+    assert "with ur_type:=ur10e name:=ur" in out
+    assert "ur: mock_components/GenericSystem" in out
+    assert "shoulder_lift_joint: position, velocity; -1.57" in out
 
 
 def test_missing_package_is_one_line_naming_it_and_every_place(tmp_path, capsys, monkeypatch):
