@@ -44,7 +44,7 @@ from urllib.parse import unquote
 from harness.errors import HarnessError
 from harness.models.errors import ResolveError, XacroError
 from harness.models.resolve import PackageMap, find_package, owning_package, resolve_uri
-from harness.models.xmlsafe import check_size, parse_xml
+from harness.models.xmlsafe import MAX_XML_BYTES, check_size, parse_xml
 
 __all__ = [
     "XACRO_SUFFIX",
@@ -65,6 +65,7 @@ RobotArgs = Mapping[str, "str | int | float | bool"]
 
 _XACRO_NAMESPACE = re.compile(rb"xmlns:xacro\s*=\s*[\"'][^\"']*xacro", re.I)
 _ARG_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-.]*")
+_COMMENT = re.compile(rb"<!--.*?-->", re.S)
 _ENV_USE = re.compile(r"\$\((?:env|optenv)\s+([A-Za-z_][A-Za-z0-9_]*)")
 _LOCK = threading.Lock()
 
@@ -107,17 +108,24 @@ class Expansion:
 
 
 def is_xacro(path: str | Path) -> bool:
-    """A ``.xacro`` file, or an XML file whose root declares the xacro namespace."""
+    """A ``.xacro`` file, or an XML file whose ``<robot>`` root declares the xacro namespace
+    and uses it outside comments (a ``<xacro:...>`` element, ``${...}`` or ``$(...)``): URDFs
+    that xacro wrote keep the declaration and need no second expansion."""
     path = Path(path)
     if path.suffix.lower() == XACRO_SUFFIX:
         return True
     try:
         with path.open("rb") as handle:
             head = handle.read(8192)
+            start = head.find(b"<robot")
+            end = head.find(b">", start)
+            if start < 0 or not _XACRO_NAMESPACE.search(head[start : end + 1]):
+                return False
+            data = head + handle.read(MAX_XML_BYTES)
     except OSError:
         return False
-    end = head.find(b">", head.find(b"<robot"))
-    return head.find(b"<robot") >= 0 and bool(_XACRO_NAMESPACE.search(head[: end + 1]))
+    data = _COMMENT.sub(b"", data)  # xacro leaves comments alone
+    return b"<xacro:" in data or b"${" in data or b"$(" in data
 
 
 def parse_robot_arg(text: str) -> tuple[str, str]:

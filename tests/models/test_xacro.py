@@ -204,8 +204,14 @@ def test_env_eval_include_and_macro(tmp_path, monkeypatch):
           </joint>
         </robot>"""
     )
-    path = tmp_path / "bot.urdf"  # a .urdf whose root declares xmlns:xacro is a xacro file
+    path = tmp_path / "bot.urdf"  # a .urdf whose root declares and uses xacro is a xacro file
     assert is_xacro(path)
+    written = tmp_path / "written.urdf"  # what xacro writes: the declaration, nothing to expand
+    written.write_text(
+        '<robot name="w" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<!-- <xacro:macro name="m"/> ${x} --><link name="a"/></robot>'
+    )
+    assert not is_xacro(written)
     monkeypatch.setenv("BOT_NAME", "bot_a")
     first = load_description(path, robot_args={"length": 0.25})
     assert first.name == "bot_a"
