@@ -41,7 +41,9 @@ default ``tolerance`` is the solver's soft-limit zone of each joint,
 :func:`harness.events.solver_limit_tolerance`, as in ``harness run``'s verdicts), and
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
-``joint_command_topic``. Markers on the module/class/function merge, the closest wins.
+``joint_command_topic``, ``robot_args`` (a xacro robot's arguments, name -> value; recorded in
+the recording's and the golden's metadata). Markers on the module/class/function merge, the
+closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
@@ -115,6 +117,7 @@ _SESSION_KEYS = (
     "kinematic_limits",
     "seed",
     "joint_command_topic",
+    "robot_args",
 )
 MARKER_KEYS = frozenset(
     {
@@ -364,6 +367,15 @@ def _resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
     if not isinstance(value, str | os.PathLike):
         return value
     text = os.fspath(value)
+    if text.startswith("package://"):
+        # the package search starts at the test's folder (else a load error names the search)
+        from harness.errors import HarnessError
+        from harness.models.resolve import resolve_uri
+
+        try:
+            return resolve_uri(text, base_dir=item.path.parent, what="robot file")
+        except HarnessError:
+            return value
     if not ("/" in text or os.sep in text or Path(text).suffix):
         return value  # a built-in name ("demo", "table")
     path = Path(text)
@@ -389,6 +401,8 @@ def _scenario_options(path: Path) -> dict[str, Any]:
         "state_every": scenario.recording.state_every,
         "scenario_text": path.read_bytes(),
     }
+    if spec.robot_args:
+        options["robot_args"] = dict(spec.robot_args)
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode

@@ -1,4 +1,5 @@
-"""Robot descriptions: URDF, SDF and MJCF into one `RobotModel` and a compiled MuJoCo model."""
+"""Robot descriptions: URDF (plain or xacro), SDF and MJCF into one `RobotModel` and a compiled
+MuJoCo model."""
 
 from harness.models.build import (
     DEMO_URDF,
@@ -22,6 +23,7 @@ from harness.models.description import (
     RobotModel,
     Shape,
 )
+from harness.models.ros2_control import HardwareReplacedWarning, Ros2Control
 from harness.models.world import (
     DuplicateNamespaceError,
     InvalidNamespaceError,
@@ -32,6 +34,7 @@ from harness.models.world import (
     RobotSpec,
     WorldObject,
 )
+from harness.models.xacro import UnusedRobotArgWarning, XacroOrigin, expand_xacro
 
 __all__ = [
     "CONTROL_MODES",
@@ -40,6 +43,7 @@ __all__ = [
     "ControlMode",
     "DuplicateNamespaceError",
     "Geometry",
+    "HardwareReplacedWarning",
     "Inertial",
     "InvalidNamespaceError",
     "Joint",
@@ -55,8 +59,12 @@ __all__ = [
     "PoseLike",
     "RobotModel",
     "RobotSpec",
+    "Ros2Control",
     "Shape",
+    "UnusedRobotArgWarning",
     "WorldObject",
+    "XacroOrigin",
+    "expand_xacro",
     "load_description",
     "load_robot",
     "load_world",

@@ -12,13 +12,45 @@ from typing import Any
 
 from harness.models.description import RobotModel
 
-__all__ = ["add_arguments", "run", "to_json"]
+__all__ = ["add_arguments", "add_robot_arg_option", "robot_args", "run", "to_json"]
+
+
+def _robot_arg(text: str) -> tuple[str, str]:
+    from harness.models.errors import XacroError
+    from harness.models.xacro import parse_robot_arg
+
+    try:
+        return parse_robot_arg(text)
+    except XacroError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_robot_arg_option(parser: argparse.ArgumentParser) -> None:
+    """``--robot-arg NAME:=VALUE`` (repeatable): an argument of a xacro robot."""
+    parser.add_argument(
+        "--robot-arg",
+        dest="robot_args",
+        metavar="NAME:=VALUE",
+        type=_robot_arg,
+        action="append",
+        default=[],
+        help="an argument of a xacro robot, as on the xacro command line (repeatable), "
+        "e.g. --robot-arg ur_type:=ur5e",
+    )
+
+
+def robot_args(args: argparse.Namespace) -> dict[str, str]:
+    """The ``--robot-arg`` values as a mapping (a later one wins)."""
+    return dict(getattr(args, "robot_args", None) or [])
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``harness inspect-model``."""
-    parser.add_argument("file", help='a .urdf, .sdf/.world or MJCF file, or "demo"')
+    parser.add_argument(
+        "file", help='a .urdf, .xacro, .sdf/.world or MJCF file, package://pkg/path, or "demo"'
+    )
     parser.add_argument("--json", action="store_true", help="print the JSON contract")
+    add_robot_arg_option(parser)
 
 
 def to_json(model: RobotModel) -> dict[str, Any]:
@@ -85,6 +117,20 @@ def format_table(model: RobotModel) -> str:
         lines += ["", "frames"]
         for f in model.frames:
             lines.append(f"  {f.name} (on {f.attached_to})  {_pose(f.pose.as_list())}")
+    if model.xacro is not None:
+        args = " ".join(f"{k}:={v}" for k, v in model.xacro.args.items())
+        lines += ["", f"expanded from {model.xacro.source}" + (f" with {args}" if args else "")]
+    if model.ros2_control is not None:
+        lines += ["", "ros2_control (joint: command interfaces; initial position)"]
+        for block in model.ros2_control.blocks:
+            note = "" if block.simulated else " (a real driver: the simulation stands in)"
+            lines.append(f"  {block.name}: {block.plugin or 'no plugin'}{note}")
+            for joint in block.joints:
+                initial = joint.initial_position
+                lines.append(
+                    f"    {joint.name}: {', '.join(joint.command_names) or '-'}"
+                    + ("" if initial is None else f"; {initial:.4g}")
+                )
     return "\n".join(lines)
 
 
@@ -92,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the description of ``args.file``."""
     from harness.models.build import load_description
 
-    model = load_description(args.file)
+    model = load_description(args.file, robot_args=robot_args(args))
     if args.json:
         print(json.dumps(to_json(model), indent=2))
     else:

@@ -37,12 +37,19 @@ from harness.models.errors import (
     ModelWarning,
 )
 from harness.models.resolve import PackageMap
+from harness.models.ros2_control import warn_replaced_hardware
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
     REPAIR_BOUNDMASS,
     harness_extension,
     mujoco_urdf_xml,
-    urdf_from_element,
+)
+from harness.models.urdf_source import (
+    control_defaults,
+    describe_urdf,
+    initial_keyframes,
+    locate,
+    read_urdf_source,
 )
 from harness.models.world import (
     DuplicateNamespaceError,
@@ -55,6 +62,7 @@ from harness.models.world import (
     check_namespace,
     placement_pose,
 )
+from harness.models.xacro import RobotArgs, is_xacro
 from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = [
@@ -127,24 +135,22 @@ class LoadedRobot:
 
 def _kind(path: Path) -> str:
     suffix = path.suffix.lower()
-    if suffix in URDF_SUFFIXES:
+    if suffix in URDF_SUFFIXES or is_xacro(path):
         return "urdf"
     if suffix in MJCF_SUFFIXES:
         return "mjcf"
     if suffix in SDF_SUFFIXES:
         return "sdf"
     raise ModelStructureError(
-        f"{path}: unknown model format {path.suffix!r} (expected .urdf, .sdf, .world, .xml, .mjcf)"
+        f"{path}: unknown model format {path.suffix!r} (expected .urdf, .xacro, .sdf, .world, "
+        ".xml, .mjcf)"
     )
 
 
-def _source_path(source: str | Path) -> Path:
+def _source_path(source: str | Path, packages: PackageMap | None = None) -> Path:
     if str(source) == "demo":
         return DEMO_URDF
-    path = Path(source)
-    if not path.is_file():
-        raise ModelStructureError(f"{path}: model file not found")
-    return path
+    return locate(source, packages)
 
 
 def _sdf_api() -> tuple[Callable[..., RobotModel], Callable[..., mujoco.MjSpec]]:
@@ -159,14 +165,22 @@ def _sdf_api() -> tuple[Callable[..., RobotModel], Callable[..., mujoco.MjSpec]]
     return read, build
 
 
-def load_description(source: str | Path) -> RobotModel:
-    """The :class:`RobotModel` of ``source`` ("demo", .urdf, .sdf/.world, MJCF) without
-    building the MuJoCo model for URDF and SDF (MJCF is compiled to read it)."""
-    path = _source_path(source)
+def load_description(
+    source: str | Path,
+    *,
+    robot_args: RobotArgs | None = None,
+    packages: PackageMap | None = None,
+) -> RobotModel:
+    """The :class:`RobotModel` of ``source`` ("demo", .urdf, .xacro with ``robot_args``,
+    ``package://``, .sdf/.world, MJCF) without building the MuJoCo model for URDF and SDF
+    (MJCF is compiled to read it)."""
+    path = _source_path(source, packages)
     kind = _kind(path)
     if kind == "urdf":
-        root, _ = read_xml_file(path)
-        return urdf_from_element(root, str(path))
+        urdf = read_urdf_source(
+            path, robot_args=robot_args, packages=packages, reference=str(source)
+        )
+        return describe_urdf(urdf.root, str(path), urdf.origin)
     if kind == "sdf":
         read_sdf, _ = _sdf_api()
         return read_sdf(path)
@@ -445,10 +459,11 @@ class _Robot:
         self.request = robot
         self.namespace = ""
         self.prefix = ""
-        self.path = _source_path(robot.source)
+        self.path = _source_path(robot.source, robot.packages)
         self.source = str(self.path)
         self.kind = _kind(self.path)
         self.model_bytes = b""
+        self.extra_sources: Mapping[str, bytes] = {}  # a xacro robot's files read and meshes
         self.existing_actuators = False
         # key name -> joint -> position, from a URDF's <harness> element
         self.extension_keys: Mapping[str, Mapping[str, float]] = {}
@@ -460,8 +475,14 @@ class _Robot:
         self.srdf_bytes: bytes | None = None
         path = self.path
         if self.kind == "urdf":
-            root, self.model_bytes = read_xml_file(path)
-            self.description = urdf_from_element(root, self.source)
+            urdf = read_urdf_source(
+                path, robot_args=robot.robot_args, packages=robot.packages,
+                reference=str(robot.source),
+            )  # fmt: skip
+            root, self.model_bytes, self.extra_sources = urdf.root, urdf.data, urdf.extra
+            self.path = urdf.path  # a xacro robot is recorded as its expanded URDF
+            self.description = describe_urdf(root, self.source, urdf.origin)
+            warn_replaced_hardware(self.description.ros2_control, self.source)
             prepared = mujoco_urdf_xml(
                 root,
                 path,
@@ -473,7 +494,7 @@ class _Robot:
             self.source_repairs, self.repaired_inertias = prepared.repairs, prepared.inertias
             self.spec = _spec_from_string(prepared.xml, self.source, prepared.assets)
             extension = harness_extension(root, self.description)
-            self.extension_keys = extension.keyframes
+            self.extension_keys = initial_keyframes(extension.keyframes, self.description)
             for joint_name, armature in extension.armature.items():
                 self.spec.joint(joint_name).armature = armature
         elif self.kind == "sdf":
@@ -590,6 +611,7 @@ def load_robot(
     cache_dir: str | Path | None = None,
     pose: PoseLike = None,
     initial_positions: Mapping[str, float] | None = None,
+    robot_args: RobotArgs | None = None,
 ) -> LoadedRobot:
     """Load ``source`` into MuJoCo with one actuator per controllable joint.
 
@@ -605,7 +627,9 @@ def load_robot(
     (velocity) overriding the defaults. ``cache_dir``: converted-mesh cache folder.
     ``pose``: where the robot's base (model frame) is in the world (see
     :data:`harness.models.world.PoseLike`). ``initial_positions``: joint -> position
-    overriding the ``home`` keyframe (created if the robot has none).
+    overriding the ``home`` keyframe (created if the robot has none). ``robot_args``: the
+    arguments of a xacro robot (name -> value, see :mod:`harness.models.xacro`); ``source``
+    may also be ``package://pkg/path`` (found like a mesh's package).
 
     A URDF's ``<harness>`` element adds keyframes and joint armature (see
     :func:`harness.models.urdf.harness_extension`): the model depends on file contents only,
@@ -627,6 +651,7 @@ def load_robot(
         visuals=visuals,
         repair_inertia=repair_inertia,
         initial_positions=dict(initial_positions or {}),
+        robot_args=dict(robot_args or {}),
     )
     world = load_world([robot], scene=scene, cache_dir=cache_dir)
     view = world.robots[0]
@@ -701,6 +726,7 @@ def load_world(
     sources: dict[str, bytes] = {}
     for robot in prepared:
         sources[f"model/{robot.prefix}{robot.path.name}"] = robot.model_bytes
+        sources.update(_prefixed(robot.extra_sources, robot.prefix))
     if scene is None and str(first_robot.request.source) == "demo":
         scene = "table"
     own_world = scene is None and not several and first_robot.kind == "mjcf"
@@ -750,6 +776,7 @@ def load_world(
             name.removeprefix(robot.prefix) for name in joint_names if name.startswith(robot.prefix)
         }
         robot.modes = _resolve_control(robot.description, own_joints, robot.request.control, where)
+        robot.modes = control_defaults(robot.description, robot.modes, robot.request.control)
         gains = dict(robot.request.gains or {})
         unknown_gains = sorted(set(gains) - set(robot.modes))
         if unknown_gains:
@@ -928,6 +955,7 @@ def _view(
     mine = {
         f"model/{robot.prefix}{robot.path.name}",
         f"srdf/{robot.prefix}{Path(robot.request.srdf).name}" if robot.request.srdf else "",
+        *_prefixed(robot.extra_sources, robot.prefix),
     }
     return LoadedRobotView(
         namespace=robot.namespace,
@@ -948,6 +976,15 @@ def _view(
             else ()
         ),
     )
+
+
+def _prefixed(sources: Mapping[str, bytes], prefix: str) -> dict[str, bytes]:
+    """``"<role>/<rest>"`` -> ``"<role>/<prefix><rest>"`` (a robot's namespace in a world)."""
+    out = {}
+    for name, blob in sources.items():
+        role, _, rest = name.partition("/")
+        out[f"{role}/{prefix}{rest}"] = blob
+    return out
 
 
 def _existing_control(

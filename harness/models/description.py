@@ -11,12 +11,16 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from harness.vocabulary import CONTROL_MODE_INPUTS, CONTROL_MODES, DYNAMIC_ALIAS, ControlMode
+
+if TYPE_CHECKING:
+    from harness.models.ros2_control import Ros2Control
+    from harness.models.xacro import XacroOrigin
 
 __all__ = [
     "CONTROL_MODES",
@@ -286,7 +290,10 @@ class ModelFrame:
 
 @dataclass(frozen=True)
 class RobotModel:
-    """A robot description in the model frame at the zero configuration."""
+    """A robot description in the model frame at the zero configuration.
+
+    ``ros2_control``: the URDF's ``<ros2_control>`` blocks (:mod:`harness.models.ros2_control`);
+    ``xacro``: where an expanded xacro description came from (entry file and arguments)."""
 
     name: str
     links: tuple[Link, ...]
@@ -294,6 +301,8 @@ class RobotModel:
     frames: tuple[ModelFrame, ...] = ()
     source: str | None = None
     format: Literal["urdf", "sdf", "mjcf"] = "urdf"
+    ros2_control: Ros2Control | None = None
+    xacro: XacroOrigin | None = None
 
     def link(self, name: str) -> Link:
         for link in self.links:

@@ -14,11 +14,17 @@ __all__ = [
     "ResolveError",
     "UnknownPackageError",
     "XMLError",
+    "XacroError",
 ]
 
 
 class XMLError(ModelError):
     """A model file is not well-formed XML, is unsafe (entity declarations) or unreadable."""
+
+
+class XacroError(ModelError):
+    """A xacro file cannot be expanded: a syntax error, an undefined argument, a failing
+    expression or include (the message names the file and the argument or line)."""
 
 
 class ResolveError(ModelError):

@@ -6,8 +6,10 @@ from the network; a reference that cannot be resolved is a :class:`ResolveError`
 was searched.
 
 Package search order: the explicit ``packages`` map, then ``ROS_PACKAGE_PATH``, then the
-folders above the referencing file (a folder named like the package, a child folder named
-like it, or a folder whose ``package.xml`` declares that name). ``model://`` searches the
+``share/`` folder of each prefix in ``AMENT_PREFIX_PATH`` (a sourced ROS 2 install works as
+is), then the folders above the referencing file (a folder named like the package, a child
+folder named like it, or a folder whose ``package.xml`` declares that name). xacro's
+``$(find pkg)`` uses the same search (:mod:`harness.models.xacro`). ``model://`` searches the
 explicit ``search_paths``, then ``GZ_SIM_RESOURCE_PATH``, ``SDF_PATH``,
 ``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file.
 
@@ -31,6 +33,7 @@ __all__ = [
     "PackageMap",
     "find_model",
     "find_package",
+    "owning_package",
     "resolve_uri",
 ]
 
@@ -50,6 +53,12 @@ def _env_paths(variables: Iterable[str]) -> list[Path]:
     for var in variables:
         paths.extend(Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p)
     return paths
+
+
+def _ament_shares() -> list[Path]:
+    """The ``share/`` folder of every ``AMENT_PREFIX_PATH`` prefix (where ROS 2 installs
+    each package's ``share/<package>``)."""
+    return [prefix / "share" for prefix in _env_paths(["AMENT_PREFIX_PATH"])]
 
 
 def _declares_package(folder: Path, name: str) -> bool:
@@ -79,9 +88,16 @@ def _search(name: str, roots: Sequence[Path], start: Path | None) -> Path | None
     return None
 
 
-def _tried(explicit: Mapping[str, object], roots: Sequence[Path], start: Path | None) -> str:
+def _tried(
+    explicit: Mapping[str, object],
+    roots: Sequence[Path],
+    start: Path | None,
+    ament: Sequence[Path] = (),
+) -> str:
     parts = [f"packages map {sorted(explicit)}" if explicit else "no packages map"]
     parts.append(f"search paths {[str(r) for r in roots]}" if roots else "no search paths set")
+    if ament:
+        parts.append(f"AMENT_PREFIX_PATH share folders {[str(r) for r in ament]}")
     if start is not None:
         parts.append(f"the folders above {start}")
     return "; ".join(parts)
@@ -95,13 +111,30 @@ def find_package(
     if name in explicit:
         return Path(explicit[name])
     roots = _env_paths(["ROS_PACKAGE_PATH"])
+    ament = _ament_shares()
     begin = Path(start).resolve() if start is not None else None
-    found = _search(name, roots, begin)
+    found = _search(name, [*roots, *ament], begin)
     if found is None:
         raise UnknownPackageError(
-            f"unknown package {name!r} (tried {_tried(explicit, roots, begin)})"
+            f"unknown package {name!r} (tried {_tried(explicit, roots, begin, ament)})"
         )
     return found
+
+
+def owning_package(path: str | Path) -> tuple[str, Path] | None:
+    """The ROS package a file lies in: the name its nearest ``package.xml`` declares and that
+    folder (None when no folder above the file has a ``package.xml`` with a name)."""
+    for folder in Path(path).resolve().parents:
+        manifest = folder / "package.xml"
+        if not manifest.is_file():
+            continue
+        try:
+            text = manifest.read_text(errors="replace")
+        except OSError:
+            return None
+        match = re.search(r"<name>\s*([^<\s]+)\s*</name>", text)
+        return (match.group(1), folder) if match else None
+    return None
 
 
 def find_model(

@@ -24,6 +24,7 @@ import mujoco
 from harness.models.description import ControlMode, Joint, Link, ModelFrame, Pose, RobotModel
 from harness.models.errors import ModelStructureError
 from harness.models.resolve import PackageMap
+from harness.models.xacro import RobotArgs
 
 __all__ = [
     "DuplicateNamespaceError",
@@ -107,7 +108,8 @@ class RobotSpec:
     ``packages``, ``srdf``, ``visuals``, ``repair_inertia``: as for
     :func:`harness.models.load_robot`, with the robot's unprefixed joint and link names.
     ``initial_positions``: joint -> position overriding the robot's ``home`` keyframe (the
-    servos stay tuned at the source's own ``home``).
+    servos stay tuned at the source's own ``home``). ``robot_args``: a xacro robot's
+    arguments (name -> value).
     """
 
     source: str | Path = "demo"
@@ -120,6 +122,7 @@ class RobotSpec:
     visuals: bool = False
     repair_inertia: bool = False
     initial_positions: Mapping[str, float] = field(default_factory=dict)
+    robot_args: RobotArgs = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,12 @@ rebuilds the same world (``harness.replay.source.rebuild_run``):
   ``mass``, ``rgba``).
 
 ``control_modes`` then holds every robot's joints by MuJoCo (prefixed) name.
+
+A xacro robot (see ``harness.models.xacro``) adds ``robot_xacro`` (the entry file as the user
+named it) and ``robot_args`` (JSON object of its arguments) to the metadata, or ``xacro`` and
+``robot_args`` to its entry in ``robots``; its expanded URDF is the ``source/model/...``
+attachment, the files the expansion read are ``source/xacro/...`` and the meshes it names
+``source/package/<pkg>/...``.
 """
 
 from __future__ import annotations
@@ -91,6 +97,7 @@ def world_metadata(
             "pose": _placement(view.placement),
             "control": {str(j): str(m) for j, m in view.control.items()},
             "srdf": next((n for n in sources if n.startswith("srdf/")), None),
+            **_xacro_entry(view),
         }
         if specs is not None and index < len(specs):
             spec = specs[index]
@@ -120,6 +127,26 @@ def world_metadata(
     }
 
 
+def _xacro_entry(robot: Any) -> dict[str, Any]:
+    origin = getattr(getattr(robot, "description", None), "xacro", None)
+    if origin is None:
+        return {}
+    return {
+        "xacro": str(origin.source),
+        "robot_args": {str(k): str(v) for k, v in origin.args.items()},
+    }
+
+
+def _xacro_metadata(robot: Any) -> dict[str, str]:
+    entry = _xacro_entry(robot)
+    if not entry:
+        return {}
+    return {
+        "robot_xacro": entry["xacro"],
+        "robot_args": json.dumps(entry["robot_args"], sort_keys=True),
+    }
+
+
 def describe_run(
     robot: LoadedRobotLike,
     *,
@@ -146,6 +173,7 @@ def describe_run(
         "model_sha256": robot.sha256,
         "control_modes": json.dumps(control, sort_keys=True),
         **(world_metadata(robot, specs, objects) if hasattr(robot, "robots") else {}),
+        **_xacro_metadata(robot),
         **(extra or {}),
     }
     attachments = {

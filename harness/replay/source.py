@@ -181,6 +181,14 @@ def _model_source(sources: Mapping[str, bytes], name: str, root: Path) -> str | 
     return "demo" if sources[name] == DEMO_URDF.read_bytes() else root / name
 
 
+def _packages(sources: Mapping[str, bytes], root: Path, prefix: str = "") -> dict[str, Path]:
+    """The package folders of the attached meshes of a xacro robot (``package/[<namespace>/]
+    <pkg>/...``): what its expanded URDF's ``package://`` references resolve to on replay."""
+    start = f"package/{prefix}"
+    names = {n[len(start) :].split("/", 1)[0] for n in sources if n.startswith(start)}
+    return {name: root / "package" / prefix / name for name in sorted(names) if name}
+
+
 def _json_metadata(rec: Recording, key: str) -> list[dict[str, Any]]:
     raw = rec.metadata.get(key, "[]")
     try:
@@ -230,6 +238,7 @@ def _robot_spec(
         pose=_pose(entry.get("pose"), where),
         control=modes,
         gains=entry.get("gains"),
+        packages=_packages(sources, root, prefix) or None,
         srdf=None if srdf is None else root / srdf,
         visuals=bool(entry.get("visuals", False)),
         repair_inertia=bool(entry.get("repair_inertia", False)),
@@ -327,7 +336,12 @@ def rebuild_robot(
         _write_sources(sources, root)
         source = _model_source(sources, models[0], root)
         try:
-            return load_robot(source, control=modes, scene=_scene(sources, root))
+            return load_robot(
+                source,
+                control=modes,
+                scene=_scene(sources, root),
+                packages=_packages(sources, root) or None,
+            )
         except HarnessError as exc:
             raise ModelAttachmentError(
                 f"{rec.path}: cannot rebuild the robot from its source attachments: {exc}"

@@ -23,9 +23,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from harness.errors import ModelError
 from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode
+from harness.models.resolve import resolve_uri
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
 
@@ -52,7 +54,7 @@ BUILTIN_ROBOTS: tuple[str, ...] = ("demo",)
 """Robot names ``robots[].robot`` accepts besides a file path."""
 BUILTIN_MAPS: tuple[str, ...] = ("empty", "table")
 """Scene names ``environment.map`` accepts besides a world file."""
-ROBOT_SUFFIXES = (".urdf", ".sdf", ".xml", ".mjcf")
+ROBOT_SUFFIXES = (".urdf", ".xacro", ".sdf", ".xml", ".mjcf")
 WORLD_SUFFIXES = (".xml", ".mjcf", ".sdf", ".world")
 
 Vector3 = tuple[float, float, float]
@@ -127,7 +129,8 @@ class RobotSpec:
     """One robot: ``robot`` is a built-in name or the resolved model file. ``name``: the
     scenario's name for it (``robot``, ``robot1``, ... when not given); ``named``: whether
     the file gave the name (a given name is the robot's namespace when a run has several
-    robots, see :func:`harness.scenario.world.robot_namespaces`)."""
+    robots, see :func:`harness.scenario.world.robot_namespaces`). ``robot_args``: the
+    arguments of a xacro robot (name -> value as text)."""
 
     robot: str | Path
     name: str
@@ -138,6 +141,7 @@ class RobotSpec:
     controllers: tuple[Controller, ...] = ()
     loggers: tuple[LoggerSpec, ...] = ()
     named: bool = False
+    robot_args: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -262,6 +266,13 @@ class Scenario:
         return scenario
 
 
+def _arg_text(value: Any) -> str:
+    """A scenario's xacro argument value as xacro reads it (booleans ``true``/``false``)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
 def _resolve_choice(
     value: str, base: Path, builtins: tuple[str, ...], suffixes: tuple[str, ...]
 ) -> str | Path:
@@ -349,6 +360,12 @@ class _Builder:
                 self.robot_source(robot["robot"], ["robots", index, "robot"])
 
     def robot_source(self, value: str, path: list[str | int]) -> str | Path:
+        if value.startswith("package://"):
+            try:
+                return resolve_uri(value, base_dir=self.base, what="robot file")
+            except ModelError as exc:
+                self.problem(path, value, f"is not found: {exc}")
+                return value
         robot = _resolve_choice(value, self.base, BUILTIN_ROBOTS, ROBOT_SUFFIXES)
         if isinstance(robot, Path):
             if not robot.is_file():
@@ -435,6 +452,7 @@ class _Builder:
                 for i, lg in enumerate(data.get("loggers", []))
             ),
             named="name" in data,
+            robot_args={str(k): _arg_text(v) for k, v in data.get("robot_args", {}).items()},
         )
 
     def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:

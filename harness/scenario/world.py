@@ -213,7 +213,7 @@ def robot_namespaces(scenario: Scenario) -> tuple[str, ...]:
         if robot.named:
             out.append(robot.name)
             continue
-        base = _segment(load_description(robot.robot).name)
+        base = _segment(load_description(robot.robot, robot_args=robot.robot_args).name)
         candidate, number = base, 0
         while candidate in used:
             number += 1
@@ -299,7 +299,7 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
     robots: list[WorldRobot] = []
     problems: list[str] = []
     for index, (robot, namespace) in enumerate(zip(scenario.robots, namespaces, strict=True)):
-        description = load_description(robot.robot)
+        description = load_description(robot.robot, robot_args=robot.robot_args)
         modes = control_modes(robot, description, ["robots", index], where)
         joints = _joint_names(description)
         problems += [
@@ -316,6 +316,7 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
                 pose=[*robot.position, *robot.orientation] if posed else None,
                 control=modes,
                 initial_positions=dict(robot.initial_joint_positions),
+                robot_args=dict(robot.robot_args),
             )
         )
     if problems:

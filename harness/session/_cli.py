@@ -16,6 +16,7 @@ import threading
 import warnings
 from types import FrameType
 
+from harness.models._cli import add_robot_arg_option, robot_args
 from harness.session.session import CLOCK_MODES
 from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
 
@@ -24,7 +25,12 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``harness serve``."""
-    parser.add_argument("--robot", default="demo", help="robot model file or 'demo' (default)")
+    parser.add_argument(
+        "--robot",
+        default="demo",
+        help="robot model file (.urdf, .xacro, .sdf, MJCF), package://pkg/path or 'demo' (default)",
+    )
+    add_robot_arg_option(parser)
     parser.add_argument(
         "--mode",
         choices=CONTROL_MODE_INPUTS,
@@ -89,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
             token=args.token,
             record_to=args.record,
             scene=args.scene,
+            robot_args=robot_args(args),
         ) as session:
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
             print(

@@ -219,6 +219,8 @@ class Session:
     ``"paused"`` or ``"on_client"`` (free-running clocks only, see the module docstring).
     ``record_bridge_frames``: record the bridge frames and markers (default True).
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
+    ``robot_args``: the arguments of a xacro ``robot`` (name -> value; with ``robots`` each
+    RobotSpec has its own); ``robot`` may be ``package://pkg/path``.
     """
 
     def __init__(
@@ -250,6 +252,7 @@ class Session:
         start: StartMode = "now",
         record_bridge_frames: bool = True,
         max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
+        robot_args: Mapping[str, Any] | None = None,
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
@@ -290,7 +293,7 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        loaded = _load(robot, robots, objects, mode, scene, namespace)
+        loaded = _load(robot, robots, objects, mode, scene, namespace, robot_args)
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
         """The loaded world of a session of ``robots`` (None for ``robot=``)."""
@@ -860,8 +863,14 @@ def _load(
     mode: ControlMode | str | Mapping[str, ControlMode | str] | None,
     scene: str | Path | None,
     namespace: str,
+    robot_args: Mapping[str, Any] | None = None,
 ) -> LoadedRobot | LoadedWorld:
     """What a session runs: ``robot`` loaded (or as given), or the world of ``robots``."""
+    if robot_args and (robots is not None or isinstance(robot, LoadedRobot)):
+        raise SessionConfigError(
+            "robot_args apply when the session loads robot=; give each RobotSpec its "
+            "robot_args, or load_robot(..., robot_args=...) yourself"
+        )
     if robots is None:
         if objects:
             raise SessionConfigError(
@@ -875,7 +884,10 @@ def _load(
                 )
             return robot
         return load_robot(
-            "demo" if robot is None else robot, control=mode or "position", scene=scene
+            "demo" if robot is None else robot,
+            control=mode or "position",
+            scene=scene,
+            robot_args=robot_args,
         )
     if robot is not None:
         raise SessionConfigError("give robot= (one robot) or robots= (a world), not both")

@@ -62,7 +62,8 @@ class TfTree:
             for link in robot.description.links:
                 body = robot.prefix + link.name
                 bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
-                if bid < 0:
+                # a URDF link named "world" is MuJoCo's world body (id 0): the root frame itself
+                if bid <= 0:
                     continue
                 parent = parent_of.get(link.name)
                 pid = (
@@ -82,7 +83,7 @@ class TfTree:
                     edge = TfEdge(
                         robot.frame_prefix + parent,
                         robot.frame_prefix + link.name,
-                        robot.prefix + parent,
+                        robot.prefix + parent if pid > 0 else None,
                         body,
                         _can_move(model, bid, pid),
                     )
