@@ -28,6 +28,7 @@ __all__ = [
     "TOPIC_BRIDGE",
     "TOPIC_CLOCK",
     "TOPIC_COLLISIONS",
+    "TOPIC_EPOCH",
     "TOPIC_INPUTS",
     "TOPIC_JOINT_STATES",
     "TOPIC_ROBOT_DESCRIPTION",
@@ -37,6 +38,7 @@ __all__ = [
     "TYPE_APPLIED_INPUT",
     "TYPE_BRIDGE_FRAME",
     "TYPE_COLLISION_EVENT",
+    "TYPE_EPOCH",
     "TYPE_PHYSICS_STATE",
     "channel_metadata",
     "schema_text",
@@ -56,11 +58,14 @@ TOPIC_BRIDGE: Final = "/harness/bridge"
 TOPIC_INPUTS: Final = "/harness/inputs"
 TOPIC_STATE: Final = "/harness/state"
 TOPIC_COLLISIONS: Final = "/harness/collisions"
+# Discontinuities of the physics (resets): the state a run continues from after such a step.
+TOPIC_EPOCH: Final = "/harness/epoch"
 
 TYPE_BRIDGE_FRAME: Final = "harness_msgs/msg/BridgeFrame"
 TYPE_APPLIED_INPUT: Final = "harness_msgs/msg/AppliedInput"
 TYPE_PHYSICS_STATE: Final = "harness_msgs/msg/PhysicsState"
 TYPE_COLLISION_EVENT: Final = "harness_msgs/msg/CollisionEvent"
+TYPE_EPOCH: Final = "harness_msgs/msg/Epoch"
 
 METADATA_NAME: Final = "harness"
 # Keys the caller must give (the recorder adds versions, platform and its own settings).

@@ -37,12 +37,14 @@ from harness.recording.layout import (
     PROFILE,
     TOPIC_BRIDGE,
     TOPIC_COLLISIONS,
+    TOPIC_EPOCH,
     TOPIC_INPUTS,
     TOPIC_ROSOUT,
     TOPIC_STATE,
     TYPE_APPLIED_INPUT,
     TYPE_BRIDGE_FRAME,
     TYPE_COLLISION_EVENT,
+    TYPE_EPOCH,
     TYPE_PHYSICS_STATE,
     channel_metadata,
     schema_text,
@@ -402,6 +404,33 @@ class Recorder:
             qvel=_f64(qvel, f"{where}: qvel"),
         )
         self._write(TOPIC_STATE, TYPE_PHYSICS_STATE, msg, sim_time_ns)
+
+    def write_epoch(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        epoch: int,
+        reason: str,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None:
+        """Record a discontinuity after ``step`` (a reset): the state the run continues from.
+        Always written (``state_every`` does not apply)."""
+        where = f"{TOPIC_EPOCH} step {step}"
+        msg = self._types[TYPE_EPOCH](
+            step=step,
+            sim_time_ns=sim_time_ns,
+            epoch=epoch,
+            reason=reason,
+            state_spec=state_spec,
+            state=_f64(state, f"{where}: state"),
+            qpos=_f64(qpos, f"{where}: qpos"),
+            qvel=_f64(qvel, f"{where}: qvel"),
+        )
+        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, sim_time_ns)
 
     def write_collision_event(
         self,

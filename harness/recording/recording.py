@@ -35,6 +35,7 @@ from harness.recording.layout import (
     PROFILE,
     TOPIC_BRIDGE,
     TOPIC_COLLISIONS,
+    TOPIC_EPOCH,
     TOPIC_INPUTS,
     TOPIC_STATE,
     TYPE_PHYSICS_STATE,
@@ -43,6 +44,7 @@ from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
     CollisionEvent,
+    Epoch,
     PhysicsState,
     PhysicsStateArrays,
     RecordedMessage,
@@ -536,6 +538,23 @@ class Recording:
             yield PhysicsState(
                 int(m.step), int(m.sim_time_ns), int(m.state_spec), m.state, m.qpos, m.qvel
             )
+
+    def epochs(self, start_step: int | None = None, stop_step: int | None = None) -> list[Epoch]:
+        """The discontinuities (resets) in step order: after each one's ``step`` the run
+        continues from its ``state`` (empty for a run without resets)."""
+        return [
+            Epoch(
+                int(m.step),
+                int(m.sim_time_ns),
+                int(m.epoch),
+                m.reason,
+                int(m.state_spec),
+                m.state,
+                m.qpos,
+                m.qvel,
+            )
+            for m in self._decoded(TOPIC_EPOCH, start_step, stop_step)
+        ]
 
     def collision_events(
         self, start_step: int | None = None, stop_step: int | None = None

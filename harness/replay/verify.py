@@ -21,7 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.recording import Recording
+from harness.recording import Epoch, Recording, RecordingDamagedError
 from harness.recording.layout import TOPIC_STATE
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.layout import StateLayout, rotation_angle
@@ -265,7 +265,15 @@ def verify(
         blocks = state_blocks(rec, model, rows=_BLOCK_ROWS)
         head = next(blocks)
         inputs = _Inputs(rec, model)
+        epochs = _epochs(rec, model, head.state_spec)
         notes: list[str] = []
+        if epochs:
+            notes.append(
+                f"{len(epochs)} epoch(s) (resets) after step(s) "
+                + ", ".join(str(e.step) for e in epochs[:10])
+                + (" ..." if len(epochs) > 10 else "")
+                + ": the replay continues from each recorded reset state"
+            )
         if rec.problems:
             notes.append(
                 "damaged recording, replayed up to the damage: "
@@ -274,7 +282,7 @@ def verify(
         first_ns, last_ns = rec.time_range(TOPIC_STATE)
         report = _replay(
             model, itertools.chain([head], blocks), inputs, atol, rtol, progress,
-            max(last_ns - first_ns, 0) // dt_ns,
+            max(last_ns - first_ns, 0) // dt_ns, epochs,
         )  # fmt: skip
         check_chunks(rec)
     pipeline: PipelineReport | None = None
@@ -332,6 +340,29 @@ class _Inputs:
             self.loaded = stop_step
 
 
+def _epochs(rec: Recording, model: mujoco.MjModel, spec: int) -> list[Epoch]:
+    """The recorded epochs (resets), checked against ``model`` and the states' spec."""
+    try:
+        epochs = rec.epochs()
+    except RecordingDamagedError as exc:
+        raise RecordedDataError(f"{rec.path}: the recording is damaged ({exc})") from None
+    size = int(mujoco.mj_stateSize(model, spec))
+    previous = -1
+    for e in epochs:
+        where = f"{rec.path}: epoch {e.epoch} ({e.reason}) after step {e.step}"
+        if e.state_spec != spec or e.state.size != size:
+            raise RecordedDataError(
+                f"{where}: its state has {e.state.size} values of spec {e.state_spec}; the "
+                f"recorded states have {size} of spec {spec}"
+            )
+        if e.step < previous:
+            raise RecordedDataError(f"{where} follows an epoch after step {previous}")
+        if e.sim_time_ns != e.step * rec.timestep_ns:
+            raise RecordedDataError(f"{where}: sim_time_ns {e.sim_time_ns} is not step * dt_ns")
+        previous = e.step
+    return epochs
+
+
 def _replay(
     model: mujoco.MjModel,
     blocks: Iterator[RecordedStates],
@@ -340,6 +371,7 @@ def _replay(
     rtol: float,
     progress: Progress | None,
     total: int,
+    epochs: Sequence[Epoch] = (),
 ) -> tuple[int, int, Divergence | None, int]:
     """Step from the first recorded state; return (steps, states compared, divergence, first
     step). ``blocks``: the recorded states in order (the first row of the first is the start).
@@ -350,7 +382,9 @@ def _replay(
     batch's row is the ``mjSTATE_INTEGRATION`` state, so handing the state over is exact);
     one with kinematic writes is stepped here as :func:`harness.sim.inputs.advance` does (the
     joints are written before and after each step, which no batched call can do). Each
-    segment's states are compared with the recorded ones as one block.
+    segment's states are compared with the recorded ones as one block. Segments also end
+    at each epoch (a reset): the state recorded for its step is compared, then the replay
+    continues from the epoch's state (the input after a reset is always recorded).
     """
     block = next(blocks)
     spec = block.state_spec
@@ -374,6 +408,9 @@ def _replay(
 
     scratch = np.empty((_SEGMENT, block.state.shape[1]), dtype=np.float64)
     batch: _Batch | None = None
+    epoch_at = 0
+    while epoch_at < len(epochs) and epochs[epoch_at].step < first:
+        epoch_at += 1
     row = 1  # index into the block of the next recorded state to compare
     compared = 0
     done = first  # the last step taken
@@ -382,6 +419,10 @@ def _replay(
         steps = block.steps
         block_last = int(steps[-1])
         while done < block_last:
+            while epoch_at < len(epochs) and epochs[epoch_at].step == done:
+                mujoco.mj_setState(model, data, epochs[epoch_at].state, spec)
+                epoch_at += 1
+                current = None  # the reset state holds the inputs until the next recorded one
             if done + 1 == next_input:
                 current = inputs[position]
                 position += 1
@@ -390,6 +431,8 @@ def _replay(
             end = min(block_last, done + _SEGMENT)
             if next_input > done + 1:
                 end = min(end, next_input - 1)
+            if epoch_at < len(epochs):
+                end = min(end, epochs[epoch_at].step)
             count = end - done
             if current is not None and current.qpos_index.size:
                 _step_kinematic(model, data, current, scratch[:count], spec)

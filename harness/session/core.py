@@ -199,6 +199,19 @@ class RecordSink(Protocol):
         qvel: npt.ArrayLike,
     ) -> None: ...
 
+    def write_epoch(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        epoch: int,
+        reason: str,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None: ...
+
 
 MessageCallback = Callable[[Mapping[str, Any], int], None]
 ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
@@ -653,6 +666,7 @@ class SessionCore:
             hz if options.clock_hz is None else options.clock_hz, self.dt_ns
         )
         self._state_every = options.state_every
+        self._epoch = 0  # resets so far: each is recorded as an epoch (harness_msgs/Epoch)
         tf_topics: dict[str, list[RobotChannels]] = {}
         for channels in self.robots:
             tf_topics.setdefault(channels.topics.tf, []).append(channels)
@@ -843,12 +857,12 @@ class SessionCore:
         if t_next >= trajectory.end_ns:
             channels.trajectory = None
 
-    def _after_state(self) -> None:
+    def _after_state(self, *, record_state: bool = True) -> None:
         """Record the state and publish what is due at the current step."""
         sim = self.sim
         k = sim.step_index
         recorder = self.recorder
-        if recorder is not None and k % self._state_every == 0:
+        if recorder is not None and record_state and k % self._state_every == 0:
             data = sim.data
             recorder.write_physics_state(
                 step=k,
@@ -1209,8 +1223,22 @@ class SessionCore:
         if self.on_clock_change is not None:
             self.on_clock_change()
         text = f"reset to the initial state at step {k} (step numbering continues)"
+        self._epoch += 1
+        recorder = self.recorder
+        if recorder is not None:
+            # The state recorded for step k ends the epoch before; this one starts the next.
+            recorder.write_epoch(
+                step=k,
+                sim_time_ns=sim.sim_time_ns,
+                epoch=self._epoch,
+                reason="reset",
+                state_spec=sim.state_spec,
+                state=sim.get_state(),
+                qpos=sim.data.qpos,
+                qvel=sim.data.qvel,
+            )
         self.log(Level.WARNING, text)
-        self._after_state()
+        self._after_state(record_state=False)
         return text
 
     def set_paused(self, paused: bool) -> str:
