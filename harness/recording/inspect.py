@@ -50,6 +50,16 @@ def inspect(path: str | os.PathLike[str]) -> dict[str, Any]:
             "verdict": verdict,
             "problems": problems,
             "readable_up_to_byte": s.truncated_at,
+            "lost": [
+                {
+                    "offset": r.offset,
+                    "end": r.end,
+                    "first_step": r.first_step,
+                    "last_step": r.last_step,
+                    "what": r.what,
+                }
+                for r in recording.lost
+            ],
             "profile": recording.profile,
             "library": recording.library,
             "duration": {
@@ -119,6 +129,12 @@ def format_report(report: dict[str, Any]) -> str:
     )
     for p in report["problems"]:
         lines.append(f"problem at byte {p['offset']}: {p['message']}")
+    for r in report.get("lost", []):
+        last = "the end" if r["last_step"] is None else f"step {r['last_step']}"
+        lines.append(
+            f"lost: bytes {r['offset']}..{r['end']} passed over; messages of step "
+            f"{r['first_step']} to {last} may be missing, the rest reads"
+        )
     verdict = report["verdict"].upper()
     if report["readable_up_to_byte"] is not None:
         verdict += f": readable up to byte {report['readable_up_to_byte']}"

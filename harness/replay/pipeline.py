@@ -462,13 +462,16 @@ def replay_pipeline(
         except HarnessError as exc:
             raise RecordedDataError(f"{path}: {exc}") from None
         robot = _session_robot(rec)
-        frames = list(rec.bridge_frames())
-        inputs = list(rec.applied_inputs())
-        states = read_states(rec)
-        epochs = rec.epochs()
+        # A damaged stretch ends what can be re-run: frames after it depend on what it held.
+        stop = rec.lost[0].first_step if rec.lost else None
+        frames = list(rec.bridge_frames(None, stop))
+        inputs = list(rec.applied_inputs(None, stop))
+        states = read_states(rec, None, stop)
+        epochs = rec.epochs(None, stop)
         dt_ns = rec.timestep_ns
         notes = [
-            "damaged recording, re-ran up to the damage: " + "; ".join(str(p) for p in rec.problems)
+            "damaged recording, re-ran up to the first damage: "
+            + "; ".join(str(p) for p in rec.problems)
         ] if rec.problems else []  # fmt: skip
     checker = _Checker(robot.model, frames, inputs, states.steps, states.state, dt_ns, epochs)
     hub = EventHub()

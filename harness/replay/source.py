@@ -151,11 +151,14 @@ def control_modes(rec: Recording) -> dict[str, ControlMode]:
 
 
 def _sources(rec: Recording) -> dict[str, bytes]:
-    return {
-        name.removeprefix(ATTACHMENT_SOURCE_PREFIX): rec.attachment(name)
-        for name in rec.attachment_names
-        if name.startswith(ATTACHMENT_SOURCE_PREFIX)
-    }
+    try:
+        return {
+            name.removeprefix(ATTACHMENT_SOURCE_PREFIX): rec.attachment(name)
+            for name in rec.attachment_names
+            if name.startswith(ATTACHMENT_SOURCE_PREFIX)
+        }
+    except RecordingDamagedError as exc:
+        raise ModelAttachmentError(str(exc)) from None
 
 
 def _write_sources(sources: Mapping[str, bytes], root: Path) -> None:
@@ -349,8 +352,10 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
     if ATTACHMENT_MODEL_BINARY in names:
         try:
             return _model_from_mjb(rec.attachment(ATTACHMENT_MODEL_BINARY)), ATTACHMENT_MODEL_BINARY
-        except (ValueError, OSError) as exc:
+        except (ValueError, OSError, RecordingDamagedError) as exc:
             problems.append(f"{ATTACHMENT_MODEL_BINARY}: {' '.join(str(exc).split())}")
+    # A fallback says so: the replay is then only as exact as the model it was given.
+    notice = f" (fell back: {'; '.join(problems)})" if problems else ""
     if any(n.startswith(ATTACHMENT_SOURCE_PREFIX + "model/") for n in names):
         try:
             robot = rebuild_run(rec)
@@ -358,10 +363,17 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
             problems.append(str(exc))
         else:
             if robot.sha256 == expected_sha:
-                return robot.model, "source attachments (rebuilt; MJCF SHA-256 matches)"
+                return robot.model, "source attachments (rebuilt; MJCF SHA-256 matches)" + notice
             problems.append("source attachments rebuild to a model whose MJCF SHA-256 differs")
+    notice = f" (fell back: {'; '.join(problems)})" if problems else ""
     if ATTACHMENT_MODEL in names:
-        text = rec.attachment(ATTACHMENT_MODEL)
+        try:
+            text = rec.attachment(ATTACHMENT_MODEL)
+        except RecordingDamagedError as exc:
+            raise ModelAttachmentError(
+                f"{rec.path}: no usable model attachment: {exc}"
+                + (f" ({'; '.join(problems)})" if problems else "")
+            ) from None
         sha = hashlib.sha256(text).hexdigest()
         if expected_sha and sha != expected_sha:
             raise ModelAttachmentError(
@@ -377,7 +389,7 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
                 f"{rec.path}: attachment {ATTACHMENT_MODEL!r} does not compile: "
                 f"{' '.join(str(exc).split())}"
             ) from None
-        return model, f"{ATTACHMENT_MODEL} (MJCF text, 6 significant digits)"
+        return model, f"{ATTACHMENT_MODEL} (MJCF text, 6 significant digits){notice}"
     raise ModelAttachmentError(
         f"{rec.path}: no usable model attachment ({ATTACHMENT_MODEL_BINARY}, source/model/..., "
         f"{ATTACHMENT_MODEL}); has: {', '.join(sorted(names)) or 'none'}"
@@ -398,7 +410,12 @@ class RecordedStates(NamedTuple):
 
 
 def state_blocks(
-    rec: Recording, model: mujoco.MjModel, *, rows: int = 4096
+    rec: Recording,
+    model: mujoco.MjModel,
+    *,
+    rows: int = 4096,
+    start_step: int | None = None,
+    stop_step: int | None = None,
 ) -> Iterator[RecordedStates]:
     """The recorded physics states in consecutive blocks of about ``rows`` (whole chunks;
     :meth:`~harness.recording.Recording.physics_state_blocks`), each checked: sizes
@@ -409,7 +426,7 @@ def state_blocks(
     previous = -1
     dt_ns = rec.timestep_ns
     try:
-        for arrays in rec.physics_state_blocks(rows=rows):
+        for arrays in rec.physics_state_blocks(start_step, stop_step, rows=rows):
             block = RecordedStates(
                 arrays.steps, arrays.sim_time_ns, arrays.state, arrays.qpos, arrays.qvel,
                 arrays.state_spec,

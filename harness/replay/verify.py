@@ -262,9 +262,8 @@ def verify(
         # States are read block by block as the replay reaches them (little memory; each
         # block is checked by state_blocks: sizes, state spec, step order, sim time). The
         # first is read now: a model that does not fit is reported before anything else.
-        blocks = state_blocks(rec, model, rows=_BLOCK_ROWS)
+        blocks = state_blocks(rec, model, rows=_BLOCK_ROWS, stop_step=_stop(rec, 0))
         head = next(blocks)
-        inputs = _Inputs(rec, model)
         epochs = _epochs(rec, model, head.state_spec)
         notes: list[str] = []
         if epochs:
@@ -276,14 +275,42 @@ def verify(
             )
         if rec.problems:
             notes.append(
-                "damaged recording, replayed up to the damage: "
+                "damaged recording, replayed what is intact: "
                 + "; ".join(str(p) for p in rec.problems)
             )
         first_ns, last_ns = rec.time_range(TOPIC_STATE)
+        total = max(last_ns - first_ns, 0) // dt_ns
+        inputs = _Inputs(rec, model)
         report = _replay(
-            model, itertools.chain([head], blocks), inputs, atol, rtol, progress,
-            max(last_ns - first_ns, 0) // dt_ns, epochs,
-        )  # fmt: skip
+            model, itertools.chain([head], blocks), inputs, atol, rtol, progress, total, epochs
+        )
+        last_done = report[3] + report[0]
+        # Past each damaged stretch, the replay starts again from the next recorded state.
+        for i, lost in enumerate(rec.lost):
+            if report[2] is not None or lost.last_step is None:
+                break
+            kinematic = any(inp.qpos_index.size for inp in inputs.items)
+            resume = _resume_step(rec, model, lost.last_step, kinematic)
+            if resume is None:
+                break
+            try:
+                blocks = state_blocks(
+                    rec, model, rows=_BLOCK_ROWS, start_step=resume, stop_step=_stop(rec, i + 1)
+                )
+                head = next(blocks)
+            except RecordedDataError:
+                break  # no state recorded after this stretch
+            notes.append(
+                f"bytes {lost.offset}..{lost.end} damaged: steps {lost.first_step}.."
+                f"{lost.last_step} may be missing; replayed again from step {int(head.steps[0])}"
+            )
+            inputs = _Inputs(rec, model, start=resume)
+            part = _replay(
+                model, itertools.chain([head], blocks), inputs, atol, rtol, progress, total,
+                epochs,
+            )  # fmt: skip
+            report = (report[0] + part[0], report[1] + part[1], part[2], report[3])
+            last_done = part[3] + part[0]
         check_chunks(rec)
     pipeline: PipelineReport | None = None
     if level == "full":
@@ -300,7 +327,7 @@ def verify(
     last_matching = (
         divergence.last_matching_step
         if divergence is not None
-        else (first_step + steps_replayed if compared else None)
+        else (last_done if compared else None)
     )
     return VerifyReport(
         path=str(path),
@@ -323,14 +350,33 @@ def verify(
     )
 
 
+def _stop(rec: Recording, i: int) -> int | None:
+    """Where the ``i``-th intact stretch of ``rec`` ends (a step bound; ``None``: the end):
+    before the steps the next damaged stretch may have lost."""
+    lost = rec.lost
+    return lost[i].first_step + 1 if i < len(lost) else None
+
+
+def _resume_step(rec: Recording, model: mujoco.MjModel, after: int, kinematic: bool) -> int | None:
+    """The first step from which a replay can start again after a damaged stretch ending
+    at step ``after``: the next recorded state (it holds ctrl, applied forces and mocap
+    poses); when the run writes kinematic joints (held outside the state), the state before
+    the next recorded input, which says what they hold."""
+    if not kinematic:
+        return after
+    following = next(iter(rec.applied_inputs(after + 1)), None)
+    return following.step - 1 if following is not None else None
+
+
 class _Inputs:
     """The applied inputs, read from the recording as the replay reaches them (so that the
-    chunks are decompressed once, for the inputs and states they hold together)."""
+    chunks are decompressed once, for the inputs and states they hold together); ``start``:
+    the first step whose inputs are read (after a damaged stretch)."""
 
-    def __init__(self, rec: Recording, model: mujoco.MjModel) -> None:
+    def __init__(self, rec: Recording, model: mujoco.MjModel, start: int = 0) -> None:
         self.rec, self.model = rec, model
         self.items: list[AppliedInput] = []
-        self.loaded = 0  # inputs of steps below this are in items
+        self.loaded = start  # inputs of steps from start and below this are in items
 
     def load(self, stop_step: int) -> None:
         """Make sure every input of a step below ``stop_step`` is in :attr:`items`."""
