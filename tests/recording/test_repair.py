@@ -18,7 +18,8 @@ from types import ModuleType
 import pytest
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
-from rosbags.highlevel import AnyReader, AnyReaderError as ReaderError
+from rosbags.highlevel import AnyReader
+from rosbags.highlevel import AnyReaderError as ReaderError
 
 from harness.cli import main
 from harness.recording import Recording, RecordingWriteError
