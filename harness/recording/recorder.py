@@ -51,6 +51,7 @@ from harness.recording.layout import (
     TYPE_EPOCH,
     TYPE_PHYSICS_STATE,
     channel_metadata,
+    is_latched,
     schema_text,
     typestore,
 )
@@ -543,7 +544,7 @@ class Recorder:
             schema_id = self._writer.register_schema(msgtype, "ros2msg", schema_text(msgtype))
             self._schemas[msgtype] = schema_id
         channel_id = self._writer.register_channel(
-            topic, "cdr", schema_id, channel_metadata(msgtype)
+            topic, "cdr", schema_id, channel_metadata(msgtype, is_latched(topic))
         )
         self._channels[topic] = (channel_id, msgtype)
         self._seq[channel_id] = 0
