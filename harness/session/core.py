@@ -75,6 +75,7 @@ from harness.session.errors import (
     SessionConfigError,
     SessionError,
 )
+from harness.session.listed import ListedJoints
 from harness.session.topics import (
     TYPE_CLOCK,
     TYPE_FORWARD,
@@ -590,6 +591,8 @@ class RobotChannels:
         self.js_qadr = np.array(qadr, dtype=np.intp)
         self.js_dadr = np.array(dadr, dtype=np.intp)
         self.js_kin = np.array(kin, dtype=bool)
+        self.listed = ListedJoints(description, self.js_names, self.joints.joint_names)
+        """Listed on ``joint_states`` but not controllable: dropped from ``joint_command``."""
         self.trajectory: Trajectory | None = None
         self.trajectory_topic = ""
         self.trajectory_warned: set[str] = set()
@@ -1096,11 +1099,15 @@ class SessionCore:
                     channels,
                     channels.topics.joint_command,
                     connection,
-                    lambda: apply_joint_state(channels.joints, msg),
+                    lambda: self._joint_state_command(channels, msg),
                     msg["name"],
                 )
 
         return handle
+
+    def _joint_state_command(self, channels: RobotChannels, msg: Mapping[str, Any]) -> list[Notice]:
+        stripped, notices = channels.listed.strip(msg, self.sim.data.qpos[channels.js_qadr])
+        return notices + apply_joint_state(channels.joints, stripped)
 
     def _forward_handler(
         self, channels: RobotChannels, command_field: CommandField, topic: str
@@ -1203,6 +1210,7 @@ class SessionCore:
             "clock": self.clock,
             "paused": self.paused,
             "joint_state": self.joint_state(),
+            "controllable_joints": list(self.sim.joint_names),
         }
 
     def reset(self) -> str:
