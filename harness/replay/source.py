@@ -79,6 +79,7 @@ __all__ = [
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
+_MODEL_SUFFIXES = (".urdf", ".xacro", ".sdf", ".world", ".xml", ".mjcf")
 
 
 def open_recording(
@@ -318,7 +319,12 @@ def rebuild_robot(
             "rebuild_world() or rebuild_run()"
         )
     sources = _sources(rec)
-    models = [n for n in sources if n.startswith("model/")]
+    # The model file itself (meshes it references may be attached under model/ too).
+    models = [
+        n
+        for n in sources
+        if n.startswith("model/") and "/" not in n[6:] and n.lower().endswith(_MODEL_SUFFIXES)
+    ]
     if len(models) != 1:
         raise ModelAttachmentError(
             f"{rec.path}: expected one 'source/model/...' attachment to rebuild the robot, "
