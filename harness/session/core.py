@@ -91,6 +91,7 @@ from harness.session.topics import (
     stamp,
     tf_msg,
 )
+from harness.session.urdf_text import description_text
 from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
 
 __all__ = [
@@ -603,13 +604,6 @@ class RobotChannels:
             self.trajectory = self.trajectory.without(set(joints))
 
 
-def _source_text(sources: Mapping[str, bytes], fallback: str) -> str:
-    for name, blob in sources.items():
-        if name.startswith("model/"):
-            return blob.decode("utf-8", errors="replace")
-    return fallback
-
-
 class SessionCore:
     """One session's logic, sans-I/O. ``robot``: a loaded robot (one robot, its topics under
     ``options.namespace``) or a :class:`~harness.models.LoadedWorld` (each robot's topics under
@@ -716,7 +710,7 @@ class SessionCore:
                     robot.description,
                     robot.control,
                     self._topics(self.namespace, None),
-                    _source_text(robot.sources, robot.mjcf),
+                    description_text(robot.description, robot.sources, robot.mjcf),
                 ),
             )
         out = tuple(
@@ -727,7 +721,7 @@ class SessionCore:
                 view.description,
                 view.control,
                 self._topics(view.namespace, _TF),
-                _source_text(view.sources, robot.mjcf),
+                description_text(view.description, view.sources, robot.mjcf),
             )
             for view in robot.robots
         )
