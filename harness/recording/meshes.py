@@ -21,7 +21,7 @@ from pathlib import Path
 from harness.errors import HarnessError
 from harness.recording.layout import ATTACHMENT_SOURCE_PREFIX
 
-__all__ = ["mesh_attachments"]
+__all__ = ["mesh_attachment_name", "mesh_attachments"]
 
 _ROLES = ("model", "scene", "srdf")
 """Folders of ``source/`` the loader's own roles use: no package may take their name."""
@@ -39,6 +39,13 @@ def _target(uri: str) -> str | None:
         return None
     path = posixpath.normpath(f"model/{uri}")
     return None if path.startswith(("..", "/")) else path
+
+
+def mesh_attachment_name(uri: str) -> str | None:
+    """The attachment a mesh reference of a URDF model source is recorded under
+    (``source/...``), or ``None`` when such references are not attached."""
+    target = _target(uri)
+    return None if target is None else ATTACHMENT_SOURCE_PREFIX + target
 
 
 def mesh_attachments(sources: Mapping[str, bytes], source_path: str | None) -> dict[str, bytes]:

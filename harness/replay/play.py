@@ -22,6 +22,11 @@ answer with the new sim time), ``/harness/pause`` and ``/harness/resume``
 (``std_srvs/srv/Empty``). ``start``: ``"on_client"`` (default) holds the clock until a client
 subscribes to a played topic (or steps or resumes it), so nothing is published before anyone
 listens; ``"paused"`` until ``/harness/step`` or ``/harness/resume``; ``"now"`` at once.
+
+Meshes: when the played ``robot_description`` references meshes the recording carries, they
+are served over HTTP on 127.0.0.1 and the played description points at them
+(:mod:`harness.replay.assets`), so a viewer shows the robot on any machine
+(``serve_meshes=False``: played as recorded).
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import re
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,9 +42,12 @@ from typing import Any, Literal
 
 import cbor2
 
+from harness.errors import RecordingError
 from harness.recording import Recording
 from harness.recording.convert import to_plain
 from harness.recording.layout import TOPIC_CLOCK, is_latched
+from harness.recording.meshes import mesh_attachment_name
+from harness.replay.assets import AssetServer, rewrite_mesh_uris
 from harness.replay.errors import RecordedDataError
 from harness.replay.source import open_recording
 from harness.rosbridge import Bridge, BridgeServer, ServiceCall
@@ -125,6 +134,38 @@ def load_schedule(rec: Recording) -> tuple[list[PlayItem], dict[str, int]]:
     return items, dict(skipped)
 
 
+def _is_description(item: PlayItem) -> bool:
+    return item.topic.rsplit("/", 1)[-1] == "robot_description" and isinstance(
+        item.msg.get("data"), str
+    )
+
+
+def _referenced_meshes(rec: Recording, items: list[PlayItem]) -> dict[str, bytes]:
+    """The attachments the played descriptions' ``<mesh filename>`` references name."""
+    names = set(rec.attachment_names)
+    wanted: set[str] = set()
+    for item in items:
+        if _is_description(item):
+            for uri in re.findall(
+                r"<mesh\b[^>]*?\bfilename\s*=\s*[\"']([^\"']*)", item.msg["data"]
+            ):
+                name = mesh_attachment_name(uri)
+                if name is not None and name in names:
+                    wanted.add(name)
+    out: dict[str, bytes] = {}
+    for name in sorted(wanted):
+        with contextlib.suppress(RecordingError):  # a damaged attachment is not served
+            out[name] = rec.attachment(name)
+    return out
+
+
+def _with_meshes(item: PlayItem, url: str, meshes: dict[str, bytes]) -> PlayItem:
+    if not _is_description(item):
+        return item
+    msg = {**item.msg, "data": rewrite_mesh_uris(item.msg["data"], url, meshes)}
+    return PlayItem(item.step, item.sim_time_ns, item.topic, item.type, msg, item.latched)
+
+
 class Player:
     """Serve the recording at ``path`` on ``ws://host:port`` (port 0: any free port)."""
 
@@ -137,6 +178,7 @@ class Player:
         rate: float = 1.0,
         start: PlayStart = "on_client",
         token: str | None = None,
+        serve_meshes: bool = True,
     ) -> None:
         if not rate > 0:
             raise RecordedDataError(f"rate must be > 0, got {rate!r}")
@@ -147,6 +189,8 @@ class Player:
             self.dt_ns = rec.timestep_ns
             self.first_step = rec.first_step
             self.last_step = rec.last_step
+            self._meshes = _referenced_meshes(rec, self.items) if serve_meshes else {}
+        self.assets: AssetServer | None = None
         self.rate = rate
         self.start_mode: PlayStart = start
         self.paused = start != "now"
@@ -174,11 +218,19 @@ class Player:
 
     async def start(self) -> str:
         """Start serving; returns the URL."""
+        if self._meshes and self.assets is None:
+            self.assets = AssetServer(self._meshes)
+            self.items = [_with_meshes(i, self.assets.url, self._meshes) for i in self.items]
         return await self.server.start()
 
     async def stop(self) -> None:
         """Stop serving."""
-        await self.server.stop()
+        try:
+            await self.server.stop()
+        finally:
+            if self.assets is not None:
+                self.assets.close()
+                self.assets = None
 
     def advance_to(self, step: int) -> int:
         """Publish every message recorded up to ``step``; returns how many."""

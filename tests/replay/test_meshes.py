@@ -41,3 +41,60 @@ def test_meshes_are_attached_and_a_rebuild_elsewhere_finds_them(
         rebuilt = rebuild_robot(rec)
     assert rebuilt.sha256 == robot.sha256
     assert np.array_equal(rebuilt.model.mesh_vert, robot.model.mesh_vert)
+
+
+def test_play_serves_the_meshes_the_description_references(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import asyncio
+    import json
+    import re
+    import urllib.request
+
+    from websockets.asyncio.client import connect
+
+    from harness.replay.play import Player
+    from harness.session import Session
+
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    pkg = tmp_path / "ws" / "src" / "pkg_demo"
+    shutil.copytree(DATA, pkg)
+    urdf = pkg / "urdf" / "robot.urdf"
+    urdf.write_text(
+        (pkg / "urdf" / "meshy.urdf")
+        .read_text()
+        .replace("PKG", "renamed_pkg")
+        .replace("MESH", "../meshes/tetra.stl")
+    )
+    mesh = (pkg / "meshes" / "tetra.stl").read_bytes()
+    path = tmp_path / "meshy.mcap"
+    with Session(urdf, record_to=path) as session:
+        session.step(5)
+    shutil.rmtree(tmp_path / "ws")  # another machine: no package
+    with Recording(path) as rec:
+        (recorded,) = list(rec.messages("/robot_description", decode=True))
+    assert "package://renamed_pkg/meshes/tetra.stl" in recorded.msg.data  # kept as published
+
+    async def description() -> str:
+        player = Player(path, start="paused")
+        url = await player.start()
+        try:
+            player.advance_to(player.last_step)
+            async with connect(url) as ws:
+                await ws.send(json.dumps({"op": "subscribe", "topic": "/robot_description"}))
+                while True:
+                    frame = json.loads(await asyncio.wait_for(ws.recv(), 10))
+                    if frame.get("op") == "publish":
+                        text: str = frame["msg"]["data"]
+                        urls = re.findall(r'filename="(http://127\.0\.0\.1:\d+/[^"]+)"', text)
+                        assert len(urls) == 2
+                        for u in urls:  # fetched while the player runs
+                            with urllib.request.urlopen(u, timeout=10) as answer:
+                                assert answer.read() == mesh
+                                assert answer.headers["Access-Control-Allow-Origin"] == "*"
+                        return text
+        finally:
+            await player.stop()
+
+    played = asyncio.run(description())
+    assert 'filename="package://' not in played
