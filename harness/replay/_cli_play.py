@@ -47,6 +47,8 @@ async def _main(args: argparse.Namespace) -> int:
     url = await player.start()
     print(f"playing {args.file} on {url} ({len(player.items)} messages, steps "
           f"{player.first_step}..{player.last_step}, rate {args.rate:g})", flush=True)  # fmt: skip
+    if player.assets is not None:
+        print(f"meshes of robot_description served on {player.assets.url}", flush=True)
     try:
         await player.run()
         print(f"finished at step {player.step}", flush=True)
