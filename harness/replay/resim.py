@@ -42,6 +42,7 @@ import numpy.typing as npt
 
 from harness.errors import HarnessError
 from harness.models import RobotModel
+from harness.recording import Epoch
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.source import (
     check_states_fit,
@@ -171,6 +172,8 @@ class ResimReport:
     contacts_disappearing: tuple[str, ...]
     wall_seconds: float
     notes: tuple[str, ...] = ()
+    recorded_reproduced: bool = True
+    """Whether replaying the recorded run from its inputs gave the recorded states."""
 
     @property
     def passed(self) -> bool:
@@ -529,6 +532,10 @@ def resimulate(
         states = read_states(rec)
         check_states_fit(rec, recorded_robot.model, states)
         inputs = read_inputs(rec, recorded_robot.model)
+        # Resets: both runs start again from the recorded state after each one.
+        resets: dict[int, list[Epoch]] = {}
+        for epoch in rec.epochs():
+            resets.setdefault(epoch.step, []).append(epoch)
         dt_ns = rec.timestep_ns
     joints = list(recorded_modes)
     first, last = int(states.steps[0]), int(states.steps[-1])
@@ -546,6 +553,9 @@ def resimulate(
             current = inp
     target_rows: list[F64] = []
     for k in range(first + 1, last + 1):
+        for epoch in resets.get(k - 1, ()):
+            mujoco.mj_setState(model, data, epoch.state, epoch.state_spec)
+            current = None  # the reset state holds the inputs until the next recorded one
         current = by_step.get(k, current)
         q_before = data.qpos[rec_trace.qadr].copy()
         if current is not None:
@@ -557,6 +567,12 @@ def resimulate(
         if progress is not None and k % 500 == 0:
             progress(k - first, total)
     targets = np.stack(target_rows)
+    # The recorded run must replay as recorded, or the comparison means little.
+    replayed = np.stack(rec_trace.qpos)
+    rows = states.steps[1:] - (first + 1)
+    reproduced = bool(
+        np.array_equal(replayed[rows].view(np.uint64), states.qpos[1:].view(np.uint64))
+    )
     # Velocity/effort joints have no target: follow their recorded positions.
     recorded_q = np.stack(rec_trace.q)
     for i, name in enumerate(joints):
@@ -573,6 +589,14 @@ def resimulate(
     unstable: int | None = None
     previous: F64 | None = None
     for row, k in enumerate(range(first + 1, last + 1)):
+        for epoch in resets.get(k - 1, ()):
+            sim.reset()
+            sim.data.qpos[:] = epoch.qpos
+            sim.data.qvel[:] = epoch.qvel
+            state = sim.get_state()
+            state[0] = epoch.step * dt_ns / 1e9  # mjSTATE_TIME: step numbering continues
+            sim.set_state(state, epoch.step)
+            previous = None
         wanted = targets[row]
         if previous is None or not np.array_equal(wanted, previous):
             sim.set_positions(dict(zip(joints, wanted.tolist(), strict=True)))
@@ -615,7 +639,18 @@ def resimulate(
         contacts_appearing=tuple(sorted(b_pairs - a_pairs)),
         contacts_disappearing=tuple(sorted(a_pairs - b_pairs)),
         wall_seconds=time.perf_counter() - started,
-        notes=tuple(n for n in (_same_mode_note(recorded_modes, mode),) if n),
+        notes=tuple(
+            n
+            for n in (
+                _same_mode_note(recorded_modes, mode),
+                ""
+                if reproduced
+                else "the recorded run did not replay bit for bit from its inputs (another "
+                "MuJoCo version?): its column is the replay's, not the recording's",
+            )
+            if n
+        ),
+        recorded_reproduced=reproduced,
     )
 
 

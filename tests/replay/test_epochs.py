@@ -105,3 +105,11 @@ def test_inspect_and_diff_know_epochs(reset_recording: Path) -> None:
     assert report["verdict"] == "ok"
     assert [e["step"] for e in report["epochs"]] == [40, 75, 75]
     assert diff(reset_recording, reset_recording).same
+
+
+def test_resimulation_replays_the_resets(reset_recording: Path) -> None:
+    from harness.replay.resim import resimulate
+
+    report = resimulate(reset_recording, "dynamic")
+    assert report.recorded_reproduced  # the recorded run, resets included, bit for bit
+    assert report.passed, report.format()
