@@ -157,6 +157,12 @@ class Recording:
                         if where is not None
                         else ""
                     )
+                    + "".join(
+                        f"; steps {r.first_step}.."
+                        f"{'the end' if r.last_step is None else r.last_step} may be missing "
+                        f"(bytes {r.offset}..{r.end} passed over)"
+                        for r in self.lost
+                    )
                 ),
                 stacklevel=2,
             )

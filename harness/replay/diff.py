@@ -89,6 +89,7 @@ class DiffReport:
     """Where A and B first part and why (None: they never do)."""
     inputs_compared: int = 0
     frames_compared: int = 0
+    notes: tuple[str, ...] = ()
 
     @property
     def same(self) -> bool:
@@ -106,6 +107,7 @@ class DiffReport:
             f"B: {self.b}",
             f"{self.steps_compared} common steps, {self.inputs_compared} applied inputs and "
             f"{self.frames_compared} incoming bridge frames compared",
+            *[f"note: {n}" for n in self.notes],
         ]
         first = self.first_divergence
         if self.same:
@@ -279,6 +281,12 @@ def diff(
         cause, inputs_compared, frames_compared = first_cause(
             ra, rb, model, ignore_after_last_step=ignore_after_last_step
         )
+    notes = [
+        f"{label}: the state of step {int(steps[np.flatnonzero(np.diff(steps) <= 0)[0] + 1])} "
+        "is recorded twice (a reset recorded before resets became epochs): the first is compared"
+        for label, steps in (("A", sa.steps), ("B", sb.steps))
+        if steps.size > 1 and np.any(np.diff(steps) <= 0)
+    ]
     common, ia, ib = np.intersect1d(sa.steps, sb.steps, return_indices=True)
     if not np.array_equal(sa.steps, sb.steps):
         entries.append(
@@ -332,4 +340,5 @@ def diff(
     return DiffReport(
         str(a), str(b), dict(tol._asdict()), int(common.size), tuple(entries),
         first_divergence(entries, cause, ra.timestep_ns), inputs_compared, frames_compared,
+        tuple(notes),
     )  # fmt: skip

@@ -177,3 +177,22 @@ def test_first_divergence_names_the_frame_and_goodbyes_can_be_ignored(
     assert "message_count" in out
     assert main(["diff", str(a), str(c), "--ignore-after-last-step"]) == 0
     assert "SAME" in capsys.readouterr().out
+
+
+def test_a_state_recorded_twice_is_noted(
+    twin: tuple[Path, Path], mcap_edit: ModuleType, tmp_path: Path
+) -> None:
+    a, _ = twin
+
+    def twice(topic: str, msg: Any) -> Any:
+        if topic == "/harness/state" and int(msg.step) == 11:
+            msg.step = 10  # as a reset recorded before epochs existed left it
+        return msg
+
+    legacy = mcap_edit.rewrite(a, tmp_path / "legacy.mcap", edit=twice)
+    report = diff(a, legacy)
+    assert report.notes == (
+        "B: the state of step 10 is recorded twice (a reset recorded before resets became "
+        "epochs): the first is compared",
+    )
+    assert "note: B: the state of step 10" in report.format()
