@@ -31,6 +31,9 @@ COMMANDS: dict[str, Command] = {
     "inspect-model": Command("harness.models._cli", "links, joints and frames of a robot model"),
     "run": Command("harness.scenario._cli", "run a scenario or runner file's iterations"),
     "inspect": Command("harness.recording._cli", "contents and validity of a recording"),
+    "repair": Command(
+        "harness.recording._cli_repair", "rewrite a damaged recording's intact parts"
+    ),
     "serve": Command("harness.session._cli", "serve a simulated robot on a rosbridge server"),
     "replay": Command("harness.replay._cli_replay", "verify a recording replays bit for bit"),
     "play": Command("harness.replay._cli_play", "serve a recording's frames to rosbridge clients"),

@@ -1,7 +1,8 @@
 """Recording to MCAP (profile ``ros2``, every channel CDR) and reading recordings back.
 
 Write with :class:`Recorder`, read with :class:`Recording`, build the metadata and
-attachments of a run with :func:`describe_run`. Layout: :mod:`harness.recording.layout`.
+attachments of a run with :func:`describe_run`, rewrite a damaged file's intact parts with
+:func:`harness.recording.repair.repair`. Layout: :mod:`harness.recording.layout`.
 """
 
 from __future__ import annotations
@@ -15,11 +16,12 @@ from harness.recording.errors import (
 )
 from harness.recording.layout import FORMAT_VERSION
 from harness.recording.recorder import FlushInfo, Recorder, RecorderStats
-from harness.recording.recording import Recording, TopicInfo
+from harness.recording.recording import LostRange, Recording, TopicInfo
 from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
     CollisionEvent,
+    Epoch,
     PhysicsState,
     PhysicsStateArrays,
     RecordedMessage,
@@ -30,8 +32,10 @@ __all__ = [
     "AppliedInput",
     "BridgeFrame",
     "CollisionEvent",
+    "Epoch",
     "FlushInfo",
     "LoadedRobotLike",
+    "LostRange",
     "PhysicsState",
     "PhysicsStateArrays",
     "RecordedMessage",

@@ -34,6 +34,7 @@ from harness.recording.layout import (
     ATTACHMENT_SCENARIO,
     ATTACHMENT_SOURCE_PREFIX,
 )
+from harness.recording.meshes import mesh_attachments
 
 __all__ = ["LoadedRobotLike", "RunDescription", "describe_run", "world_metadata"]
 
@@ -160,8 +161,10 @@ def describe_run(
     """The ``harness`` metadata (timestep, integrator, seed, model SHA-256, control modes,
     robot name; for a world its ``robots`` and ``objects``, see :func:`world_metadata`) and
     the attachments (the exact compiled model as MJB, the compiled MJCF for reading, source
-    files under ``source/``, the scenario under ``scenario/<scenario_name>``) of a run of
-    ``robot`` (a ``LoadedRobot`` or a ``LoadedWorld``)."""
+    files under ``source/``, with the meshes a URDF references
+    (:func:`harness.recording.meshes.mesh_attachments`), the scenario under
+    ``scenario/<scenario_name>``) of a run of ``robot`` (a ``LoadedRobot`` or a
+    ``LoadedWorld``)."""
     timestep = float(robot.model.opt.timestep)
     control = {str(joint): str(mode) for joint, mode in robot.control.items()}
     metadata = {
@@ -182,6 +185,12 @@ def describe_run(
     }
     for name, blob in sorted(robot.sources.items()):
         attachments[ATTACHMENT_SOURCE_PREFIX + name.replace(os.sep, "/").lstrip("/")] = bytes(blob)
+    description = getattr(robot, "description", None)
+    if description is not None and not hasattr(robot, "robots"):
+        # The meshes a URDF references, so that a rebuild elsewhere finds them.
+        meshes = mesh_attachments(robot.sources, getattr(description, "source", None))
+        for name, blob in meshes.items():
+            attachments.setdefault(name, blob)
     if scenario is not None:
         text = scenario.encode("utf-8") if isinstance(scenario, str) else scenario
         attachments[f"{ATTACHMENT_SCENARIO}/{scenario_name}"] = text

@@ -6,6 +6,7 @@ import os
 import warnings
 from typing import Any
 
+from harness.errors import RecordingError
 from harness.recording.errors import RecordingDamagedWarning
 from harness.recording.recording import Recording
 
@@ -26,10 +27,19 @@ def inspect(path: str | os.PathLike[str]) -> dict[str, Any]:
         recording = Recording(path)
     with recording:
         s = recording.scan
-        problems = [{"offset": p.offset, "message": p.message} for p in s.problems]
+        problems: list[dict[str, Any]] = [
+            {"offset": p.offset, "message": p.message} for p in s.problems
+        ]
+        try:
+            epochs = [
+                {"step": e.step, "epoch": e.epoch, "reason": e.reason} for e in recording.epochs()
+            ]
+        except RecordingError as exc:
+            epochs = []
+            problems.append({"offset": -1, "message": f"epochs unreadable: {exc}"})
         if not problems:
             verdict = VERDICT_OK
-        elif all(p.message.startswith("truncated") for p in s.problems):
+        elif all(str(p["message"]).startswith("truncated") for p in problems):
             verdict = VERDICT_TRUNCATED
         else:
             verdict = VERDICT_DAMAGED
@@ -40,6 +50,16 @@ def inspect(path: str | os.PathLike[str]) -> dict[str, Any]:
             "verdict": verdict,
             "problems": problems,
             "readable_up_to_byte": s.truncated_at,
+            "lost": [
+                {
+                    "offset": r.offset,
+                    "end": r.end,
+                    "first_step": r.first_step,
+                    "last_step": r.last_step,
+                    "what": r.what,
+                }
+                for r in recording.lost
+            ],
             "profile": recording.profile,
             "library": recording.library,
             "duration": {
@@ -51,6 +71,7 @@ def inspect(path: str | os.PathLike[str]) -> dict[str, Any]:
                 "sim_time_s": (end - start) / 1e9 if end >= 0 else 0.0,
             },
             "messages": recording.message_count,
+            "epochs": epochs,
             "topics": [t._asdict() for t in recording.topics.values()],
             "metadata": recording.all_metadata,
             "attachments": [
@@ -78,8 +99,13 @@ def format_report(report: dict[str, Any]) -> str:
         f"duration: {d['steps']} steps (step {d['first_step']} to {d['last_step']}), "
         f"{d['sim_time_s']:.6f} s sim time",
         f"messages: {report['messages']}",
-        "topics:",
     ]
+    epochs = report.get("epochs", [])
+    if epochs:
+        listed = ", ".join(f"{e['reason']} after step {e['step']}" for e in epochs[:10])
+        more = f" and {len(epochs) - 10} more" if len(epochs) > 10 else ""
+        lines.append(f"epochs: {len(epochs)} ({listed}{more}): replay continues from each")
+    lines.append("topics:")
     width = max((len(t["topic"]) for t in report["topics"]), default=0)
     lines += [
         f"  {t['topic']:<{width}}  {t['messages']:>9}  {t['msgtype']}" for t in report["topics"]
@@ -103,6 +129,12 @@ def format_report(report: dict[str, Any]) -> str:
     )
     for p in report["problems"]:
         lines.append(f"problem at byte {p['offset']}: {p['message']}")
+    for r in report.get("lost", []):
+        last = "the end" if r["last_step"] is None else f"step {r['last_step']}"
+        lines.append(
+            f"lost: bytes {r['offset']}..{r['end']} passed over; messages of step "
+            f"{r['first_step']} to {last} may be missing, the rest reads"
+        )
     verdict = report["verdict"].upper()
     if report["readable_up_to_byte"] is not None:
         verdict += f": readable up to byte {report['readable_up_to_byte']}"

@@ -22,12 +22,14 @@ __all__ = [
     "ATTACHMENT_SCENARIO",
     "ATTACHMENT_SOURCE_PREFIX",
     "FORMAT_VERSION",
+    "LATCHED_NAMES",
     "METADATA_NAME",
     "METADATA_REQUIRED",
     "PROFILE",
     "TOPIC_BRIDGE",
     "TOPIC_CLOCK",
     "TOPIC_COLLISIONS",
+    "TOPIC_EPOCH",
     "TOPIC_INPUTS",
     "TOPIC_JOINT_STATES",
     "TOPIC_ROBOT_DESCRIPTION",
@@ -37,8 +39,11 @@ __all__ = [
     "TYPE_APPLIED_INPUT",
     "TYPE_BRIDGE_FRAME",
     "TYPE_COLLISION_EVENT",
+    "TYPE_EPOCH",
     "TYPE_PHYSICS_STATE",
     "channel_metadata",
+    "is_latched",
+    "offered_qos_profiles",
     "schema_text",
     "typestore",
 ]
@@ -56,11 +61,14 @@ TOPIC_BRIDGE: Final = "/harness/bridge"
 TOPIC_INPUTS: Final = "/harness/inputs"
 TOPIC_STATE: Final = "/harness/state"
 TOPIC_COLLISIONS: Final = "/harness/collisions"
+# Discontinuities of the physics (resets): the state a run continues from after such a step.
+TOPIC_EPOCH: Final = "/harness/epoch"
 
 TYPE_BRIDGE_FRAME: Final = "harness_msgs/msg/BridgeFrame"
 TYPE_APPLIED_INPUT: Final = "harness_msgs/msg/AppliedInput"
 TYPE_PHYSICS_STATE: Final = "harness_msgs/msg/PhysicsState"
 TYPE_COLLISION_EVENT: Final = "harness_msgs/msg/CollisionEvent"
+TYPE_EPOCH: Final = "harness_msgs/msg/Epoch"
 
 METADATA_NAME: Final = "harness"
 # Keys the caller must give (the recorder adds versions, platform and its own settings).
@@ -90,7 +98,46 @@ def schema_text(msgtype: str) -> bytes:
     return text.encode("utf-8")
 
 
+LATCHED_NAMES: Final = ("robot_description", "tf_static")
+"""Topics (their last name component, in any namespace) published transient local."""
+
+# rosbag2 (Humble) writes the publishers' offered QoS as this YAML, enums as integers: history
+# 3 (unknown: not part of an offer), reliability 1 (reliable), durability 1 (transient local)
+# or 2 (volatile), liveliness 1 (automatic), durations "infinite".
+_QOS = """- history: 3
+  depth: 0
+  reliability: 1
+  durability: {durability}
+  deadline:
+    sec: 2147483647
+    nsec: 4294967295
+  lifespan:
+    sec: 2147483647
+    nsec: 4294967295
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 2147483647
+    nsec: 4294967295
+  avoid_ros_namespace_conventions: false"""
+
+
+def is_latched(topic: str) -> bool:
+    """Whether ``topic`` is published transient local (``/robot_description``,
+    ``/tf_static``, in any namespace): late subscribers get its last message."""
+    return topic.rsplit("/", 1)[-1] in LATCHED_NAMES
+
+
+def offered_qos_profiles(latched: bool) -> str:
+    """The ``offered_qos_profiles`` channel metadata rosbag2 writes for a reliable publisher,
+    transient local when ``latched`` (``ros2 bag play`` then offers the same to late
+    subscribers), volatile otherwise."""
+    return _QOS.format(durability=1 if latched else 2)
+
+
 @cache
-def channel_metadata(msgtype: str) -> dict[str, str]:
-    """Channel metadata as rosbag2 writes it; empty QoS means defaults (safest for Humble)."""
-    return {"offered_qos_profiles": "", "topic_type_hash": typestore().hash_rihs01(msgtype)}
+def channel_metadata(msgtype: str, latched: bool = False) -> dict[str, str]:
+    """Channel metadata as rosbag2 writes it (QoS offered, type hash)."""
+    return {
+        "offered_qos_profiles": offered_qos_profiles(latched),
+        "topic_type_hash": typestore().hash_rihs01(msgtype),
+    }

@@ -2,12 +2,16 @@
 
 Writes are synchronous and serialised under a lock (callers may be the simulation thread and
 the bridge's event loop): nothing is queued, so nothing can be dropped; the cost is visible
-in ``bench/bench_recording.py``. Crash safety: a daemon thread closes the open chunk and
-flushes the file every ``flush_interval_s`` (``mcap.Writer.flush()``: finalises the chunk in
-progress with its CRC and message indexes, then flushes the stream), so a killed process loses
-at most the last interval; the file then lacks only its summary and footer, and
-:class:`~harness.recording.Recording` opens it up to the last complete chunk. A flush that
-fails (disk full) is raised by the next ``write_*`` call.
+in ``bench/bench_recording.py``.
+
+Byte-reproducible: chunks close by size (``chunk_size`` of records), never by the wall clock,
+so two runs that record the same records give the same file (with a fixed ``library``).
+Crash safety: a daemon thread writes the open chunk every ``flush_interval_s`` as a
+provisional tail after the committed bytes (:mod:`harness.recording.tail`: a complete chunk
+with its CRC and message indexes, replaced by the chunk when it closes), so a killed process
+loses at most the last interval; the file then lacks only its summary and footer, and
+:class:`~harness.recording.Recording` opens it up to the last complete chunk (``harness
+repair`` completes it). A flush that fails (disk full) is raised by the next ``write_*`` call.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import IO, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -37,17 +41,21 @@ from harness.recording.layout import (
     PROFILE,
     TOPIC_BRIDGE,
     TOPIC_COLLISIONS,
+    TOPIC_EPOCH,
     TOPIC_INPUTS,
     TOPIC_ROSOUT,
     TOPIC_STATE,
     TYPE_APPLIED_INPUT,
     TYPE_BRIDGE_FRAME,
     TYPE_COLLISION_EVENT,
+    TYPE_EPOCH,
     TYPE_PHYSICS_STATE,
     channel_metadata,
+    is_latched,
     schema_text,
     typestore,
 )
+from harness.recording.tail import TailFile, provisional_chunk
 
 __all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
 
@@ -245,15 +253,16 @@ class Recorder:
         self._flush_total = 0.0
         self._flush_max = 0.0
         try:
-            self._stream: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 (closed in close())
+            self._stream = TailFile(self.path)  # closed in close()
         except OSError as exc:
             raise RecordingWriteError(
                 f"{self.path}: cannot create recording: {exc.strerror}"
             ) from None
+        self._compression = _COMPRESSION[compression]
         self._writer = Writer(
-            self._stream,
+            self._stream,  # type: ignore[arg-type]
             chunk_size=chunk_size,
-            compression=_COMPRESSION[compression],
+            compression=self._compression,
             enable_crcs=True,
             enable_data_crcs=True,
         )
@@ -403,6 +412,33 @@ class Recorder:
         )
         self._write(TOPIC_STATE, TYPE_PHYSICS_STATE, msg, sim_time_ns)
 
+    def write_epoch(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        epoch: int,
+        reason: str,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None:
+        """Record a discontinuity after ``step`` (a reset): the state the run continues from.
+        Always written (``state_every`` does not apply)."""
+        where = f"{TOPIC_EPOCH} step {step}"
+        msg = self._types[TYPE_EPOCH](
+            step=step,
+            sim_time_ns=sim_time_ns,
+            epoch=epoch,
+            reason=reason,
+            state_spec=state_spec,
+            state=_f64(state, f"{where}: state"),
+            qpos=_f64(qpos, f"{where}: qpos"),
+            qvel=_f64(qvel, f"{where}: qvel"),
+        )
+        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, sim_time_ns)
+
     def write_collision_event(
         self,
         *,
@@ -508,7 +544,7 @@ class Recorder:
             schema_id = self._writer.register_schema(msgtype, "ros2msg", schema_text(msgtype))
             self._schemas[msgtype] = schema_id
         channel_id = self._writer.register_channel(
-            topic, "cdr", schema_id, channel_metadata(msgtype)
+            topic, "cdr", schema_id, channel_metadata(msgtype, is_latched(topic))
         )
         self._channels[topic] = (channel_id, msgtype)
         self._seq[channel_id] = 0
@@ -524,26 +560,45 @@ class Recorder:
     # -- flushing and closing --------------------------------------------------------------
 
     def flush(self) -> None:
-        """Close the open chunk and flush the file now (the flush thread does this on its own)."""
+        """Close the open chunk now: everything recorded so far is committed to the file
+        (a chunk boundary here: call it at the same point of two runs to keep their files
+        identical; the flush thread keeps the open chunk on disk without closing it)."""
         info = None
         with self._lock:
             if self._closed or self._failure is not None:
                 self._raise_closed()
-            info = self._flush_locked()
+            info = self._flush_locked(provisional=False)
         if info is not None and self._on_flush is not None:
             self._on_flush(info)
 
-    def _flush_locked(self) -> FlushInfo | None:
+    def checkpoint(self) -> None:
+        """Put everything recorded so far on disk without closing the open chunk (what the
+        flush thread does every ``flush_interval_s``): the file's bytes once closed do not
+        depend on when, or whether, this is called."""
+        info = None
+        with self._lock:
+            if self._closed or self._failure is not None:
+                self._raise_closed()
+            info = self._flush_locked(provisional=True)
+        if info is not None and self._on_flush is not None:
+            self._on_flush(info)
+
+    def _flush_locked(self, *, provisional: bool) -> FlushInfo | None:
         if not self._dirty:
             return None
         start = time.perf_counter()
-        self._writer.flush()  # type: ignore[no-untyped-call]
+        if provisional:
+            tail = provisional_chunk(self._writer, self._compression)
+            if tail is not None:
+                self._stream.write_tail(tail)
+        else:
+            self._writer.flush()  # type: ignore[no-untyped-call]
         seconds = time.perf_counter() - start
         self._dirty = False
         self._flushes += 1
         self._flush_total += seconds
         self._flush_max = max(self._flush_max, seconds)
-        size = self._stream.tell()
+        size = self._stream.size
         if size > self.max_bytes:
             # Further writes fail; close() still finishes a valid file.
             self._failure = RecordingWriteError(
@@ -560,7 +615,7 @@ class Recorder:
                 if self._closed or self._failure is not None:
                     return
                 try:
-                    info = self._flush_locked()
+                    info = self._flush_locked(provisional=True)
                 except Exception as exc:
                     self._failure = exc
                     return
@@ -571,7 +626,7 @@ class Recorder:
     def stats(self) -> RecorderStats:
         """Messages written, flushes and their cost, bytes on disk so far."""
         with self._lock:
-            size = self._stream.tell() if not self._stream.closed else self.path.stat().st_size
+            size = self._stream.size if not self._stream.closed else self.path.stat().st_size
             return RecorderStats(
                 self._messages, self._flushes, size, self._flush_total, self._flush_max
             )

@@ -28,13 +28,18 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from harness.recording.bulk import decode_physics_states, empty_physics_states
-from harness.recording.errors import RecordingDamagedWarning, RecordingFormatError
+from harness.recording.errors import (
+    RecordingDamagedError,
+    RecordingDamagedWarning,
+    RecordingFormatError,
+)
 from harness.recording.layout import (
     FORMAT_VERSION,
     METADATA_NAME,
     PROFILE,
     TOPIC_BRIDGE,
     TOPIC_COLLISIONS,
+    TOPIC_EPOCH,
     TOPIC_INPUTS,
     TOPIC_STATE,
     TYPE_PHYSICS_STATE,
@@ -43,6 +48,7 @@ from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
     CollisionEvent,
+    Epoch,
     PhysicsState,
     PhysicsStateArrays,
     RecordedMessage,
@@ -60,7 +66,7 @@ from harness.recording.scan import (
     scan,
 )
 
-__all__ = ["Recording", "TopicInfo"]
+__all__ = ["LostRange", "Recording", "TopicInfo"]
 
 _KEPT_BYTES = 16 * 2**20
 """Decompressed chunks kept for the next reads, the most recent up to this many bytes (so a
@@ -75,6 +81,17 @@ def _typestore_for(schemas: tuple[tuple[str, bytes], ...]) -> Typestore:
     for name, text in schemas:
         store.register(get_types_from_msg(text.decode("utf-8"), name))
     return store
+
+
+class LostRange(NamedTuple):
+    """A damaged stretch ``[offset, end)`` of the file that was passed over: the messages of
+    steps ``first_step..last_step`` (``None``: to the end) may be missing."""
+
+    offset: int
+    end: int
+    first_step: int
+    last_step: int | None
+    what: str
 
 
 class TopicInfo(NamedTuple):
@@ -139,6 +156,12 @@ class Recording:
                         f"{self._scan.message_count} messages)"
                         if where is not None
                         else ""
+                    )
+                    + "".join(
+                        f"; steps {r.first_step}.."
+                        f"{'the end' if r.last_step is None else r.last_step} may be missing "
+                        f"(bytes {r.offset}..{r.end} passed over)"
+                        for r in self.lost
                     )
                 ),
                 stacklevel=2,
@@ -241,6 +264,23 @@ class Recording:
         return self._scan
 
     @property
+    def lost(self) -> list[LostRange]:
+        """What each damaged stretch passed over cost, as a range of steps: the messages
+        logged after the last message before it and before the first message after it, the
+        bounds included (messages of one step may lie on both sides); ``last_step`` is
+        ``None`` when nothing readable follows. Empty for a sound file."""
+        out: list[LostRange] = []
+        chunks = self._scan.chunks
+        dt = self.timestep_ns
+        for skipped in self._scan.skipped:
+            before = [c.end_time for c in chunks if c.offset < skipped.offset and c.messages]
+            after = [c.start_time for c in chunks if c.offset >= skipped.end and c.messages]
+            first = max(before) // dt if before else 0
+            last = min(after) // dt if after else None
+            out.append(LostRange(skipped.offset, skipped.end, first, last, skipped.what))
+        return out
+
+    @property
     def problems(self) -> list[Problem]:
         """Damage found when opening (empty for a sound file)."""
         return list(self._scan.problems)
@@ -316,6 +356,10 @@ class Recording:
         """The bytes of attachment ``name``."""
         for info in self._scan.attachments:
             if info.name == name:
+                if info.damaged:
+                    raise RecordingDamagedError(
+                        f"{self.path}: {info.damaged} (attachment record at byte {info.offset})"
+                    )
                 return bytes(self._buf[info.data_offset : info.data_offset + info.data_length])
         raise RecordingFormatError(
             f"{self.path}: no attachment {name!r} (has: {', '.join(self.attachment_names)})"
@@ -323,8 +367,8 @@ class Recording:
 
     @property
     def attachments(self) -> dict[str, bytes]:
-        """Every attachment by name."""
-        return {name: self.attachment(name) for name in self.attachment_names}
+        """Every intact attachment by name (damaged ones are left out: see :attr:`problems`)."""
+        return {a.name: self.attachment(a.name) for a in self._scan.attachments if not a.damaged}
 
     # -- iterating -------------------------------------------------------------------------
 
@@ -536,6 +580,23 @@ class Recording:
             yield PhysicsState(
                 int(m.step), int(m.sim_time_ns), int(m.state_spec), m.state, m.qpos, m.qvel
             )
+
+    def epochs(self, start_step: int | None = None, stop_step: int | None = None) -> list[Epoch]:
+        """The discontinuities (resets) in step order: after each one's ``step`` the run
+        continues from its ``state`` (empty for a run without resets)."""
+        return [
+            Epoch(
+                int(m.step),
+                int(m.sim_time_ns),
+                int(m.epoch),
+                m.reason,
+                int(m.state_spec),
+                m.state,
+                m.qpos,
+                m.qvel,
+            )
+            for m in self._decoded(TOPIC_EPOCH, start_step, stop_step)
+        ]
 
     def collision_events(
         self, start_step: int | None = None, stop_step: int | None = None

@@ -20,6 +20,7 @@ __all__ = [
     "AppliedInput",
     "BridgeFrame",
     "CollisionEvent",
+    "Epoch",
     "PhysicsState",
     "PhysicsStateArrays",
     "RecordedMessage",
@@ -70,6 +71,22 @@ class PhysicsState:
 
     step: int
     sim_time_ns: int
+    state_spec: int
+    state: F64
+    qpos: F64
+    qvel: F64
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Epoch:
+    """A discontinuity (``reason``, e.g. ``"reset"``) after ``step``: the run continues from
+    ``state``, not from the state recorded for ``step`` (which ends the epoch before).
+    ``epoch`` counts from 1 within a run."""
+
+    step: int
+    sim_time_ns: int
+    epoch: int
+    reason: str
     state_spec: int
     state: F64
     qpos: F64

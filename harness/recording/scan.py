@@ -49,6 +49,7 @@ __all__ = [
     "IndexEntries",
     "Problem",
     "Scan",
+    "Skipped",
     "chunk_messages",
     "entries_match",
     "gather",
@@ -97,13 +98,25 @@ class ChunkInfo:
 
 @dataclass(frozen=True, slots=True)
 class AttachmentInfo:
-    """An attachment record (its data is read on demand)."""
+    """An attachment record (its data is read on demand); ``damaged`` says why its bytes
+    cannot be trusted ("" when its CRC checked out)."""
 
     offset: int
     name: str
     media_type: str
     data_offset: int
     data_length: int
+    damaged: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Skipped:
+    """A damaged stretch of the data section passed over, ``[offset, end)``: the messages
+    in it are lost; reading went on after it."""
+
+    offset: int
+    end: int
+    what: str
 
 
 @dataclass
@@ -123,6 +136,8 @@ class Scan:
     end_time: int = -1
     problems: list[Problem] = field(default_factory=list)
     truncated_at: int | None = None
+    # Damaged chunks (or stretches) passed over: their messages are lost, the rest is read.
+    skipped: list[Skipped] = field(default_factory=list)
     data_crc_checked: bool = False
     has_summary: bool = False
     summary_crc_checked: bool = False
@@ -524,10 +539,16 @@ def gather(chunk_bytes: npt.NDArray[np.uint8], at: I64, dtype: str) -> npt.NDArr
 
 
 def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
-    """Scan the data section from ``pos``; return the end of the DataEnd record, or ``None``."""
+    """Scan the data section from ``pos``; return the end of the DataEnd record, or ``None``.
+
+    A damaged record whose framing is intact (a chunk whose CRC or compression fails, an
+    attachment whose CRC fails) costs only itself: it is named and passed over. Damaged
+    framing (an invalid opcode, a length past the end) is passed over up to the next chunk
+    the summary's chunk index lists, when the file has a summary; otherwise reading stops."""
     size = len(buf)
     last_time = -1
     end: int
+    resync: list[int] | None = None  # chunk offsets from the summary, read on first need
     while True:
         if pos >= size:
             result.problems.append(Problem(pos, "truncated: the file ends before its summary"))
@@ -539,37 +560,70 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
             return None
         opcode, length = _RECORD.unpack_from(buf, pos)
         end = pos + 9 + int(length)
+        framing = ""
         if opcode not in _KNOWN and opcode < 0x80:
-            result.problems.append(Problem(pos, f"corrupt: invalid record opcode {opcode:#x}"))
-            result.truncated_at = pos
-            return None
-        if end > size:
+            framing = f"corrupt: invalid record opcode {opcode:#x}"
+        elif end > size:
             name = Opcode(opcode).name.lower() if opcode in _KNOWN else f"{opcode:#x}"
+            framing = f"truncated: {name} record of {length} bytes overruns the file"
+        if framing:
+            if resync is None:
+                resync = _summary_chunk_offsets(buf, result)
+            following = [o for o in resync if o > pos]
+            if not following:
+                result.problems.append(Problem(pos, framing))
+                result.truncated_at = pos
+                return None
             result.problems.append(
-                Problem(pos, f"truncated: {name} record of {length} bytes overruns the file")
+                Problem(pos, f"{framing}; skipped to the next indexed chunk at byte {following[0]}")
             )
-            result.truncated_at = pos
-            return None
+            result.skipped.append(Skipped(pos, following[0], "damaged records"))
+            pos = following[0]
+            continue
         body = buf[pos + 9 : end]
         try:
             last_time = _data_record(opcode, pos, body, result, last_time)
         except _Damage as exc:
-            result.problems.append(Problem(pos, f"corrupt: {exc}"))
-            result.truncated_at = pos
-            return None
+            what = Opcode(opcode).name.lower()
+            result.problems.append(Problem(pos, f"corrupt: {exc}; {what} record skipped"))
+            result.skipped.append(Skipped(pos, end, f"{what}: {exc}"))
         except Exception as exc:
-            name = Opcode(opcode).name.lower()
-            result.problems.append(Problem(pos, f"corrupt {name} record ({exc})"))
-            result.truncated_at = pos
-            return None
+            what = Opcode(opcode).name.lower()
+            result.problems.append(Problem(pos, f"corrupt {what} record ({exc}); skipped"))
+            result.skipped.append(Skipped(pos, end, f"{what}: {exc}"))
         if opcode == Opcode.DATA_END:
             (crc,) = struct.unpack_from("<I", body, 0)
             if crc:
                 result.data_crc_checked = True
-                if crc32(buf[:pos]) != crc:
+                if crc32(buf[:pos]) != crc and not result.problems:
                     result.problems.append(Problem(pos, "data section CRC mismatch"))
             return end
         pos = end
+
+
+def _summary_chunk_offsets(buf: memoryview, result: Scan) -> list[int]:
+    """The chunk offsets the summary's chunk indexes list (ascending; empty without a summary
+    whose CRC checks out); its schemas and channels go into ``result`` (chunks after a
+    damaged one may use channels defined in it)."""
+    size = len(buf)
+    footer_pos = size - 8 - _FOOTER_SIZE
+    if footer_pos < 8 or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
+        return []
+    summary_start, _, summary_crc = struct.unpack_from("<QQI", buf, footer_pos + 9)
+    if not summary_start or not 8 <= summary_start < footer_pos:
+        return []
+    if summary_crc and crc32(buf[summary_start : size - 12]) != summary_crc:
+        return []
+    hint = Scan(size=size, header=result.header)
+    try:
+        indexes = _summary_chunk_indexes(buf[summary_start:footer_pos], hint)
+    except Exception:
+        return []
+    for key, schema in hint.schemas.items():
+        result.schemas.setdefault(key, schema)
+    for key, channel in hint.channels.items():
+        result.channels.setdefault(key, channel)
+    return sorted(indexes)
 
 
 def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_time: int) -> int:
@@ -617,7 +671,10 @@ def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_tim
     elif opcode == Opcode.METADATA:
         result.metadata.append(_parse(Metadata, body))
     elif opcode == Opcode.ATTACHMENT:
-        result.attachments.append(_attachment(pos, body))
+        attachment = _attachment(pos, body)
+        result.attachments.append(attachment)
+        if attachment.damaged:
+            result.problems.append(Problem(pos, f"corrupt: {attachment.damaged}"))
     elif opcode == Opcode.SCHEMA:
         schema = _parse(Schema, body)
         result.schemas[schema.id] = schema
@@ -640,9 +697,10 @@ def _attachment(pos: int, body: memoryview) -> AttachmentInfo:
     if data_offset + data_length + 4 != len(body):
         raise _Damage(f"attachment {name!r} has an inconsistent length")
     (crc,) = struct.unpack_from("<I", body, data_offset + data_length)
+    damaged = ""
     if crc and crc32(body[: data_offset + data_length]) != crc:
-        raise _Damage(f"attachment {name!r} CRC mismatch")
-    return AttachmentInfo(pos, name, media_type, pos + 9 + data_offset, data_length)
+        damaged = f"attachment {name!r} CRC mismatch"
+    return AttachmentInfo(pos, name, media_type, pos + 9 + data_offset, data_length, damaged)
 
 
 def _scan_summary(buf: memoryview, data_end: int, result: Scan) -> None:
@@ -705,6 +763,11 @@ def _check_summary(section: memoryview, base: int, result: Scan) -> None:
             result.problems.append(Problem(base, f"summary disagrees with the data: {what}"))
 
     scanned_chunks = {(c.offset, c.length) for c in result.chunks}
+    if result.skipped:
+        # Damaged chunks were passed over: what was read must be indexed; the counts of the
+        # whole file cannot match what is left.
+        check(scanned_chunks <= chunk_offsets, "chunk indexes")
+        return
     check(chunk_offsets == scanned_chunks, "chunk indexes")
     check(
         {k: (c.topic, c.schema_id) for k, c in channels.items()}

@@ -19,6 +19,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--link-rotation", type=float, default=0.0, metavar="RAD")
     parser.add_argument("--collision-time-ns", type=int, default=0, metavar="NS")
     parser.add_argument("--message-count", type=int, default=0, metavar="N")
+    parser.add_argument(
+        "--ignore-after-last-step",
+        action="store_true",
+        help="leave out the bridge frames applied after each recording's last step (a "
+        "client's goodbye), as golden checks do",
+    )
     parser.add_argument("--report", type=Path, default=None, help="write the report as JSON")
 
 
@@ -34,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
         collision_time_ns=args.collision_time_ns,
         message_count=args.message_count,
     )
-    report = diff(args.a, args.b, tolerances)
+    report = diff(args.a, args.b, tolerances, ignore_after_last_step=args.ignore_after_last_step)
     print(report.format())
     if args.report is not None:
         args.report.write_text(json.dumps(report.to_json(), indent=2, default=str) + "\n")

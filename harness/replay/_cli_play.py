@@ -1,4 +1,5 @@
-"""``harness play FILE``: serve a recording's frames to rosbridge clients on its schedule."""
+"""``harness play FILE``: serve a recording's topics to rosbridge clients on its schedule, like
+``ros2 bag play``."""
 
 from __future__ import annotations
 
@@ -23,7 +24,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--rate", type=float, default=1.0, help="sim time per wall time")
     parser.add_argument(
-        "--start-paused", action="store_true", help="wait for /harness/step or /harness/resume"
+        "--start",
+        choices=("now", "paused", "on_client"),
+        default="on_client",
+        help="when the clock starts: on_client (default: when a client subscribes to a played "
+        "topic), paused (on /harness/step or /harness/resume), now",
     )
     parser.add_argument("--loop-forever", action="store_true", help="keep serving at the end")
 
@@ -36,12 +41,14 @@ async def _main(args: argparse.Namespace) -> int:
         host=args.host,
         port=args.port,
         rate=args.rate,
-        start_paused=args.start_paused,
+        start=args.start,
         token=args.token,
     )
     url = await player.start()
     print(f"playing {args.file} on {url} ({len(player.items)} messages, steps "
           f"{player.first_step}..{player.last_step}, rate {args.rate:g})", flush=True)  # fmt: skip
+    if player.assets is not None:
+        print(f"meshes of robot_description served on {player.assets.url}", flush=True)
     try:
         await player.run()
         print(f"finished at step {player.step}", flush=True)

@@ -12,9 +12,14 @@ The engine of golden tests (the pytest plugin's ``golden.check(**tolerances)`` c
   ``ignore_after_last_step``, the ``/harness/bridge`` frames after the last step are not
   counted: see :func:`frames_after_last_step`).
 
+- ``epochs``: the steps at which each run was reset.
+
 Bytes are never compared (headers carry library versions). A quantity differs when
 ``|b - a| > tolerance``; every differing quantity is one :class:`DiffEntry` naming the first
-step it exceeded its tolerance and its largest delta.
+step it exceeded its tolerance, both values there and its largest delta; rows are sorted by
+step. The causes are compared too (:mod:`harness.replay.cause`): the applied inputs and the
+incoming bridge frames, exactly; the first one that differs at or before the first state
+divergence is its cause, in one :class:`~harness.replay.cause.FirstDivergence` line.
 """
 
 from __future__ import annotations
@@ -30,10 +35,18 @@ import numpy.typing as npt
 
 from harness.recording import CollisionEvent, Recording
 from harness.recording.layout import TOPIC_BRIDGE
+from harness.replay.cause import FirstDivergence, first_cause, first_divergence
 from harness.replay.layout import StateLayout, rotation_angle
 from harness.replay.source import open_recording, read_states, resolve_model
 
-__all__ = ["DiffEntry", "DiffReport", "Tolerances", "diff", "frames_after_last_step"]
+__all__ = [
+    "DiffEntry",
+    "DiffReport",
+    "FirstDivergence",
+    "Tolerances",
+    "diff",
+    "frames_after_last_step",
+]
 
 F64 = npt.NDArray[np.float64]
 _KINDS = {0: "begin", 1: "end", 2: "near_miss"}
@@ -72,6 +85,11 @@ class DiffReport:
     tolerances: dict[str, float]
     steps_compared: int
     entries: tuple[DiffEntry, ...]
+    first_divergence: FirstDivergence | None = None
+    """Where A and B first part and why (None: they never do)."""
+    inputs_compared: int = 0
+    frames_compared: int = 0
+    notes: tuple[str, ...] = ()
 
     @property
     def same(self) -> bool:
@@ -84,18 +102,31 @@ class DiffReport:
 
     def format(self) -> str:
         """A readable table (the CLI's output)."""
-        lines = [f"A: {self.a}", f"B: {self.b}", f"{self.steps_compared} common steps compared"]
+        lines = [
+            f"A: {self.a}",
+            f"B: {self.b}",
+            f"{self.steps_compared} common steps, {self.inputs_compared} applied inputs and "
+            f"{self.frames_compared} incoming bridge frames compared",
+            *[f"note: {n}" for n in self.notes],
+        ]
+        first = self.first_divergence
         if self.same:
+            if first is not None and first.cause is not None:
+                lines.append(
+                    f"note: {first.cause.format()}, yet every quantity is within its tolerance"
+                )
             lines.append("SAME: every quantity within its tolerance")
             return "\n".join(lines)
+        if first is not None:
+            lines.append(first.format())
         lines.append(
-            f"{'quantity':<16} {'name':<28} {'step':>7} {'A':>22} {'B':>22} {'max delta':>11} "
+            f"{'step':>7} {'quantity':<16} {'name':<28} {'A':>24} {'B':>24} {'max delta':>11} "
             f"{'tolerance':>10}"
         )
         for e in self.entries:
             step = "-" if e.step < 0 else str(e.step)
             lines.append(
-                f"{e.quantity:<16} {e.name:<28} {step:>7} {_show(e.a):>22} {_show(e.b):>22} "
+                f"{step:>7} {e.quantity:<16} {e.name:<28} {_show(e.a):>24} {_show(e.b):>24} "
                 f"{e.max_delta:>11.4g} {e.tolerance:>10.3g}"
             )
         lines.append(f"DIFFERENT: {len(self.entries)} quantities beyond tolerance")
@@ -105,6 +136,8 @@ class DiffReport:
 def _show(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.10g}"
+    if isinstance(value, tuple):
+        return ",".join(f"{v:.6g}" for v in value)
     return str(value)
 
 
@@ -115,7 +148,11 @@ def _compare_columns(
     a: F64,
     b: F64,
     tolerance: float,
+    shown: tuple[npt.NDArray[Any], npt.NDArray[Any]] | None = None,
 ) -> list[DiffEntry]:
+    """One entry per column of ``a``/``b`` (rows: ``steps``) beyond ``tolerance``;
+    ``shown``: what to print as A and B instead of the compared values (``(rows, columns,
+    ...)`` arrays, e.g. each body's position when the compared value is a distance)."""
     with np.errstate(invalid="ignore"):
         delta = np.abs(b - a)
     delta = np.where(np.isnan(a) & np.isnan(b), 0.0, delta)
@@ -124,13 +161,19 @@ def _compare_columns(
     for column in np.flatnonzero((delta > tolerance).any(axis=0)):
         rows = np.flatnonzero(delta[:, column] > tolerance)
         r = int(rows[0])
+        if shown is None:
+            value_a: Any = float(a[r, column])
+            value_b: Any = float(b[r, column])
+        else:
+            value_a = tuple(float(v) for v in np.ravel(shown[0][r, column]))
+            value_b = tuple(float(v) for v in np.ravel(shown[1][r, column]))
         out.append(
             DiffEntry(
                 quantity,
                 names[column],
                 int(steps[r]),
-                float(a[r, column]),
-                float(b[r, column]),
+                value_a,
+                value_b,
                 float(delta[:, column].max()),
                 tolerance,
             )
@@ -233,6 +276,17 @@ def diff(
         counts_a = _counts(ra, ignore_after_last_step)
         counts_b = _counts(rb, ignore_after_last_step)
         events_a, events_b = _events(ra), _events(rb)
+        epochs_a = [(e.step, e.reason) for e in ra.epochs()]
+        epochs_b = [(e.step, e.reason) for e in rb.epochs()]
+        cause, inputs_compared, frames_compared = first_cause(
+            ra, rb, model, ignore_after_last_step=ignore_after_last_step
+        )
+    notes = [
+        f"{label}: the state of step {int(steps[np.flatnonzero(np.diff(steps) <= 0)[0] + 1])} "
+        "is recorded twice (a reset recorded before resets became epochs): the first is compared"
+        for label, steps in (("A", sa.steps), ("B", sb.steps))
+        if steps.size > 1 and np.any(np.diff(steps) <= 0)
+    ]
     common, ia, ib = np.intersect1d(sa.steps, sb.steps, return_indices=True)
     if not np.array_equal(sa.steps, sb.steps):
         entries.append(
@@ -260,9 +314,9 @@ def diff(
             dist = np.linalg.norm(pb - pa, axis=2)
             angle = rotation_angle(oa, ob)
             entries += _compare_columns("link_position", bodies, common, np.zeros_like(dist),
-                                        dist, tol.link_position)  # fmt: skip
+                                        dist, tol.link_position, (pa, pb))  # fmt: skip
             entries += _compare_columns("link_rotation", bodies, common, np.zeros_like(angle),
-                                        angle, tol.link_rotation)  # fmt: skip
+                                        angle, tol.link_rotation, (oa, ob))  # fmt: skip
     entries += _match_collisions(events_a, events_b, int(tol.collision_time_ns))
     for topic in sorted(set(counts_a) | set(counts_b)):
         na, nb = counts_a.get(topic, 0), counts_b.get(topic, 0)
@@ -271,4 +325,20 @@ def diff(
                 DiffEntry("message_count", topic, -1, na, nb, float(abs(na - nb)),
                           float(tol.message_count))
             )  # fmt: skip
-    return DiffReport(str(a), str(b), dict(tol._asdict()), int(common.size), tuple(entries))
+    if epochs_a != epochs_b:
+        pairs = zip(epochs_a, epochs_b, strict=False)
+        i = next((i for i, (x, y) in enumerate(pairs) if x != y), None)
+        if i is None:  # one is a prefix of the other
+            i = min(len(epochs_a), len(epochs_b))
+        steps = [e[i][0] for e in (epochs_a, epochs_b) if i < len(e)]
+        entries.append(
+            DiffEntry("epochs", "resets after step", min(steps),
+                      ",".join(str(s) for s, _ in epochs_a) or "none",
+                      ",".join(str(s) for s, _ in epochs_b) or "none", math.inf, 0.0)
+        )  # fmt: skip
+    entries.sort(key=lambda e: (e.step < 0, e.step, e.quantity, e.name))
+    return DiffReport(
+        str(a), str(b), dict(tol._asdict()), int(common.size), tuple(entries),
+        first_divergence(entries, cause, ra.timestep_ns), inputs_compared, frames_compared,
+        tuple(notes),
+    )  # fmt: skip

@@ -41,7 +41,8 @@ import numpy.typing as npt
 from harness.errors import HarnessError
 from harness.events import EventHub, Logger
 from harness.models import LoadedRobot, LoadedWorld
-from harness.recording import AppliedInput, BridgeFrame, Recording
+from harness.recording import AppliedInput, BridgeFrame, Epoch, Recording
+from harness.recording.layout import TOPIC_EPOCH
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
 from harness.session.core import CoreOptions, SessionCore, is_marker
@@ -159,8 +160,11 @@ class _Checker:
         state_steps: npt.NDArray[np.int64],
         states: npt.NDArray[np.float64],
         dt_ns: int,
+        epochs: Sequence[Epoch] = (),
     ) -> None:
         self.model = model
+        self.epochs = epochs
+        self.epoch_at = 0
         self.frames = frames
         self.inputs = inputs
         self.state_steps = state_steps
@@ -374,6 +378,41 @@ class _Checker:
                 )
             )  # fmt: skip
 
+    def write_epoch(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        epoch: int,
+        reason: str,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None:
+        if self.mismatch is not None:
+            return
+        i = self.epoch_at
+        self.epoch_at += 1
+        expected = self.epochs[i] if i < len(self.epochs) else None
+        got = np.asarray(state, dtype=np.float64)
+        what = ""
+        if expected is None:
+            what = "the re-run reset here; the recording has no epoch"
+        elif (expected.step, expected.epoch, expected.reason) != (step, epoch, reason):
+            what = f"epoch {epoch} ({reason}) after step {step} differs"
+        elif got.tobytes() != np.asarray(expected.state, dtype=np.float64).tobytes():
+            what = f"epoch {epoch}: the state it continues from differs"
+        if what:
+            self._fail(
+                PipelineMismatch(
+                    "state", step, sim_time_ns, None, "", "", TOPIC_EPOCH, what,
+                    "none" if expected is None
+                    else f"epoch {expected.epoch} ({expected.reason}) after step {expected.step}",
+                    f"epoch {epoch} ({reason}) after step {step}", i,
+                )
+            )  # fmt: skip
+
 
 def _session_robot(rec: Recording) -> LoadedRobot | LoadedWorld:
     robot = rebuild_run(rec)
@@ -423,14 +462,18 @@ def replay_pipeline(
         except HarnessError as exc:
             raise RecordedDataError(f"{path}: {exc}") from None
         robot = _session_robot(rec)
-        frames = list(rec.bridge_frames())
-        inputs = list(rec.applied_inputs())
-        states = read_states(rec)
+        # A damaged stretch ends what can be re-run: frames after it depend on what it held.
+        stop = rec.lost[0].first_step if rec.lost else None
+        frames = list(rec.bridge_frames(None, stop))
+        inputs = list(rec.applied_inputs(None, stop))
+        states = read_states(rec, None, stop)
+        epochs = rec.epochs(None, stop)
         dt_ns = rec.timestep_ns
         notes = [
-            "damaged recording, re-ran up to the damage: " + "; ".join(str(p) for p in rec.problems)
+            "damaged recording, re-ran up to the first damage: "
+            + "; ".join(str(p) for p in rec.problems)
         ] if rec.problems else []  # fmt: skip
-    checker = _Checker(robot.model, frames, inputs, states.steps, states.state, dt_ns)
+    checker = _Checker(robot.model, frames, inputs, states.steps, states.state, dt_ns, epochs)
     hub = EventHub()
     for logger in loggers:
         hub.add_logger(logger)
@@ -496,6 +539,15 @@ def replay_pipeline(
             PipelineMismatch(
                 "state", step, step * dt_ns, None, "", "", "/harness/state",
                 "the re-run did not record this state", f"state at step {step}", "none", i,
+            )
+        )  # fmt: skip
+    if checker.mismatch is None and checker.epoch_at < len(epochs):
+        e = epochs[checker.epoch_at]
+        checker._fail(
+            PipelineMismatch(
+                "state", e.step, e.sim_time_ns, None, "", "", TOPIC_EPOCH,
+                "the re-run did not reset here", f"epoch {e.epoch} ({e.reason}) after step "
+                f"{e.step}", "none", checker.epoch_at,
             )
         )  # fmt: skip
     return PipelineReport(

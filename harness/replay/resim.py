@@ -16,7 +16,15 @@ Both runs (the recorded one, replayed from its own inputs, and the re-simulation
 measured the same way, per step: tracking error ``|q - q_target|``, limit violation
 ``max(q - hi, lo - q, 0)``, speed against the description's velocity limits, peak
 penetration of any contact, total energy rise between steps, and which body pairs touch.
-A :class:`Finding` is the first step at which a quantity exceeds its threshold.
+
+The re-simulation is judged against the recording, not against absolute limits: a
+:class:`Finding` is the first step at which the two runs differ, either the re-simulated
+position of a joint leaving the recorded one by more than ``max_tracking_error``
+(``deviation``), or one run exceeding a threshold at a step where the other does not (a
+recorded teleport past a joint limit that a servo cannot follow; a servo that overshoots
+where the recording did not). What both runs do alike is the recording's own behaviour, shown
+in the table but not a finding. When the requested mode is the recorded one (``dynamic`` for
+position servos), the re-simulation is the same run, and the report says so.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ import numpy.typing as npt
 
 from harness.errors import HarnessError
 from harness.models import RobotModel
+from harness.recording import Epoch
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.source import (
     check_states_fit,
@@ -81,19 +90,46 @@ class Thresholds(NamedTuple):
 
 @dataclass(frozen=True)
 class Finding:
-    """The first step at which ``quantity`` of ``name`` exceeded its threshold in ``run``."""
+    """The first step at which the two runs differ in ``quantity`` of ``name``: ``run`` is
+    the run that exceeded the threshold there (``"recorded"`` or ``"resimulated"``; for a
+    ``deviation``, always ``"resimulated"``), ``value`` its value; ``recorded_value`` and
+    ``resimulated_value`` both runs' values at that step, in ``unit``."""
 
     run: str  # "recorded" or "resimulated"
-    quantity: str  # tracking_error, limit_violation, velocity_ratio, penetration, energy_jump
+    quantity: str  # deviation, tracking_error, limit_violation, velocity_ratio, penetration,
+    # energy_jump, unstable
     name: str  # joint name ("" for whole-run quantities)
     step: int
     value: float
     threshold: float
+    recorded_value: float = math.nan
+    resimulated_value: float = math.nan
+    unit: str = ""
+
+    def format(self) -> str:
+        """One line."""
+        what = f"{self.name} {self.quantity}".strip()
+        unit = f" {self.unit}" if self.unit else ""
+        if self.quantity == "unstable":
+            return f"step {self.step:>6}  the re-simulation became unstable (MuJoCo warning)"
+        if self.quantity == "deviation":
+            return (
+                f"step {self.step:>6}  {what}: re-simulated {self.resimulated_value:.4g}{unit}, "
+                f"recorded {self.recorded_value:.4g}{unit}: {self.value:.4g}{unit} apart "
+                f"(threshold {self.threshold:g}{unit})"
+            )
+        only = "recording" if self.run == "recorded" else "re-simulation"
+        return (
+            f"step {self.step:>6}  {what}: recorded {self.recorded_value:.4g}{unit}, "
+            f"re-simulated {self.resimulated_value:.4g}{unit}: only the {only} exceeds "
+            f"{self.threshold:g}{unit}"
+        )
 
 
 @dataclass(frozen=True)
 class JointSummary:
-    """One joint's worst values in one run, with the step of each (-1: never above 0)."""
+    """One joint's worst values in one run, with the step of each (-1: never above 0);
+    ``unit``: of its positions (``rad`` for hinges, ``m`` for slides)."""
 
     joint: str
     max_tracking_error: float
@@ -102,6 +138,7 @@ class JointSummary:
     violation_step: int
     max_velocity_ratio: float
     velocity_step: int
+    unit: str = "rad"
 
 
 @dataclass(frozen=True)
@@ -121,7 +158,8 @@ class RunSummary:
 
 @dataclass(frozen=True)
 class ResimReport:
-    """Recorded run and re-simulation side by side (``passed``: no finding)."""
+    """Recorded run and re-simulation side by side (``passed``: no finding, i.e. the
+    re-simulation behaves as the recording did within the thresholds)."""
 
     path: str
     mode: ResimMode
@@ -133,10 +171,13 @@ class ResimReport:
     contacts_appearing: tuple[str, ...]
     contacts_disappearing: tuple[str, ...]
     wall_seconds: float
+    notes: tuple[str, ...] = ()
+    recorded_reproduced: bool = True
+    """Whether replaying the recorded run from its inputs gave the recorded states."""
 
     @property
     def passed(self) -> bool:
-        """True when no threshold was exceeded in either run."""
+        """True when the re-simulation differs from the recording in nothing measured."""
         return not self.findings
 
     def to_json(self) -> dict[str, Any]:
@@ -144,38 +185,78 @@ class ResimReport:
         return {**asdict(self), "passed": self.passed}
 
     def format(self) -> str:
-        """The side-by-side table."""
+        """A legend, the side-by-side table, one line per finding and a verdict."""
         a, b = self.recorded, self.resimulated
         lines = [
             f"{self.path}: {self.steps} steps, recorded ({a.control}) vs re-simulated "
             f"({b.control})",
-            f"  {'joint':<16} {'tracking error (rad)':>27} {'limit violation (rad)':>27} "
-            f"{'speed / limit':>23}",
+            *[f"note: {n}" for n in self.notes],
+            "legend: each cell is recorded | re-simulated: the worst value of the run and, "
+            "after @, the step it was reached at; '-': no limit in the description",
         ]
 
-        def cell(value: float, step: int, width: int) -> str:
+        def cell(value: float, step: int) -> str:
             text = "-" if math.isnan(value) else f"{value:.4g}"
             if step >= 0 and not math.isnan(value) and value > 0:
                 text += f" @{step}"
-            return f"{text:>{width}}"
+            return text
 
+        def pair(x: float, xs: int, y: float, ys: int) -> tuple[str, str]:
+            return cell(x, xs), cell(y, ys)
+
+        header = ("joint", "unit", "tracking error", "limit violation", "speed / limit")
+        rows: list[tuple[str, str, tuple[str, str], tuple[str, str], tuple[str, str]]] = []
         for ja, jb in zip(a.joints, b.joints, strict=True):
-            lines.append(
-                f"  {ja.joint:<16} {cell(ja.max_tracking_error, ja.tracking_step, 13)} |"
-                f"{cell(jb.max_tracking_error, jb.tracking_step, 12)} "
-                f"{cell(ja.max_limit_violation, ja.violation_step, 13)} |"
-                f"{cell(jb.max_limit_violation, jb.violation_step, 12)} "
-                f"{cell(ja.max_velocity_ratio, ja.velocity_step, 11)} |"
-                f"{cell(jb.max_velocity_ratio, jb.velocity_step, 10)}"
+            rows.append(
+                (
+                    ja.joint,
+                    ja.unit,
+                    pair(
+                        ja.max_tracking_error,
+                        ja.tracking_step,
+                        jb.max_tracking_error,
+                        jb.tracking_step,
+                    ),
+                    pair(
+                        ja.max_limit_violation,
+                        ja.violation_step,
+                        jb.max_limit_violation,
+                        jb.violation_step,
+                    ),
+                    pair(
+                        ja.max_velocity_ratio,
+                        ja.velocity_step,
+                        jb.max_velocity_ratio,
+                        jb.velocity_step,
+                    ),
+                )
             )
-        lines.append(
-            f"  peak penetration (m): {cell(a.peak_penetration, a.penetration_step, 0)} | "
-            f"{cell(b.peak_penetration, b.penetration_step, 0)}"
-        )
-        lines.append(
-            f"  max energy jump (J):  {cell(a.max_energy_jump, a.energy_step, 0)} | "
-            f"{cell(b.max_energy_jump, b.energy_step, 0)}"
-        )
+        rows.append(
+            ("peak penetration", "m",
+             pair(a.peak_penetration, a.penetration_step, b.peak_penetration,
+                  b.penetration_step), ("", ""), ("", ""))
+        )  # fmt: skip
+        rows.append(
+            ("max energy jump", "J",
+             pair(a.max_energy_jump, a.energy_step, b.max_energy_jump, b.energy_step),
+             ("", ""), ("", ""))
+        )  # fmt: skip
+        w_name = max(len(header[0]), *(len(r[0]) for r in rows))
+        w_unit = max(len(header[1]), *(len(r[1]) for r in rows))
+        widths = [
+            (max(len(r[i][0]) for r in rows), max(len(r[i][1]) for r in rows)) for i in (2, 3, 4)
+        ]
+
+        def both(p: tuple[str, str], w: tuple[int, int]) -> str:
+            if not p[0] and not p[1]:
+                return " " * (w[0] + 3 + w[1])
+            return f"{p[0]:>{w[0]}} | {p[1]:<{w[1]}}"
+
+        heads = [f"{h:^{w[0] + 3 + w[1]}}" for h, w in zip(header[2:], widths, strict=True)]
+        lines.append(f"  {header[0]:<{w_name}}  {header[1]:<{w_unit}}  " + "  ".join(heads))
+        for r in rows:
+            cells = "  ".join(both(p, w) for p, w in zip(r[2:], widths, strict=True))
+            lines.append(f"  {r[0]:<{w_name}}  {r[1]:<{w_unit}}  {cells}".rstrip())
         for run in (a, b):
             if run.unstable_at is not None:
                 lines.append(f"  {run.label}: UNSTABLE at step {run.unstable_at}")
@@ -183,12 +264,20 @@ class ResimReport:
             lines.append(f"  contacts only when re-simulated: {', '.join(self.contacts_appearing)}")
         if self.contacts_disappearing:
             lines.append(f"  contacts only when recorded: {', '.join(self.contacts_disappearing)}")
-        if not self.findings:
-            lines.append("PASSED: no threshold exceeded")
-        for f in self.findings:
-            what = f"{f.quantity} {f.name}".strip()
+        if self.findings:
             lines.append(
-                f"EXCEEDED ({f.run}): {what} = {f.value:.4g} > {f.threshold:g} at step {f.step}"
+                f"findings: where the re-simulation ({b.control}) differs from the recording "
+                f"({a.control}) beyond a threshold, first step of each:"
+            )
+            lines += [f"  {f.format()}" for f in self.findings]
+            lines.append(
+                f"VERDICT: DIFFERENT: {len(self.findings)} finding(s); the recorded motion "
+                f"does not carry over to {self.mode} control as it is"
+            )
+        else:
+            lines.append(
+                f"VERDICT: SAME BEHAVIOUR: the re-simulation ({self.mode}) stays within every "
+                "threshold of the recording"
             )
         return "\n".join(lines)
 
@@ -310,7 +399,7 @@ def _measure(
         t, ts = worst(tracking, i)
         lv, ls = worst(violation, i)
         vr, vs = worst(ratio, i)
-        summaries.append(JointSummary(name, t, ts, lv, ls, vr, vs))
+        summaries.append(JointSummary(name, t, ts, lv, ls, vr, vs, _unit(model, name)))
     pen = np.array(trace.pen)
     p_index = int(np.argmax(pen))
     total = energy(model, np.stack(trace.qpos), np.stack(trace.qvel)).sum(axis=1)
@@ -330,40 +419,92 @@ def _measure(
     return _Measured(summary, tracking, violation, ratio, pen, rises, steps)
 
 
-def _findings(run: str, joints: Sequence[str], m: _Measured, th: Thresholds) -> list[Finding]:
-    tracking, violation, ratio, pen, rises = (
-        m.tracking,
-        m.violation,
-        m.ratio,
-        m.penetration,
-        m.rises,
+def _unit(model: mujoco.MjModel, joint: str) -> str:
+    """The unit of a joint's position: ``m`` for a slide, ``rad`` otherwise."""
+    return (
+        "m"
+        if int(model.jnt_type[model.joint(joint).id]) == int(mujoco.mjtJoint.mjJNT_SLIDE)
+        else "rad"
     )
-    steps = m.steps
+
+
+def _first_apart(run_values: F64, other_values: F64, limit: float) -> tuple[int, bool] | None:
+    """The first row where exactly one of the two runs is above ``limit`` (and whether it is
+    the first run), or ``None``."""
+    with np.errstate(invalid="ignore"):
+        above_a = run_values > limit
+        above_b = other_values > limit
+    apart = np.flatnonzero(above_a != above_b)
+    if not apart.size:
+        return None
+    k = int(apart[0])
+    return k, bool(above_a[k])
+
+
+def _differences(
+    joints: Sequence[str], units: Sequence[str], rec: _Measured, re: _Measured,
+    rec_q: F64, re_q: F64, th: Thresholds,
+) -> list[Finding]:  # fmt: skip
+    """Where the re-simulation differs from the recording (see the module docstring)."""
+    n = min(rec.steps.size, re.steps.size)
+    steps = rec.steps[:n]
     out: list[Finding] = []
-    for quantity, values, limit in (
-        ("limit_violation", violation, th.max_limit_violation),
-        ("velocity_ratio", ratio, th.max_velocity_ratio),
-        ("tracking_error", tracking, th.max_tracking_error),
+    deviation = np.abs(re_q[:n] - rec_q[:n])
+    for i, name in enumerate(joints):
+        above = np.flatnonzero(deviation[:, i] > th.max_tracking_error)
+        if above.size:
+            k = int(above[0])
+            out.append(
+                Finding("resimulated", "deviation", name, int(steps[k]), float(deviation[k, i]),
+                        th.max_tracking_error, float(rec_q[k, i]), float(re_q[k, i]), units[i])
+            )  # fmt: skip
+    for quantity, a, b, limit, unit_of in (
+        ("limit_violation", rec.violation, re.violation, th.max_limit_violation, True),
+        ("velocity_ratio", rec.ratio, re.ratio, th.max_velocity_ratio, False),
     ):
         for i, name in enumerate(joints):
-            with np.errstate(invalid="ignore"):
-                above = np.flatnonzero(values[:, i] > limit)
-            if above.size:
-                k = int(above[0])
-                out.append(Finding(run, quantity, name, int(steps[k]), float(values[k, i]), limit))
-    above = np.flatnonzero(pen > th.max_penetration)
-    if above.size:
-        k = int(above[0])
+            found = _first_apart(a[:n, i], b[:n, i], limit)
+            if found is not None:
+                k, in_recorded = found
+                x, y = float(a[k, i]), float(b[k, i])
+                out.append(
+                    Finding("recorded" if in_recorded else "resimulated", quantity, name,
+                            int(steps[k]), x if in_recorded else y, limit, x, y,
+                            units[i] if unit_of else "")
+                )  # fmt: skip
+    found = _first_apart(rec.penetration[:n], re.penetration[:n], th.max_penetration)
+    if found is not None:
+        k, in_recorded = found
+        x, y = float(rec.penetration[k]), float(re.penetration[k])
         out.append(
-            Finding(run, "penetration", "", int(steps[k]), float(pen[k]), th.max_penetration)
-        )
-    above = np.flatnonzero(rises > th.max_energy_jump)
-    if above.size:
-        k = int(above[0])
+            Finding("recorded" if in_recorded else "resimulated", "penetration", "",
+                    int(steps[k]), x if in_recorded else y, th.max_penetration, x, y, "m")
+        )  # fmt: skip
+    m = min(rec.rises.size, re.rises.size, max(n - 1, 0))
+    found = _first_apart(rec.rises[:m], re.rises[:m], th.max_energy_jump)
+    if found is not None:
+        k, in_recorded = found
+        x, y = float(rec.rises[k]), float(re.rises[k])
         out.append(
-            Finding(run, "energy_jump", "", int(steps[k + 1]), float(rises[k]), th.max_energy_jump)
-        )
+            Finding("recorded" if in_recorded else "resimulated", "energy_jump", "",
+                    int(steps[k + 1]), x if in_recorded else y, th.max_energy_jump, x, y, "J")
+        )  # fmt: skip
     return out
+
+
+def _same_mode_note(modes: Mapping[str, str], mode: ResimMode) -> str:
+    """Say so when the requested mode is the one (some) joints were recorded in."""
+    same = "kinematic" if mode == "kinematic" else "position"
+    joints = [j for j, m in modes.items() if m == same]
+    if not joints:
+        return ""
+    if len(joints) == len(modes):
+        return (
+            f"every joint was recorded in {same} mode: re-simulating in {mode} mode re-runs "
+            "the recorded control, so only differences of the re-simulation's setup (servo "
+            "gains, unclamped kinematic limits) can show"
+        )
+    return f"joints {', '.join(joints)} were recorded in {same} mode already"
 
 
 def resimulate(
@@ -391,6 +532,10 @@ def resimulate(
         states = read_states(rec)
         check_states_fit(rec, recorded_robot.model, states)
         inputs = read_inputs(rec, recorded_robot.model)
+        # Resets: both runs start again from the recorded state after each one.
+        resets: dict[int, list[Epoch]] = {}
+        for epoch in rec.epochs():
+            resets.setdefault(epoch.step, []).append(epoch)
         dt_ns = rec.timestep_ns
     joints = list(recorded_modes)
     first, last = int(states.steps[0]), int(states.steps[-1])
@@ -408,6 +553,9 @@ def resimulate(
             current = inp
     target_rows: list[F64] = []
     for k in range(first + 1, last + 1):
+        for epoch in resets.get(k - 1, ()):
+            mujoco.mj_setState(model, data, epoch.state, epoch.state_spec)
+            current = None  # the reset state holds the inputs until the next recorded one
         current = by_step.get(k, current)
         q_before = data.qpos[rec_trace.qadr].copy()
         if current is not None:
@@ -419,6 +567,12 @@ def resimulate(
         if progress is not None and k % 500 == 0:
             progress(k - first, total)
     targets = np.stack(target_rows)
+    # The recorded run must replay as recorded, or the comparison means little.
+    replayed = np.stack(rec_trace.qpos)
+    rows = states.steps[1:] - (first + 1)
+    reproduced = bool(
+        np.array_equal(replayed[rows].view(np.uint64), states.qpos[1:].view(np.uint64))
+    )
     # Velocity/effort joints have no target: follow their recorded positions.
     recorded_q = np.stack(rec_trace.q)
     for i, name in enumerate(joints):
@@ -435,6 +589,14 @@ def resimulate(
     unstable: int | None = None
     previous: F64 | None = None
     for row, k in enumerate(range(first + 1, last + 1)):
+        for epoch in resets.get(k - 1, ()):
+            sim.reset()
+            sim.data.qpos[:] = epoch.qpos
+            sim.data.qvel[:] = epoch.qvel
+            state = sim.get_state()
+            state[0] = epoch.step * dt_ns / 1e9  # mjSTATE_TIME: step numbering continues
+            sim.set_state(state, epoch.step)
+            previous = None
         wanted = targets[row]
         if previous is None or not np.array_equal(wanted, previous):
             sim.set_positions(dict(zip(joints, wanted.tolist(), strict=True)))
@@ -456,7 +618,10 @@ def resimulate(
     re_m = _measure("resimulated", mode, re_trace, targets, other_robot.model,
                     run_description(other_robot), joints, unstable)  # fmt: skip
     rec_summary, re_summary = rec_m.summary, re_m.summary
-    findings = _findings("recorded", joints, rec_m, th) + _findings("resimulated", joints, re_m, th)
+    units = [_unit(recorded_robot.model, j) for j in joints]
+    findings = _differences(
+        joints, units, rec_m, re_m, np.stack(rec_trace.q), np.stack(re_trace.q), th
+    )
     if unstable is not None:
         findings.append(Finding("resimulated", "unstable", "", unstable, math.inf, 0.0))
     findings.sort(key=lambda f: (f.step, f.run, f.quantity, f.name))
@@ -474,6 +639,18 @@ def resimulate(
         contacts_appearing=tuple(sorted(b_pairs - a_pairs)),
         contacts_disappearing=tuple(sorted(a_pairs - b_pairs)),
         wall_seconds=time.perf_counter() - started,
+        notes=tuple(
+            n
+            for n in (
+                _same_mode_note(recorded_modes, mode),
+                ""
+                if reproduced
+                else "the recorded run did not replay bit for bit from its inputs (another "
+                "MuJoCo version?): its column is the replay's, not the recording's",
+            )
+            if n
+        ),
+        recorded_reproduced=reproduced,
     )
 
 

@@ -79,6 +79,7 @@ __all__ = [
 
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
+_MODEL_SUFFIXES = (".urdf", ".xacro", ".sdf", ".world", ".xml", ".mjcf")
 
 
 def open_recording(
@@ -151,11 +152,14 @@ def control_modes(rec: Recording) -> dict[str, ControlMode]:
 
 
 def _sources(rec: Recording) -> dict[str, bytes]:
-    return {
-        name.removeprefix(ATTACHMENT_SOURCE_PREFIX): rec.attachment(name)
-        for name in rec.attachment_names
-        if name.startswith(ATTACHMENT_SOURCE_PREFIX)
-    }
+    try:
+        return {
+            name.removeprefix(ATTACHMENT_SOURCE_PREFIX): rec.attachment(name)
+            for name in rec.attachment_names
+            if name.startswith(ATTACHMENT_SOURCE_PREFIX)
+        }
+    except RecordingDamagedError as exc:
+        raise ModelAttachmentError(str(exc)) from None
 
 
 def _write_sources(sources: Mapping[str, bytes], root: Path) -> None:
@@ -324,7 +328,12 @@ def rebuild_robot(
             "rebuild_world() or rebuild_run()"
         )
     sources = _sources(rec)
-    models = [n for n in sources if n.startswith("model/")]
+    # The model file itself (meshes it references may be attached under model/ too).
+    models = [
+        n
+        for n in sources
+        if n.startswith("model/") and "/" not in n[6:] and n.lower().endswith(_MODEL_SUFFIXES)
+    ]
     if len(models) != 1:
         raise ModelAttachmentError(
             f"{rec.path}: expected one 'source/model/...' attachment to rebuild the robot, "
@@ -363,8 +372,10 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
     if ATTACHMENT_MODEL_BINARY in names:
         try:
             return _model_from_mjb(rec.attachment(ATTACHMENT_MODEL_BINARY)), ATTACHMENT_MODEL_BINARY
-        except (ValueError, OSError) as exc:
+        except (ValueError, OSError, RecordingDamagedError) as exc:
             problems.append(f"{ATTACHMENT_MODEL_BINARY}: {' '.join(str(exc).split())}")
+    # A fallback says so: the replay is then only as exact as the model it was given.
+    notice = f" (fell back: {'; '.join(problems)})" if problems else ""
     if any(n.startswith(ATTACHMENT_SOURCE_PREFIX + "model/") for n in names):
         try:
             robot = rebuild_run(rec)
@@ -372,10 +383,17 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
             problems.append(str(exc))
         else:
             if robot.sha256 == expected_sha:
-                return robot.model, "source attachments (rebuilt; MJCF SHA-256 matches)"
+                return robot.model, "source attachments (rebuilt; MJCF SHA-256 matches)" + notice
             problems.append("source attachments rebuild to a model whose MJCF SHA-256 differs")
+    notice = f" (fell back: {'; '.join(problems)})" if problems else ""
     if ATTACHMENT_MODEL in names:
-        text = rec.attachment(ATTACHMENT_MODEL)
+        try:
+            text = rec.attachment(ATTACHMENT_MODEL)
+        except RecordingDamagedError as exc:
+            raise ModelAttachmentError(
+                f"{rec.path}: no usable model attachment: {exc}"
+                + (f" ({'; '.join(problems)})" if problems else "")
+            ) from None
         sha = hashlib.sha256(text).hexdigest()
         if expected_sha and sha != expected_sha:
             raise ModelAttachmentError(
@@ -391,7 +409,7 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
                 f"{rec.path}: attachment {ATTACHMENT_MODEL!r} does not compile: "
                 f"{' '.join(str(exc).split())}"
             ) from None
-        return model, f"{ATTACHMENT_MODEL} (MJCF text, 6 significant digits)"
+        return model, f"{ATTACHMENT_MODEL} (MJCF text, 6 significant digits){notice}"
     raise ModelAttachmentError(
         f"{rec.path}: no usable model attachment ({ATTACHMENT_MODEL_BINARY}, source/model/..., "
         f"{ATTACHMENT_MODEL}); has: {', '.join(sorted(names)) or 'none'}"
@@ -412,7 +430,12 @@ class RecordedStates(NamedTuple):
 
 
 def state_blocks(
-    rec: Recording, model: mujoco.MjModel, *, rows: int = 4096
+    rec: Recording,
+    model: mujoco.MjModel,
+    *,
+    rows: int = 4096,
+    start_step: int | None = None,
+    stop_step: int | None = None,
 ) -> Iterator[RecordedStates]:
     """The recorded physics states in consecutive blocks of about ``rows`` (whole chunks;
     :meth:`~harness.recording.Recording.physics_state_blocks`), each checked: sizes
@@ -423,7 +446,7 @@ def state_blocks(
     previous = -1
     dt_ns = rec.timestep_ns
     try:
-        for arrays in rec.physics_state_blocks(rows=rows):
+        for arrays in rec.physics_state_blocks(start_step, stop_step, rows=rows):
             block = RecordedStates(
                 arrays.steps, arrays.sim_time_ns, arrays.state, arrays.qpos, arrays.qvel,
                 arrays.state_spec,

@@ -21,7 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.recording import Recording
+from harness.recording import Epoch, Recording, RecordingDamagedError
 from harness.recording.layout import TOPIC_STATE
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.layout import StateLayout, rotation_angle
@@ -262,20 +262,55 @@ def verify(
         # States are read block by block as the replay reaches them (little memory; each
         # block is checked by state_blocks: sizes, state spec, step order, sim time). The
         # first is read now: a model that does not fit is reported before anything else.
-        blocks = state_blocks(rec, model, rows=_BLOCK_ROWS)
+        blocks = state_blocks(rec, model, rows=_BLOCK_ROWS, stop_step=_stop(rec, 0))
         head = next(blocks)
-        inputs = _Inputs(rec, model)
+        epochs = _epochs(rec, model, head.state_spec)
         notes: list[str] = []
+        if epochs:
+            notes.append(
+                f"{len(epochs)} epoch(s) (resets) after step(s) "
+                + ", ".join(str(e.step) for e in epochs[:10])
+                + (" ..." if len(epochs) > 10 else "")
+                + ": the replay continues from each recorded reset state"
+            )
         if rec.problems:
             notes.append(
-                "damaged recording, replayed up to the damage: "
+                "damaged recording, replayed what is intact: "
                 + "; ".join(str(p) for p in rec.problems)
             )
         first_ns, last_ns = rec.time_range(TOPIC_STATE)
+        total = max(last_ns - first_ns, 0) // dt_ns
+        inputs = _Inputs(rec, model)
         report = _replay(
-            model, itertools.chain([head], blocks), inputs, atol, rtol, progress,
-            max(last_ns - first_ns, 0) // dt_ns,
-        )  # fmt: skip
+            model, itertools.chain([head], blocks), inputs, atol, rtol, progress, total, epochs
+        )
+        last_done = report[3] + report[0]
+        # Past each damaged stretch, the replay starts again from the next recorded state.
+        for i, lost in enumerate(rec.lost):
+            if report[2] is not None or lost.last_step is None:
+                break
+            kinematic = any(inp.qpos_index.size for inp in inputs.items)
+            resume = _resume_step(rec, model, lost.last_step, kinematic)
+            if resume is None:
+                break
+            try:
+                blocks = state_blocks(
+                    rec, model, rows=_BLOCK_ROWS, start_step=resume, stop_step=_stop(rec, i + 1)
+                )
+                head = next(blocks)
+            except RecordedDataError:
+                break  # no state recorded after this stretch
+            notes.append(
+                f"bytes {lost.offset}..{lost.end} damaged: steps {lost.first_step}.."
+                f"{lost.last_step} may be missing; replayed again from step {int(head.steps[0])}"
+            )
+            inputs = _Inputs(rec, model, start=resume)
+            part = _replay(
+                model, itertools.chain([head], blocks), inputs, atol, rtol, progress, total,
+                epochs,
+            )  # fmt: skip
+            report = (report[0] + part[0], report[1] + part[1], part[2], report[3])
+            last_done = part[3] + part[0]
         check_chunks(rec)
     pipeline: PipelineReport | None = None
     if level == "full":
@@ -292,7 +327,7 @@ def verify(
     last_matching = (
         divergence.last_matching_step
         if divergence is not None
-        else (first_step + steps_replayed if compared else None)
+        else (last_done if compared else None)
     )
     return VerifyReport(
         path=str(path),
@@ -315,14 +350,33 @@ def verify(
     )
 
 
+def _stop(rec: Recording, i: int) -> int | None:
+    """Where the ``i``-th intact stretch of ``rec`` ends (a step bound; ``None``: the end):
+    before the steps the next damaged stretch may have lost."""
+    lost = rec.lost
+    return lost[i].first_step + 1 if i < len(lost) else None
+
+
+def _resume_step(rec: Recording, model: mujoco.MjModel, after: int, kinematic: bool) -> int | None:
+    """The first step from which a replay can start again after a damaged stretch ending
+    at step ``after``: the next recorded state (it holds ctrl, applied forces and mocap
+    poses); when the run writes kinematic joints (held outside the state), the state before
+    the next recorded input, which says what they hold."""
+    if not kinematic:
+        return after
+    following = next(iter(rec.applied_inputs(after + 1)), None)
+    return following.step - 1 if following is not None else None
+
+
 class _Inputs:
     """The applied inputs, read from the recording as the replay reaches them (so that the
-    chunks are decompressed once, for the inputs and states they hold together)."""
+    chunks are decompressed once, for the inputs and states they hold together); ``start``:
+    the first step whose inputs are read (after a damaged stretch)."""
 
-    def __init__(self, rec: Recording, model: mujoco.MjModel) -> None:
+    def __init__(self, rec: Recording, model: mujoco.MjModel, start: int = 0) -> None:
         self.rec, self.model = rec, model
         self.items: list[AppliedInput] = []
-        self.loaded = 0  # inputs of steps below this are in items
+        self.loaded = start  # inputs of steps from start and below this are in items
 
     def load(self, stop_step: int) -> None:
         """Make sure every input of a step below ``stop_step`` is in :attr:`items`."""
@@ -330,6 +384,29 @@ class _Inputs:
             after = self.items[-1].step if self.items else -1
             self.items += read_inputs(self.rec, self.model, self.loaded, stop_step, after=after)
             self.loaded = stop_step
+
+
+def _epochs(rec: Recording, model: mujoco.MjModel, spec: int) -> list[Epoch]:
+    """The recorded epochs (resets), checked against ``model`` and the states' spec."""
+    try:
+        epochs = rec.epochs()
+    except RecordingDamagedError as exc:
+        raise RecordedDataError(f"{rec.path}: the recording is damaged ({exc})") from None
+    size = int(mujoco.mj_stateSize(model, spec))
+    previous = -1
+    for e in epochs:
+        where = f"{rec.path}: epoch {e.epoch} ({e.reason}) after step {e.step}"
+        if e.state_spec != spec or e.state.size != size:
+            raise RecordedDataError(
+                f"{where}: its state has {e.state.size} values of spec {e.state_spec}; the "
+                f"recorded states have {size} of spec {spec}"
+            )
+        if e.step < previous:
+            raise RecordedDataError(f"{where} follows an epoch after step {previous}")
+        if e.sim_time_ns != e.step * rec.timestep_ns:
+            raise RecordedDataError(f"{where}: sim_time_ns {e.sim_time_ns} is not step * dt_ns")
+        previous = e.step
+    return epochs
 
 
 def _replay(
@@ -340,6 +417,7 @@ def _replay(
     rtol: float,
     progress: Progress | None,
     total: int,
+    epochs: Sequence[Epoch] = (),
 ) -> tuple[int, int, Divergence | None, int]:
     """Step from the first recorded state; return (steps, states compared, divergence, first
     step). ``blocks``: the recorded states in order (the first row of the first is the start).
@@ -350,7 +428,9 @@ def _replay(
     batch's row is the ``mjSTATE_INTEGRATION`` state, so handing the state over is exact);
     one with kinematic writes is stepped here as :func:`harness.sim.inputs.advance` does (the
     joints are written before and after each step, which no batched call can do). Each
-    segment's states are compared with the recorded ones as one block.
+    segment's states are compared with the recorded ones as one block. Segments also end
+    at each epoch (a reset): the state recorded for its step is compared, then the replay
+    continues from the epoch's state (the input after a reset is always recorded).
     """
     block = next(blocks)
     spec = block.state_spec
@@ -374,6 +454,9 @@ def _replay(
 
     scratch = np.empty((_SEGMENT, block.state.shape[1]), dtype=np.float64)
     batch: _Batch | None = None
+    epoch_at = 0
+    while epoch_at < len(epochs) and epochs[epoch_at].step < first:
+        epoch_at += 1
     row = 1  # index into the block of the next recorded state to compare
     compared = 0
     done = first  # the last step taken
@@ -382,6 +465,10 @@ def _replay(
         steps = block.steps
         block_last = int(steps[-1])
         while done < block_last:
+            while epoch_at < len(epochs) and epochs[epoch_at].step == done:
+                mujoco.mj_setState(model, data, epochs[epoch_at].state, spec)
+                epoch_at += 1
+                current = None  # the reset state holds the inputs until the next recorded one
             if done + 1 == next_input:
                 current = inputs[position]
                 position += 1
@@ -390,6 +477,8 @@ def _replay(
             end = min(block_last, done + _SEGMENT)
             if next_input > done + 1:
                 end = min(end, next_input - 1)
+            if epoch_at < len(epochs):
+                end = min(end, epochs[epoch_at].step)
             count = end - done
             if current is not None and current.qpos_index.size:
                 _step_kinematic(model, data, current, scratch[:count], spec)

@@ -76,6 +76,7 @@ from harness.session.errors import (
     SessionConfigError,
     SessionError,
 )
+from harness.session.listed import ListedJoints
 from harness.session.tf import RobotFrames, TfTree
 from harness.session.topics import (
     HARNESS_NODE,
@@ -95,6 +96,7 @@ from harness.session.topics import (
     robot_topic_defs,
     stamp,
 )
+from harness.session.urdf_text import description_text
 from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
 
 __all__ = [
@@ -199,6 +201,19 @@ class RecordSink(Protocol):
         *,
         step: int,
         sim_time_ns: int,
+        state_spec: int,
+        state: npt.ArrayLike,
+        qpos: npt.ArrayLike,
+        qvel: npt.ArrayLike,
+    ) -> None: ...
+
+    def write_epoch(
+        self,
+        *,
+        step: int,
+        sim_time_ns: int,
+        epoch: int,
+        reason: str,
         state_spec: int,
         state: npt.ArrayLike,
         qpos: npt.ArrayLike,
@@ -604,6 +619,8 @@ class RobotChannels:
         self.js_qadr = np.array(qadr, dtype=np.intp)
         self.js_dadr = np.array(dadr, dtype=np.intp)
         self.js_kin = np.array(kin, dtype=bool)
+        self.listed = ListedJoints(description, self.js_names, self.joints.joint_names)
+        """Listed on ``joint_states`` but not controllable: dropped from ``joint_command``."""
         self.trajectory: Trajectory | None = None
         self.trajectory_topic = ""
         self.trajectory_warned: set[str] = set()
@@ -617,13 +634,6 @@ class RobotChannels:
 def _frames(channels: RobotChannels) -> RobotFrames:
     prefix = f"{channels.namespace}/" if channels.namespace else ""
     return RobotFrames(channels.description, channels.prefix, prefix)
-
-
-def _source_text(sources: Mapping[str, bytes], fallback: str) -> str:
-    for name, blob in sources.items():
-        if name.startswith("model/"):
-            return blob.decode("utf-8", errors="replace")
-    return fallback
 
 
 class SessionCore:
@@ -685,6 +695,7 @@ class SessionCore:
             hz if options.clock_hz is None else options.clock_hz, self.dt_ns
         )
         self._state_every = options.state_every
+        self._epoch = 0  # resets so far: each is recorded as an epoch (harness_msgs/Epoch)
         tf_topics: dict[tuple[str, str], list[RobotChannels]] = {}
         for channels in self.robots:
             key = (channels.topics.tf, channels.topics.tf_static)
@@ -754,7 +765,7 @@ class SessionCore:
                     robot.description,
                     robot.control,
                     self._topics(self.namespace, None),
-                    _source_text(robot.sources, robot.mjcf),
+                    description_text(robot.description, robot.sources, robot.mjcf),
                 ),
             )
         out = tuple(
@@ -765,7 +776,7 @@ class SessionCore:
                 view.description,
                 view.control,
                 self._topics(view.namespace, _TF),
-                _source_text(view.sources, robot.mjcf),
+                description_text(view.description, view.sources, robot.mjcf),
             )
             for view in robot.robots
         )
@@ -911,12 +922,12 @@ class SessionCore:
         if t_next >= trajectory.end_ns:
             channels.trajectory = None
 
-    def _after_state(self) -> None:
+    def _after_state(self, *, record_state: bool = True) -> None:
         """Record the state and publish what is due at the current step."""
         sim = self.sim
         k = sim.step_index
         recorder = self.recorder
-        if recorder is not None and k % self._state_every == 0:
+        if recorder is not None and record_state and k % self._state_every == 0:
             data = sim.data
             recorder.write_physics_state(
                 step=k,
@@ -1139,11 +1150,15 @@ class SessionCore:
                     channels,
                     channels.topics.joint_command,
                     connection,
-                    lambda: apply_joint_state(channels.joints, msg),
+                    lambda: self._joint_state_command(channels, msg),
                     msg["name"],
                 )
 
         return handle
+
+    def _joint_state_command(self, channels: RobotChannels, msg: Mapping[str, Any]) -> list[Notice]:
+        stripped, notices = channels.listed.strip(msg, self.sim.data.qpos[channels.js_qadr])
+        return notices + apply_joint_state(channels.joints, stripped)
 
     def _forward_handler(
         self, channels: RobotChannels, command_field: CommandField, topic: str
@@ -1246,6 +1261,7 @@ class SessionCore:
             "clock": self.clock,
             "paused": self.paused,
             "joint_state": self.joint_state(),
+            "controllable_joints": list(self.sim.joint_names),
         }
 
     def reset(self) -> str:
@@ -1266,8 +1282,22 @@ class SessionCore:
         if self.on_clock_change is not None:
             self.on_clock_change()
         text = f"reset to the initial state at step {k} (step numbering continues)"
+        self._epoch += 1
+        recorder = self.recorder
+        if recorder is not None:
+            # The state recorded for step k ends the epoch before; this one starts the next.
+            recorder.write_epoch(
+                step=k,
+                sim_time_ns=sim.sim_time_ns,
+                epoch=self._epoch,
+                reason="reset",
+                state_spec=sim.state_spec,
+                state=sim.get_state(),
+                qpos=sim.data.qpos,
+                qvel=sim.data.qvel,
+            )
         self.log(Level.WARNING, text)
-        self._after_state()
+        self._after_state(record_state=False)
         return text
 
     def set_paused(self, paused: bool) -> str:

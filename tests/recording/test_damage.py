@@ -47,6 +47,7 @@ def _inspect(path: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, dict,
 
 
 def test_flipped_byte_in_a_chunk(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """One bad chunk costs that chunk: the rest of the file, summary included, still reads."""
     path = tmp_path / "r.mcap"
     _many_chunks(path)
     with Recording(path) as r:
@@ -59,20 +60,35 @@ def test_flipped_byte_in_a_chunk(tmp_path: Path, capsys: pytest.CaptureFixture[s
     with pytest.warns(RecordingDamagedWarning, match=f"byte {bad.offset}: corrupt"):
         r = Recording(path)
     with r:
-        assert len(r.scan.chunks) == 3
+        assert len(r.scan.chunks) == len(chunks) - 1
+        assert bad.offset not in {c.offset for c in r.scan.chunks}
         assert not r.complete
+        assert r.scan.has_summary  # read past the damage
+        assert r.scan.truncated_at is None
         steps = [s.step for s in r.physics_states()]
-        assert steps == list(range(len(steps)))
-        assert steps[-1] < 399
-        assert r.scan.truncated_at == bad.offset
+        (lost,) = r.lost
+        assert (lost.offset, lost.end) == (bad.offset, bad.offset + bad.length)
+        missing = sorted(set(range(400)) - set(steps))
+        assert missing  # the bad chunk's states
+        assert missing == list(range(missing[0], missing[-1] + 1))
+        assert lost.last_step is not None
+        assert lost.first_step <= missing[0]  # the lost range is named, and tight
+        assert missing[-1] <= lost.last_step
+        assert lost.last_step - lost.first_step <= len(missing) + 1
+        assert steps[-1] == 399  # everything after the bad chunk
     with pytest.raises(RecordingFormatError, match=f"damaged: byte {bad.offset}"):
         Recording(path, strict=True)
     code, report, err = _inspect(path, capsys)
     assert code == 1
     assert not err
     assert report["verdict"] == "damaged"
-    assert report["readable_up_to_byte"] == bad.offset
+    assert report["readable_up_to_byte"] is None
     assert report["problems"][0]["offset"] == bad.offset
+    assert report["lost"][0]["first_step"] == lost.first_step
+    assert main(["inspect", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert f"lost: bytes {bad.offset}..{bad.offset + bad.length} passed over" in out
+    assert "summary CRC checked" in out  # not "summary missing"
 
 
 @pytest.mark.parametrize("keep", [0.5, 0.9])

@@ -88,3 +88,111 @@ def test_collision_sets_with_time_tolerance(
     kinds = {(e.quantity, e.name) for e in report.entries}
     assert ("collisions", f"begin {events[0].body1}|{events[0].body2}") in kinds
     assert ("message_count", "/harness/collisions") in kinds
+
+
+def test_first_divergence_names_the_input(helper: ModuleType, tmp_path: Path) -> None:
+    a = helper.record(tmp_path / "a.mcap", {0: {"joint1": 0.3}, 40: {"joint3": 0.1}}, 80)
+    b = helper.record(tmp_path / "b.mcap", {0: {"joint1": 0.3}, 40: {"joint3": 0.102}}, 80)
+    report = diff(a, b)
+    first = report.first_divergence
+    assert first is not None
+    assert first.cause is not None
+    assert (first.cause.kind, first.cause.step) == ("input", 41)
+    assert first.cause.what.startswith("ctrl[2] (joint3")
+    assert (first.cause.a, first.cause.b) == ("0.1", "0.102")
+    # The servo's force stays saturated for a while: the states part later than the inputs.
+    assert first.step > 41
+    assert first.quantity.startswith(f"joint_position joint3 at step {first.step} (A ")
+    steps = [e.step for e in report.entries if e.step >= 0]
+    assert steps == sorted(steps)
+    link = next(e for e in report.entries if e.quantity == "link_position")
+    assert isinstance(link.a, tuple)  # both positions, not A = 0
+    assert len(link.a) == len(link.b) == 3
+    assert link.a != link.b
+    lines = report.format().splitlines()
+    assert lines[3].startswith(
+        f"FIRST DIVERGENCE at step {first.step} (sim time {first.step * 0.002:.6f} s): cause: "
+    )
+    assert "applied input ctrl[2] (joint3" in lines[3]
+
+
+CLIENT = r"""
+import json, sys
+from websockets.sync.client import connect
+
+ws = connect(sys.argv[1], compression=None)
+def call(service, args, ident):
+    ws.send(json.dumps({"op": "call_service", "service": service, "args": args, "id": ident}))
+    while json.loads(ws.recv(timeout=10)).get("id") != ident:
+        pass
+def command(joint2):
+    ws.send(json.dumps({"op": "publish", "topic": "/joint_command",
+                        "msg": {"name": ["joint1", "joint2"], "position": [0.3, joint2]}}))
+command(0.1)
+call("/harness/step", {"steps": 30}, "a")
+command(float(sys.argv[2]))
+call("/harness/step", {"steps": 30}, "b")
+if sys.argv[3] == "goodbye":
+    call("/harness/get_state", {}, "c")
+ws.close()
+"""
+
+
+def _client_run(path: Path, joint2: float, goodbye: bool) -> Path:
+    import subprocess
+    import sys
+
+    from harness.session import Session
+
+    with Session("demo", record_to=path, joint_states_hz=100) as session:
+        subprocess.run(
+            [sys.executable, "-c", CLIENT, session.url, repr(joint2),
+             "goodbye" if goodbye else "-"],
+            check=True, timeout=60,
+        )  # fmt: skip
+    return path
+
+
+def test_first_divergence_names_the_frame_and_goodbyes_can_be_ignored(
+    tmp_path: Path, capsys: Any
+) -> None:
+    a = _client_run(tmp_path / "a.mcap", 0.2, goodbye=False)
+    b = _client_run(tmp_path / "b.mcap", 0.25, goodbye=False)
+    report = diff(a, b)
+    first = report.first_divergence
+    assert first is not None
+    assert first.cause is not None
+    assert first.cause.kind == "frame"
+    assert "publish /joint_command" in first.cause.what
+    assert first.cause.step == 31
+    assert "0.2" in first.cause.a
+    assert "0.25" in first.cause.b
+    assert first.step == 31
+    assert report.frames_compared > 3
+    # The same run with a goodbye after the last step: only the frame count differs, and
+    # --ignore-after-last-step leaves it out.
+    c = _client_run(tmp_path / "c.mcap", 0.2, goodbye=True)
+    assert main(["diff", str(a), str(c)]) == 1
+    out = capsys.readouterr().out
+    assert "message_count" in out
+    assert main(["diff", str(a), str(c), "--ignore-after-last-step"]) == 0
+    assert "SAME" in capsys.readouterr().out
+
+
+def test_a_state_recorded_twice_is_noted(
+    twin: tuple[Path, Path], mcap_edit: ModuleType, tmp_path: Path
+) -> None:
+    a, _ = twin
+
+    def twice(topic: str, msg: Any) -> Any:
+        if topic == "/harness/state" and int(msg.step) == 11:
+            msg.step = 10  # as a reset recorded before epochs existed left it
+        return msg
+
+    legacy = mcap_edit.rewrite(a, tmp_path / "legacy.mcap", edit=twice)
+    report = diff(a, legacy)
+    assert report.notes == (
+        "B: the state of step 10 is recorded twice (a reset recorded before resets became "
+        "epochs): the first is compared",
+    )
+    assert "note: B: the state of step 10" in report.format()

@@ -26,7 +26,7 @@ def _recorded_stamps(path: Path) -> list[tuple[int, int]]:
 
 
 async def _stepped(path: Path) -> list[tuple[int, list[int]]]:
-    player = Player(path, start_paused=True)
+    player = Player(path, start="paused")
     url = await player.start()
     runner = asyncio.create_task(player.run())
     out: list[tuple[int, list[int]]] = []
@@ -67,7 +67,7 @@ def test_step_service_releases_exactly_the_recorded_frames_up_to_the_step(
 
 
 async def _free_running(path: Path, rate: float) -> tuple[list[int], bool]:
-    player = Player(path, rate=rate, start_paused=True)
+    player = Player(path, rate=rate, start="paused")
     url = await player.start()
     runner = asyncio.create_task(player.run())
     stamps: list[int] = []
@@ -100,7 +100,7 @@ def test_free_running_playback_delivers_every_frame_in_order(base_recording: Pat
 
 def test_playback_with_a_token_refuses_clients_without_it(base_recording: Path) -> None:
     async def main() -> None:
-        player = Player(base_recording, start_paused=True, token="play-token")
+        player = Player(base_recording, start="paused", token="play-token")
         url = await player.start()
         try:
             assert url.endswith("/?token=play-token")

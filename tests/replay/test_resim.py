@@ -28,25 +28,46 @@ def jump_recording(helper: ModuleType, tmp_path_factory: pytest.TempPathFactory)
 def test_kinematic_recording_shows_the_jump_and_the_limit_violation(jump_recording: Path) -> None:
     report = resimulate(jump_recording, "dynamic")
     assert not report.passed
-    recorded = {(f.quantity, f.name): f for f in report.findings if f.run == "recorded"}
-    violation = recorded[("limit_violation", "joint7")]
-    assert violation.step == 31
-    assert violation.value == pytest.approx(3.3 - 2.8973, abs=0.01)
-    assert [k for k in recorded if k[0] == "limit_violation"] == [("limit_violation", "joint7")]
-    assert recorded[("penetration", "")].step == 101
-    assert recorded[("velocity_ratio", "joint2")].step == 101
-    jumps = [f.step for f in report.findings if f.run == "recorded" and f.quantity == "energy_jump"]
-    assert jumps == [31]  # the first one; the teleport's is in the summary
-    # The servos cannot teleport: the dynamic run trails the targets, and never passes the
-    # limit at the step of the command nor penetrates 25 mm at once.
-    resim = {(f.quantity, f.name): f for f in report.findings if f.run == "resimulated"}
-    assert resim[("tracking_error", "joint7")].step == 31
-    assert resim[("tracking_error", "joint2")].step == 101
+    found = {(f.quantity, f.name): f for f in report.findings}
+    # Only the recording passes joint7's limit (a servo brakes at it) at the step of the
+    # command, and only it is 25 mm deep in the box at once: differences, named once each.
+    violation = found[("limit_violation", "joint7")]
+    assert (violation.run, violation.step) == ("recorded", 31)
+    assert violation.recorded_value == pytest.approx(3.3 - 2.8973, abs=0.01)
+    assert violation.resimulated_value < 0.005
+    assert violation.unit == "rad"
+    assert [k for k in found if k[0] == "limit_violation"] == [("limit_violation", "joint7")]
+    assert (found[("penetration", "")].run, found[("penetration", "")].step) == ("recorded", 101)
+    assert found[("velocity_ratio", "joint2")].step == 101
+    assert found[("energy_jump", "")].step == 31
+    # The servos cannot teleport: the re-simulated joints leave the recorded positions.
+    assert (found[("deviation", "joint7")].run, found[("deviation", "joint7")].step) == (
+        "resimulated",
+        31,
+    )
+    assert found[("deviation", "joint2")].step == 101
+    assert len(found) == len(report.findings)  # one finding per quantity and joint
     by_joint = {j.joint: j for j in report.resimulated.joints}
-    assert by_joint["joint7"].max_limit_violation < 0.005  # a servo brakes at the limit
+    assert by_joint["joint7"].max_limit_violation < 0.005
+    assert by_joint["finger_joint1"].unit == "m"  # a slide joint
     assert report.recorded.peak_penetration > 0.02
     assert report.resimulated.penetration_step != 101
     assert "box|hand" in report.contacts_disappearing
+    text = report.format()
+    assert "legend: each cell is recorded | re-simulated" in text
+    assert text.splitlines()[-1].startswith("VERDICT: DIFFERENT: ")
+    table = [line for line in text.splitlines() if line.startswith("  ") and " | " in line]
+    assert len(table) == len(report.recorded.joints) + 2
+    assert len({line.index(" | ") for line in table}) == 1  # aligned columns
+
+
+def test_a_position_recording_resimulated_dynamically_is_the_same_run(
+    base_recording: Path,
+) -> None:
+    report = resimulate(base_recording, "dynamic")
+    assert report.passed, report.format()
+    assert any("recorded in position mode" in n for n in report.notes)
+    assert report.format().splitlines()[-1].startswith("VERDICT: SAME BEHAVIOUR")
 
 
 def test_thresholds_are_configurable(jump_recording: Path) -> None:
