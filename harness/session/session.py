@@ -158,6 +158,7 @@ from harness.session.core import (
     SessionTopics,
     StartMode,
 )
+from harness.session.control import ControllersOption, controllers_option
 from harness.session.errors import (
     ClientTimeoutError,
     SessionClosedError,
@@ -210,6 +211,9 @@ class Session:
     ``"paused"`` or ``"on_client"`` (free-running clocks only, see the module docstring).
     ``record_bridge_frames``: record the bridge frames and markers (default True).
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
+    ``controllers``: the robot's ros2_control controllers: a controllers YAML (file, text or
+    mapping, :func:`harness.controllers.load_controllers`), None for the default set
+    (:func:`harness.controllers.default_controllers`) or False for none.
     """
 
     def __init__(
@@ -241,6 +245,7 @@ class Session:
         start: StartMode = "now",
         record_bridge_frames: bool = True,
         max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
+        controllers: ControllersOption = None,
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
@@ -261,6 +266,7 @@ class Session:
             start=start,
             record_bridge_frames=record_bridge_frames,
             max_step_request=max_step_request,
+            controllers=controllers_option(controllers),
         )
         self.clock: ClockMode = clock
         self.start: StartMode = start
