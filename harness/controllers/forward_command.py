@@ -39,9 +39,7 @@ class ForwardCommandController:
 
     actions: tuple[ActionEndpoint, ...] = ()
 
-    def __init__(
-        self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]
-    ) -> None:
+    def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
         p = Params(spec, source)
         self.name = spec.name
         self.type = spec.type
@@ -89,12 +87,12 @@ class ForwardCommandController:
         """A command message: applied at once (the simulation holds it)."""
         out = Output()
         if not self.active:
-            out.logs.append(LogLine(40, f"{self.name}: inactive, command ignored", connection))
+            out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
         try:
             out.commands += self.commands(msg)
         except ValueError as exc:
-            out.logs.append(LogLine(40, f"{self.name}: command refused: {exc}", connection))
+            out.logs.append(LogLine(40, f"command refused: {exc}", connection))
         return out
 
     def on_goal(

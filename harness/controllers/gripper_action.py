@@ -46,9 +46,7 @@ class GripperActionController:
 
     subscriptions: tuple[TopicEndpoint, ...] = ()
 
-    def __init__(
-        self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]
-    ) -> None:
+    def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
         p = Params(spec, source)
         self.name = spec.name
         self.type = spec.type
@@ -103,7 +101,7 @@ class GripperActionController:
         if not self.active or not math.isfinite(position):
             why = "controller is not active" if not self.active else f"position is {position!r}"
             out.results.append(Result(goal, self._values(state, False, False), GOAL_ABORTED))
-            out.logs.append(LogLine(30, f"{self.name}: goal refused: {why}"))
+            out.logs.append(LogLine(30, f"goal refused: {why}"))
             return out
         if self.goal is not None:
             out.results.append(Result(self.goal, self._values(state, False, False), GOAL_CANCELED))

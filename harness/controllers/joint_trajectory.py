@@ -90,14 +90,14 @@ class InvalidTrajectory(Exception):
         self.code = code
 
 
-def _values(point: Mapping[str, Any], key: str, size: int, i: int, required: bool) -> tuple[float, ...]:
+def _values(
+    point: Mapping[str, Any], key: str, size: int, i: int, required: bool
+) -> tuple[float, ...]:
     values: Sequence[float] = point.get(key, ())
     if not values and not required:
         return ()
     if len(values) != size:
-        raise InvalidTrajectory(
-            INVALID_GOAL, f"point {i}: {len(values)} {key} for {size} joints"
-        )
+        raise InvalidTrajectory(INVALID_GOAL, f"point {i}: {len(values)} {key} for {size} joints")
     for v in values:
         if not math.isfinite(v):
             raise InvalidTrajectory(INVALID_GOAL, f"point {i}: {key} holds {v!r}")
@@ -109,9 +109,7 @@ class JointTrajectoryController:
 
     type = TYPE_JOINT_TRAJECTORY
 
-    def __init__(
-        self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]
-    ) -> None:
+    def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
         p = Params(spec, source)
         self.name = spec.name
         self.joints = p.joints(p.strings("joints"), controllable)
@@ -182,7 +180,9 @@ class JointTrajectoryController:
 
     # ----------------------------------------------------------------------------- input
 
-    def validate(self, msg: Mapping[str, Any], now_ns: int, state: JointReadings) -> SampledTrajectory:
+    def validate(
+        self, msg: Mapping[str, Any], now_ns: int, state: JointReadings
+    ) -> SampledTrajectory:
         """The trajectory of a ``trajectory_msgs/msg/JointTrajectory`` in the controller's joint
         order; :class:`InvalidTrajectory` when the controller refuses it."""
         names: list[str] = list(msg["joint_names"])
@@ -282,12 +282,12 @@ class JointTrajectoryController:
         """A trajectory on ``~/joint_trajectory`` replaces the current one."""
         out = Output()
         if not self.active:
-            out.logs.append(LogLine(40, f"{self.name}: inactive, trajectory ignored", connection))
+            out.logs.append(LogLine(40, "inactive, trajectory ignored", connection))
             return out
         try:
             self.trajectory = self.validate(msg, state.sim_time_ns, state)
         except InvalidTrajectory as exc:
-            out.logs.append(LogLine(40, f"{self.name}: trajectory refused: {exc}", connection))
+            out.logs.append(LogLine(40, f"trajectory refused: {exc}", connection))
         return out
 
     def on_goal(
@@ -304,7 +304,7 @@ class JointTrajectoryController:
             trajectory = self.validate(values["trajectory"], state.sim_time_ns, state)
         except InvalidTrajectory as exc:
             out.results.append(self._result(goal, exc.code, str(exc), GOAL_ABORTED))
-            out.logs.append(LogLine(30, f"{self.name}: goal refused: {exc}"))
+            out.logs.append(LogLine(30, f"goal refused: {exc}"))
             return out
         if self.goal is not None:
             out.results.append(
@@ -321,7 +321,7 @@ class JointTrajectoryController:
         self._monitor_next = state.sim_time_ns + self.monitor_period_ns
         self.tolerances = goal_tolerances(self.default_tolerances, self.joints, values)
         for note in self.tolerances.notes:
-            out.logs.append(LogLine(40, f"{self.name}: {note}"))
+            out.logs.append(LogLine(40, f"{note}"))
         return out
 
     def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
@@ -454,7 +454,7 @@ class JointTrajectoryController:
                     )
                     out.commands += self._hold(state)
         elif path_violated or (not before_last and not within_goal_time):
-            out.logs.append(LogLine(40, f"{self.name}: tolerance violated: holding position"))
+            out.logs.append(LogLine(40, "tolerance violated: holding position"))
             out.commands += self._hold(state)
         elif not before_last and not outside_goal:
             self.trajectory = None  # reached: the last command holds
@@ -463,7 +463,7 @@ class JointTrajectoryController:
     def _end(self, out: Output, goal: int, code: int, text: str) -> None:
         self._flush_feedback(out, 0, force=True)
         out.results.append(self._result(goal, code, text, GOAL_ABORTED))
-        out.logs.append(LogLine(30, f"{self.name}: {text}"))
+        out.logs.append(LogLine(30, f"{text}"))
         self.goal = None
 
     def _flush_feedback(self, out: Output, now: int, force: bool = False) -> None:

@@ -123,9 +123,7 @@ class ControllerManager:
             entry.state = "inactive"
             conflict = self._conflict(controller, ())
             if conflict:
-                out.logs.append(
-                    LogLine(30, f"controller {name!r} left inactive: {conflict}")
-                )
+                out.logs.append(LogLine(30, f"controller {name!r} left inactive: {conflict}"))
                 continue
             out.extend(self._activate(entry))
         return out
@@ -151,8 +149,10 @@ class ControllerManager:
         if not self.config.exclusive:
             return ""
         for iface, owner in self.claimed().items():
-            if owner not in leaving and owner != controller.name and (
-                iface in controller.command_interfaces
+            if (
+                owner not in leaving
+                and owner != controller.name
+                and (iface in controller.command_interfaces)
             ):
                 return f"{iface} is claimed by active controller {owner!r}"
         return ""
@@ -322,8 +322,10 @@ class ControllerManager:
                 claimed_here = {
                     i for n in to_start for i in self.loaded[n].controller.command_interfaces
                 }
-                if not conflict and self.config.exclusive and claimed_here.intersection(
-                    entry.controller.command_interfaces
+                if (
+                    not conflict
+                    and self.config.exclusive
+                    and claimed_here.intersection(entry.controller.command_interfaces)
                 ):
                     conflict = "another controller being activated claims the same interfaces"
                 if conflict:

@@ -61,8 +61,10 @@ class Params:
     def number(self, key: str, default: float, *, minimum: float | None = None) -> float:
         """A finite number (>= ``minimum``)."""
         value = self.spec.params.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(
-            value
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
         ):
             raise self.error(f"{key} must be a number, not {value!r}")
         if minimum is not None and value < minimum:

@@ -25,8 +25,8 @@ from typing import Any
 
 __all__ = [
     "Point",
-    "SampledTrajectory",
     "Sample",
+    "SampledTrajectory",
     "SegmentTolerances",
     "StateTolerance",
     "goal_tolerances",
@@ -112,9 +112,7 @@ def interpolate(t_a: int, a: Point, t_b: int, b: Point, t: int) -> Sample:
                 ) / (2.0 * T[5])  # fmt: skip
             pos[i] = sum(ts[k] * c[k] for k in range(6))
             vel[i] = sum(ts[k - 1] * k * c[k] for k in range(1, 6))
-            acc[i] = (
-                2.0 * c[2] + ts[1] * 6.0 * c[3] + ts[2] * 12.0 * c[4] + ts[3] * 20.0 * c[5]
-            )
+            acc[i] = 2.0 * c[2] + ts[1] * 6.0 * c[3] + ts[2] * 12.0 * c[4] + ts[3] * 20.0 * c[5]
     elif has_vel:
         T = _powers(3, between)
         for i in range(dim):

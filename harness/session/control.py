@@ -230,7 +230,7 @@ class ControlHost:
             if entry is None:
                 return
             out = entry.controller.on_message(topic, msg, connection, robot.read())
-            self._apply(robot, out, name, connection)
+            self._apply(robot, out, name, connection, robot.resolve(name, topic))
 
         return handle
 
@@ -250,7 +250,8 @@ class ControlHost:
             def cancel(_: ActionGoal) -> None:
                 current = robot.manager.loaded.get(name)
                 if current is not None:
-                    self._apply(robot, current.controller.on_cancel(action, gid, robot.read()), name)
+                    out = current.controller.on_cancel(action, gid, robot.read())
+                    self._apply(robot, out, name)
 
             goal.on_cancel = cancel
             out = entry.controller.on_goal(action, gid, goal.goal, robot.read())
@@ -271,15 +272,24 @@ class ControlHost:
     # ----------------------------------------------------------------------------- outputs
 
     def _apply(
-        self, robot: _RobotControl, out: Output, controller: str = "", connection: int = 0
+        self,
+        robot: _RobotControl,
+        out: Output,
+        controller: str = "",
+        connection: int = 0,
+        where: str = "",
     ) -> None:
+        """Apply a controller's output; ``where`` (a topic, else the controller's name)
+        prefixes its log lines."""
         core = self.core
+        where = where or controller or "controller_manager"
         for log in out.logs:
+            text = f"{where}: {log.text}"
             if log.connection:
-                core.graph.status(log.connection, "error" if log.level >= 40 else "warning", log.text)
-            core.log(Level(log.level), log.text)
+                core.graph.status(log.connection, "error" if log.level >= 40 else "warning", text)
+            core.log(Level(log.level), text)
         if out.commands:
-            self._command(robot, out.commands, controller, connection)
+            self._command(robot, out.commands, where, connection)
         for pub in out.publications:
             core.publish(
                 robot.resolve(controller, pub.topic),
@@ -300,7 +310,7 @@ class ControlHost:
                     goal.finish(result.values, result.status)
 
     def _command(
-        self, robot: _RobotControl, commands: list[Command], controller: str, connection: int
+        self, robot: _RobotControl, commands: list[Command], where: str, connection: int
     ) -> None:
         joints = robot.channels.joints
         control = joints.control
@@ -325,7 +335,6 @@ class ControlHost:
                 value = given[field]
             fields[field][cmd.joint] = value
         notices: list[Notice] = []
-        where = controller or "controller_manager"
         try:
             if fields["position"]:
                 notices += joints.set_positions(fields["position"])

@@ -51,6 +51,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.controllers import ControllersConfig
 from harness.events import (
     EventHub,
     JointSample,
@@ -61,7 +62,6 @@ from harness.events import (
 )
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
-from harness.controllers import ControllersConfig
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
 from harness.session.commands import (
     FORWARD_TOPICS,

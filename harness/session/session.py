@@ -149,6 +149,7 @@ from harness.models import (
     load_world,
 )
 from harness.recording import Recorder, describe_run
+from harness.session.control import ControllersOption, controllers_option
 from harness.session.core import (
     CLOCK_MODES,
     DEFAULT_MAX_STEP_REQUEST,
@@ -158,7 +159,6 @@ from harness.session.core import (
     SessionTopics,
     StartMode,
 )
-from harness.session.control import ControllersOption, controllers_option
 from harness.session.errors import (
     ClientTimeoutError,
     SessionClosedError,
