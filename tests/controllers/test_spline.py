@@ -68,13 +68,20 @@ def test_sampling_from_the_state_before_to_past_the_end() -> None:
     traj = SampledTrajectory((Point(S, (1.0,)), Point(2 * S, (3.0,))))
     traj.set_point_before(0, Point(0, (0.0,)))
     first, start, end = traj.sample(0)  # start stamp 0: starts at the first sample
-    assert first is not None and first.positions == (0.0,) and (start, end) == (0, 0)
+    assert first is not None
+    assert first.positions == (0.0,)
+    assert (start, end) == (0, 0)
     half, _, _ = traj.sample(S // 2)
-    assert half is not None and half.positions[0] == pytest.approx(0.5)
+    assert half is not None
+    assert half.positions[0] == pytest.approx(0.5)
     seg, start, end = traj.sample(S + S // 2)
-    assert seg is not None and seg.positions[0] == pytest.approx(2.0) and (start, end) == (0, 1)
+    assert seg is not None
+    assert seg.positions[0] == pytest.approx(2.0)
+    assert (start, end) == (0, 1)
     last, start, end = traj.sample(5 * S)
-    assert last is not None and last.positions == (3.0,) and end == 2
+    assert last is not None
+    assert last.positions == (3.0,)
+    assert end == 2
 
 
 def test_tolerances_from_params_and_goal() -> None:
@@ -101,7 +108,8 @@ def test_tolerances_from_params_and_goal() -> None:
     assert active.goal_time == 2.0
     unknown = dict(goal, goal_tolerance=[{"name": "z", "position": 0.2}])
     kept = goal_tolerances(defaults, ["a", "b"], unknown)
-    assert kept.state == defaults.state and kept.notes
+    assert kept.state == defaults.state
+    assert kept.notes
     illegal = dict(goal, goal_tolerance=[{"name": "b", "position": -3.0}])
     assert goal_tolerances(defaults, ["a", "b"], illegal).goal == defaults.goal
 
@@ -162,7 +170,8 @@ def test_invalid_goals_abort_with_error_codes(goal: dict[str, Any], code: int) -
     jtc = _jtc()
     out = jtc.on_goal("~/follow_joint_trajectory", 7, goal, _state(S, 0.0, 0.0))
     assert [(r.goal, r.status, r.values["error_code"]) for r in out.results] == [(7, 6, code)]
-    assert jtc.goal is None and not out.commands
+    assert jtc.goal is None
+    assert not out.commands
 
 
 def _run(jtc: JointTrajectoryController, until: int, follow: float = 1.0) -> list[Any]:
@@ -222,4 +231,5 @@ def test_new_goal_preempts_and_cancel_holds() -> None:
     out = jtc.on_cancel("g", 2, _state(2 * PERIOD, 0.01, 0.0))
     assert [(r.goal, r.status) for r in out.results] == [(2, 5)]
     assert [(c.joint, c.position) for c in out.commands] == [("a", 0.01), ("b", 0.0)]
-    assert jtc.goal is None and jtc.trajectory is None
+    assert jtc.goal is None
+    assert jtc.trajectory is None
