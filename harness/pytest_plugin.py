@@ -39,7 +39,8 @@ logger options from it; marker keys win), ``mode`` (a control mode or joint -> m
 arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False), and
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
-``joint_command_topic``. Markers on the module/class/function merge, the closest wins.
+``joint_command_topic``, ``controllers`` (a ros2_control controllers YAML, relative to the test
+file's folder, or False). Markers on the module/class/function merge, the closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
@@ -101,6 +102,7 @@ _SESSION_KEYS = (
     "kinematic_limits",
     "seed",
     "joint_command_topic",
+    "controllers",
 )
 MARKER_KEYS = frozenset(
     {
@@ -361,6 +363,8 @@ def _scenario_options(path: Path) -> dict[str, Any]:
         "state_every": scenario.recording.state_every,
         "scenario_text": path.read_bytes(),
     }
+    if scenario.controllers is not None:
+        options["controllers"] = scenario.controllers
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode
@@ -452,6 +456,8 @@ class _TestRun:
         robots = opts.pop("robots", None)
         robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
+        if "controllers" in opts:
+            opts["controllers"] = _resolve_path(opts["controllers"], self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.mode)
         if robots is not None:
             if options.get("mode") is not None:
