@@ -15,7 +15,7 @@ Semantics of ros2_controllers' controller, in simulation time:
 - A new goal preempts the active one (aborted, INVALID_GOAL, "Current goal preempted by new
   incoming action."); a cancel ends the active goal as canceled and holds position.
 - Feedback (desired, actual, error) goes out at ``action_monitor_rate`` (default 20 Hz);
-  ``~/controller_state`` at ``state_publish_rate`` (default: every update).
+  ``~/controller_state`` at ``state_publish_rate`` (default 50 Hz, Humble's; 0: every update).
 
 One deliberate difference: a goal the real controller *rejects* (unknown joints, non-increasing
 times, a start in the past, ...) is accepted and aborted at once here, with the
@@ -129,7 +129,7 @@ class JointTrajectoryController:
         self.allow_partial = p.flag("allow_partial_joints_goal", False)
         self.allow_nonzero_end_velocity = p.flag("allow_nonzero_velocity_at_trajectory_end", False)
         self.monitor_period_ns = round(1e9 / p.number("action_monitor_rate", 20.0, minimum=0.1))
-        rate = p.number("state_publish_rate", 0.0, minimum=0.0)
+        rate = p.number("state_publish_rate", 50.0, minimum=0.0)
         self.state_period_ns = round(1e9 / rate) if rate > 0 else 0
         constraints = p.get("constraints", {})
         if not isinstance(constraints, Mapping):
