@@ -149,6 +149,9 @@ class JointTrajectoryController:
         self.trajectory: SampledTrajectory | None = None
         self.tolerances: SegmentTolerances = self.default_tolerances
         self.goal: int | None = None
+        self.holding: Sample | None = None
+        """The state held when no trajectory runs (the last point reached, or where a
+        violation or cancel stopped)."""
         self._pending_feedback: Feedback | None = None
         self._monitor_next = 0
         self._state_next = 0
@@ -158,7 +161,7 @@ class JointTrajectoryController:
     def activate(self, state: JointReadings) -> Output:
         """Start holding the current position (no trajectory)."""
         self.active = True
-        self.trajectory = None
+        self._hold(state)
         return Output()
 
     def deactivate(self, state: JointReadings) -> Output:
@@ -338,6 +341,8 @@ class JointTrajectoryController:
 
     def _hold(self, state: JointReadings) -> list[Command]:
         self.trajectory = None
+        zeros = (0.0,) * len(self.joints)
+        self.holding = Sample(tuple(state.position[j] for j in self.joints), zeros, zeros, zeros)
         return [Command(j, position=state.position[j], velocity=0.0) for j in self.joints]
 
     def _result(self, goal: int, code: int, text: str, status: int) -> Result:
@@ -370,6 +375,12 @@ class JointTrajectoryController:
                     out, trajectory, state, actual, desired, command, start_index, end_index,
                     first_sample,
                 )  # fmt: skip
+        elif self.holding is not None:
+            desired = self.holding
+            error = (
+                [d - a for d, a in zip(desired.positions, actual.positions, strict=True)],
+                [0.0] * len(self.joints),
+            )
         self._flush_feedback(out, now)
         if self.state_period_ns == 0 or now >= self._state_next:
             self._state_next = now + self.state_period_ns
@@ -444,6 +455,7 @@ class JointTrajectoryController:
                     self.goal = None
                     self._flush_feedback(out, now, force=True)
                     self.trajectory = None
+                    self.holding = desired
                 elif not within_goal_time:
                     self._end(
                         out,
@@ -458,6 +470,7 @@ class JointTrajectoryController:
             out.commands += self._hold(state)
         elif not before_last and not outside_goal:
             self.trajectory = None  # reached: the last command holds
+            self.holding = desired
         return err_pos, err_vel
 
     def _end(self, out: Output, goal: int, code: int, text: str) -> None:

@@ -9,16 +9,12 @@ rosbags and ``ros2 bag``).
 from __future__ import annotations
 
 from functools import cache
-from pathlib import Path
 from typing import Final
 
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from harness.msgs import message_definitions
-
-_INTERFACES = Path(__file__).resolve().parent.parent / "rosbridge" / "interfaces"
-_CONTROLLER_MSG_PACKAGES = ("control_msgs", "controller_manager_msgs")
 
 __all__ = [
     "ATTACHMENT_MODEL",
@@ -84,12 +80,6 @@ def typestore() -> Typestore:
     store = get_typestore(Stores.ROS2_HUMBLE)
     for name, text in message_definitions().items():
         store.register(get_types_from_msg(text, name))
-    # messages the controllers publish (control_msgs ...), from the bridge's bundled interfaces
-    for pkg in _CONTROLLER_MSG_PACKAGES:
-        for path in sorted((_INTERFACES / pkg / "msg").glob("*.msg")):
-            name = f"{pkg}/msg/{path.stem}"
-            if name not in store.fielddefs:
-                store.register(get_types_from_msg(path.read_text("utf-8"), name))
     return store
 
 

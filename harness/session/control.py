@@ -291,10 +291,13 @@ class ControlHost:
         if out.commands:
             self._command(robot, out.commands, where, connection)
         for pub in out.publications:
+            # to subscribers only: the frames sent are recorded (as /rosout's are), no channel
+            # of its own (a session's recorded channels stay what they were)
             core.publish(
                 robot.resolve(controller, pub.topic),
                 pub.type,
                 lambda msg=pub.msg: msg,  # type: ignore[misc]
+                record=False,
             )
         if out.feedback or out.results:
             bridge = core.bridge

@@ -15,6 +15,7 @@ import pytest
 from harness import Session
 from harness.replay.pipeline import replay_pipeline
 from harness.replay.resim import resimulate
+from harness.testing import connect
 
 HERE = Path(__file__).resolve().parent
 NODE_DIR = HERE.parent / "node"
@@ -164,3 +165,30 @@ def test_resimulation_replays_trajectories_sent_as_actions(roslibpy_run: Any, mo
         assert by_joint[joint].max_tracking_error < 0.1, (joint, by_joint[joint])
     recorded = {j.joint: j for j in report.recorded.joints}
     assert recorded["joint1"].max_velocity_ratio > 0  # the arm did move
+
+
+def test_trajectory_topic_and_controller_state() -> None:
+    with Session("demo") as session, connect(session.url) as client:
+        state = client.subscribe(
+            "/joint_trajectory_controller/controller_state",
+            "control_msgs/msg/JointTrajectoryControllerState",
+        )
+        client.publish(
+            "/joint_trajectory_controller/joint_trajectory",
+            "trajectory_msgs/msg/JointTrajectory",
+            {
+                "joint_names": JOINTS,
+                "points": [
+                    {"positions": TARGET, "time_from_start": {"sec": 0, "nanosec": 400_000_000}}
+                ],
+            },
+        )
+        client.step(400)  # 0.8 s at 2 ms
+        js = client.state()["joint_state"]
+        positions = dict(zip(js["name"], js["position"], strict=True))
+        # 50 Hz of simulation time over 0.8 s
+        assert 38 <= len(state.messages) <= 42
+        last = state.messages[-1]
+        assert last["joint_names"] == JOINTS
+        assert last["desired"]["positions"] == pytest.approx(TARGET)
+    _within_goal(positions, 0.02)
