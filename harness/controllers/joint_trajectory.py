@@ -21,7 +21,11 @@ One deliberate difference: a goal the real controller *rejects* (unknown joints,
 times, a start in the past, ...) is accepted and aborted at once here, with the
 FollowJointTrajectory error code (INVALID_JOINTS, INVALID_GOAL, OLD_HEADER_TIMESTAMP) and a text
 naming the problem: through rosbridge a rejection only says "Action goal was rejected".
-Points must give positions (``allow_integration_in_goal_trajectories`` is not supported).
+Results go out at the update that decides them (the real controller sends them on its next
+action monitor tick, up to ``1 / action_monitor_rate`` later). Not supported: points without
+positions (``allow_integration_in_goal_trajectories``), ``cmd_timeout``, angle wraparound of
+continuous joints, speed scaling, closed-loop PID adapters (the simulation's joint servos or
+kinematic writes stand for the hardware).
 """
 
 from __future__ import annotations

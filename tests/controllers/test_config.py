@@ -241,3 +241,20 @@ def test_controllers_false_turns_them_off() -> None:
     with Session("demo", controllers=False) as session, connect(session.url) as client:
         services = client.call_service("/rosapi/services")["services"]
         assert not [s for s in services if s.startswith("/controller_manager/")]
+
+
+def test_each_robot_of_a_world_has_its_own_controller_manager() -> None:
+    from harness.models import RobotSpec
+
+    world = [
+        RobotSpec("demo", namespace="left", pose=[0.0, -0.7, 0.0], control="position"),
+        RobotSpec("demo", namespace="right", pose=[0.0, 0.7, 0.0], control="kinematic"),
+    ]
+    with Session(robots=world) as session, connect(session.url) as client:
+        for ns in ("left", "right"):
+            listing = client.call_service(f"/{ns}/controller_manager/list_controllers")
+            names = [c["name"] for c in listing["controller"]]
+            assert "joint_trajectory_controller" in names
+        actions = client.call_service("/rosapi/action_servers")["action_servers"]
+        assert "/left/joint_trajectory_controller/follow_joint_trajectory" in actions
+        assert "/right/gripper_controller/gripper_cmd" in actions
