@@ -30,6 +30,7 @@ from harness.controllers import (
     load_controllers,
 )
 from harness.events import Level
+from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
 from harness.sim import CommandError, Notice
 
@@ -39,6 +40,7 @@ __all__ = [
     "controllers_from_metadata",
     "controllers_metadata",
     "controllers_option",
+    "resolve_default",
 ]
 
 _CONFIG_DEFAULT = "default"
@@ -63,6 +65,17 @@ def controllers_option(value: ControllersOption) -> ControllersConfig | str:
     raise ControllersConfigError(
         f"controllers must be a YAML file, YAML text, a mapping, True or False, not {value!r}"
     )
+
+
+def resolve_default(
+    config: ControllersConfig | str, robot: LoadedRobot | LoadedWorld
+) -> ControllersConfig | str:
+    """``"default"`` for one robot resolved to its default set, so that a recording holds the
+    exact configuration (a world's robots each resolve their own at run time)."""
+    if config != _CONFIG_DEFAULT or not isinstance(robot, LoadedRobot):
+        return config
+    # a single robot's controllable joints, in the simulation's order (its control order)
+    return default_controllers(list(robot.control), robot.control)
 
 
 def controllers_metadata(config: ControllersConfig | str) -> str:

@@ -125,6 +125,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import dataclasses
 import math
 import threading
 import time
@@ -149,7 +150,7 @@ from harness.models import (
     load_world,
 )
 from harness.recording import Recorder, describe_run
-from harness.session.control import ControllersOption, controllers_option
+from harness.session.control import ControllersOption, controllers_option, resolve_default
 from harness.session.core import (
     CLOCK_MODES,
     DEFAULT_MAX_STEP_REQUEST,
@@ -288,6 +289,9 @@ class Session:
         """One report per event sink, filled by :meth:`close`."""
 
         loaded = _load(robot, robots, objects, mode, scene, namespace)
+        options = dataclasses.replace(
+            options, controllers=resolve_default(options.controllers, loaded)
+        )
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
         """The loaded world of a session of ``robots`` (None for ``robot=``)."""

@@ -13,6 +13,8 @@ from typing import Any
 import pytest
 
 from harness import Session
+from harness.controllers import ControllersConfig
+from harness.recording import Recording
 from harness.replay.pipeline import replay_pipeline
 from harness.replay.resim import resimulate
 from harness.testing import connect
@@ -192,3 +194,11 @@ def test_trajectory_topic_and_controller_state() -> None:
         assert last["joint_names"] == JOINTS
         assert last["desired"]["positions"] == pytest.approx(TARGET)
     _within_goal(positions, 0.02)
+
+
+def test_the_recording_holds_the_resolved_controllers(roslibpy_run: Any) -> None:
+    with Recording(roslibpy_run[1]) as recording:
+        config = ControllersConfig.from_json(recording.metadata["controllers"])
+    by_name = {c.name: c for c in config.controllers}
+    assert by_name["joint_trajectory_controller"].params["joints"] == JOINTS
+    assert by_name["gripper_controller"].params["joint"] == "finger_joint1"
