@@ -25,6 +25,7 @@ __all__ = ["JointStateBroadcaster", "Unsupported"]
 
 class _Passive:
     subscriptions: tuple[TopicEndpoint, ...] = ()
+    publishers: tuple[TopicEndpoint, ...] = ()
     actions: tuple[ActionEndpoint, ...] = ()
     command_interfaces: tuple[str, ...] = ()
 

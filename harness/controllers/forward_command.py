@@ -37,6 +37,7 @@ class ForwardCommandController:
     """One forward command controller (see the module docstring)."""
 
     actions: tuple[ActionEndpoint, ...] = ()
+    publishers: tuple[TopicEndpoint, ...] = ()
 
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
         p = Params(spec, source)

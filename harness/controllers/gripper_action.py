@@ -45,6 +45,7 @@ class GripperActionController:
     """One gripper action controller (see the module docstring)."""
 
     subscriptions: tuple[TopicEndpoint, ...] = ()
+    publishers: tuple[TopicEndpoint, ...] = ()
 
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
         p = Params(spec, source)

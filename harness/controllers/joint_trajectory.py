@@ -148,6 +148,7 @@ class JointTrajectoryController:
         self.command_interfaces = tuple(f"{j}/{i}" for j in self.joints for i in self.command)
         self.state_interfaces = tuple(f"{j}/{i}" for j in self.joints for i in self.state)
         self.subscriptions = (TopicEndpoint("~/joint_trajectory", TRAJECTORY_TYPE),)
+        self.publishers = (TopicEndpoint("~/controller_state", STATE_TYPE),)
         self.actions = (ActionEndpoint("~/follow_joint_trajectory", ACTION_TYPE),)
         self.active = False
         self.trajectory: SampledTrajectory | None = None

@@ -188,6 +188,9 @@ class ControlHost:
         for robot in self.robots:
             manager = robot.manager
             for name, controller in manager.built.items():
+                if self.core.bridge is not None:
+                    for topic in controller.publishers:
+                        self.core.bridge.advertise(robot.resolve(name, topic.name), topic.type)
                 for topic in controller.subscriptions:
                     graph.subscribe(
                         robot.resolve(name, topic.name),

@@ -64,6 +64,14 @@ def test_real_yaml_configures_the_session_from_the_marker(harness_session: Sessi
         actions = client.call_service("/rosapi/action_servers")["action_servers"]
         assert "/panda_arm_controller/follow_joint_trajectory" in actions
         assert "/panda_hand_controller/gripper_cmd" in actions
+        topics = client.call_service("/rosapi/topics")
+        types = dict(zip(topics["topics"], topics["types"], strict=True))
+        assert types["/panda_arm_controller/controller_state"] == (
+            "control_msgs/msg/JointTrajectoryControllerState"
+        )
+        assert types["/panda_arm_controller/joint_trajectory"] == (
+            "trajectory_msgs/msg/JointTrajectory"
+        )
 
 
 @pytest.mark.parametrize(
