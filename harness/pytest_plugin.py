@@ -42,7 +42,8 @@ default ``tolerance`` is the solver's soft-limit zone of each joint,
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``, ``robot_args`` (a xacro robot's arguments, name -> value; recorded in
-the recording's and the golden's metadata). Markers on the module/class/function merge, the
+the recording's and the golden's metadata), ``controllers`` (a ros2_control controllers YAML,
+relative to the test file's folder, or False). Markers on the module/class/function merge, the
 closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
@@ -118,6 +119,7 @@ _SESSION_KEYS = (
     "seed",
     "joint_command_topic",
     "robot_args",
+    "controllers",
 )
 MARKER_KEYS = frozenset(
     {
@@ -403,6 +405,8 @@ def _scenario_options(path: Path) -> dict[str, Any]:
     }
     if spec.robot_args:
         options["robot_args"] = dict(spec.robot_args)
+    if scenario.controllers is not None:
+        options["controllers"] = scenario.controllers
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode
@@ -494,6 +498,8 @@ class _TestRun:
         robots = opts.pop("robots", None)
         robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
+        if "controllers" in opts:
+            opts["controllers"] = _resolve_path(opts["controllers"], self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.mode)
         if robots is not None:
             if options.get("mode") is not None:

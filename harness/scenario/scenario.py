@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from harness.controllers import ControllersConfig, ControllersConfigError, load_controllers
 from harness.errors import ModelError
 from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
@@ -240,6 +241,8 @@ class Scenario:
     criteria: Criteria = Criteria()
     client: ClientSpec | None = None
     source: Path | None = None
+    controllers: ControllersConfig | None = None
+    """The ros2_control controllers (None: each robot's default set)."""
 
     @classmethod
     def load(cls, path: str | Path) -> Scenario:
@@ -323,6 +326,7 @@ class _Builder:
             timestep=float(data.get("timestep", 0.002)),
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
+            controllers=self.controllers(data.get("controllers")),
             clock=Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
             objects=objects,
             recording=Recording(
@@ -382,6 +386,21 @@ class _Builder:
                 self.problem(
                     [key, i, "name"], name, f"is already the name of {key}[{names.index(name)}]"
                 )
+
+    def controllers(self, value: str | Mapping[str, Any] | None) -> ControllersConfig | None:
+        if value is None:
+            return None
+        source: str | Path | Mapping[str, Any] = value
+        if isinstance(value, str):
+            source = self.base / value
+            if not source.is_file():
+                self.problem(["controllers"], value, f"not found (looked for {source})")
+                return None
+        try:
+            return load_controllers(source)
+        except ControllersConfigError as exc:
+            self.problem(["controllers"], value if isinstance(value, str) else "{...}", str(exc))
+            return None
 
     def map(self, value: str) -> str | Path:
         path: list[str | int] = ["environment", "map"]

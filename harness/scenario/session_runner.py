@@ -395,6 +395,7 @@ class SessionIterationRunner:
             sinks=sinks,
             seed=spec.seed,
             scenario=scenario_text,
+            controllers=scenario.controllers,
         )
         try:
             assert session.world is not None

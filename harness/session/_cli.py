@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 import warnings
+from pathlib import Path
 from types import FrameType
 
 from harness.models._cli import add_robot_arg_option, robot_args
@@ -54,6 +55,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--namespace", default="", help="robot topics under /NAMESPACE/")
     parser.add_argument("--scene", default=None, help="scene name or MJCF world file")
     parser.add_argument("--record", metavar="PATH", default=None, help="record the run to MCAP")
+    parser.add_argument(
+        "--controllers",
+        metavar="FILE",
+        default=None,
+        help="ros2_control controllers YAML (default: joint_state_broadcaster, "
+        "joint_trajectory_controller, a gripper controller where the robot has fingers)",
+    )
     parser.add_argument(
         "--token",
         default=os.environ.get("HARNESS_TOKEN") or None,
@@ -96,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
             record_to=args.record,
             scene=args.scene,
             robot_args=robot_args(args),
+            controllers=Path(args.controllers) if args.controllers else None,
         ) as session:
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
             print(

@@ -52,6 +52,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.controllers import ControllersConfig
 from harness.events import (
     EventHub,
     JointSample,
@@ -62,13 +63,18 @@ from harness.events import (
 )
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
-from harness.rosbridge import DIRECTION_IN, Bridge, Output, TapRecord
+from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
 from harness.session.commands import (
     FORWARD_TOPICS,
     Trajectory,
     apply_forward,
     apply_joint_state,
     parse_trajectory,
+)
+from harness.session.control import (
+    ControlHost,
+    controllers_from_metadata,
+    controllers_metadata,
 )
 from harness.session.errors import (
     CommandRefused,
@@ -310,8 +316,17 @@ class CoreOptions:
     start: StartMode = "now"
     record_bridge_frames: bool = True
     max_step_request: int = DEFAULT_MAX_STEP_REQUEST
+    controllers: ControllersConfig | str = "default"
 
     def __post_init__(self) -> None:
+        if not isinstance(self.controllers, ControllersConfig) and self.controllers not in (
+            "default",
+            "none",
+        ):
+            raise SessionConfigError(
+                "controllers must be a ControllersConfig, 'default' or 'none', not "
+                f"{self.controllers!r} (read a YAML with harness.controllers.load_controllers)"
+            )
         if self.clock not in CLOCK_MODES:
             raise SessionConfigError(
                 f"clock must be one of {', '.join(CLOCK_MODES)}, not {self.clock!r}"
@@ -395,6 +410,7 @@ class CoreOptions:
             "start": self.start,
             "bridge_frames": "true" if self.record_bridge_frames else "false",
             "max_step_request": str(self.max_step_request),
+            "controllers": controllers_metadata(self.controllers),
         }  # state_every: the recorder writes it
 
     @classmethod
@@ -442,6 +458,7 @@ class CoreOptions:
             start=metadata.get("start", defaults.start),  # type: ignore[arg-type]
             record_bridge_frames=metadata.get("bridge_frames", "true") != "false",
             max_step_request=int(cap),
+            controllers=controllers_from_metadata(metadata.get("controllers")),
         )
 
 
@@ -539,6 +556,17 @@ class BridgePort:
         self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
     ) -> None:
         self.bridge.advertise_service(service, type, lambda call: handler(call.args), node=node)
+
+    def serve_action(
+        self,
+        action: str,
+        type: str,
+        handler: Callable[[ActionGoal], None],
+        *,
+        node: str = HARNESS_NODE,
+    ) -> None:
+        """Serve an action in-process as ``node`` (the controllers' actions)."""
+        self.bridge.advertise_action(action, type, handler, node=node)
 
     def status(self, connection: int, level: str, text: str) -> None:
         self.bridge.core_status(connection, level, text)
@@ -714,6 +742,8 @@ class SessionCore:
         """Called after every step (the shell's ``run_until`` watchers)."""
         self.on_clock_change: Callable[[], None] | None = None
         """Called when a reset or pause changes how time should move (the shell re-paces)."""
+        self.control = ControlHost(self, options.controllers)
+        """Every robot's ros2_control controllers and controller manager."""
 
     # ----------------------------------------------------------------------------- set-up
 
@@ -826,6 +856,8 @@ class SessionCore:
                 topics.joint_trajectory, TYPE_TRAJECTORY, self._trajectory_handler(channels)
             )
             for command_field, topic in topics.forward.items():
+                if self.control.claims(topic):
+                    continue  # served by the forward command controller of that name
                 controller = FORWARD_TOPICS[command_field].split("/")[0]
                 graph.subscribe(
                     topic,
@@ -837,6 +869,7 @@ class SessionCore:
         graph.serve(SERVICE_RESET, "std_srvs/srv/Trigger", self._srv_reset)
         graph.serve(SERVICE_PAUSE, "std_srvs/srv/SetBool", self._srv_pause)
         graph.serve(SERVICE_GET_STATE, "harness_msgs/srv/GetState", self._srv_get_state)
+        self.control.start()
 
     def publish_initial(self) -> None:
         """Publish every robot's latched description and static transforms and record/publish
@@ -874,6 +907,7 @@ class SessionCore:
     def advance(self) -> None:
         """One step: trajectory setpoints, the step, then recording, loggers, publishing."""
         sim = self.sim
+        self.control.before_step()
         for channels in self.robots:
             if channels.trajectory is not None:
                 self._trajectory_setpoint(channels)
@@ -1278,6 +1312,7 @@ class SessionCore:
         sim.set_state(state, k)
         for channels in self.robots:
             channels.trajectory = None
+        self.control.reset()
         self.failure = None
         if self.on_clock_change is not None:
             self.on_clock_change()

@@ -133,6 +133,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import dataclasses
 import math
 import threading
 import time
@@ -157,6 +158,7 @@ from harness.models import (
     load_world,
 )
 from harness.recording import Recorder, describe_run
+from harness.session.control import ControllersOption, controllers_option, resolve_default
 from harness.session.core import (
     CLOCK_MODES,
     DEFAULT_MAX_STEP_REQUEST,
@@ -221,6 +223,9 @@ class Session:
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
     ``robot_args``: the arguments of a xacro ``robot`` (name -> value; with ``robots`` each
     RobotSpec has its own); ``robot`` may be ``package://pkg/path``.
+    ``controllers``: the robot's ros2_control controllers: a controllers YAML (file, text or
+    mapping, :func:`harness.controllers.load_controllers`), None for the default set
+    (:func:`harness.controllers.default_controllers`) or False for none.
     """
 
     def __init__(
@@ -253,6 +258,7 @@ class Session:
         record_bridge_frames: bool = True,
         max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
         robot_args: Mapping[str, Any] | None = None,
+        controllers: ControllersOption = None,
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
@@ -273,6 +279,7 @@ class Session:
             start=start,
             record_bridge_frames=record_bridge_frames,
             max_step_request=max_step_request,
+            controllers=controllers_option(controllers),
         )
         self.clock: ClockMode = clock
         self.start: StartMode = start
@@ -294,6 +301,9 @@ class Session:
         """One report per event sink, filled by :meth:`close`."""
 
         loaded = _load(robot, robots, objects, mode, scene, namespace, robot_args)
+        options = dataclasses.replace(
+            options, controllers=resolve_default(options.controllers, loaded)
+        )
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
         """The loaded world of a session of ``robots`` (None for ``robot=``)."""

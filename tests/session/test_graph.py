@@ -28,7 +28,9 @@ PY_SCRIPT = Path(__file__).with_name("roslibpy_graph.py")
 NODE_DIR = Path(__file__).resolve().parents[1] / "node"
 JS_SCRIPT = NODE_DIR / "graph_roslibjs.mjs"
 NODE = shutil.which("node")
-FOLLOW = "/arm_controller/follow_joint_trajectory"
+JTC = "/joint_trajectory_controller"
+FOLLOW = f"{JTC}/follow_joint_trajectory"
+GRIPPER = "/gripper_controller/gripper_cmd"
 
 
 EXPECTED_TOPICS = {
@@ -43,6 +45,8 @@ EXPECTED_TOPICS = {
     "/forward_velocity_controller/commands": "std_msgs/msg/Float64MultiArray",
     "/joint_command": "sensor_msgs/msg/JointState",
     "/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
+    f"{JTC}/controller_state": "control_msgs/msg/JointTrajectoryControllerState",
+    f"{JTC}/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
 }
 EXPECTED_PUBLISHERS = {
     "/clock": ["/harness"],
@@ -51,23 +55,8 @@ EXPECTED_PUBLISHERS = {
     "/rosout": ["/harness"],
     "/tf": ["/robot_state_publisher"],
     "/tf_static": ["/robot_state_publisher"],
+    f"{JTC}/controller_state": [JTC],
 }
-
-
-def _serve_controller_action(session: Session) -> None:
-    """An in-process action server registered under its controller's node, as the
-    controllers room does (the action type is a stand-in the bridge knows)."""
-
-    def register() -> None:
-        assert session.core.bridge is not None
-        session.core.bridge.advertise_action(
-            FOLLOW,
-            "example_interfaces/action/Fibonacci",
-            lambda goal: goal.finish({"sequence": []}),
-            node="/arm_controller",
-        )
-
-    session.call(register)
 
 
 def _check_graph(out: dict[str, Any]) -> None:
@@ -75,12 +64,14 @@ def _check_graph(out: dict[str, Any]) -> None:
     assert pairs == EXPECTED_TOPICS
     assert out["tf_static_type"] == "tf2_msgs/msg/TFMessage"
     assert out["nodes"] == [
-        "/arm_controller",
+        "/controller_manager",
         "/forward_effort_controller",
         "/forward_position_controller",
         "/forward_velocity_controller",
+        "/gripper_controller",
         "/harness",
         "/joint_state_broadcaster",
+        JTC,
         "/robot_state_publisher",
         "/rosapi",
         "/rosbridge_websocket",
@@ -111,25 +102,36 @@ def _check_graph(out: dict[str, Any]) -> None:
         "/harness/reset",
         "/harness/step",
     ]
-    assert details["/arm_controller"]["services"] == [
-        f"{FOLLOW}/_action/cancel_goal",
-        f"{FOLLOW}/_action/get_result",
-        f"{FOLLOW}/_action/send_goal",
+    actions = ("cancel_goal", "get_result", "send_goal")
+    assert details[JTC] == {
+        "subscribing": [f"{JTC}/joint_trajectory"],
+        "publishing": [
+            f"{JTC}/controller_state",
+            f"{FOLLOW}/_action/feedback",
+            f"{FOLLOW}/_action/status",
+        ],
+        "services": [f"{FOLLOW}/_action/{a}" for a in actions],
+    }
+    assert details["/gripper_controller"]["services"] == [
+        f"{GRIPPER}/_action/{a}" for a in actions
     ]
+    manager = details["/controller_manager"]["services"]
+    assert "/controller_manager/list_controllers" in manager
+    assert "/controller_manager/switch_controller" in manager
     assert all(s.startswith("/rosapi/") for s in details["/rosapi"]["services"])
     assert "/rosapi/node_details" in details["/rosapi"]["services"]
     assert set(out["services"]) == {
         *harness["services"],
+        *manager,
         *details["/rosapi"]["services"],
     }
-    assert out["action_servers"] == [FOLLOW]
+    assert out["action_servers"] == [GRIPPER, FOLLOW]
     static = {t["child_frame_id"]: t["header"]["frame_id"] for t in out["tf_static"]["transforms"]}
     assert static == {"link0": "world", "hand": "link7"}
 
 
 def test_roslibpy_sees_the_robot_graph(demo_position: LoadedRobot) -> None:
     with Session(demo_position) as session:
-        _serve_controller_action(session)
         port = session.url.rsplit(":", 1)[1]
         proc = subprocess.run(
             [sys.executable, str(PY_SCRIPT), port], capture_output=True, text=True, timeout=60
@@ -165,7 +167,6 @@ def test_roslibjs_sees_the_robot_graph(demo_position: LoadedRobot) -> None:
         return proc.returncode, out.decode()
 
     with Session(demo_position) as session:
-        _serve_controller_action(session)
         code, out = asyncio.run(drive(session.url))
         assert code == 0, out
         assert out.splitlines()[-1] == "OK", out

@@ -1,0 +1,172 @@
+"""What every controller takes and gives (sans-I/O records and the :class:`Controller` protocol).
+
+A controller never touches a socket, a clock or the simulation: the session hands it the joints'
+:class:`JointReadings` and the simulation time at a step boundary (a message, a goal, a cancel,
+an update) and applies the :class:`Output` it returns: joint commands, messages to publish,
+action feedback and results, log lines.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal, Protocol
+
+__all__ = [
+    "GOAL_ABORTED",
+    "GOAL_CANCELED",
+    "GOAL_SUCCEEDED",
+    "ActionEndpoint",
+    "Command",
+    "Controller",
+    "Feedback",
+    "JointReadings",
+    "LogLine",
+    "Output",
+    "Publication",
+    "Result",
+    "TopicEndpoint",
+]
+
+GOAL_SUCCEEDED = 4
+GOAL_CANCELED = 5
+GOAL_ABORTED = 6
+
+LifecycleState = Literal["unconfigured", "inactive", "active", "finalized"]
+
+
+@dataclass(frozen=True)
+class JointReadings:
+    """The state interfaces of a robot's joints at one instant (``sim_time_ns``)."""
+
+    sim_time_ns: int
+    position: Mapping[str, float]
+    velocity: Mapping[str, float]
+    effort: Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class Command:
+    """A command for one joint: the session uses the field its control mode takes
+    (``position`` for position and kinematic joints, ``velocity``, ``effort``)."""
+
+    joint: str
+    position: float | None = None
+    velocity: float | None = None
+    effort: float | None = None
+
+
+@dataclass(frozen=True)
+class Publication:
+    """A message to publish on ``topic`` (relative to the controller: ``~/name``)."""
+
+    topic: str
+    type: str
+    msg: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """Action feedback for goal ``goal`` (the id the session gave it)."""
+
+    goal: int
+    values: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class Result:
+    """The end of goal ``goal``: ``status`` 4 succeeded, 5 canceled, 6 aborted."""
+
+    goal: int
+    values: Mapping[str, Any]
+    status: int
+
+
+@dataclass(frozen=True)
+class LogLine:
+    """A log line (``level`` 20 info, 30 warning, 40 error); ``connection`` (when non-zero)
+    also gets it as a status frame."""
+
+    level: int
+    text: str
+    connection: int = 0
+
+
+@dataclass
+class Output:
+    """What one call of a controller produced, in order of effect."""
+
+    commands: list[Command] = field(default_factory=list)
+    publications: list[Publication] = field(default_factory=list)
+    feedback: list[Feedback] = field(default_factory=list)
+    results: list[Result] = field(default_factory=list)
+    logs: list[LogLine] = field(default_factory=list)
+
+    def extend(self, other: Output) -> None:
+        """Append ``other``'s items."""
+        self.commands += other.commands
+        self.publications += other.publications
+        self.feedback += other.feedback
+        self.results += other.results
+        self.logs += other.logs
+
+
+@dataclass(frozen=True)
+class TopicEndpoint:
+    """A topic a controller subscribes (``~/name`` relative to the controller)."""
+
+    name: str
+    type: str
+
+
+@dataclass(frozen=True)
+class ActionEndpoint:
+    """An action a controller serves (``~/name`` relative to the controller)."""
+
+    name: str
+    type: str
+
+
+class Controller(Protocol):
+    """One ros2_control controller, sans-I/O. The manager drives its lifecycle; the session
+    calls :meth:`update` every ``1 / update_rate`` of simulation time while it is active."""
+
+    name: str
+    type: str
+
+    @property
+    def command_interfaces(self) -> tuple[str, ...]:
+        """``joint/interface`` names it claims when active."""
+        ...
+
+    @property
+    def state_interfaces(self) -> tuple[str, ...]:
+        """``joint/interface`` names it reads."""
+        ...
+
+    @property
+    def subscriptions(self) -> Sequence[TopicEndpoint]: ...
+
+    @property
+    def publishers(self) -> Sequence[TopicEndpoint]:
+        """Topics it publishes (advertised from the start, so the graph shows them)."""
+        ...
+
+    @property
+    def actions(self) -> Sequence[ActionEndpoint]: ...
+
+    def activate(self, state: JointReadings) -> Output: ...
+
+    def deactivate(self, state: JointReadings) -> Output: ...
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> Output: ...
+
+    def on_goal(
+        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
+    ) -> Output: ...
+
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output: ...
+
+    def update(self, state: JointReadings, period_ns: int) -> Output: ...

@@ -1,0 +1,245 @@
+"""The ros2_control controllers YAML: what a robot's controller manager loads.
+
+The format is the one robot packages ship (``config/ros2_controllers.yaml``)::
+
+    controller_manager:
+      ros__parameters:
+        update_rate: 100
+        arm_controller:
+          type: joint_trajectory_controller/JointTrajectoryController
+        joint_state_broadcaster:
+          type: joint_state_broadcaster/JointStateBroadcaster
+    arm_controller:
+      ros__parameters:
+        joints: [joint1, joint2]
+        command_interfaces: [position]
+
+Node keys may carry a namespace or wildcard (``/**/controller_manager``, ``/robot/arm_controller``:
+the last name counts); a ``/**`` section applies to every node. A controller's ``type`` may also
+sit in its own section. Parameters keep their YAML nesting (``constraints: {goal_time: ...}``).
+:func:`default_controllers` is the set every robot gets when no file is given.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import yaml  # type: ignore[import-untyped,unused-ignore]
+
+from harness.controllers.errors import ControllersConfigError
+
+__all__ = [
+    "DEFAULT_UPDATE_RATE",
+    "TYPE_FORWARD",
+    "TYPE_GRIPPER",
+    "TYPE_JOINT_STATE_BROADCASTER",
+    "TYPE_JOINT_TRAJECTORY",
+    "ControllerSpec",
+    "ControllersConfig",
+    "default_controllers",
+    "load_controllers",
+]
+
+DEFAULT_UPDATE_RATE = 100.0
+"""controller_manager's ``update_rate`` default (Hz)."""
+TYPE_JOINT_STATE_BROADCASTER = "joint_state_broadcaster/JointStateBroadcaster"
+TYPE_JOINT_TRAJECTORY = "joint_trajectory_controller/JointTrajectoryController"
+TYPE_FORWARD = "forward_command_controller/ForwardCommandController"
+TYPE_GRIPPER = "position_controllers/GripperActionController"
+_PARAMS = "ros__parameters"
+_MANAGER = "controller_manager"
+_FINGER_WORDS = ("finger", "gripper", "jaw")
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """One controller: its ``name`` (the node name: topics live under ``/<name>/``), its
+    plugin ``type`` and its own ``ros__parameters``."""
+
+    name: str
+    type: str
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
+
+
+@dataclass(frozen=True)
+class ControllersConfig:
+    """What one controller manager loads: ``update_rate`` (Hz of simulation time) and the
+    controllers in file order; ``source`` names where it came from (for messages)."""
+
+    update_rate: float = DEFAULT_UPDATE_RATE
+    controllers: tuple[ControllerSpec, ...] = ()
+    source: str = "controllers"
+    exclusive: bool = True
+    """Whether two active controllers may not claim one command interface (as in
+    ros2_control); the default set turns it off to keep every command path of earlier
+    versions active at once."""
+
+    def to_json(self) -> str:
+        """A canonical JSON text (the recording's metadata holds it)."""
+        return json.dumps(
+            {
+                "update_rate": self.update_rate,
+                "source": self.source,
+                "exclusive": self.exclusive,
+                "controllers": [
+                    {"name": c.name, "type": c.type, "params": _plain(c.params)}
+                    for c in self.controllers
+                ],
+            },
+            sort_keys=True,
+        )
+
+    @classmethod
+    def from_json(cls, text: str) -> ControllersConfig:
+        """The inverse of :meth:`to_json`."""
+        try:
+            data = json.loads(text)
+            return cls(
+                float(data["update_rate"]),
+                tuple(
+                    ControllerSpec(str(c["name"]), str(c["type"]), dict(c["params"]))
+                    for c in data["controllers"]
+                ),
+                str(data.get("source", "controllers")),
+                bool(data.get("exclusive", True)),
+            )
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ControllersConfigError(f"controllers metadata is malformed: {exc}") from None
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _node_name(key: object) -> str:
+    return str(key).rstrip("/").rsplit("/", 1)[-1]
+
+
+def load_controllers(source: str | Path | Mapping[str, Any]) -> ControllersConfig:
+    """Read a controllers YAML: a file path, YAML text, or the parsed mapping (a scenario's
+    ``controllers:`` key). :class:`ControllersConfigError` names the file and key at fault."""
+    where = "controllers"
+    data: Any
+    if isinstance(source, Mapping):
+        data = source
+    else:
+        text = str(source)
+        path = Path(text)
+        if isinstance(source, Path) or ("\n" not in text and ":" not in text):
+            where = str(path)
+            try:
+                text = path.read_text("utf-8")
+            except OSError as exc:
+                raise ControllersConfigError(
+                    f"{where}: cannot read the controllers file: {exc.strerror}"
+                ) from None
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            at = f" (line {mark.line + 1})" if mark is not None else ""
+            raise ControllersConfigError(f"{where}: not valid YAML{at}") from None
+    if not isinstance(data, Mapping):
+        raise ControllersConfigError(f"{where}: expected a mapping of node names at the top level")
+    sections: dict[str, dict[str, Any]] = {}
+    common: dict[str, Any] = {}
+    for key, body in data.items():
+        if not isinstance(body, Mapping) or not isinstance(body.get(_PARAMS, {}), Mapping):
+            raise ControllersConfigError(
+                f"{where}: {key}: expected a mapping with '{_PARAMS}:' under it"
+            )
+        params = dict(body.get(_PARAMS) or {})
+        name = _node_name(key)
+        if name == "**":
+            common.update(params)
+        else:
+            sections.setdefault(name, {}).update(params)
+    manager = sections.get(_MANAGER)
+    if manager is None:
+        raise ControllersConfigError(
+            f"{where}: no '{_MANAGER}: {_PARAMS}:' section (the controllers a robot loads are "
+            "listed there)"
+        )
+    manager = {**common, **manager}
+    rate = manager.get("update_rate", DEFAULT_UPDATE_RATE)
+    if isinstance(rate, bool) or not isinstance(rate, int | float) or not rate > 0:
+        raise ControllersConfigError(
+            f"{where}: {_MANAGER}.update_rate must be a number > 0 (Hz), not {rate!r}"
+        )
+    specs: list[ControllerSpec] = []
+    for name, entry in manager.items():
+        if not isinstance(entry, Mapping):
+            continue  # a manager parameter (update_rate, ...)
+        own = {**common, **sections.get(name, {})}
+        ctype = entry.get("type", own.get("type"))
+        if not isinstance(ctype, str) or "/" not in ctype:
+            raise ControllersConfigError(
+                f"{where}: {_MANAGER}.{name}.type must be a plugin name like "
+                f"'{TYPE_JOINT_TRAJECTORY}', not {ctype!r}"
+            )
+        own.pop("type", None)
+        specs.append(ControllerSpec(str(name), ctype, own))
+    names = [s.name for s in specs]
+    for name in sections:
+        if name != _MANAGER and name not in names and "type" in sections[name]:
+            specs.append(ControllerSpec(name, str(sections[name]["type"]), sections[name]))
+    return ControllersConfig(float(rate), tuple(specs), where)
+
+
+def _is_finger(joint: str) -> bool:
+    lowered = joint.lower()
+    return any(word in lowered for word in _FINGER_WORDS)
+
+
+def default_controllers(
+    joints: Sequence[str], control: Mapping[str, str], update_rate: float = DEFAULT_UPDATE_RATE
+) -> ControllersConfig:
+    """The set every robot gets: ``joint_state_broadcaster``; ``joint_trajectory_controller``
+    over the arm joints (controllable joints not driven by effort, fingers excluded);
+    ``gripper_controller`` on the first finger joint when the robot has fingers (a joint named
+    ``*finger*``, ``*gripper*`` or ``*jaw*``); and ``forward_{position,velocity,effort}_controller``
+    over every controllable joint (the forward command topics the session always had)."""
+    fingers = [j for j in joints if _is_finger(j) and control.get(j) != "effort"]
+    arm = [j for j in joints if j not in fingers and control.get(j) != "effort"]
+    specs = [ControllerSpec("joint_state_broadcaster", TYPE_JOINT_STATE_BROADCASTER)]
+    if arm:
+        specs.append(
+            ControllerSpec(
+                "joint_trajectory_controller",
+                TYPE_JOINT_TRAJECTORY,
+                {
+                    "joints": list(arm),
+                    "command_interfaces": ["position"],
+                    "state_interfaces": ["position", "velocity"],
+                },
+            )
+        )
+    if fingers:
+        specs.append(
+            ControllerSpec(
+                "gripper_controller",
+                TYPE_GRIPPER,
+                {"joint": fingers[0]},
+            )
+        )
+    for interface in ("position", "velocity", "effort"):
+        specs.append(
+            ControllerSpec(
+                f"forward_{interface}_controller",
+                TYPE_FORWARD,
+                {"joints": list(joints), "interface_name": interface},
+            )
+        )
+    return ControllersConfig(update_rate, tuple(specs), "default controllers", exclusive=False)

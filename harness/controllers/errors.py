@@ -1,0 +1,15 @@
+"""Errors of the controllers; each message is one line naming what is wrong and where."""
+
+from __future__ import annotations
+
+from harness.errors import ConfigError, HarnessError
+
+__all__ = ["ControllerError", "ControllersConfigError"]
+
+
+class ControllerError(HarnessError):
+    """A controller could not do what was asked."""
+
+
+class ControllersConfigError(ControllerError, ConfigError):
+    """An invalid controllers YAML (or a controller that does not fit the robot)."""

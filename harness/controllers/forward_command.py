@@ -1,0 +1,108 @@
+"""``forward_command_controller/ForwardCommandController`` and its named variants
+(``position_controllers/JointGroupPositionController``, ``velocity_controllers/...``,
+``effort_controllers/...``): ``~/commands`` (``std_msgs/msg/Float64MultiArray``), one value
+per joint in the controller's ``joints`` order, written to ``interface_name``. A message of
+the wrong length is refused (nothing changes), as the real controller ignores it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from harness.controllers.base import (
+    ActionEndpoint,
+    Command,
+    JointReadings,
+    LogLine,
+    Output,
+    TopicEndpoint,
+)
+from harness.controllers.config import TYPE_FORWARD, ControllerSpec
+from harness.controllers.params import Params
+
+__all__ = ["FORWARD_TYPES", "ForwardCommandController"]
+
+FORWARD_TYPES: Mapping[str, str | None] = {
+    TYPE_FORWARD: None,
+    "position_controllers/JointGroupPositionController": "position",
+    "velocity_controllers/JointGroupVelocityController": "velocity",
+    "effort_controllers/JointGroupEffortController": "effort",
+}
+"""Plugin name -> the interface it writes (None: the ``interface_name`` parameter)."""
+_INTERFACES = ("position", "velocity", "effort")
+
+
+class ForwardCommandController:
+    """One forward command controller (see the module docstring)."""
+
+    actions: tuple[ActionEndpoint, ...] = ()
+    publishers: tuple[TopicEndpoint, ...] = ()
+
+    def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        p = Params(spec, source)
+        self.name = spec.name
+        self.type = spec.type
+        self.joints = p.joints(p.strings("joints"), controllable)
+        fixed = FORWARD_TYPES.get(spec.type)
+        self.interface = fixed if fixed is not None else p.string("interface_name")
+        if self.interface not in _INTERFACES:
+            raise p.error(
+                f"interface_name must be one of {', '.join(_INTERFACES)}, not {self.interface!r}"
+            )
+        self.command_interfaces = tuple(f"{j}/{self.interface}" for j in self.joints)
+        self.state_interfaces: tuple[str, ...] = ()
+        self.subscriptions = (TopicEndpoint("~/commands", "std_msgs/msg/Float64MultiArray"),)
+        self.active = False
+
+    def activate(self, state: JointReadings) -> Output:
+        """Start taking commands."""
+        self.active = True
+        return Output()
+
+    def deactivate(self, state: JointReadings) -> Output:
+        """Stop taking commands."""
+        self.active = False
+        return Output()
+
+    def commands(self, msg: Mapping[str, Any]) -> list[Command]:
+        """The joint commands of one ``Float64MultiArray``; ``ValueError`` when refused (the
+        simulation refuses non-finite values)."""
+        data = list(msg["data"])
+        if len(data) != len(self.joints):
+            raise ValueError(
+                f"expected {len(self.joints)} values (one per joint: {', '.join(self.joints)}), "
+                f"got {len(data)}"
+            )
+        return [
+            Command(joint, **{self.interface: float(value)})
+            for joint, value in zip(self.joints, data, strict=True)
+        ]
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> Output:
+        """A command message: applied at once (the simulation holds it)."""
+        out = Output()
+        if not self.active:
+            out.logs.append(LogLine(40, "inactive, command ignored", connection))
+            return out
+        try:
+            out.commands += self.commands(msg)
+        except ValueError as exc:
+            out.logs.append(LogLine(40, f"command refused: {exc}", connection))
+        return out
+
+    def on_goal(
+        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
+    ) -> Output:
+        """No actions."""
+        return Output()
+
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+        """No actions."""
+        return Output()
+
+    def update(self, state: JointReadings, period_ns: int) -> Output:
+        """Nothing to do per cycle: the simulation holds the last command."""
+        return Output()

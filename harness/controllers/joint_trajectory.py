@@ -1,0 +1,523 @@
+"""``joint_trajectory_controller/JointTrajectoryController``: the ``~/joint_trajectory`` topic and
+the ``~/follow_joint_trajectory`` action (``control_msgs/action/FollowJointTrajectory``).
+
+Semantics of ros2_controllers' controller, in simulation time:
+
+- Every update (``update_rate`` of the controller manager) samples the trajectory at the current
+  time (the *desired* state) and one period ahead (the command written for the next period);
+  interpolation as in :mod:`harness.controllers.spline`.
+- Path tolerances (``constraints.<joint>.trajectory``, a goal's ``path_tolerance``) are checked
+  before the last point, goal tolerances (``constraints.<joint>.goal``,
+  ``stopped_velocity_tolerance``, a goal's ``goal_tolerance``) after it, for ``goal_time``
+  (``constraints.goal_time``, a goal's ``goal_time_tolerance``; 0 waits forever). A violation
+  aborts the goal (PATH_TOLERANCE_VIOLATED / GOAL_TOLERANCE_VIOLATED) and holds the current
+  position. Within the goal tolerances after the last point the goal succeeds.
+- A new goal preempts the active one (aborted, INVALID_GOAL, "Current goal preempted by new
+  incoming action."); a cancel ends the active goal as canceled and holds position.
+- Feedback (desired, actual, error) goes out at ``action_monitor_rate`` (default 20 Hz);
+  ``~/controller_state`` at ``state_publish_rate`` (default 50 Hz, Humble's; 0: every update).
+
+One deliberate difference: a goal the real controller *rejects* (unknown joints, non-increasing
+times, a start in the past, ...) is accepted and aborted at once here, with the
+FollowJointTrajectory error code (INVALID_JOINTS, INVALID_GOAL, OLD_HEADER_TIMESTAMP) and a text
+naming the problem: through rosbridge a rejection only says "Action goal was rejected".
+Results go out at the update that decides them (the real controller sends them on its next
+action monitor tick, up to ``1 / action_monitor_rate`` later). Not supported: points without
+positions (``allow_integration_in_goal_trajectories``), ``cmd_timeout``, angle wraparound of
+continuous joints, speed scaling, closed-loop PID adapters (the simulation's joint servos or
+kinematic writes stand for the hardware).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from harness.controllers.base import (
+    GOAL_ABORTED,
+    GOAL_CANCELED,
+    GOAL_SUCCEEDED,
+    ActionEndpoint,
+    Command,
+    Feedback,
+    JointReadings,
+    LogLine,
+    Output,
+    Publication,
+    Result,
+    TopicEndpoint,
+)
+from harness.controllers.config import TYPE_JOINT_TRAJECTORY, ControllerSpec
+from harness.controllers.params import Params, duration_ns, point_msg, stamp
+from harness.controllers.spline import (
+    Point,
+    Sample,
+    SampledTrajectory,
+    SegmentTolerances,
+    goal_tolerances,
+    params_tolerances,
+    within,
+)
+
+__all__ = [
+    "ACTION_TYPE",
+    "GOAL_TOLERANCE_VIOLATED",
+    "INVALID_GOAL",
+    "INVALID_JOINTS",
+    "OLD_HEADER_TIMESTAMP",
+    "PATH_TOLERANCE_VIOLATED",
+    "STATE_TYPE",
+    "SUCCESSFUL",
+    "InvalidTrajectory",
+    "JointTrajectoryController",
+]
+
+ACTION_TYPE = "control_msgs/action/FollowJointTrajectory"
+STATE_TYPE = "control_msgs/msg/JointTrajectoryControllerState"
+TRAJECTORY_TYPE = "trajectory_msgs/msg/JointTrajectory"
+SUCCESSFUL = 0
+INVALID_GOAL = -1
+INVALID_JOINTS = -2
+OLD_HEADER_TIMESTAMP = -3
+PATH_TOLERANCE_VIOLATED = -4
+GOAL_TOLERANCE_VIOLATED = -5
+_INTERFACES = ("position", "velocity", "acceleration", "effort")
+_FLOAT_EPS = 1.1920929e-07
+
+
+class InvalidTrajectory(Exception):
+    """A trajectory the controller refuses: ``code`` is the FollowJointTrajectory error code."""
+
+    def __init__(self, code: int, text: str) -> None:
+        super().__init__(text)
+        self.code = code
+
+
+def _values(
+    point: Mapping[str, Any], key: str, size: int, i: int, required: bool
+) -> tuple[float, ...]:
+    values: Sequence[float] = point.get(key, ())
+    if not values and not required:
+        return ()
+    if len(values) != size:
+        raise InvalidTrajectory(INVALID_GOAL, f"point {i}: {len(values)} {key} for {size} joints")
+    for v in values:
+        if not math.isfinite(v):
+            raise InvalidTrajectory(INVALID_GOAL, f"point {i}: {key} holds {v!r}")
+    return tuple(float(v) for v in values)
+
+
+class JointTrajectoryController:
+    """One joint_trajectory_controller over ``joints`` (see the module docstring)."""
+
+    type = TYPE_JOINT_TRAJECTORY
+
+    def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        p = Params(spec, source)
+        self.name = spec.name
+        self.joints = p.joints(p.strings("joints"), controllable)
+        self.command = p.strings("command_interfaces", ["position"])
+        self.state = p.strings("state_interfaces", ["position", "velocity"])
+        for iface in (*self.command, *self.state):
+            if iface not in _INTERFACES:
+                raise p.error(f"unknown interface {iface!r} (known: {', '.join(_INTERFACES)})")
+        if "position" not in self.state:
+            raise p.error("state_interfaces must include position")
+        for joint in self.joints:
+            if controllable[joint] == "effort":
+                raise p.error(
+                    f"joint {joint!r} is effort-controlled in this session: the trajectory "
+                    "controller drives position or velocity joints (choose another mode)"
+                )
+        self.allow_partial = p.flag("allow_partial_joints_goal", False)
+        self.allow_nonzero_end_velocity = p.flag("allow_nonzero_velocity_at_trajectory_end", False)
+        self.monitor_period_ns = round(1e9 / p.number("action_monitor_rate", 20.0, minimum=0.1))
+        rate = p.number("state_publish_rate", 50.0, minimum=0.0)
+        self.state_period_ns = round(1e9 / rate) if rate > 0 else 0
+        constraints = p.get("constraints", {})
+        if not isinstance(constraints, Mapping):
+            raise p.error(f"constraints must be a mapping, not {constraints!r}")
+        try:
+            self.default_tolerances = params_tolerances(self.joints, constraints)
+        except ValueError as exc:
+            raise p.error(str(exc)) from None
+        self.has_velocity_state = "velocity" in self.state
+        self.has_velocity_command = "velocity" in self.command or "effort" in self.command
+        self.has_effort_command = "effort" in self.command
+        self.command_interfaces = tuple(f"{j}/{i}" for j in self.joints for i in self.command)
+        self.state_interfaces = tuple(f"{j}/{i}" for j in self.joints for i in self.state)
+        self.subscriptions = (TopicEndpoint("~/joint_trajectory", TRAJECTORY_TYPE),)
+        self.publishers = (TopicEndpoint("~/controller_state", STATE_TYPE),)
+        self.actions = (ActionEndpoint("~/follow_joint_trajectory", ACTION_TYPE),)
+        self.active = False
+        self.trajectory: SampledTrajectory | None = None
+        self.tolerances: SegmentTolerances = self.default_tolerances
+        self.goal: int | None = None
+        self.holding: Sample | None = None
+        """The state held when no trajectory runs (the last point reached, or where a
+        violation or cancel stopped)."""
+        self._pending_feedback: Feedback | None = None
+        self._monitor_next = 0
+        self._state_next = 0
+
+    # ----------------------------------------------------------------------------- lifecycle
+
+    def activate(self, state: JointReadings) -> Output:
+        """Start holding the current position (no trajectory)."""
+        self.active = True
+        self._hold(state)
+        return Output()
+
+    def deactivate(self, state: JointReadings) -> Output:
+        """Stop; an active goal is aborted as the real controller does."""
+        out = Output()
+        if self.goal is not None:
+            out.results.append(
+                self._result(
+                    self.goal,
+                    INVALID_GOAL,
+                    "Current goal cancelled during deactivate transition.",
+                    GOAL_ABORTED,
+                )
+            )
+            self.goal = None
+        self.active = False
+        self.trajectory = None
+        return out
+
+    # ----------------------------------------------------------------------------- input
+
+    def validate(
+        self, msg: Mapping[str, Any], now_ns: int, state: JointReadings
+    ) -> SampledTrajectory:
+        """The trajectory of a ``trajectory_msgs/msg/JointTrajectory`` in the controller's joint
+        order; :class:`InvalidTrajectory` when the controller refuses it."""
+        names: list[str] = list(msg["joint_names"])
+        points: list[Mapping[str, Any]] = list(msg["points"])
+        if not self.allow_partial and len(names) != len(self.joints):
+            raise InvalidTrajectory(
+                INVALID_JOINTS,
+                f"joints {names} do not match the controller's joints {list(self.joints)} "
+                "(allow_partial_joints_goal is false)",
+            )
+        if not names:
+            raise InvalidTrajectory(INVALID_JOINTS, "empty joint names")
+        if not points:
+            raise InvalidTrajectory(INVALID_GOAL, "empty trajectory")
+        for name in names:
+            if name not in self.joints:
+                raise InvalidTrajectory(
+                    INVALID_JOINTS,
+                    f"joint {name!r} is not one of the controller's joints "
+                    f"({', '.join(self.joints)})",
+                )
+        if len(set(names)) != len(names):
+            raise InvalidTrajectory(INVALID_JOINTS, f"a joint is named twice: {names}")
+        last_velocities: Sequence[float] = points[-1].get("velocities", ())
+        if not self.allow_nonzero_end_velocity:
+            for name, v in zip(names, last_velocities, strict=False):
+                if abs(v) > _FLOAT_EPS:
+                    raise InvalidTrajectory(
+                        INVALID_GOAL,
+                        f"velocity of the last point of joint {name!r} is not zero: {v!r}",
+                    )
+        start = duration_ns(msg["header"]["stamp"])
+        end = start + duration_ns(points[-1]["time_from_start"])
+        if start != 0 and end < now_ns:
+            raise InvalidTrajectory(
+                OLD_HEADER_TIMESTAMP,
+                f"trajectory with start time {start / 1e9:.9f} s ends in the past "
+                f"({end / 1e9:.9f} s < now {now_ns / 1e9:.9f} s)",
+            )
+        size = len(names)
+        parsed: list[Point] = []
+        previous = 0
+        for i, point in enumerate(points):
+            t = duration_ns(point["time_from_start"])
+            if i > 0 and t <= previous:
+                raise InvalidTrajectory(
+                    INVALID_GOAL,
+                    f"time between points {i - 1} and {i} is not strictly increasing "
+                    f"({previous / 1e9:g} s, {t / 1e9:g} s)",
+                )
+            previous = t
+            positions = _values(point, "positions", size, i, True)
+            velocities = _values(point, "velocities", size, i, False)
+            accelerations = _values(point, "accelerations", size, i, False)
+            effort = _values(point, "effort", size, i, False)
+            if effort and not self.has_effort_command:
+                raise InvalidTrajectory(
+                    INVALID_GOAL,
+                    "trajectories with effort fields need the 'effort' command interface",
+                )
+            parsed.append(
+                self._reorder(names, t, positions, velocities, accelerations, effort, state)
+            )
+        return SampledTrajectory(tuple(parsed), start)
+
+    def _reorder(
+        self,
+        names: Sequence[str],
+        t: int,
+        positions: tuple[float, ...],
+        velocities: tuple[float, ...],
+        accelerations: tuple[float, ...],
+        effort: tuple[float, ...],
+        state: JointReadings,
+    ) -> Point:
+        index = {n: i for i, n in enumerate(names)}
+
+        def order(values: tuple[float, ...], fill: Mapping[str, float] | None) -> tuple[float, ...]:
+            if not values:
+                return ()
+            return tuple(
+                values[index[j]] if j in index else (fill[j] if fill is not None else 0.0)
+                for j in self.joints
+            )
+
+        return Point(
+            t,
+            order(positions, state.position),
+            order(velocities, None),
+            order(accelerations, None),
+            order(effort, None),
+        )
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> Output:
+        """A trajectory on ``~/joint_trajectory`` replaces the current one."""
+        out = Output()
+        if not self.active:
+            out.logs.append(LogLine(40, "inactive, trajectory ignored", connection))
+            return out
+        try:
+            self.trajectory = self.validate(msg, state.sim_time_ns, state)
+        except InvalidTrajectory as exc:
+            out.logs.append(LogLine(40, f"trajectory refused: {exc}", connection))
+        return out
+
+    def on_goal(
+        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
+    ) -> Output:
+        """A FollowJointTrajectory goal: validated, then preempts the active goal."""
+        out = Output()
+        if not self.active:
+            out.results.append(
+                self._result(goal, INVALID_GOAL, "controller is not active", GOAL_ABORTED)
+            )
+            return out
+        try:
+            trajectory = self.validate(values["trajectory"], state.sim_time_ns, state)
+        except InvalidTrajectory as exc:
+            out.results.append(self._result(goal, exc.code, str(exc), GOAL_ABORTED))
+            out.logs.append(LogLine(30, f"goal refused: {exc}"))
+            return out
+        if self.goal is not None:
+            out.results.append(
+                self._result(
+                    self.goal,
+                    INVALID_GOAL,
+                    "Current goal preempted by new incoming action.",
+                    GOAL_ABORTED,
+                )
+            )
+        self.trajectory = trajectory
+        self.goal = goal
+        self._pending_feedback = None
+        self._monitor_next = state.sim_time_ns + self.monitor_period_ns
+        self.tolerances = goal_tolerances(self.default_tolerances, self.joints, values)
+        for note in self.tolerances.notes:
+            out.logs.append(LogLine(40, f"{note}"))
+        return out
+
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+        """Cancel the active goal: canceled, holding the current position."""
+        out = Output()
+        if goal == self.goal:
+            out.results.append(Result(goal, {"error_code": 0, "error_string": ""}, GOAL_CANCELED))
+            self.goal = None
+            self._pending_feedback = None
+            out.commands += self._hold(state)
+        return out
+
+    # ----------------------------------------------------------------------------- update
+
+    def _hold(self, state: JointReadings) -> list[Command]:
+        self.trajectory = None
+        zeros = (0.0,) * len(self.joints)
+        self.holding = Sample(tuple(state.position[j] for j in self.joints), zeros, zeros, zeros)
+        return [Command(j, position=state.position[j], velocity=0.0) for j in self.joints]
+
+    def _result(self, goal: int, code: int, text: str, status: int) -> Result:
+        return Result(goal, {"error_code": code, "error_string": text}, status)
+
+    def _actual(self, state: JointReadings) -> Point:
+        velocities = (
+            tuple(state.velocity[j] for j in self.joints) if self.has_velocity_state else ()
+        )
+        return Point(0, tuple(state.position[j] for j in self.joints), velocities)
+
+    def update(self, state: JointReadings, period_ns: int) -> Output:
+        """One control cycle at ``state.sim_time_ns``."""
+        out = Output()
+        if not self.active:
+            return out
+        now = state.sim_time_ns
+        actual = self._actual(state)
+        desired: Sample | None = None
+        error: tuple[list[float], list[float]] | None = None
+        trajectory = self.trajectory
+        if trajectory is not None:
+            first_sample = not trajectory.sampled
+            if first_sample:
+                trajectory.set_point_before(now, actual)
+            desired, start_index, end_index = trajectory.sample(now)
+            command, _, _ = trajectory.sample(now + period_ns)
+            if desired is not None and command is not None:
+                error = self._check(
+                    out, trajectory, state, actual, desired, command, start_index, end_index,
+                    first_sample,
+                )  # fmt: skip
+        elif self.holding is not None:
+            desired = self.holding
+            error = (
+                [d - a for d, a in zip(desired.positions, actual.positions, strict=True)],
+                [0.0] * len(self.joints),
+            )
+        self._flush_feedback(out, now)
+        if self.state_period_ns == 0 or now >= self._state_next:
+            self._state_next = now + self.state_period_ns
+            out.publications.append(self._state_msg(now, actual, desired, error))
+        return out
+
+    def _check(
+        self,
+        out: Output,
+        trajectory: SampledTrajectory,
+        state: JointReadings,
+        actual: Point,
+        desired: Sample,
+        command: Sample,
+        start_index: int,
+        end_index: int,
+        first_sample: bool,
+    ) -> tuple[list[float], list[float]]:
+        now = state.sim_time_ns
+        tol = self.tolerances
+        segment_t = trajectory.start_ns + trajectory.points[start_index].time_from_start_ns
+        time_difference = (now - segment_t) / 1e9
+        before_last = end_index != len(trajectory.points)
+        path_violated = False
+        outside_goal = False
+        within_goal_time = True
+        err_pos: list[float] = []
+        err_vel: list[float] = []
+        for i, _joint in enumerate(self.joints):
+            ep = desired.positions[i] - actual.positions[i]
+            ev = (
+                desired.velocities[i] - actual.velocities[i]
+                if self.has_velocity_state and self.has_velocity_command
+                else 0.0
+            )
+            err_pos.append(ep)
+            err_vel.append(ev)
+            if (before_last or first_sample) and not within(tol.state[i], ep, ev, 0.0):
+                path_violated = True
+            if not before_last and not within(tol.goal[i], ep, ev, 0.0):
+                outside_goal = True
+                if tol.goal_time != 0.0 and time_difference > tol.goal_time:
+                    within_goal_time = False
+        if not path_violated and within_goal_time:
+            out.commands += [
+                Command(j, position=command.positions[i], velocity=command.velocities[i])
+                for i, j in enumerate(self.joints)
+            ]
+        goal = self.goal
+        if goal is not None:
+            self._pending_feedback = Feedback(
+                goal,
+                {
+                    "header": {"stamp": stamp(now), "frame_id": ""},
+                    "joint_names": list(self.joints),
+                    "desired": point_msg(
+                        desired.positions, desired.velocities, desired.accelerations
+                    ),
+                    "actual": point_msg(actual.positions, actual.velocities),
+                    "error": point_msg(err_pos, err_vel if self.has_velocity_state else ()),
+                },
+            )
+            if path_violated:
+                self._end(out, goal, PATH_TOLERANCE_VIOLATED,
+                          "Aborted due to path tolerance violation")  # fmt: skip
+                out.commands += self._hold(state)
+            elif not before_last:
+                if not outside_goal:
+                    out.results.append(
+                        self._result(goal, SUCCESSFUL, "Goal successfully reached!", GOAL_SUCCEEDED)
+                    )
+                    self.goal = None
+                    self._flush_feedback(out, now, force=True)
+                    self.trajectory = None
+                    self.holding = desired
+                elif not within_goal_time:
+                    self._end(
+                        out,
+                        goal,
+                        GOAL_TOLERANCE_VIOLATED,
+                        f"Aborted due to goal_time_tolerance exceeding by {time_difference:f} "
+                        "seconds",
+                    )
+                    out.commands += self._hold(state)
+        elif path_violated or (not before_last and not within_goal_time):
+            out.logs.append(LogLine(40, "tolerance violated: holding position"))
+            out.commands += self._hold(state)
+        elif not before_last and not outside_goal:
+            self.trajectory = None  # reached: the last command holds
+            self.holding = desired
+        return err_pos, err_vel
+
+    def _end(self, out: Output, goal: int, code: int, text: str) -> None:
+        self._flush_feedback(out, 0, force=True)
+        out.results.append(self._result(goal, code, text, GOAL_ABORTED))
+        out.logs.append(LogLine(30, f"{text}"))
+        self.goal = None
+
+    def _flush_feedback(self, out: Output, now: int, force: bool = False) -> None:
+        pending = self._pending_feedback
+        if pending is None:
+            return
+        if force or now >= self._monitor_next:
+            out.feedback.append(pending)
+            self._pending_feedback = None
+            if not force:
+                self._monitor_next += self.monitor_period_ns * max(
+                    1, (now - self._monitor_next) // self.monitor_period_ns + 1
+                )
+
+    def _state_msg(
+        self,
+        now: int,
+        actual: Point,
+        desired: Sample | None,
+        error: tuple[list[float], list[float]] | None,
+    ) -> Publication:
+        actual_msg = point_msg(actual.positions, actual.velocities)
+        if desired is None or error is None:
+            desired_msg = point_msg(actual.positions, actual.velocities)
+            error_msg = point_msg([0.0] * len(self.joints))
+        else:
+            desired_msg = point_msg(desired.positions, desired.velocities, desired.accelerations)
+            error_msg = point_msg(error[0], error[1] if self.has_velocity_state else ())
+        msg = {
+            "header": {"stamp": stamp(now), "frame_id": ""},
+            "joint_names": list(self.joints),
+            "reference": desired_msg,
+            "feedback": actual_msg,
+            "error": error_msg,
+            "output": desired_msg,
+            "desired": desired_msg,
+            "actual": actual_msg,
+        }
+        return Publication("~/controller_state", STATE_TYPE, msg)

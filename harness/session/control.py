@@ -1,0 +1,385 @@
+"""The session's side of the controllers (:mod:`harness.controllers`): one controller manager per
+robot, bound to the graph.
+
+:class:`ControlHost` is the small interface :class:`~harness.session.core.SessionCore` calls:
+:meth:`~ControlHost.start` (subscribe the controllers' topics, serve their actions and the
+``controller_manager`` services), :meth:`~ControlHost.before_step` (every controller update due
+at this step boundary) and :meth:`~ControlHost.reset`. Whatever a controller returns is applied
+here: joint commands through the robot's :class:`~harness.sim.RobotJoints` (a refused command
+tells its client with a status frame, as the command topics do), publications through the core
+(recorded like every message), action feedback and results through the bridge (recorded as
+frames), log lines as events. Everything happens at step boundaries in simulation time, so a
+recording replays it bit for bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Protocol
+
+from harness.controllers import (
+    SERVICES,
+    Command,
+    ControllerManager,
+    ControllersConfig,
+    ControllersConfigError,
+    JointReadings,
+    Output,
+    default_controllers,
+    load_controllers,
+)
+from harness.events import Level
+from harness.models import LoadedRobot, LoadedWorld
+from harness.rosbridge import ActionGoal
+from harness.session.topics import node_name
+from harness.sim import CommandError, Notice
+
+__all__ = [
+    "ControlHost",
+    "ControllersOption",
+    "controllers_from_metadata",
+    "controllers_metadata",
+    "controllers_option",
+    "resolve_default",
+]
+
+_CONFIG_DEFAULT = "default"
+_CONFIG_NONE = "none"
+
+
+ControllersOption = ControllersConfig | str | Path | Mapping[str, Any] | bool | None
+"""What ``controllers=`` takes: a controllers YAML (path, text or parsed mapping), a
+:class:`ControllersConfig`, None/True (the default set) or False/``"none"`` (no controllers)."""
+
+
+def controllers_option(value: ControllersOption) -> ControllersConfig | str:
+    """The core's form of a ``controllers=`` value (a YAML is read here)."""
+    if value is None or value is True or value == _CONFIG_DEFAULT:
+        return _CONFIG_DEFAULT
+    if value is False or value == _CONFIG_NONE:
+        return _CONFIG_NONE
+    if isinstance(value, ControllersConfig):
+        return value
+    if isinstance(value, str | Path | Mapping):
+        return load_controllers(value)
+    raise ControllersConfigError(
+        f"controllers must be a YAML file, YAML text, a mapping, True or False, not {value!r}"
+    )
+
+
+def resolve_default(
+    config: ControllersConfig | str, robot: LoadedRobot | LoadedWorld
+) -> ControllersConfig | str:
+    """``"default"`` for one robot resolved to its default set, so that a recording holds the
+    exact configuration (a world's robots each resolve their own at run time)."""
+    if config != _CONFIG_DEFAULT or not isinstance(robot, LoadedRobot):
+        return config
+    # a single robot's controllable joints, in the simulation's order (its control order)
+    return default_controllers(list(robot.control), robot.control)
+
+
+def controllers_metadata(config: ControllersConfig | str) -> str:
+    """The recording metadata text of a session's controllers option."""
+    return config if isinstance(config, str) else config.to_json()
+
+
+def controllers_from_metadata(text: str | None) -> ControllersConfig | str:
+    """The controllers option of a recorded session (a recording without the key had none)."""
+    if text is None or text == _CONFIG_NONE:
+        return _CONFIG_NONE
+    if text == _CONFIG_DEFAULT:
+        return _CONFIG_DEFAULT
+    return ControllersConfig.from_json(text)
+
+
+class _Core(Protocol):
+    """What the host needs of the session core."""
+
+    sim: Any
+    robot_name: str
+    robots: Any
+    graph: Any
+    bridge: Any
+
+    def publish(
+        self,
+        topic: str,
+        type: str,
+        build: Callable[[], Mapping[str, Any]],
+        *,
+        latch: bool = False,
+        record: bool = True,
+    ) -> None: ...
+
+    def log(self, level: Level, text: str) -> None: ...
+
+
+class _RobotControl:
+    """One robot's controller manager and the goals in flight."""
+
+    def __init__(self, host: ControlHost, channels: Any, config: ControllersConfig) -> None:
+        self.host = host
+        self.channels = channels
+        joints = channels.joints
+        self.manager = ControllerManager(
+            config,
+            joints.control,
+            channels.js_names,
+            self.read,
+            robot=channels.namespace or host.core.robot_name,
+        )
+        self.every = max(1, round(self.manager.update_period_ns / host.core.sim.dt_ns))
+        self.goals: dict[int, ActionGoal] = {}
+        self.warned: set[tuple[str, str, str]] = set()
+        self.topics: dict[str, str] = {}
+        """Resolved topic -> controller name (the topics its controllers subscribe)."""
+
+    def resolve(self, controller: str, name: str) -> str:
+        ns = self.channels.namespace
+        base = f"/{ns}/{controller}" if ns else f"/{controller}"
+        return base + "/" + name.removeprefix("~/") if name.startswith("~/") else name
+
+    def read(self) -> JointReadings:
+        joints = self.channels.joints
+        names = joints.joint_names
+        return JointReadings(
+            self.host.core.sim.sim_time_ns,
+            dict(zip(names, joints.joint_positions().tolist(), strict=True)),
+            dict(zip(names, joints.joint_velocities().tolist(), strict=True)),
+            dict(zip(names, joints.joint_efforts().tolist(), strict=True)),
+        )
+
+
+class ControlHost:
+    """The controllers of every robot of a core (see the module docstring). ``config``: a
+    :class:`ControllersConfig` (every robot gets it), ``"default"`` (each robot its
+    :func:`~harness.controllers.default_controllers`) or ``"none"``."""
+
+    def __init__(self, core: _Core, config: ControllersConfig | str) -> None:
+        self.core = core
+        self.robots: list[_RobotControl] = []
+        self._next_goal = 1
+        if config == _CONFIG_NONE:
+            return
+        for channels in core.robots:
+            joints = channels.joints
+            own = (
+                default_controllers(joints.joint_names, joints.control)
+                if config == _CONFIG_DEFAULT
+                else config
+            )
+            assert isinstance(own, ControllersConfig)
+            robot = _RobotControl(self, channels, own)
+            for name, controller in robot.manager.built.items():
+                for endpoint in controller.subscriptions:
+                    robot.topics[robot.resolve(name, endpoint.name)] = name
+            self.robots.append(robot)
+
+    def claims(self, topic: str) -> bool:
+        """Whether a controller subscribes ``topic`` (the core then leaves it alone)."""
+        return any(topic in robot.topics for robot in self.robots)
+
+    # ----------------------------------------------------------------------------- set-up
+
+    def start(self) -> None:
+        """Subscribe, serve, and load/activate every robot's controllers."""
+        graph = self.core.graph
+        serve_action = getattr(graph, "serve_action", None)
+        for robot in self.robots:
+            manager = robot.manager
+            namespace = robot.channels.namespace
+            for name, controller in manager.built.items():
+                node = node_name(namespace, name)
+                for topic in controller.publishers:
+                    graph.advertise(robot.resolve(name, topic.name), topic.type, node=node)
+                for topic in controller.subscriptions:
+                    graph.subscribe(
+                        robot.resolve(name, topic.name),
+                        topic.type,
+                        self._on_message(robot, name, topic.name),
+                        node=node,
+                    )
+                for action in controller.actions:
+                    resolved = robot.resolve(name, action.name)
+                    if serve_action is None:
+                        self.core.log(
+                            Level.WARNING,
+                            f"{resolved}: actions are not served through an external "
+                            "rosbridge server",
+                        )
+                        continue
+                    serve_action(
+                        resolved, action.type, self._on_goal(robot, name, action.name), node=node
+                    )
+            for service, type in SERVICES.items():
+                graph.serve(
+                    robot.resolve("controller_manager", "~/" + service),
+                    type,
+                    self._on_service(robot, service),
+                    node=node_name(namespace, "controller_manager"),
+                )
+            self._apply(robot, manager.start())
+
+    # ----------------------------------------------------------------------------- stepping
+
+    def before_step(self) -> None:
+        """Run every controller update due at the current step boundary."""
+        k = self.core.sim.step_index
+        for robot in self.robots:
+            if k % robot.every:
+                continue
+            active = robot.manager.active()
+            if not active:
+                continue
+            state = robot.read()
+            period = robot.every * self.core.sim.dt_ns
+            for controller in active:
+                self._apply(robot, controller.update(state, period), controller.name)
+
+    def reset(self) -> None:
+        """After a reset to the initial state: every active controller restarts (goals end)."""
+        for robot in self.robots:
+            self._apply(robot, robot.manager.restart())
+
+    # ----------------------------------------------------------------------------- inputs
+
+    def _on_message(
+        self, robot: _RobotControl, name: str, topic: str
+    ) -> Callable[[Mapping[str, Any], int], None]:
+        def handle(msg: Mapping[str, Any], connection: int) -> None:
+            entry = robot.manager.loaded.get(name)
+            if entry is None:
+                return
+            out = entry.controller.on_message(topic, msg, connection, robot.read())
+            self._apply(robot, out, name, connection, robot.resolve(name, topic))
+
+        return handle
+
+    def _on_goal(
+        self, robot: _RobotControl, name: str, action: str
+    ) -> Callable[[ActionGoal], None]:
+        def handle(goal: ActionGoal) -> None:
+            gid = self._next_goal
+            self._next_goal += 1
+            robot.goals[gid] = goal
+            entry = robot.manager.loaded.get(name)
+            if entry is None:
+                goal.finish({}, 6)
+                robot.goals.pop(gid, None)
+                return
+
+            def cancel(_: ActionGoal) -> None:
+                current = robot.manager.loaded.get(name)
+                if current is not None:
+                    out = current.controller.on_cancel(action, gid, robot.read())
+                    self._apply(robot, out, name)
+
+            goal.on_cancel = cancel
+            out = entry.controller.on_goal(action, gid, goal.goal, robot.read())
+            self._apply(robot, out, name, goal.connection)
+
+        return handle
+
+    def _on_service(
+        self, robot: _RobotControl, service: str
+    ) -> Callable[[Mapping[str, Any]], Mapping[str, Any]]:
+        def handle(request: Mapping[str, Any]) -> Mapping[str, Any]:
+            response, out = robot.manager.handle(service, request)
+            self._apply(robot, out)
+            return response
+
+        return handle
+
+    # ----------------------------------------------------------------------------- outputs
+
+    def _apply(
+        self,
+        robot: _RobotControl,
+        out: Output,
+        controller: str = "",
+        connection: int = 0,
+        where: str = "",
+    ) -> None:
+        """Apply a controller's output; ``where`` (a topic, else the controller's name)
+        prefixes its log lines."""
+        core = self.core
+        where = where or controller or "controller_manager"
+        for log in out.logs:
+            text = f"{where}: {log.text}"
+            if log.connection:
+                core.graph.status(log.connection, "error" if log.level >= 40 else "warning", text)
+            core.log(Level(log.level), text)
+        if out.commands:
+            self._command(robot, out.commands, where, connection)
+        for pub in out.publications:
+            # to subscribers only: the frames sent are recorded (as /rosout's are), no channel
+            # of its own (a session's recorded channels stay what they were)
+            core.publish(
+                robot.resolve(controller, pub.topic),
+                pub.type,
+                lambda msg=pub.msg: msg,  # type: ignore[misc]
+                record=False,
+            )
+        if out.feedback or out.results:
+            bridge = core.bridge
+            if bridge is not None:
+                bridge.set_now(core.sim.sim_time_ns)
+            for fb in out.feedback:
+                goal = robot.goals.get(fb.goal)
+                if goal is not None:
+                    goal.feedback(fb.values)
+            for result in out.results:
+                goal = robot.goals.pop(result.goal, None)
+                if goal is not None:
+                    goal.finish(result.values, result.status)
+
+    def _command(
+        self, robot: _RobotControl, commands: list[Command], where: str, connection: int
+    ) -> None:
+        joints = robot.channels.joints
+        control = joints.control
+        fields: dict[str, dict[str, float]] = {"position": {}, "velocity": {}, "effort": {}}
+        for cmd in commands:
+            given = {
+                f: v
+                for f, v in (
+                    ("position", cmd.position),
+                    ("velocity", cmd.velocity),
+                    ("effort", cmd.effort),
+                )
+                if v is not None
+            }
+            if len(given) == 1:
+                ((field, value),) = given.items()
+            else:
+                mode = control.get(cmd.joint, "position")
+                field = "position" if mode == "kinematic" else mode
+                if field not in given:
+                    continue
+                value = given[field]
+            fields[field][cmd.joint] = value
+        notices: list[Notice] = []
+        try:
+            if fields["position"]:
+                notices += joints.set_positions(fields["position"])
+            if fields["velocity"]:
+                notices += joints.set_velocities(fields["velocity"])
+            if fields["effort"]:
+                notices += joints.set_efforts(fields["effort"])
+        except CommandError as exc:
+            text = f"{where}: command refused: {exc}"
+            if connection:
+                self.core.graph.status(connection, "error", text)
+            self.core.log(Level.ERROR, text)
+            return
+        robot.channels.drop_from_trajectory([c.joint for c in commands])
+        for notice in notices:
+            key = (where, notice.joint, notice.kind)
+            if not connection and key in robot.warned:
+                continue  # a controller's every cycle: once per joint
+            robot.warned.add(key)
+            text = f"{where}: {notice.message}"
+            if connection:
+                self.core.graph.status(connection, "warning", text)
+            self.core.log(Level.WARNING, text)
