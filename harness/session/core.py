@@ -90,6 +90,8 @@ from harness.session.topics import (
     stamp,
     tf_msg,
 )
+from harness.sensors import TOPIC_TF_STATIC
+from harness.sensors.hook import record_metadata, session_sensors
 from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
 
 __all__ = [
@@ -275,6 +277,10 @@ class CoreOptions:
     start: StartMode = "now"
     record_bridge_frames: bool = True
     max_step_request: int = DEFAULT_MAX_STEP_REQUEST
+    sensors: Sequence[Mapping[str, Any]] = ()
+    """Sensors besides those the robot files declare (see :class:`harness.sensors.SensorSpec`)."""
+    seed: int = 0
+    """The session seed (sensor noise); recorded as the ``seed`` metadata key."""
 
     def __post_init__(self) -> None:
         if self.clock not in CLOCK_MODES:
@@ -360,7 +366,8 @@ class CoreOptions:
             "start": self.start,
             "bridge_frames": "true" if self.record_bridge_frames else "false",
             "max_step_request": str(self.max_step_request),
-        }  # state_every: the recorder writes it
+            **({"sensors": json.dumps(list(self.sensors), sort_keys=True)} if self.sensors else {}),
+        }  # state_every and seed: the recorder and describe_run write them
 
     @classmethod
     def from_metadata(cls, metadata: Mapping[str, str]) -> CoreOptions:
@@ -407,6 +414,8 @@ class CoreOptions:
             start=metadata.get("start", defaults.start),  # type: ignore[arg-type]
             record_bridge_frames=metadata.get("bridge_frames", "true") != "false",
             max_step_request=int(cap),
+            sensors=tuple(json.loads(metadata.get("sensors", "[]"))),
+            seed=int(metadata.get("seed", "0") or 0),
         )
 
 
@@ -646,6 +655,13 @@ class SessionCore:
         self.links = tuple(link for r in self.robots for link in r.links)
         """MuJoCo body names of every robot's links."""
         self.dt_ns = self.sim.dt_ns
+        self.sensors = session_sensors(
+            robot, self.sim.model, options.sensors, namespace=self.namespace,
+            seed=options.seed, dt_ns=self.dt_ns,
+        )  # fmt: skip
+        """The simulated sensors (None without any: then no sensor code runs)."""
+        if self.sensors is not None and recorder is not None:
+            record_metadata(self.sensors, recorder)
         hz = options.joint_states_hz
         self._js_every = period_steps(hz, self.dt_ns)
         self._tf_every = period_steps(hz if options.tf_hz is None else options.tf_hz, self.dt_ns)
@@ -774,6 +790,8 @@ class SessionCore:
                 lambda text=text: {"data": text},  # type: ignore[misc]
                 latch=True,
             )
+        if self.sensors is not None:
+            self.publish(TOPIC_TF_STATIC, TYPE_TF, self.sensors.static_tf, latch=True)
         self._after_state()
 
     # ----------------------------------------------------------------------------- stepping
@@ -874,6 +892,9 @@ class SessionCore:
                     TYPE_TF,
                     lambda robots=robots: self._tf(robots),  # type: ignore[misc]
                 )
+        if self.sensors is not None:
+            for due in self.sensors.due(sim.data, k, sim.sim_time_ns):
+                self.publish(due.output.topic, due.output.msgtype, due.build, record=due.output.record)
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
         data = self.sim.data
@@ -1239,4 +1260,6 @@ class SessionCore:
                 self.hub.finish(StepContext.of(self.sim, self.robot_name))
         finally:
             reports = self.hub.close()
+            if self.sensors is not None:
+                self.sensors.close()
         return reports

@@ -210,6 +210,8 @@ class Session:
     ``"paused"`` or ``"on_client"`` (free-running clocks only, see the module docstring).
     ``record_bridge_frames``: record the bridge frames and markers (default True).
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
+    ``sensors``: sensors besides those the robot files declare (mappings with the keys of
+    :class:`harness.sensors.SensorSpec`; noise drawn from ``seed``).
     """
 
     def __init__(
@@ -241,6 +243,7 @@ class Session:
         start: StartMode = "now",
         record_bridge_frames: bool = True,
         max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
+        sensors: Sequence[Mapping[str, Any]] = (),
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
@@ -261,6 +264,8 @@ class Session:
             start=start,
             record_bridge_frames=record_bridge_frames,
             max_step_request=max_step_request,
+            sensors=tuple(sensors),
+            seed=seed,
         )
         self.clock: ClockMode = clock
         self.start: StartMode = start
