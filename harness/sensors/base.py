@@ -134,7 +134,9 @@ def mount_of(model: mujoco.MjModel, spec: SensorSpec, prefix: str = "") -> Mount
 def noise_rng(seed: int, name: str, step: int) -> np.random.Generator:
     """The noise generator of sensor ``name`` at ``step``: a function of the session seed, the
     sensor and the step only, so noise does not depend on who listened before."""
-    return np.random.Generator(np.random.PCG64([seed & 0xFFFFFFFF, zlib.crc32(name.encode()), step]))
+    return np.random.Generator(
+        np.random.PCG64([seed & 0xFFFFFFFF, zlib.crc32(name.encode()), step])
+    )
 
 
 @dataclass

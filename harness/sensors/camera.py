@@ -99,7 +99,9 @@ class CameraSensor:
         self._ray_x = np.broadcast_to(u[np.newaxis, :], (height, width)).astype(np.float32)
         self._ray_y = np.broadcast_to(v[:, np.newaxis], (height, width)).astype(np.float32)
 
-    def render(self, view: View) -> tuple[npt.NDArray[np.uint8] | None, npt.NDArray[np.float32] | None]:
+    def render(
+        self, view: View
+    ) -> tuple[npt.NDArray[np.uint8] | None, npt.NDArray[np.float32] | None]:
         """The RGB image and the depth image (metres, ``inf`` beyond the far clip) now."""
         renderer = self._renderer()
         if self._scene is None:

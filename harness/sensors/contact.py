@@ -34,7 +34,7 @@ class ContactSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs = (Output("contacts", topics["contacts"], TYPE_CONTACTS),)
+        self.outputs: tuple[Output, ...] = (Output("contacts", topics["contacts"], TYPE_CONTACTS),)
         if spec.collision:
             geom = _find(model, mujoco.mjtObj.mjOBJ_GEOM, prefix + spec.collision)
             if geom < 0:

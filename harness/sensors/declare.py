@@ -210,9 +210,7 @@ def _topics(kind: SensorType, topic: str, base: str) -> dict[str, str]:
     return {output: f"{base}/{output}"}
 
 
-def _sensor(
-    sensor: etree._Element, parent: str, source: str, joint: str = ""
-) -> SensorSpec | None:
+def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -> SensorSpec | None:
     raw_type = sensor.get("type", "")
     name = sensor.get("name", "")
     where = f"{source}: <sensor name={name!r} type={raw_type!r}> on {parent!r}"
@@ -279,7 +277,7 @@ def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpe
         if not reference:
             raise SensorConfigError(
                 f"{source}: line {gazebo.sourceline}: a <gazebo> block with a <sensor> needs "
-                "reference=\"link\""
+                'reference="link"'
             )
         for sensor in sensors:
             spec = _sensor(sensor, reference, source)

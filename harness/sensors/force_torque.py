@@ -35,7 +35,7 @@ class ForceTorqueSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs = (Output("wrench", topics["wrench"], TYPE_WRENCH),)
+        self.outputs: tuple[Output, ...] = (Output("wrench", topics["wrench"], TYPE_WRENCH),)
         self._root = int(model.body_rootid[mount.body])
         self._parent = int(model.body_parentid[mount.body])
 
@@ -76,4 +76,3 @@ class ForceTorqueSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """The sensor frame in the mount link."""
         return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]
-

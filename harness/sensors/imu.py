@@ -44,7 +44,7 @@ class ImuSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs = (Output("imu", topics["imu"], TYPE_IMU),)
+        self.outputs: tuple[Output, ...] = (Output("imu", topics["imu"], TYPE_IMU),)
 
     def values(self, view: View) -> tuple[F64, F64, F64]:
         """(orientation w-x-y-z, angular velocity, linear acceleration) in the sensor frame."""

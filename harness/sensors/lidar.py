@@ -51,14 +51,12 @@ class LidarSensor:
         self.frame_id = frame_id
         self.planar = spec.vertical_samples == 1
         key = "scan" if self.planar else "points"
-        self.outputs = (
+        self.outputs: tuple[Output, ...] = (
             Output(key, topics[key], TYPE_LASER_SCAN if self.planar else TYPE_POINT_CLOUD2),
         )
         self._model = model
         horizontal = _angles(spec.samples, spec.min_angle, spec.max_angle)
-        vertical = _angles(
-            spec.vertical_samples, spec.vertical_min_angle, spec.vertical_max_angle
-        )
+        vertical = _angles(spec.vertical_samples, spec.vertical_min_angle, spec.vertical_max_angle)
         elevation, azimuth = np.meshgrid(vertical, horizontal, indexing="ij")
         self._directions: F64 = np.stack(
             [

@@ -221,9 +221,7 @@ def contact_state(
     }
 
 
-def static_tf_msg(
-    sim_time_ns: int, frames: Sequence[tuple[str, str, F64, F64]]
-) -> dict[str, Any]:
+def static_tf_msg(sim_time_ns: int, frames: Sequence[tuple[str, str, F64, F64]]) -> dict[str, Any]:
     """A ``tf2_msgs/TFMessage`` of ``(parent, child, xyz, quat w-x-y-z)`` transforms."""
     transforms = []
     for parent, child, xyz, quat in frames:

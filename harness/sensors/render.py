@@ -94,7 +94,7 @@ def _context(width: int, height: int) -> tuple[Any, str]:
 
 
 def _gl_strings() -> tuple[str, str, str]:
-    from OpenGL import GL  # imported only once a context exists
+    from OpenGL import GL  # type: ignore[import-untyped]  # only once a context exists
 
     def text(name: int) -> str:
         value = GL.glGetString(name)
@@ -117,7 +117,7 @@ class OffscreenRenderer:
             self._gl, backend = _context(int(vis.offwidth), int(vis.offheight))
             _created += 1
         self.model = model
-        self._mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
+        self._mjr: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._mjr)
         self._mjr.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         vendor, renderer, version = _gl_strings()
@@ -182,5 +182,5 @@ class OffscreenRenderer:
         if self._mjr is not None:
             self._gl.make_current()
             self._mjr.free()
-            self._mjr = None  # type: ignore[assignment]
+            self._mjr = None
             self._gl.free()

@@ -114,8 +114,10 @@ class SensorSpec:
 
     def __post_init__(self) -> None:
         where = f"sensor {self.name!r}" + (f" ({self.source})" if self.source else "")
-        if not isinstance(self.name, str) or not self.name or not all(
-            c.isalnum() or c in "_-/" for c in self.name
+        if (
+            not isinstance(self.name, str)
+            or not self.name
+            or not all(c.isalnum() or c in "_-/" for c in self.name)
         ):
             raise SensorConfigError(f"{where}: the name must be letters, digits, _ - or /")
         if self.type not in SENSOR_TYPES:
@@ -128,7 +130,9 @@ class SensorSpec:
             raise SensorConfigError(f"{where}: a force_torque sensor needs a joint")
         pose = tuple(float(v) for v in self.pose)
         if len(pose) != 6 or not all(math.isfinite(v) for v in pose):
-            raise SensorConfigError(f"{where}: pose must be 6 finite numbers (x y z roll pitch yaw)")
+            raise SensorConfigError(
+                f"{where}: pose must be 6 finite numbers (x y z roll pitch yaw)"
+            )
         object.__setattr__(self, "pose", pose)
         if self.update_rate is None:
             object.__setattr__(self, "update_rate", DEFAULT_RATES[self.type])

@@ -14,6 +14,7 @@ never touched: a session with sensors steps bit-for-bit as one without.
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -63,6 +64,22 @@ def _resolve(name: str, namespace: str) -> str:
     if name.startswith("/"):
         return name
     return f"/{namespace}/{name}" if namespace else f"/{name}"
+
+
+class _Reading:
+    """One sensor's reading at one step, made on the first message asked of it."""
+
+    def __init__(
+        self, suite: SensorSuite, sensor: Sensor, data: mujoco.MjData, step: int, time_ns: int
+    ) -> None:
+        self._args = (suite, sensor, data, step, time_ns)
+        self._builders: Mapping[str, Callable[[], dict[str, Any]]] | None = None
+
+    def message(self, key: str) -> Mapping[str, Any]:
+        if self._builders is None:
+            suite, sensor, data, step, time_ns = self._args
+            self._builders = sensor.read(suite.view(data, step, time_ns))
+        return self._builders[key]()
 
 
 class SensorSuite:
@@ -198,18 +215,9 @@ class SensorSuite:
         for sensor, every in zip(self.sensors, self._every, strict=True):
             if step % every:
                 continue
-            builders: list[Mapping[str, Callable[[], dict[str, Any]]]] = []
-
-            def builder(
-                key: str, sensor: Sensor = sensor, builders: list[Any] = builders
-            ) -> Mapping[str, Any]:
-                if not builders:
-                    builders.append(sensor.read(self.view(data, step, sim_time_ns)))
-                built: Mapping[str, Any] = builders[0][key]()
-                return built
-
+            reading = _Reading(self, sensor, data, step, sim_time_ns)
             for output in sensor.outputs:
-                out.append(Due(output, lambda key=output.key, b=builder: b(key)))
+                out.append(Due(output, functools.partial(reading.message, output.key)))
         return out
 
     def static_tf(self, sim_time_ns: int = 0) -> dict[str, Any]:
@@ -241,4 +249,3 @@ class SensorSuite:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-

@@ -62,6 +62,8 @@ from harness.events import (
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.rosbridge import DIRECTION_IN, Bridge, Output, TapRecord
+from harness.sensors import TOPIC_TF_STATIC
+from harness.sensors.hook import record_metadata, session_sensors
 from harness.session.commands import (
     FORWARD_TOPICS,
     Trajectory,
@@ -90,8 +92,6 @@ from harness.session.topics import (
     stamp,
     tf_msg,
 )
-from harness.sensors import TOPIC_TF_STATIC
-from harness.sensors.hook import record_metadata, session_sensors
 from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
 
 __all__ = [
@@ -894,7 +894,8 @@ class SessionCore:
                 )
         if self.sensors is not None:
             for due in self.sensors.due(sim.data, k, sim.sim_time_ns):
-                self.publish(due.output.topic, due.output.msgtype, due.build, record=due.output.record)
+                out = due.output
+                self.publish(out.topic, out.msgtype, due.build, record=out.record)
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
         data = self.sim.data
