@@ -60,11 +60,14 @@ class CameraSensor:
         topics: Mapping[str, str],
         frame_id: str,
         renderer: Callable[[], OffscreenRenderer],
+        sensor_frame: str = "",
     ) -> None:
         self.spec = spec
         self.mount = mount
-        self.frame_id = frame_id + "_optical"
-        self._sensor_frame = frame_id
+        # An explicit frame_id (a plugin's <frame_name>) is what the images carry; otherwise
+        # they carry "<sensor>_optical". Either is published in /tf_static below the sensor frame.
+        self._sensor_frame = sensor_frame
+        self.frame_id = frame_id if spec.frame_id else frame_id + "_optical"
         self._renderer = renderer
         self._scene: mujoco.MjvScene | None = None
         width, height = spec.width, spec.height
@@ -169,7 +172,7 @@ class CameraSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """The sensor frame and its optical frame in the mount link."""
         rotation = self.mount.rotation
-        return [
-            (self._sensor_frame, self.mount.position, quat_of(rotation)),
-            (self.frame_id, self.mount.position, quat_of(rotation @ OPTICAL)),
-        ]
+        optical = (self.frame_id, self.mount.position, quat_of(rotation @ OPTICAL))
+        if not self._sensor_frame or self._sensor_frame == self.frame_id:
+            return [optical]
+        return [(self._sensor_frame, self.mount.position, quat_of(rotation)), optical]

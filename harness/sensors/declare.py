@@ -269,6 +269,12 @@ def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpe
     """The sensors of the URDF ``<gazebo reference>`` blocks in ``data``."""
     root = parse_xml(data, source)
     out: list[SensorSpec] = []
+    # Gazebo force-torque sensors reference a joint: they sit on its child link.
+    children = {j.get("name", ""): _text(j, "child") or "" for j in root.iter("joint")}
+    for j in root.iter("joint"):
+        child = j.find("child")
+        if child is not None and child.get("link"):
+            children[j.get("name", "")] = child.get("link", "")
     for gazebo in root.iter("gazebo"):
         sensors = gazebo.findall("sensor")
         if not sensors:
@@ -280,7 +286,10 @@ def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpe
                 'reference="link"'
             )
         for sensor in sensors:
-            spec = _sensor(sensor, reference, source)
+            if reference in children:
+                spec = _sensor(sensor, children[reference], source, joint=reference)
+            else:
+                spec = _sensor(sensor, reference, source)
             if spec is not None:
                 out.append(spec)
     return out

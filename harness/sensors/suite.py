@@ -135,7 +135,8 @@ class SensorSuite:
         frame_id = robot.prefix + (spec.frame_id or spec.name)
         self._parents.append(mount.body_name)
         if spec.type in ("camera", "depth", "rgbd"):
-            return CameraSensor(spec, model, mount, topics, frame_id, self.renderer)
+            sensor_frame = robot.prefix + spec.name
+            return CameraSensor(spec, model, mount, topics, frame_id, self.renderer, sensor_frame)
         if spec.type == "lidar":
             return LidarSensor(spec, model, mount, topics, frame_id)
         if spec.type == "imu":

@@ -4,16 +4,20 @@ a suite of sensors on it, read at a step without a session."""
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
+
+import sys
+from pathlib import Path
 
 import mujoco
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # importlib mode: find sensor_helpers
+
+from sensor_helpers import RIG  # noqa: E402
+
 from harness.sensors import RobotMount, SensorSuite
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "sensors"
-RIG = DATA / "sensor_rig.xml"
 
 Read = Callable[..., dict[str, Mapping[str, Any]]]
 
