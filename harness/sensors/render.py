@@ -3,7 +3,7 @@ draws a scene from any pose with any field of view.
 
 The back-end is chosen when the first camera renders (a session without cameras never touches
 OpenGL): ``MUJOCO_GL=egl`` or ``osmesa`` in the environment picks one; otherwise EGL is tried,
-then OSMesa. The chosen one is put in ``MUJOCO_GL`` for the rest of the process. The GL vendor,
+then OSMesa (the first that gives a context is kept for the process). The GL vendor,
 renderer and version strings are kept (:class:`RendererInfo`): recordings hold them, because
 images are byte-identical only on the same renderer.
 
@@ -85,7 +85,6 @@ def _context(width: int, height: int) -> tuple[Any, str]:
         except Exception as exc:  # any failure of a back-end means: try the next one
             errors.append(f"{backend}: {type(exc).__name__}: {exc}".splitlines()[0])
             continue
-        os.environ["MUJOCO_GL"] = backend
         return context, backend
     raise RenderBackendError(
         "no offscreen OpenGL for camera sensors (" + "; ".join(errors) + "): install the Debian "
@@ -117,9 +116,10 @@ class OffscreenRenderer:
             self._gl, backend = _context(int(vis.offwidth), int(vis.offheight))
             _created += 1
         self.model = model
-        self._mjr: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._mjr)
-        self._mjr.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        mjr = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, mjr)
+        mjr.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._mjr: mujoco.MjrContext | None = mjr
         vendor, renderer, version = _gl_strings()
         self.info = RendererInfo(backend, vendor, renderer, version)
         self._option = mujoco.MjvOption()

@@ -3,21 +3,19 @@ a suite of sensors on it, read at a step without a session."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any
-
 import sys
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # importlib mode: find sensor_helpers
 
-from sensor_helpers import RIG  # noqa: E402
+from sensor_helpers import RIG
 
 from harness.sensors import RobotMount, SensorSuite
-
 
 Read = Callable[..., dict[str, Mapping[str, Any]]]
 
@@ -40,8 +38,7 @@ class Rig:
     def read(self, step: int = 0) -> dict[str, Mapping[str, Any]]:
         """Every message due at ``step`` (the state is the rig's current one), by topic."""
         return {
-            d.output.topic: d.build()
-            for d in self.suite.due(self.data, step, step * self.dt_ns)
+            d.output.topic: d.build() for d in self.suite.due(self.data, step, step * self.dt_ns)
         }
 
     def close(self) -> None:

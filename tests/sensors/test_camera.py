@@ -15,12 +15,14 @@ CAMERA = {"name": "cam", "type": "rgbd", "parent": "mount", "width": W, "height"
 
 
 def _rgb(msg: dict) -> np.ndarray:
-    assert msg["encoding"] == "rgb8" and msg["step"] == W * 3
+    assert msg["encoding"] == "rgb8"
+    assert msg["step"] == W * 3
     return np.frombuffer(msg["data"], np.uint8).reshape(H, W, 3)
 
 
 def _depth(msg: dict) -> np.ndarray:
-    assert msg["encoding"] == "32FC1" and msg["step"] == W * 4
+    assert msg["encoding"] == "32FC1"
+    assert msg["step"] == W * 4
     return np.frombuffer(msg["data"], "<f4").reshape(H, W)
 
 
@@ -29,7 +31,8 @@ def test_camera_info_k_matches_the_field_of_view(rig) -> None:
     info = out["/cam/camera_info"]
     fx = (W / 2) / math.tan(HFOV / 2)
     k = info["k"]
-    assert k[0] == pytest.approx(fx) and k[4] == pytest.approx(fx)  # square pixels
+    assert k[0] == pytest.approx(fx)
+    assert k[4] == pytest.approx(fx)
     assert (k[2], k[5]) == ((W - 1) / 2, (H - 1) / 2)
     assert (info["width"], info["height"]) == (W, H)
     assert info["header"]["frame_id"] == "cam_optical"
@@ -57,7 +60,8 @@ def test_depth_is_the_face_distance_within_a_millimetre(rig) -> None:
     assert np.isinf(depth[0, 0])  # nothing there within the far clip
     cloud = out["/cam/points"]
     points = np.frombuffer(cloud["data"], "<f4").reshape(H, W, 3)
-    assert cloud["point_step"] == 12 and not cloud["is_dense"]
+    assert cloud["point_step"] == 12
+    assert not cloud["is_dense"]
     assert points[H // 2, W // 2, 2] == pytest.approx(FACE, abs=1e-3)
     assert np.isnan(points[0, 0]).all()
 

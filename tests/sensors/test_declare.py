@@ -27,15 +27,16 @@ def _recorded(robot: Path, tmp_path: Path, steps: int) -> dict[str, tuple[str, s
             if header is not None:
                 frames.add(header.frame_id)
             if m.topic == "/tf_static":
-                frames.update(
-                    f"{t.header.frame_id}->{t.child_frame_id}" for t in m.msg.transforms
-                )
+                frames.update(f"{t.header.frame_id}->{t.child_frame_id}" for t in m.msg.transforms)
     return out
 
 
 def test_urdf_gazebo_sensors_on_their_topics_and_frames(tmp_path: Path) -> None:
     seen = _recorded(DATA / "sensor_bot.urdf", tmp_path, 100)
-    assert seen["/wrist_camera/image_raw"] == ("sensor_msgs/msg/Image", {"wrist_camera_link_optical"})
+    assert seen["/wrist_camera/image_raw"] == (
+        "sensor_msgs/msg/Image",
+        {"wrist_camera_link_optical"},
+    )
     assert seen["/wrist_camera/camera_info"][1] == {"wrist_camera_link_optical"}
     assert "/wrist_camera/image_raw/compressed" not in seen  # raw recorded, PNG on request
     assert seen["/scan"] == ("sensor_msgs/msg/LaserScan", {"laser_frame"})
@@ -63,9 +64,11 @@ def test_urdf_parameters_are_read() -> None:
     specs = {s.name: s for s in sensors_from_urdf((DATA / "sensor_bot.urdf").read_bytes())}
     cam, laser = specs["wrist_camera"], specs["laser"]
     assert (cam.type, cam.width, cam.height, cam.hfov, cam.far) == ("camera", 32, 24, 1.2, 10.0)
-    assert cam.pose == (0, 0, 0.3, 0, 0, 0) and cam.update_rate == 5
+    assert cam.pose == (0, 0, 0.3, 0, 0, 0)
+    assert cam.update_rate == 5
     assert (laser.type, laser.samples, laser.min_angle, laser.range_max) == ("lidar", 90, -1.57, 8)
-    assert specs["tool_ft"].parent == "tool" and specs["tool_ft"].joint == "tool_joint"
+    assert specs["tool_ft"].parent == "tool"
+    assert specs["tool_ft"].joint == "tool_joint"
 
 
 @pytest.mark.parametrize(
@@ -88,7 +91,9 @@ def test_bad_declarations_say_what_and_where(value: dict, message: str) -> None:
 
 def test_unknown_link_and_bad_urdf_value(tmp_path: Path) -> None:
     with pytest.raises(SensorConfigError, match="no link 'nowhere'"):
-        Session(DATA / "sensor_rig.xml", sensors=[{"name": "c", "type": "imu", "parent": "nowhere"}])
+        Session(
+            DATA / "sensor_rig.xml", sensors=[{"name": "c", "type": "imu", "parent": "nowhere"}]
+        )
     bad = (DATA / "sensor_bot.urdf").read_text().replace("<samples>90", "<samples>many")
     with pytest.raises(SensorConfigError, match="<scan/horizontal/samples> is 'many'"):
         sensors_from_urdf(bad.encode(), "bad.urdf")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import mujoco
 import numpy as np
 import pytest
 
@@ -19,7 +18,12 @@ def test_imu_at_rest_reads_gravity_on_its_up_axis(rig) -> None:
     out = rig(
         [
             {"name": "imu", "type": "imu", "parent": "mount"},
-            {"name": "rolled", "type": "imu", "parent": "mount", "pose": [0, 0, 0, math.pi / 2, 0, 0]},
+            {
+                "name": "rolled",
+                "type": "imu",
+                "parent": "mount",
+                "pose": [0, 0, 0, math.pi / 2, 0, 0],
+            },
         ]
     ).read()
     imu = out["/imu/imu"]
@@ -51,7 +55,8 @@ def test_force_torque_under_a_hanging_mass_reads_its_weight(rig) -> None:
     out = r.read()
     force = _vec(out["/ft/wrench"]["wrench"]["force"])
     assert force[2] == pytest.approx(-2.0 * G, rel=0.01)  # the child pulls its parent down
-    assert abs(force[0]) < 1e-6 and abs(force[1]) < 1e-6
+    assert abs(force[0]) < 1e-6
+    assert abs(force[1]) < 1e-6
     assert _vec(out["/ft_up/wrench"]["wrench"]["force"])[2] == pytest.approx(2.0 * G, rel=0.01)
     assert out["/ft/wrench"]["header"]["frame_id"] == "ft"
 
