@@ -37,7 +37,7 @@ __all__ = [
 ]
 
 BACKENDS = ("egl", "osmesa")
-DEBIAN_PACKAGES = "libegl1 libegl-mesa0 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)"
+DEBIAN_PACKAGES = "libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 (EGL) or libosmesa6 (OSMesa)"
 """What to install on Debian/Ubuntu when no back-end works (``make system-deps`` does)."""
 
 _created = 0

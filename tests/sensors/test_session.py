@@ -104,3 +104,31 @@ def test_rates_are_in_simulation_time_and_lockstep_safe() -> None:
         session.step(250)  # 0.5 s
     assert stamps["imu"] == [k * 20_000_000 for k in range(1, 26)]
     assert stamps["scan"] == [k * 100_000_000 for k in range(1, 6)]
+
+
+NO_BACKEND = """
+import sys
+from harness.sensors import RenderBackendError
+from harness.session import Session
+camera = [{"name": "c", "type": "camera", "parent": "mount", "width": 16, "height": 12}]
+try:
+    with Session(sys.argv[1], sensors=camera, record_to=sys.argv[2]) as s:
+        s.step(1)
+except RenderBackendError as exc:
+    print("ERROR", exc)
+"""
+
+
+def test_no_offscreen_gl_is_a_clear_error_naming_the_packages(tmp_path: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "PYOPENGL_PLATFORM"}
+    env["MUJOCO_GL"] = "egl"  # the only back-end allowed...
+    env["__EGL_VENDOR_LIBRARY_FILENAMES"] = str(tmp_path / "none.json")  # ...and no EGL driver
+    proc = subprocess.run(
+        [sys.executable, "-c", NO_BACKEND, str(RIG), str(tmp_path / "x.mcap")],
+        capture_output=True, text=True, timeout=120, env=env,
+    )  # fmt: skip
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("ERROR")]
+    assert lines, proc.stdout + proc.stderr
+    assert "no offscreen OpenGL for camera sensors (egl:" in lines[0]
+    assert "libegl-mesa0" in lines[0]
+    assert "libosmesa6" in lines[0]
