@@ -39,7 +39,7 @@ logger options from it; marker keys win), ``mode`` (a control mode or joint -> m
 arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False), and
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
-``joint_command_topic``. Markers on the module/class/function merge, the closest wins.
+``joint_command_topic``, ``sensors``. Markers on the module/class/function merge, the closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
@@ -101,6 +101,7 @@ _SESSION_KEYS = (
     "kinematic_limits",
     "seed",
     "joint_command_topic",
+    "sensors",
 )
 MARKER_KEYS = frozenset(
     {
@@ -361,6 +362,8 @@ def _scenario_options(path: Path) -> dict[str, Any]:
         "state_every": scenario.recording.state_every,
         "scenario_text": path.read_bytes(),
     }
+    if scenario.sensors:
+        options["sensors"] = list(scenario.sensors)
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode

@@ -412,6 +412,7 @@ class SessionIterationRunner:
             sinks=sinks,
             seed=spec.seed,
             scenario=scenario_text,
+            sensors=scenario.sensors,
         )
         try:
             assert session.world is not None
