@@ -93,3 +93,36 @@ def test_roslibpy_receives_an_image_with_png() -> None:
     assert proc.returncode == 0, proc.stdout + proc.stderr
     image = json.loads(proc.stdout.splitlines()[-1])
     assert image == {"width": 32, "height": 24, "encoding": "rgb8", "centre": GREEN, "bytes": 2304}
+
+
+async def _throttled(url: str) -> list[int]:
+    """Stamps of the images a raw client gets with throttle_rate 100 ms (50 Hz camera)."""
+    import asyncio
+
+    import websockets
+
+    stamps: list[int] = []
+    async with websockets.connect(url, max_size=None) as ws:
+        await ws.send(
+            json.dumps({"op": "subscribe", "topic": "/cam/image_raw", "throttle_rate": 100})
+        )
+        await ws.send(
+            json.dumps({"op": "call_service", "service": "/harness/step", "id": "s",
+                        "args": {"steps": 250}})
+        )  # fmt: skip
+        while True:
+            frame = json.loads(await asyncio.wait_for(ws.recv(), 30))
+            if frame["op"] == "service_response":
+                return stamps
+            stamp = frame["msg"]["header"]["stamp"]
+            stamps.append(stamp["sec"] * 10**9 + stamp["nanosec"])
+
+
+def test_image_subscriptions_honour_throttle_in_simulation_time() -> None:
+    import asyncio
+
+    camera = [dict(CAMERA[0], update_rate=50)]
+    with Session(RIG, sensors=camera) as session:
+        stamps = asyncio.run(_throttled(session.url))
+    # 50 Hz for 0.5 s would be 25 images; throttled: the first frame, then one per 100 ms
+    assert stamps == [20_000_000 + k * 100_000_000 for k in range(5)]
