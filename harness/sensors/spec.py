@@ -128,7 +128,10 @@ class SensorSpec:
             raise SensorConfigError(f"{where}: give the link (parent) it is mounted on")
         if self.type == "force_torque" and not (self.joint or self.site or self.parent):
             raise SensorConfigError(f"{where}: a force_torque sensor needs a joint")
-        pose = tuple(float(v) for v in self.pose)
+        try:
+            pose = tuple(float(v) for v in self.pose)
+        except (TypeError, ValueError):
+            pose = ()
         if len(pose) != 6 or not all(math.isfinite(v) for v in pose):
             raise SensorConfigError(
                 f"{where}: pose must be 6 finite numbers (x y z roll pitch yaw)"
