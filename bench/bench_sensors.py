@@ -16,19 +16,19 @@ import os
 # The bare mujoco.Renderer takes its GL platform from MUJOCO_GL when mujoco is imported.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-from typing import Any  # noqa: E402
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
 
-import mujoco  # noqa: E402
-from common import Row  # noqa: E402
+import mujoco
+from common import Row
 
-from harness.models import LoadedRobot, load_robot  # noqa: E402
-from harness.sensors import RobotMount, SensorSuite  # noqa: E402
-from harness.session import Session  # noqa: E402
+from harness.models import LoadedRobot, load_robot
+from harness.sensors import RobotMount, SensorSuite
+from harness.session import Session
 
 _CAMERA = {
     "name": "wrist_camera",

@@ -80,7 +80,10 @@ def test_urdf_parameters_are_read() -> None:
         ({"name": "x", "type": "imu"}, "give the link (parent)"),
         ({"name": "x", "type": "camera", "parent": "a", "near": 5, "far": 1}, "near clip 5"),
         ({"name": "x", "type": "imu", "parent": "a", "topics": {"scan": "s"}}, "topics has 'scan'"),
-        ({"name": "x", "type": "imu", "parent": "a", "pose": ["a", 0, 0, 0, 0, 0]}, "pose must be 6"),
+        (
+            {"name": "x", "type": "imu", "parent": "a", "pose": ["a", 0, 0, 0, 0, 0]},
+            "pose must be 6",
+        ),
         ({"name": "x", "type": "imu", "parent": "a", "update_rate": "fast"}, "update_rate must be"),
         ({"name": 3, "type": "imu", "parent": "a"}, "the name must be"),
     ],
