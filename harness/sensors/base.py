@@ -20,6 +20,7 @@ __all__ = [
     "Output",
     "Sensor",
     "View",
+    "find_object",
     "mount_of",
     "noise_rng",
     "quat_of",
@@ -68,7 +69,8 @@ class Mount:
         return data.xpos[self.body] + body_rot @ self.position, body_rot @ self.rotation
 
 
-def _find(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
+def find_object(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
+    """The id of the ``obj`` named ``name`` (or ending in ``/name``, ``::name``), else -1."""
     index = int(mujoco.mj_name2id(model, obj, name))
     if index >= 0:
         return index
@@ -94,7 +96,7 @@ def mount_of(model: mujoco.MjModel, spec: SensorSpec, prefix: str = "") -> Mount
     if spec.camera or spec.site:
         obj = mujoco.mjtObj.mjOBJ_CAMERA if spec.camera else mujoco.mjtObj.mjOBJ_SITE
         name = prefix + (spec.camera or spec.site)
-        index = _find(model, obj, name)
+        index = find_object(model, obj, name)
         if index < 0:
             kind = "camera" if spec.camera else "site"
             raise SensorConfigError(f"{where}: the model has no {kind} {name!r}")
@@ -117,12 +119,12 @@ def mount_of(model: mujoco.MjModel, spec: SensorSpec, prefix: str = "") -> Mount
         )
     link = spec.parent
     if spec.joint and not link:
-        joint = _find(model, mujoco.mjtObj.mjOBJ_JOINT, prefix + spec.joint)
+        joint = find_object(model, mujoco.mjtObj.mjOBJ_JOINT, prefix + spec.joint)
         if joint < 0:
             raise SensorConfigError(f"{where}: the model has no joint {prefix + spec.joint!r}")
         body = int(model.jnt_bodyid[joint])
     else:
-        body = _find(model, mujoco.mjtObj.mjOBJ_BODY, prefix + link)
+        body = find_object(model, mujoco.mjtObj.mjOBJ_BODY, prefix + link)
     if body < 0:
         raise SensorConfigError(
             f"{where}: the model has no link {prefix + link!r} (fused away or misspelled)"

@@ -11,7 +11,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.sensors.base import F64, Mount, Output, View, _find, quat_of
+from harness.sensors.base import F64, Mount, Output, View, find_object, quat_of
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import TYPE_CONTACTS, contact_state, header
 from harness.sensors.spec import SensorSpec
@@ -36,7 +36,7 @@ class ContactSensor:
         self.frame_id = frame_id
         self.outputs: tuple[Output, ...] = (Output("contacts", topics["contacts"], TYPE_CONTACTS),)
         if spec.collision:
-            geom = _find(model, mujoco.mjtObj.mjOBJ_GEOM, prefix + spec.collision)
+            geom = find_object(model, mujoco.mjtObj.mjOBJ_GEOM, prefix + spec.collision)
             if geom < 0:
                 raise SensorConfigError(
                     f"sensor {spec.name!r}: the model has no collision {spec.collision!r}"

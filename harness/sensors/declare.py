@@ -34,6 +34,7 @@ from harness.sensors.spec import OUTPUTS, SensorSpec, SensorType
 __all__ = [
     "GAZEBO_TYPES",
     "declared_in_sources",
+    "default_topics",
     "sensors_from_sdf",
     "sensors_from_urdf",
     "unique",
@@ -174,7 +175,7 @@ def _ray_params(el: etree._Element | None, where: str) -> dict[str, Any]:
     return out
 
 
-def _topics(kind: SensorType, topic: str, base: str) -> dict[str, str]:
+def default_topics(kind: SensorType, topic: str, base: str) -> dict[str, str]:
     """Every output's topic (relative names stay relative: the namespace comes later)."""
     if topic:
         parent = topic.rsplit("/", 1)[0] if "/" in topic.strip("/") else ""
@@ -256,7 +257,7 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
             parent=parent,
             joint=joint,
             topic=topic or "",
-            topics=_topics(kind, topic or "", camera_name or name),
+            topics=default_topics(kind, topic or "", camera_name or name),
             frame_id=frame_id,
             source=source,
             **params,

@@ -26,7 +26,7 @@ import numpy as np
 from harness.sensors.base import Output, Sensor, View, mount_of
 from harness.sensors.camera import CameraSensor
 from harness.sensors.contact import ContactSensor
-from harness.sensors.declare import _topics, declared_in_sources, unique
+from harness.sensors.declare import declared_in_sources, default_topics, unique
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.force_torque import ForceTorqueSensor
 from harness.sensors.imu import ImuSensor
@@ -127,7 +127,7 @@ class SensorSuite:
     def _make(self, spec: SensorSpec, robot: RobotMount) -> Sensor:
         model = self.model
         mount = mount_of(model, spec, robot.prefix)
-        defaults = _topics(spec.type, spec.topic, spec.name)
+        defaults = default_topics(spec.type, spec.topic, spec.name)
         topics = {
             key: _resolve(spec.topics.get(key, value), robot.namespace)
             for key, value in defaults.items()

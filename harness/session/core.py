@@ -62,7 +62,7 @@ from harness.events import (
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.rosbridge import DIRECTION_IN, Bridge, Output, TapRecord
-from harness.sensors import TOPIC_TF_STATIC
+from harness.sensors import TOPIC_TF_STATIC, SensorSpec
 from harness.sensors.hook import record_metadata, session_sensors
 from harness.session.commands import (
     FORWARD_TOPICS,
@@ -296,6 +296,16 @@ class CoreOptions:
                 f"start={self.start!r} applies to the fast and realtime clocks: a lockstep "
                 "clock moves only when asked"
             )
+        sensors = []
+        for i, item in enumerate(self.sensors):
+            if isinstance(item, SensorSpec):
+                item = item.to_json()
+            if not isinstance(item, Mapping):
+                raise SessionConfigError(
+                    f"sensors[{i}] must be a mapping of sensor keys, not {item!r}"
+                )
+            sensors.append(dict(item))
+        object.__setattr__(self, "sensors", tuple(sensors))
         if not isinstance(self.record_bridge_frames, bool):
             raise SessionConfigError(
                 f"record_bridge_frames must be True or False, not {self.record_bridge_frames!r}"
