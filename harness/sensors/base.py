@@ -20,6 +20,7 @@ __all__ = [
     "Output",
     "Sensor",
     "View",
+    "cross",
     "find_object",
     "mount_of",
     "noise_rng",
@@ -45,6 +46,15 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> F64:
             [-sp, cp * sr, cp * cr],
         ]
     )
+
+
+def cross(a: F64, b: F64) -> F64:
+    """``a x b`` of two 3-vectors (``np.cross`` costs ~20x more on small vectors)."""
+    out = np.empty(3)
+    mujoco.mju_cross(
+        out, np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64)
+    )
+    return out
 
 
 def quat_of(rotation: F64) -> F64:

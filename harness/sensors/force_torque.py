@@ -12,9 +12,8 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import mujoco
-import numpy as np
 
-from harness.sensors.base import F64, Mount, Output, View, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_WRENCH, header, wrench_msg
 from harness.sensors.spec import SensorSpec
 
@@ -47,7 +46,7 @@ class ForceTorqueSensor:
         torque_c, force = data.cfrc_int[body, :3], data.cfrc_int[body, 3:]
         position, sensor_rot = self.mount.world(data)
         # cfrc_int is a spatial force at the subtree centre of mass of the root body.
-        torque = torque_c + np.cross(data.subtree_com[self._root] - position, force)
+        torque = torque_c + cross(data.subtree_com[self._root] - position, force)
         if spec.ft_direction == "child_to_parent":
             force, torque = -force, -torque
         if spec.ft_frame == "sensor":

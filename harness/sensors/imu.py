@@ -11,7 +11,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.sensors.base import F64, Mount, Output, View, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_IMU, header, imu_msg
 from harness.sensors.spec import SensorSpec
 
@@ -31,7 +31,7 @@ def body_motion(view: View, mount: Mount) -> tuple[F64, F64, F64, F64]:
     mujoco.mj_objectAcceleration(model, data, xbody, mount.body, acc, 0)
     omega, alpha, acc_origin = vel[:3], acc[:3], acc[3:]
     r = position - data.xpos[mount.body]
-    linear = acc_origin + np.cross(alpha, r) + np.cross(omega, np.cross(omega, r))
+    linear = acc_origin + cross(alpha, r) + cross(omega, cross(omega, r))
     return position, rotation, omega, linear
 
 
