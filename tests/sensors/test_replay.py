@@ -10,8 +10,9 @@ import sys
 from pathlib import Path
 
 import cbor2
+import numpy as np
 import websockets
-from sensor_helpers import RIG
+from sensor_helpers import RIG, rewrite_images
 
 from harness.recording import Recording
 from harness.replay.pipeline import replay_pipeline
@@ -93,3 +94,43 @@ def test_a_changed_sensor_configuration_is_a_divergence(tmp_path: Path) -> None:
     assert report.mismatch is not None
     assert report.mismatch.kind == "sensor"
     assert report.mismatch.topic in ("/scan/scan", "/imu/imu")
+
+
+def _small_change(pixels: np.ndarray) -> None:
+    pixels[:30] = np.clip(pixels[:30].astype(int) + 3, 0, 255).astype(np.uint8)
+
+
+def _large_change(pixels: np.ndarray) -> None:
+    pixels[:] = 255 - pixels
+
+
+def test_images_from_another_renderer_compare_with_a_tolerance_and_a_note(tmp_path: Path) -> None:
+    path = tmp_path / "cam.mcap"
+    camera = [{"name": "cam", "type": "camera", "parent": "mount", "width": 32, "height": 24}]
+    with Session(RIG, sensors=camera, record_to=path) as session:
+        session.step(120)
+    assert replay_pipeline(path).reproduced
+    other = rewrite_images(path, tmp_path / "other.mcap", renderer="SomeGPU 1.0",
+                           change=_small_change)  # fmt: skip
+    report = replay_pipeline(other)
+    assert report.reproduced, report.format()
+    assert any("'SomeGPU 1.0'" in n and "tolerance" in n for n in report.notes), report.notes
+    # the same small change on the same renderer is a divergence: byte for byte there
+    same = rewrite_images(path, tmp_path / "same.mcap", renderer=_renderer(path),
+                          change=_small_change)  # fmt: skip
+    report = replay_pipeline(same)
+    assert not report.reproduced
+    assert report.mismatch is not None
+    assert report.mismatch.topic == "/cam/image_raw"
+    # beyond the tolerance on another renderer: a divergence naming the pixels
+    far = rewrite_images(path, tmp_path / "far.mcap", renderer="SomeGPU 1.0",
+                         change=_large_change)  # fmt: skip
+    report = replay_pipeline(far)
+    assert not report.reproduced
+    assert report.mismatch is not None
+    assert "of the pixels differ beyond the tolerance" in report.mismatch.what
+
+
+def _renderer(path: Path) -> str:
+    with Recording(path) as rec:
+        return rec.all_metadata["harness.sensors.renderer"]["gl_renderer"]
