@@ -73,7 +73,7 @@ def test_recording_with_images_replays_at_level_full(tmp_path: Path) -> None:
     assert cli.returncode == 0, cli.stdout + cli.stderr
 
 
-def test_a_changed_sensor_configuration_is_a_divergence(tmp_path: Path) -> None:
+def test_noise_from_another_seed_is_a_divergence(tmp_path: Path) -> None:
     path = tmp_path / "noise.mcap"
     with Session(RIG, sensors=SENSORS[1:], record_to=path, seed=5) as session:
         session.step(60)
