@@ -126,3 +126,43 @@ def test_image_subscriptions_honour_throttle_in_simulation_time() -> None:
         stamps = asyncio.run(_throttled(session.url))
     # 50 Hz for 0.5 s would be 25 images; throttled: the first frame, then one per 100 ms
     assert stamps == [20_000_000 + k * 100_000_000 for k in range(5)]
+
+
+async def _cbor_raw(url: str) -> list[bytes]:
+    import asyncio
+
+    import websockets
+
+    frames: list[bytes] = []
+    async with websockets.connect(url, max_size=None) as ws:
+        await ws.send(
+            json.dumps({"op": "subscribe", "topic": "/cam/image_raw", "compression": "cbor-raw"})
+        )
+        await ws.send(
+            json.dumps({"op": "call_service", "service": "/harness/step", "id": "s",
+                        "args": {"steps": 60}})
+        )  # fmt: skip
+        while True:
+            frame = await asyncio.wait_for(ws.recv(), 30)
+            if isinstance(frame, bytes):
+                frames.append(frame)
+            elif json.loads(frame)["op"] == "service_response":
+                return frames
+
+
+def test_cbor_raw_carries_the_image_as_cdr() -> None:
+    import asyncio
+
+    import cbor2
+    import numpy as np
+
+    from harness.recording.layout import typestore
+
+    with Session(RIG, sensors=CAMERA) as session:
+        frames = asyncio.run(_cbor_raw(session.url))
+    assert len(frames) == 1  # the 10 Hz camera's frame at step 50
+    raw = cbor2.loads(frames[0])["msg"]
+    assert (raw["secs"], raw["nsecs"]) == (0, 100_000_000)
+    image = typestore().deserialize_cdr(raw["bytes"], "sensor_msgs/msg/Image")
+    pixels = np.asarray(image.data, np.uint8).reshape(24, 32, 3)
+    assert pixels[12, 16].tolist() == GREEN
