@@ -235,7 +235,12 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
         ray = sensor.find("ray")
         params.update(_ray_params(ray if ray is not None else sensor.find("lidar"), where))
     elif kind == "imu":
-        params.update(_noise(sensor.find("imu"), where))
+        imu = sensor.find("imu")
+        gyro = imu.find("angular_velocity") if imu is not None else None
+        accel = imu.find("linear_acceleration") if imu is not None else None
+        params.update(_noise(gyro if gyro is not None else imu, where))
+        if accel is not None:
+            params.update({f"accel_{k}": v for k, v in _noise(accel, where).items()})
     elif kind == "force_torque":
         ft = sensor.find("force_torque")
         frame = _text(ft, "frame")

@@ -1,7 +1,9 @@
 """IMUs: ``sensor_msgs/Imu`` with the sensor frame's orientation in the world, its angular
 velocity and its linear acceleration *including gravity* (at rest, +9.81 m/s^2 along the axis
 that points up), both in the sensor frame. Gaussian noise (``noise_mean``/``noise_stddev``) is
-added to each of the six rate and acceleration axes; the covariances are its variance."""
+added to each angular rate axis, and (``accel_noise_*``, default the same) to each acceleration
+axis; the covariances are the variances. Gazebo's per-axis ``<imu>`` noise is read from the x
+axes of ``angular_velocity`` and ``linear_acceleration``."""
 
 from __future__ import annotations
 
@@ -52,12 +54,14 @@ class ImuSensor:
         _, rotation, omega, linear = body_motion(view, self.mount)
         angular = rotation.T @ omega
         accel = rotation.T @ linear
-        if spec.noise_stddev or spec.noise_mean:
-            noise = noise_rng(view.seed, spec.name, view.step).normal(
-                spec.noise_mean, spec.noise_stddev, 6
-            )
-            angular = angular + noise[:3]
-            accel = accel + noise[3:]
+        accel_mean = spec.noise_mean if spec.accel_noise_mean is None else spec.accel_noise_mean
+        accel_std = (
+            spec.noise_stddev if spec.accel_noise_stddev is None else spec.accel_noise_stddev
+        )
+        if spec.noise_stddev or spec.noise_mean or accel_std or accel_mean:
+            unit = noise_rng(view.seed, spec.name, view.step).standard_normal(6)
+            angular = angular + spec.noise_mean + spec.noise_stddev * unit[:3]
+            accel = accel + accel_mean + accel_std * unit[3:]
         return quat_of(rotation), angular, accel
 
     def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
@@ -66,7 +70,11 @@ class ImuSensor:
         def imu() -> dict[str, Any]:
             quat, angular, accel = self.values(view)
             hdr = header(view.sim_time_ns, self.frame_id)
-            return imu_msg(hdr, quat, angular, accel, self.spec.noise_stddev**2)
+            spec = self.spec
+            accel_std = (
+                spec.noise_stddev if spec.accel_noise_stddev is None else spec.accel_noise_stddev
+            )
+            return imu_msg(hdr, quat, angular, accel, spec.noise_stddev**2, accel_std**2)
 
         return {"imu": imu}
 

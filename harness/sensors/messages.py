@@ -183,7 +183,12 @@ def _diagonal(variance: float) -> list[float]:
 
 
 def imu_msg(
-    hdr: dict[str, Any], quat_wxyz: F64, angular: F64, linear: F64, variance: float
+    hdr: dict[str, Any],
+    quat_wxyz: F64,
+    angular: F64,
+    linear: F64,
+    variance: float,
+    accel_variance: float,
 ) -> dict[str, Any]:
     """A ``sensor_msgs/Imu``: orientation in the world, rates and acceleration in the sensor
     frame; covariances diagonal with the noise variance."""
@@ -195,7 +200,7 @@ def imu_msg(
         "angular_velocity": _vector(angular),
         "angular_velocity_covariance": _diagonal(variance),
         "linear_acceleration": _vector(linear),
-        "linear_acceleration_covariance": _diagonal(variance),
+        "linear_acceleration_covariance": _diagonal(accel_variance),
     }
 
 

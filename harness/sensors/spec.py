@@ -72,8 +72,9 @@ class SensorSpec:
     from ``min_angle`` to ``max_angle`` (rad), ``vertical_samples`` from ``vertical_min_angle``
     to ``vertical_max_angle``, ``range_min``/``range_max``/``range_resolution`` (m). Noise:
     Gaussian ``noise_mean``/``noise_stddev`` (ranges and depth in m; IMU on each angular
-    velocity (rad/s) and linear acceleration (m/s^2) axis; force-torque on each axis), drawn
-    from the session seed. Force-torque: ``ft_frame`` (``child`` link, ``parent`` link or the
+    velocity (rad/s) and linear acceleration (m/s^2) axis, ``accel_noise_mean``/
+    ``accel_noise_stddev`` for the acceleration when they differ; force-torque on each axis),
+    drawn from the session seed. Force-torque: ``ft_frame`` (``child`` link, ``parent`` link or the
     ``sensor`` frame) and ``ft_direction``. Contact: ``collision``, a geom name (default every
     geom of the link). ``namespace``: the robot's (set by the loader)."""
 
@@ -105,6 +106,8 @@ class SensorSpec:
     range_resolution: float = 0.0
     noise_mean: float = 0.0
     noise_stddev: float = 0.0
+    accel_noise_mean: float | None = None
+    accel_noise_stddev: float | None = None
     ft_frame: FtFrame = "child"
     ft_direction: FtDirection = "child_to_parent"
     collision: str = ""
@@ -148,6 +151,12 @@ class SensorSpec:
             self._positive(where, name, getattr(self, name))
         for name in ("range_min", "range_resolution", "noise_stddev"):
             self._positive(where, name, getattr(self, name), zero=True)
+        if self.accel_noise_stddev is not None:
+            self._positive(where, "accel_noise_stddev", self.accel_noise_stddev, zero=True)
+        if self.accel_noise_mean is not None and not (
+            isinstance(self.accel_noise_mean, int | float) and math.isfinite(self.accel_noise_mean)
+        ):
+            raise SensorConfigError(f"{where}: accel_noise_mean must be a finite number")
         for name in ("min_angle", "max_angle", "vertical_min_angle", "vertical_max_angle",
                      "noise_mean"):  # fmt: skip
             value = getattr(self, name)

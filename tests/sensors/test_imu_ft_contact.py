@@ -70,3 +70,36 @@ def test_contact_sensor_reports_what_touches_its_link(rig) -> None:
     assert {s["collision1_name"] for s in states} == {"weight_geom"}
     assert {s["collision2_name"] for s in states} == {"stop"}
     assert all(s["depths"][0] >= 0 for s in states)
+
+
+def test_imu_gyro_and_accelerometer_noise_are_separate(rig) -> None:
+    sensor = {"name": "imu", "type": "imu", "parent": "mount", "noise_stddev": 0.01,
+              "accel_noise_mean": 0.2, "accel_noise_stddev": 0.5}  # fmt: skip
+    r = rig([sensor], seed=2)
+    gyro, accel = [], []
+    for k in range(200):
+        imu = r.read(5 * k)["/imu/imu"]
+        gyro.append(_vec(imu["angular_velocity"]))
+        accel.append(_vec(imu["linear_acceleration"]) - [0, 0, G])
+    assert np.std(gyro) == pytest.approx(0.01, rel=0.15)
+    assert np.std(accel) == pytest.approx(0.5, rel=0.15)
+    assert np.mean(accel) == pytest.approx(0.2, abs=0.08)
+    assert imu["angular_velocity_covariance"][0] == pytest.approx(0.01**2)
+    assert imu["linear_acceleration_covariance"][0] == pytest.approx(0.25)
+
+
+def test_gazebo_imu_noise_per_quantity_is_read() -> None:
+    from harness.sensors import sensors_from_sdf
+
+    sdf = b"""<sdf version="1.9"><model name="m"><link name="l">
+      <sensor name="imu" type="imu"><imu>
+        <angular_velocity><x><noise type="gaussian">
+          <mean>0</mean><stddev>0.0002</stddev>
+        </noise></x></angular_velocity>
+        <linear_acceleration><x><noise type="gaussian">
+          <mean>0.1</mean><stddev>0.017</stddev>
+        </noise></x></linear_acceleration>
+      </imu></sensor></link></model></sdf>"""
+    (imu,) = sensors_from_sdf(sdf)
+    assert (imu.noise_mean, imu.noise_stddev) == (0.0, 0.0002)
+    assert (imu.accel_noise_mean, imu.accel_noise_stddev) == (0.1, 0.017)
