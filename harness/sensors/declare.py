@@ -21,7 +21,7 @@ is the plugin's ``<frame_name>``, else ``<gz_frame_id>``, else the sensor name.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
@@ -37,7 +37,6 @@ __all__ = [
     "default_topics",
     "sensors_from_sdf",
     "sensors_from_urdf",
-    "unique",
 ]
 
 GAZEBO_TYPES: Mapping[str, SensorType] = {
@@ -337,11 +336,3 @@ def declared_in_sources(sources: Mapping[str, bytes]) -> list[SensorSpec]:
             raise SensorConfigError(f"{name}: cannot read sensors: {exc}") from None
     return out
 
-
-def unique(specs: Iterable[SensorSpec]) -> list[SensorSpec]:
-    """``specs`` with one sensor per (namespace, name): a later declaration (scenario) replaces
-    an earlier one (robot file) of the same name."""
-    by_name: dict[tuple[str, str], SensorSpec] = {}
-    for spec in specs:
-        by_name[(spec.namespace, spec.name)] = spec
-    return list(by_name.values())

@@ -27,11 +27,15 @@ def session_sensors(
 ) -> SensorSuite | None:
     """The sensors of a session's robot(s) (declared in their files) plus ``extra``; None
     when there are none (then nothing of the sensors runs, OpenGL included)."""
-    if isinstance(robot, LoadedRobot):
+    world: list[RobotMount] = []
+    if isinstance(robot, LoadedRobot):  # its sources hold the scene's too
         robots = [RobotMount(namespace, "", robot.sources)]
     else:
         robots = [RobotMount(v.namespace, v.prefix, v.sources) for v in robot.robots]
-    return SensorSuite.for_robots(model, robots, extra, seed=seed, dt_ns=dt_ns)
+        scene = {k: v for k, v in robot.sources.items() if k.startswith("scene/")}
+        if scene:
+            world.append(RobotMount("", "", scene))
+    return SensorSuite.for_robots(model, robots, extra, seed=seed, dt_ns=dt_ns, world=world)
 
 
 def record_metadata(suite: SensorSuite, recorder: object) -> None:

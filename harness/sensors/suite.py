@@ -26,7 +26,7 @@ import numpy as np
 from harness.sensors.base import Output, Sensor, View, mount_of
 from harness.sensors.camera import CameraSensor
 from harness.sensors.contact import ContactSensor
-from harness.sensors.declare import declared_in_sources, default_topics, unique
+from harness.sensors.declare import declared_in_sources, default_topics
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.force_torque import ForceTorqueSensor
 from harness.sensors.imu import ImuSensor
@@ -154,16 +154,17 @@ class SensorSuite:
         *,
         seed: int,
         dt_ns: int,
+        world: Sequence[RobotMount] = (),
     ) -> SensorSuite | None:
-        """The sensors declared in the robots' files plus ``extra`` (scenario/Python; an
-        extra sensor named like a declared one replaces it); None when there are none."""
-        found: list[SensorSpec] = []
+        """The sensors declared in the robots' files and the ``world`` files (scene models,
+        unprefixed, topics global) plus ``extra`` (scenario/Python; an extra sensor named
+        like a declared one replaces it); None when there are none."""
+        found: dict[tuple[str, str], tuple[SensorSpec, RobotMount]] = {}
         by_namespace = {robot.namespace: robot for robot in robots}
-        for robot in robots:
-            found.extend(
-                replace(spec, namespace=robot.namespace)
-                for spec in declared_in_sources(robot.sources)
-            )
+        for robot in (*robots, *world):
+            for spec in declared_in_sources(robot.sources):
+                spec = replace(spec, namespace=robot.namespace)
+                found[(spec.namespace, spec.name)] = (spec, robot)
         for i, item in enumerate(extra):
             spec = SensorSpec.from_mapping(item, f"sensors[{i}]")
             if spec.namespace not in by_namespace:
@@ -175,11 +176,11 @@ class SensorSuite:
                         f"{spec.namespace!r} (robots: "
                         f"{', '.join(repr(r.namespace) for r in robots)})"
                     )
-            found.append(spec)
-        specs = unique(found)
-        if not specs:
+            # a listed sensor named like a declared one replaces it
+            found[(spec.namespace, spec.name)] = (spec, by_namespace[spec.namespace])
+        if not found:
             return None
-        return cls(model, [(s, by_namespace[s.namespace]) for s in specs], seed=seed, dt_ns=dt_ns)
+        return cls(model, list(found.values()), seed=seed, dt_ns=dt_ns)
 
     # ------------------------------------------------------------------------------ stepping
 

@@ -103,3 +103,26 @@ def test_unknown_link_and_bad_urdf_value(tmp_path: Path) -> None:
     bad = (DATA / "sensor_bot.urdf").read_text().replace("<samples>90", "<samples>many")
     with pytest.raises(SensorConfigError, match="<scan/horizontal/samples> is 'many'"):
         sensors_from_urdf(bad.encode(), "bad.urdf")
+
+
+def test_world_file_sensors_are_mounted_on_scene_models() -> None:
+    import mujoco
+
+    from harness.sensors import RobotMount, SensorSuite
+
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body name="camera_post/post_link" pos="2 0 0.5">'
+        '<geom type="box" size="0.02 0.02 0.5"/></body></worldbody></mujoco>'
+    )
+    world = RobotMount("", "", {"scene/sensor_world.sdf": (DATA / "sensor_world.sdf").read_bytes()})
+    robot = RobotMount("arm", "arm/", {})
+    suite = SensorSuite.for_robots(model, [robot], seed=0, dt_ns=2_000_000, world=[world])
+    assert suite is not None
+    assert dict(suite.topics()) == {
+        "/world/overhead": "sensor_msgs/msg/Image",
+        "/world/camera_info": "sensor_msgs/msg/CameraInfo",
+        "/world/overhead/compressed": "sensor_msgs/msg/CompressedImage",
+        "/world/scan": "sensor_msgs/msg/LaserScan",
+    }
+    frames = {t["child_frame_id"]: t["header"]["frame_id"] for t in suite.static_tf()["transforms"]}
+    assert frames["post_scan"] == "camera_post/post_link"
