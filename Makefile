@@ -31,9 +31,10 @@ $(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json
 node-deps: $(NODE_STAMP)
 
 # Debian packages some tests use as independent oracles or viewers: headless Chromium (HTML
-# report) and libsdformat (SDF oracle). Installed when we are root with apt-get; otherwise
-# those tests skip and say why.
-SYSTEM_PKGS := chromium libsdformat-dev g++ pkg-config
+# report) and libsdformat (SDF oracle); and Mesa's EGL with the software rasteriser, which
+# camera sensors render through offscreen (harness/sensors/render.py). Installed when we are
+# root with apt-get; otherwise those tests skip and say why.
+SYSTEM_PKGS := chromium libsdformat-dev g++ pkg-config libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0
 system-deps:
 	@missing=""; for p in $(SYSTEM_PKGS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -z "$$missing" ]; then exit 0; fi; \

@@ -43,8 +43,8 @@ the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``, ``robot_args`` (a xacro robot's arguments, name -> value; recorded in
 the recording's and the golden's metadata), ``controllers`` (a ros2_control controllers YAML,
-relative to the test file's folder, or False). Markers on the module/class/function merge, the
-closest wins.
+relative to the test file's folder, or False), ``sensors``. Markers on the module/class/function
+merge, the closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
@@ -120,6 +120,7 @@ _SESSION_KEYS = (
     "joint_command_topic",
     "robot_args",
     "controllers",
+    "sensors",
 )
 MARKER_KEYS = frozenset(
     {
@@ -407,6 +408,8 @@ def _scenario_options(path: Path) -> dict[str, Any]:
         options["robot_args"] = dict(spec.robot_args)
     if scenario.controllers is not None:
         options["controllers"] = scenario.controllers
+    if scenario.sensors:
+        options["sensors"] = list(scenario.sensors)
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode

@@ -538,6 +538,17 @@ class Recorder:
             self._messages += 1
             self._dirty = True
 
+    def write_metadata(self, name: str, metadata: Mapping[str, str]) -> None:
+        """Add a metadata record besides the ``harness`` one (e.g. ``harness.sensors``)."""
+        if name == METADATA_NAME:
+            raise RecordingWriteError(f"metadata: {name!r} is written by the recorder")
+        values = {str(k): str(v) for k, v in metadata.items()}
+        with self._lock:
+            if self._closed or self._failure is not None:
+                self._raise_closed()
+            self._writer.add_metadata(name, values)
+            self._dirty = True
+
     def _register(self, topic: str, msgtype: str) -> tuple[int, str]:
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:

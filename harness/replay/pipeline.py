@@ -44,13 +44,14 @@ from harness.models import LoadedRobot, LoadedWorld
 from harness.recording import AppliedInput, BridgeFrame, Epoch, Recording
 from harness.recording.layout import TOPIC_EPOCH
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
+from harness.replay.sensor_check import SensorCheck
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
 from harness.session.core import CoreOptions, SessionCore, is_marker
 from harness.sim.inputs import ARRAY_FIELDS
 
 __all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
 
-MismatchKind = Literal["frame", "input", "state", "schedule"]
+MismatchKind = Literal["frame", "input", "state", "schedule", "sensor"]
 _EXCERPT = 160
 
 
@@ -175,6 +176,7 @@ class _Checker:
         self.state_at = 0
         self.markers = 0
         self.mismatch: PipelineMismatch | None = None
+        self.sensors: SensorCheck | None = None
 
     def _fail(self, mismatch: PipelineMismatch) -> None:
         if self.mismatch is None:
@@ -183,7 +185,18 @@ class _Checker:
     # -- RecordSink ------------------------------------------------------------------
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
-        """Published messages are built from the state and commands compared here."""
+        """Published messages are built from the state and commands compared here; sensor
+        messages are compared too (:mod:`harness.replay.sensor_check`)."""
+        if self.sensors is not None and self.mismatch is None:
+            what = self.sensors.check(topic, msgtype, msg, sim_time_ns)
+            if what is not None:
+                step = sim_time_ns // self.dt_ns
+                self._fail(
+                    PipelineMismatch(
+                        "sensor", step, sim_time_ns, None, "", "", topic, what, "", "",
+                        self.sensors.compared,
+                    )
+                )  # fmt: skip
 
     def write_bridge_frame(
         self,
@@ -210,9 +223,12 @@ class _Checker:
             self._frame_mismatch(i, None, actual, "the re-run produced a frame the recording lacks")
             return
         expected = self.frames[i]
+        skip: tuple[str, ...] = ()
+        if self.sensors is not None and direction == 1 and self.sensors.skips_payload(topic):
+            skip = ("text", "data")  # an image from another renderer: compared on its own
         for name in ("direction", "connection", "op", "topic", "binary", "text", "data",
                      "step", "sim_time_ns", "seq"):  # fmt: skip
-            if getattr(expected, name) != getattr(actual, name):
+            if name not in skip and getattr(expected, name) != getattr(actual, name):
                 self._frame_mismatch(i, expected, actual, f"{name} differs")
                 return
         if is_marker(direction, connection, op, topic):
@@ -473,11 +489,17 @@ def replay_pipeline(
             "damaged recording, re-ran up to the first damage: "
             + "; ".join(str(p) for p in rec.problems)
         ] if rec.problems else []  # fmt: skip
+        made: list[SessionCore] = []
+        sensor_check = SensorCheck(
+            rec, lambda: made[0].sensors.renderer_info if made and made[0].sensors else None
+        )
     checker = _Checker(robot.model, frames, inputs, states.steps, states.state, dt_ns, epochs)
     hub = EventHub()
     for logger in loggers:
         hub.add_logger(logger)
     core = SessionCore(robot, options, recorder=checker, hub=hub)
+    made.append(core)
+    checker.sensors = sensor_check if sensor_check.topics else None
     bridge = core.bridge
     assert bridge is not None
     sim = core.sim
@@ -532,6 +554,15 @@ def replay_pipeline(
         )
     if checker.mismatch is None and checker.input_at < len(inputs):
         checker.after_step(inputs[checker.input_at].step)
+    missing = sensor_check.missing() if sensor_check.topics else None
+    if checker.mismatch is None and missing is not None:
+        checker._fail(
+            PipelineMismatch("sensor", sim.step_index, sim.sim_time_ns, None, "", "", "",
+                             missing, "", "", sensor_check.compared)
+        )  # fmt: skip
+    if sensor_check.compared:
+        notes.append(f"{sensor_check.compared} sensor messages compared")
+    notes.extend(sensor_check.notes)
     if checker.mismatch is None and checker.state_at < len(states.steps):
         i = checker.state_at
         step = int(states.steps[i])

@@ -23,6 +23,7 @@ from rich.table import Table
 
 from harness._version import __version__
 from harness.scenario.results import CollisionSummary, IterationResult, JointTrace, Traces
+from harness.scenario.sensor_report import camera_frames_html
 
 __all__ = [
     "render_html",
@@ -445,7 +446,7 @@ def _iteration_section(r: IterationResult) -> str:
         f'{error}<table class="verdicts"><tr><th>criterion</th><th>result</th><th>detail</th></tr>'
         f"{rows}</table>{replay}{client}{notes}"
         f"<h3>Collisions</h3>{_timeline(r.collisions, r.sim_time)}"
-        f"<h3>Joints</h3>{plots}</section>"
+        f"<h3>Joints</h3>{plots}{camera_frames_html(r.recording)}</section>"
     )
 
 

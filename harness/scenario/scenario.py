@@ -235,6 +235,8 @@ class Scenario:
     timestep: float = 0.002
     duration: float = 10.0
     seed: int = 0
+    sensors: tuple[Mapping[str, Any], ...] = ()
+    """Sensors besides the robot files' (mappings as :class:`harness.sensors.SensorSpec`)."""
     clock: Clock = Clock()
     objects: tuple[SceneObject, ...] = ()
     recording: Recording = Recording()
@@ -327,6 +329,7 @@ class _Builder:
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
             controllers=self.controllers(data.get("controllers")),
+            sensors=self.sensors(data.get("sensors", [])),
             clock=Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
             objects=objects,
             recording=Recording(
@@ -427,6 +430,17 @@ class _Builder:
             f"is not a built-in {kind} ({hint}built-ins: {', '.join(builtins)}) "
             f"nor a file path (use a {'/'.join(suffixes)} file)"
         )
+
+    def sensors(self, items: list[Any]) -> tuple[Mapping[str, Any], ...]:
+        """The ``sensors:`` list, each entry checked as a sensor declaration."""
+        from harness.sensors import SensorConfigError, SensorSpec
+
+        for i, item in enumerate(items):
+            try:
+                SensorSpec.from_mapping(item, "sensor")
+            except SensorConfigError as exc:
+                self.problem(["sensors", i], item.get("name", item), f"is not valid: {exc}")
+        return tuple(dict(item) for item in items)
 
     def port(self, value: int | str) -> int:
         port = int(value)

@@ -396,6 +396,7 @@ class SessionIterationRunner:
             seed=spec.seed,
             scenario=scenario_text,
             controllers=scenario.controllers,
+            sensors=scenario.sensors,
         )
         try:
             assert session.world is not None

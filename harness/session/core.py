@@ -64,6 +64,8 @@ from harness.events import (
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
+from harness.sensors import TOPIC_TF_STATIC, SensorSpec
+from harness.sensors.hook import record_metadata, session_sensors
 from harness.session.commands import (
     FORWARD_TOPICS,
     Trajectory,
@@ -317,6 +319,10 @@ class CoreOptions:
     record_bridge_frames: bool = True
     max_step_request: int = DEFAULT_MAX_STEP_REQUEST
     controllers: ControllersConfig | str = "default"
+    sensors: Sequence[Mapping[str, Any]] = ()
+    """Sensors besides those the robot files declare (see :class:`harness.sensors.SensorSpec`)."""
+    seed: int = 0
+    """The session seed (sensor noise); recorded as the ``seed`` metadata key."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.controllers, ControllersConfig) and self.controllers not in (
@@ -340,6 +346,16 @@ class CoreOptions:
                 f"start={self.start!r} applies to the fast and realtime clocks: a lockstep "
                 "clock moves only when asked"
             )
+        sensors = []
+        for i, item in enumerate(self.sensors):
+            if isinstance(item, SensorSpec):
+                item = item.to_json()
+            if not isinstance(item, Mapping):
+                raise SessionConfigError(
+                    f"sensors[{i}] must be a mapping of sensor keys, not {item!r}"
+                )
+            sensors.append(dict(item))
+        object.__setattr__(self, "sensors", tuple(sensors))
         if not isinstance(self.record_bridge_frames, bool):
             raise SessionConfigError(
                 f"record_bridge_frames must be True or False, not {self.record_bridge_frames!r}"
@@ -411,7 +427,8 @@ class CoreOptions:
             "bridge_frames": "true" if self.record_bridge_frames else "false",
             "max_step_request": str(self.max_step_request),
             "controllers": controllers_metadata(self.controllers),
-        }  # state_every: the recorder writes it
+            **({"sensors": json.dumps(list(self.sensors), sort_keys=True)} if self.sensors else {}),
+        }  # state_every and seed: the recorder and describe_run write them
 
     @classmethod
     def from_metadata(cls, metadata: Mapping[str, str]) -> CoreOptions:
@@ -459,6 +476,8 @@ class CoreOptions:
             record_bridge_frames=metadata.get("bridge_frames", "true") != "false",
             max_step_request=int(cap),
             controllers=controllers_from_metadata(metadata.get("controllers")),
+            sensors=tuple(json.loads(metadata.get("sensors", "[]"))),
+            seed=int(metadata.get("seed", "0") or 0),
         )
 
 
@@ -716,6 +735,13 @@ class SessionCore:
         self.links = tuple(link for r in self.robots for link in r.links)
         """MuJoCo body names of every robot's links."""
         self.dt_ns = self.sim.dt_ns
+        self.sensors = session_sensors(
+            robot, self.sim.model, options.sensors, namespace=self.namespace,
+            seed=options.seed, dt_ns=self.dt_ns,
+        )  # fmt: skip
+        """The simulated sensors (None without any: then no sensor code runs)."""
+        if self.sensors is not None and recorder is not None:
+            record_metadata(self.sensors, recorder)
         hz = options.joint_states_hz
         self._js_every = period_steps(hz, self.dt_ns)
         self._tf_every = period_steps(hz if options.tf_hz is None else options.tf_hz, self.dt_ns)
@@ -875,8 +901,12 @@ class SessionCore:
         """Publish every robot's latched description and static transforms and record/publish
         step 0 (after :meth:`start`, once the graph has settled)."""
         poses = self.sim.link_poses()
+        sensor_frames = self.sensors is not None
         for _, tf_static, tree in self._tf_trees:
-            build = partial(tree.message, tree.static, poses, self.sim.sim_time_ns)
+            # one latched message per topic: a late subscriber gets only the last one
+            with_sensors = sensor_frames and tf_static == TOPIC_TF_STATIC
+            sensor_frames = sensor_frames and not with_sensors
+            build = partial(self._static_tf, tree, poses, with_sensors)
             self.publish(tf_static, TYPE_TF, build, latch=True)
         for channels in self.robots:
             text = channels.description_text
@@ -886,7 +916,18 @@ class SessionCore:
                 lambda text=text: {"data": text},  # type: ignore[misc]
                 latch=True,
             )
+        if sensor_frames and self.sensors is not None:
+            self.publish(TOPIC_TF_STATIC, TYPE_TF, self.sensors.static_tf, latch=True)
         self._after_state()
+
+    def _static_tf(
+        self, tree: TfTree, poses: Mapping[str, Any], with_sensors: bool
+    ) -> dict[str, Any]:
+        msg = tree.message(tree.static, poses, self.sim.sim_time_ns)
+        if with_sensors and self.sensors is not None:
+            sensors = self.sensors.static_tf(self.sim.sim_time_ns)
+            msg["transforms"] = [*msg["transforms"], *sensors["transforms"]]
+        return msg
 
     # ----------------------------------------------------------------------------- stepping
 
@@ -983,6 +1024,10 @@ class SessionCore:
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
                 self.publish(topic, TYPE_TF, partial(self._moving_tf, tree))
+        if self.sensors is not None:
+            for due in self.sensors.due(sim.data, k, sim.sim_time_ns):
+                out = due.output
+                self.publish(out.topic, out.msgtype, due.build, record=out.record)
 
     def _moving_tf(self, tree: TfTree) -> dict[str, Any]:
         return tree.message(tree.moving, self.sim.link_poses(), self.sim.sim_time_ns)
@@ -1361,4 +1406,6 @@ class SessionCore:
                 self.hub.finish(StepContext.of(self.sim, self.robot_name))
         finally:
             reports = self.hub.close()
+            if self.sensors is not None:
+                self.sensors.close()
         return reports

@@ -226,6 +226,8 @@ class Session:
     ``controllers``: the robot's ros2_control controllers: a controllers YAML (file, text or
     mapping, :func:`harness.controllers.load_controllers`), None for the default set
     (:func:`harness.controllers.default_controllers`) or False for none.
+    ``sensors``: sensors besides those the robot files declare (mappings with the keys of
+    :class:`harness.sensors.SensorSpec`; noise drawn from ``seed``).
     """
 
     def __init__(
@@ -259,6 +261,7 @@ class Session:
         max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
         robot_args: Mapping[str, Any] | None = None,
         controllers: ControllersOption = None,
+        sensors: Sequence[Mapping[str, Any]] = (),
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
@@ -280,6 +283,8 @@ class Session:
             record_bridge_frames=record_bridge_frames,
             max_step_request=max_step_request,
             controllers=controllers_option(controllers),
+            sensors=tuple(sensors),
+            seed=seed,
         )
         self.clock: ClockMode = clock
         self.start: StartMode = start

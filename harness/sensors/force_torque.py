@@ -1,0 +1,77 @@
+"""Force-torque sensors at a joint (or on a link): ``geometry_msgs/WrenchStamped``.
+
+The wrench is the interaction between the sensor's link (the joint's child) and its parent,
+MuJoCo's ``cfrc_int`` (which carries everything below the joint), taken at the sensor
+position. ``ft_direction``: ``child_to_parent`` (SDF's default: what the child exerts on the
+parent; a hanging mass pulls down) or ``parent_to_child``. ``ft_frame``: expressed in the
+``child`` link's axes (SDF's default), the ``parent`` link's or the ``sensor`` frame's."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import mujoco
+
+from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
+from harness.sensors.messages import TYPE_WRENCH, header, wrench_msg
+from harness.sensors.spec import SensorSpec
+
+__all__ = ["ForceTorqueSensor"]
+
+
+class ForceTorqueSensor:
+    """A force-torque sensor of ``spec`` at ``mount``."""
+
+    def __init__(
+        self,
+        spec: SensorSpec,
+        model: mujoco.MjModel,
+        mount: Mount,
+        topics: Mapping[str, str],
+        frame_id: str,
+    ) -> None:
+        self.spec = spec
+        self.mount = mount
+        self.frame_id = frame_id
+        self.outputs: tuple[Output, ...] = (Output("wrench", topics["wrench"], TYPE_WRENCH),)
+        self._root = int(model.body_rootid[mount.body])
+        self._parent = int(model.body_parentid[mount.body])
+
+    def values(self, view: View) -> tuple[F64, F64]:
+        """(force, torque) in the configured frame and direction."""
+        view.forces()
+        data, spec = view.data, self.spec
+        body = self.mount.body
+        torque_c, force = data.cfrc_int[body, :3], data.cfrc_int[body, 3:]
+        position, sensor_rot = self.mount.world(data)
+        # cfrc_int is a spatial force at the subtree centre of mass of the root body.
+        torque = torque_c + cross(data.subtree_com[self._root] - position, force)
+        if spec.ft_direction == "child_to_parent":
+            force, torque = -force, -torque
+        if spec.ft_frame == "sensor":
+            axes = sensor_rot
+        elif spec.ft_frame == "parent":
+            axes = data.xmat[self._parent].reshape(3, 3)
+        else:
+            axes = data.xmat[body].reshape(3, 3)
+        force, torque = axes.T @ force, axes.T @ torque
+        if spec.noise_stddev or spec.noise_mean:
+            noise = noise_rng(view.seed, spec.name, view.step).normal(
+                spec.noise_mean, spec.noise_stddev, 6
+            )
+            force, torque = force + noise[:3], torque + noise[3:]
+        return force, torque
+
+    def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
+        """The ``WrenchStamped`` builder at this step."""
+
+        def wrench() -> dict[str, Any]:
+            force, torque = self.values(view)
+            return wrench_msg(header(view.sim_time_ns, self.frame_id), force, torque)
+
+        return {"wrench": wrench}
+
+    def static_frames(self) -> list[tuple[str, F64, F64]]:
+        """The sensor frame in the mount link."""
+        return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]

@@ -1,0 +1,83 @@
+"""IMUs: ``sensor_msgs/Imu`` with the sensor frame's orientation in the world, its angular
+velocity and its linear acceleration *including gravity* (at rest, +9.81 m/s^2 along the axis
+that points up), both in the sensor frame. Gaussian noise (``noise_mean``/``noise_stddev``) is
+added to each angular rate axis, and (``accel_noise_*``, default the same) to each acceleration
+axis; the covariances are the variances. Gazebo's per-axis ``<imu>`` noise is read from the x
+axes of ``angular_velocity`` and ``linear_acceleration``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
+from harness.sensors.messages import TYPE_IMU, header, imu_msg
+from harness.sensors.spec import SensorSpec
+
+__all__ = ["ImuSensor", "body_motion"]
+
+
+def body_motion(view: View, mount: Mount) -> tuple[F64, F64, F64, F64]:
+    """(position, rotation, angular velocity, linear acceleration incl. gravity) of the
+    mounted frame, in the world frame."""
+    view.forces()
+    model, data = view.model, view.data
+    position, rotation = mount.world(data)
+    vel = np.zeros(6)
+    acc = np.zeros(6)
+    xbody = mujoco.mjtObj.mjOBJ_XBODY
+    mujoco.mj_objectVelocity(model, data, xbody, mount.body, vel, 0)
+    mujoco.mj_objectAcceleration(model, data, xbody, mount.body, acc, 0)
+    omega, alpha, acc_origin = vel[:3], acc[:3], acc[3:]
+    r = position - data.xpos[mount.body]
+    linear = acc_origin + cross(alpha, r) + cross(omega, cross(omega, r))
+    return position, rotation, omega, linear
+
+
+class ImuSensor:
+    """An IMU of ``spec`` at ``mount``."""
+
+    def __init__(
+        self, spec: SensorSpec, mount: Mount, topics: Mapping[str, str], frame_id: str
+    ) -> None:
+        self.spec = spec
+        self.mount = mount
+        self.frame_id = frame_id
+        self.outputs: tuple[Output, ...] = (Output("imu", topics["imu"], TYPE_IMU),)
+
+    def values(self, view: View) -> tuple[F64, F64, F64]:
+        """(orientation w-x-y-z, angular velocity, linear acceleration) in the sensor frame."""
+        spec = self.spec
+        _, rotation, omega, linear = body_motion(view, self.mount)
+        angular = rotation.T @ omega
+        accel = rotation.T @ linear
+        accel_mean = spec.noise_mean if spec.accel_noise_mean is None else spec.accel_noise_mean
+        accel_std = (
+            spec.noise_stddev if spec.accel_noise_stddev is None else spec.accel_noise_stddev
+        )
+        if spec.noise_stddev or spec.noise_mean or accel_std or accel_mean:
+            unit = noise_rng(view.seed, spec.name, view.step).standard_normal(6)
+            angular = angular + spec.noise_mean + spec.noise_stddev * unit[:3]
+            accel = accel + accel_mean + accel_std * unit[3:]
+        return quat_of(rotation), angular, accel
+
+    def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
+        """The ``Imu`` builder at this step."""
+
+        def imu() -> dict[str, Any]:
+            quat, angular, accel = self.values(view)
+            hdr = header(view.sim_time_ns, self.frame_id)
+            spec = self.spec
+            accel_std = (
+                spec.noise_stddev if spec.accel_noise_stddev is None else spec.accel_noise_stddev
+            )
+            return imu_msg(hdr, quat, angular, accel, spec.noise_stddev**2, accel_std**2)
+
+        return {"imu": imu}
+
+    def static_frames(self) -> list[tuple[str, F64, F64]]:
+        """The sensor frame in the mount link."""
+        return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]

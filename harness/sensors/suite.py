@@ -1,0 +1,253 @@
+"""A session's sensors (:class:`SensorSuite`): what is due at a step, lazily built messages,
+``/tf_static`` of the sensor frames and the recording's sensor metadata.
+
+The session asks :meth:`SensorSuite.due` at every step and publishes/records what it returns;
+the suite knows nothing of sockets or MCAP. A sensor with rate ``r`` Hz is due at steps that
+are multiples of ``round(1 / (r * dt))`` (every step for ``r = 0`` or ``r`` above the step
+rate), counted in simulation steps, never on the wall clock.
+
+Sensors read a private copy of the simulation state (``mj_getState``/``mj_setState`` of
+``mjSTATE_INTEGRATION`` + ``mj_forward``), so the poses, velocities, accelerations, contacts and
+forces they see are those of the state recorded at that step, and the simulation's own data is
+never touched: a session with sensors steps bit-for-bit as one without.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from harness.sensors.base import Output, Sensor, View, mount_of
+from harness.sensors.camera import CameraSensor
+from harness.sensors.contact import ContactSensor
+from harness.sensors.declare import declared_in_sources, default_topics
+from harness.sensors.errors import SensorConfigError
+from harness.sensors.force_torque import ForceTorqueSensor
+from harness.sensors.imu import ImuSensor
+from harness.sensors.lidar import LidarSensor
+from harness.sensors.messages import static_tf_msg
+from harness.sensors.render import OffscreenRenderer, RendererInfo
+from harness.sensors.spec import SensorSpec
+
+__all__ = ["METADATA_RECORD", "TOPIC_TF_STATIC", "Due", "RobotMount", "SensorSuite"]
+
+TOPIC_TF_STATIC = "/tf_static"
+METADATA_RECORD = "harness.sensors"
+"""The name of the recording metadata record holding the sensor configuration."""
+
+
+@dataclass(frozen=True)
+class RobotMount:
+    """One robot of the session as the sensors see it: its namespace, the prefix of its names
+    in the model and its source files (``"<role>/<file>"`` -> bytes)."""
+
+    namespace: str
+    prefix: str
+    sources: Mapping[str, bytes]
+
+
+@dataclass(frozen=True)
+class Due:
+    """One message due now: publish/record it on ``output.topic`` (``build`` makes it)."""
+
+    output: Output
+    build: Callable[[], Mapping[str, Any]]
+
+
+def _resolve(name: str, namespace: str) -> str:
+    if name.startswith("/"):
+        return name
+    return f"/{namespace}/{name}" if namespace else f"/{name}"
+
+
+class _Reading:
+    """One sensor's reading at one step, made on the first message asked of it."""
+
+    def __init__(
+        self, suite: SensorSuite, sensor: Sensor, data: mujoco.MjData, step: int, time_ns: int
+    ) -> None:
+        self._args = (suite, sensor, data, step, time_ns)
+        self._builders: Mapping[str, Callable[[], dict[str, Any]]] | None = None
+
+    def message(self, key: str) -> Mapping[str, Any]:
+        if self._builders is None:
+            suite, sensor, data, step, time_ns = self._args
+            self._builders = sensor.read(suite.view(data, step, time_ns))
+        return self._builders[key]()
+
+
+class SensorSuite:
+    """Every sensor of a session. ``specs`` with the robot each belongs to; ``seed``: the
+    session seed (noise); ``dt_ns``: the step."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        specs: Sequence[tuple[SensorSpec, RobotMount]],
+        *,
+        seed: int,
+        dt_ns: int,
+    ) -> None:
+        self.model = model
+        self.seed = int(seed)
+        self.dt_ns = dt_ns
+        self.specs = tuple(spec for spec, _ in specs)
+        self._renderer: OffscreenRenderer | None = None
+        self.on_renderer: Callable[[RendererInfo], None] | None = None
+        """Called once when the first camera frame starts OpenGL (the session records it)."""
+        self.sensors: list[Sensor] = []
+        self._every: list[int] = []
+        self._parents: list[str] = []
+        topics_seen: dict[str, str] = {}
+        for spec, robot in specs:
+            sensor = self._make(spec, robot)
+            for out in sensor.outputs:
+                if out.topic in topics_seen:
+                    raise SensorConfigError(
+                        f"sensor {spec.name!r}: topic {out.topic} is also sensor "
+                        f"{topics_seen[out.topic]!r}'s: give one of them its own (topics:)"
+                    )
+                topics_seen[out.topic] = spec.name
+            self.sensors.append(sensor)
+            rate = spec.period_hz
+            self._every.append(1 if not rate else max(1, round(1e9 / rate / dt_ns)))
+        self._data = mujoco.MjData(model)
+        spec_int = mujoco.mjtState.mjSTATE_INTEGRATION.value
+        self._state_spec = spec_int
+        self._state = np.zeros(mujoco.mj_stateSize(model, spec_int))
+        self._view_step = -1
+        self._view: View | None = None
+
+    def _make(self, spec: SensorSpec, robot: RobotMount) -> Sensor:
+        model = self.model
+        mount = mount_of(model, spec, robot.prefix)
+        defaults = default_topics(spec.type, spec.topic, spec.name)
+        topics = {
+            key: _resolve(spec.topics.get(key, value), robot.namespace)
+            for key, value in defaults.items()
+        }
+        frame_id = robot.prefix + (spec.frame_id or spec.name)
+        self._parents.append(mount.body_name)
+        if spec.type in ("camera", "depth", "rgbd"):
+            sensor_frame = robot.prefix + spec.name
+            return CameraSensor(spec, model, mount, topics, frame_id, self.renderer, sensor_frame)
+        if spec.type == "lidar":
+            return LidarSensor(spec, model, mount, topics, frame_id)
+        if spec.type == "imu":
+            return ImuSensor(spec, mount, topics, frame_id)
+        if spec.type == "force_torque":
+            return ForceTorqueSensor(spec, model, mount, topics, frame_id)
+        return ContactSensor(spec, model, mount, topics, frame_id, robot.prefix)
+
+    @classmethod
+    def for_robots(
+        cls,
+        model: mujoco.MjModel,
+        robots: Sequence[RobotMount],
+        extra: Iterable[Mapping[str, Any] | SensorSpec] = (),
+        *,
+        seed: int,
+        dt_ns: int,
+        world: Sequence[RobotMount] = (),
+    ) -> SensorSuite | None:
+        """The sensors declared in the robots' files and the ``world`` files (scene models,
+        unprefixed, topics global) plus ``extra`` (scenario/Python; an extra sensor named
+        like a declared one replaces it); None when there are none."""
+        found: dict[tuple[str, str], tuple[SensorSpec, RobotMount]] = {}
+        by_namespace = {robot.namespace: robot for robot in robots}
+        for robot in (*robots, *world):
+            for spec in declared_in_sources(robot.sources):
+                spec = replace(spec, namespace=robot.namespace)
+                found[(spec.namespace, spec.name)] = (spec, robot)
+        for i, item in enumerate(extra):
+            spec = SensorSpec.from_mapping(item, f"sensors[{i}]")
+            if spec.namespace not in by_namespace:
+                if len(robots) == 1 and not spec.namespace:
+                    spec = replace(spec, namespace=robots[0].namespace)
+                else:
+                    raise SensorConfigError(
+                        f"sensors[{i}] ({spec.name!r}): no robot with namespace "
+                        f"{spec.namespace!r} (robots: "
+                        f"{', '.join(repr(r.namespace) for r in robots)})"
+                    )
+            # a listed sensor named like a declared one replaces it
+            found[(spec.namespace, spec.name)] = (spec, by_namespace[spec.namespace])
+        if not found:
+            return None
+        return cls(model, list(found.values()), seed=seed, dt_ns=dt_ns)
+
+    # ------------------------------------------------------------------------------ stepping
+
+    def renderer(self) -> OffscreenRenderer:
+        """The shared offscreen renderer (OpenGL starts here, on the first camera frame)."""
+        if self._renderer is None:
+            cameras = [s.spec for s in self.sensors if isinstance(s, CameraSensor)]
+            width = max(s.width for s in cameras)
+            height = max(s.height for s in cameras)
+            self._renderer = OffscreenRenderer(self.model, width, height)
+            if self.on_renderer is not None:
+                self.on_renderer(self._renderer.info)
+        return self._renderer
+
+    @property
+    def renderer_info(self) -> RendererInfo | None:
+        """The OpenGL strings once a camera has rendered, else None."""
+        return None if self._renderer is None else self._renderer.info
+
+    def view(self, data: mujoco.MjData, step: int, sim_time_ns: int) -> View:
+        """The sensors' copy of ``data`` at ``step`` (made once per step, on first use)."""
+        if self._view is None or self._view_step != step:
+            mujoco.mj_getState(self.model, data, self._state, self._state_spec)
+            mujoco.mj_setState(self.model, self._data, self._state, self._state_spec)
+            mujoco.mj_forward(self.model, self._data)
+            self._view = View(self.model, self._data, step, sim_time_ns, self.seed)
+            self._view_step = step
+        return self._view
+
+    def due(self, data: mujoco.MjData, step: int, sim_time_ns: int) -> list[Due]:
+        """The messages due at ``step`` (built only when called)."""
+        out: list[Due] = []
+        self._view = None  # a reset may repeat a step number: never reuse an older copy
+        for sensor, every in zip(self.sensors, self._every, strict=True):
+            if step % every:
+                continue
+            reading = _Reading(self, sensor, data, step, sim_time_ns)
+            for output in sensor.outputs:
+                out.append(Due(output, functools.partial(reading.message, output.key)))
+        return out
+
+    def static_tf(self, sim_time_ns: int = 0) -> dict[str, Any]:
+        """The ``tf2_msgs/TFMessage`` of every sensor frame in its link (for ``/tf_static``)."""
+        frames = [
+            (parent, child, xyz, quat)
+            for sensor, parent in zip(self.sensors, self._parents, strict=True)
+            for child, xyz, quat in sensor.static_frames()
+        ]
+        return static_tf_msg(sim_time_ns, frames)
+
+    def topics(self) -> list[tuple[str, str]]:
+        """Every (topic, message type) the sensors publish."""
+        return [(o.topic, o.msgtype) for s in self.sensors for o in s.outputs]
+
+    def metadata(self) -> dict[str, str]:
+        """The sensor configuration as recording metadata (strings)."""
+        out = {
+            "sensors": json.dumps([s.to_json() for s in self.specs], sort_keys=True),
+            "topics": json.dumps(dict(self.topics()), sort_keys=True),
+            "seed": str(self.seed),
+        }
+        if self._renderer is not None:
+            out.update(self._renderer.info.to_metadata())
+        return out
+
+    def close(self) -> None:
+        """Free the renderer (if a camera started one)."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
