@@ -19,7 +19,7 @@ import re
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -36,7 +36,10 @@ from harness.models.errors import (
     ModelStructureError,
     ModelWarning,
 )
+from harness.models.lenient import lenient_urdf, read_lenient_xml
+from harness.models.placement import CLEARANCE, floor_gap, start_contacts
 from harness.models.resolve import PackageMap
+from harness.models.selfcollision import declared_self_collide, ignored_pairs
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
     REPAIR_BOUNDMASS,
@@ -45,12 +48,18 @@ from harness.models.urdf import (
     urdf_from_element,
 )
 from harness.models.world import (
+    BASE_KINDS,
+    SELF_COLLISION_POLICIES,
+    BaseKind,
     DuplicateNamespaceError,
+    IgnoredPair,
     JointAddress,
     LoadedRobotView,
     LoadedWorld,
     PoseLike,
     RobotSpec,
+    SelfCollision,
+    SelfCollisionReport,
     WorldObject,
     check_namespace,
     placement_pose,
@@ -107,7 +116,10 @@ class LoadedRobot:
     6 significant digits: for humans and viewers); ``mjb`` the exact binary model
     (``mj_saveModel``), the one to replay from. ``sources`` maps ``"<role>/<file name>"``
     (roles: model, srdf, scene) to the file bytes; ``sha256`` is of ``mjcf``; ``repairs``
-    lists every mass/inertia change made by ``repair_inertia``. ``spec`` carries the mesh and
+    lists every mass/inertia change made by ``repair_inertia``; ``notes`` what a lenient load
+    recovered and how the robot was placed; ``self_collision`` the policy and the ignored link
+    pairs; ``base`` fixed or floating; ``placement`` where the model frame is in the world
+    (the ``pose`` asked for, lifted out of the floor if need be). ``spec`` carries the mesh and
     texture files in ``spec.assets`` (content-named): it compiles without the files.
     """
 
@@ -123,6 +135,10 @@ class LoadedRobot:
     sources: Mapping[str, bytes]
     sha256: str
     repairs: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    self_collision: SelfCollisionReport | None = None
+    base: BaseKind = "fixed"
+    placement: Pose = field(default_factory=Pose)
 
 
 def _kind(path: Path) -> str:
@@ -165,7 +181,8 @@ def load_description(source: str | Path) -> RobotModel:
     path = _source_path(source)
     kind = _kind(path)
     if kind == "urdf":
-        root, _ = read_xml_file(path)
+        root, _, _ = read_lenient_xml(path)
+        lenient_urdf(root, str(path))
         return urdf_from_element(root, str(path))
     if kind == "sdf":
         read_sdf, _ = _sdf_api()
@@ -218,7 +235,37 @@ def _compile(spec: mujoco.MjSpec, source: str) -> mujoco.MjModel:
                 f'{source}: <link name="{match.group(1)}">: moving link has no mass or '
                 "inertia (fix the <inertial>, or load with repair_inertia=True)"
             ) from None
+        triangle = _TRIANGLE.search(text)
+        if triangle:
+            raise CompileError(
+                f'{source}: <link name="{triangle.group(1)}">: inertia violates the triangle '
+                "inequality (A + B >= C) (load without strict=True to have it repaired)"
+            ) from None
         raise CompileError(f"{source}: {_mujoco_message(exc)}") from None
+
+
+_TRIANGLE = re.compile(r"inertia must satisfy A \+ B >= C.*?Element name '([^']*)'", re.S)
+_MESH_VOLUME = re.compile(r"mesh volume is too small: (\S+)")
+
+
+def _compile_lenient(spec: mujoco.MjSpec, source: str, robots: Sequence[_Robot]) -> mujoco.MjModel:
+    """Compile; a mesh too thin for MuJoCo's volume-based inertia gets shell inertia (its
+    body's inertia comes from the file's ``<inertial>`` anyway), with a note, unless strict."""
+    strict = any(r.request.strict for r in robots)
+    for _ in range(64):
+        try:
+            return _compile(spec, source)
+        except CompileError as exc:
+            match = _MESH_VOLUME.search(str(exc))
+            mesh = None if match is None or strict else spec.mesh(match.group(1))
+            if mesh is None or mesh.inertia == mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL:
+                raise
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+            robots[0].notes.append(
+                f"{source}: mesh {match.group(1) if match else ''} encloses (almost) no volume: "
+                "its inertia is computed as a shell"
+            )
+    return _compile(spec, source)
 
 
 # An attached MJCF robot's <size> memory hints (nkey: it brings keyframes) lose to the world's:
@@ -366,8 +413,9 @@ def _add_actuators(
 
 def _add_srdf_excludes(
     spec: mujoco.MjSpec, srdf: Path, body_names: set[str], prefix: str = ""
-) -> bytes:
+) -> tuple[bytes, tuple[tuple[str, str], ...]]:
     root, raw = read_xml_file(srdf)
+    pairs = []
     for element in root.iter("disable_collisions"):
         link1, link2 = element.get("link1"), element.get("link2")
         for link in (link1, link2):
@@ -376,7 +424,130 @@ def _add_srdf_excludes(
                     f"{srdf}: {describe(element)}: link {link!r} is not a body of the model"
                 )
         spec.add_exclude(bodyname1=prefix + str(link1), bodyname2=prefix + str(link2))
-    return raw
+        pairs.append((str(link1), str(link2)))
+    return raw, tuple(pairs)
+
+
+def _self_collision_policy(robot: _Robot) -> tuple[SelfCollision, str]:
+    request = robot.request
+    if request.self_collision is not None:
+        return request.self_collision, "argument"
+    if robot.kind == "mjcf":
+        return "on", "file"  # an MJCF robot's own contype/exclude settings stay as written
+    if robot.declared_self_collide is not None:
+        return ("on" if robot.declared_self_collide else "off"), "file"
+    if request.srdf is not None:
+        return "srdf", "srdf"
+    return "auto", "default"
+
+
+def _apply_self_collision(
+    spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robot, qpos: npt.NDArray[np.float64]
+) -> None:
+    """Exclude the link pairs the robot's self-collision policy ignores (see
+    :mod:`harness.models.selfcollision`)."""
+    policy, origin = _self_collision_policy(robot)
+    bodies = {
+        link.name: int(model.body(robot.prefix + link.name).id)
+        for link in robot.description.links
+        if _has_body(model, robot.prefix + link.name)
+    }
+    bodies = {name: body for name, body in bodies.items() if body != 0}
+    if robot.kind == "mjcf" and policy == "on":
+        robot.self_collision = SelfCollisionReport(policy, origin)
+        return
+    pairs = list(ignored_pairs(model, bodies, robot.joint_ids(model), qpos, policy))
+    known = {(p.link1, p.link2) for p in pairs} | {(p.link2, p.link1) for p in pairs}
+    for link1, link2 in robot.srdf_pairs:
+        if (link1, link2) not in known:
+            pairs.append(IgnoredPair(link1, link2, "srdf"))
+    for pair in pairs:
+        if pair.reason != "srdf" and not _filtered_by_mujoco(
+            model, bodies[pair.link1], bodies[pair.link2]
+        ):
+            spec.add_exclude(
+                bodyname1=robot.prefix + pair.link1, bodyname2=robot.prefix + pair.link2
+            )
+    robot.self_collision = SelfCollisionReport(policy, origin, tuple(pairs))
+
+
+def _filtered_by_mujoco(model: mujoco.MjModel, body1: int, body2: int) -> bool:
+    """MuJoCo never collides a body with its parent (unless the parent is the world) nor two
+    bodies welded to the world: no exclude needed (and the compiled model stays smaller)."""
+    parent1, parent2 = int(model.body_parentid[body1]), int(model.body_parentid[body2])
+    if (parent1 == body2 and body2 != 0) or (parent2 == body1 and body1 != 0):
+        return True
+    return int(model.body_weldid[body1]) == 0 and int(model.body_weldid[body2]) == 0
+
+
+def _place_on_floor(
+    model: mujoco.MjModel, robot: _Robot, qpos: npt.NDArray[np.float64], placement: Pose | None
+) -> Pose | None:
+    """Lift a fixed robot out of the floor, set a floating one down on it (see
+    :mod:`harness.models.placement`); returns the placement used."""
+    bodies = [
+        int(model.body(robot.prefix + link.name).id)
+        for link in robot.description.links
+        if _has_body(model, robot.prefix + link.name)
+    ]
+    if robot.base != "floating":  # links welded to the world never touch the floor
+        bodies = [b for b in bodies if int(model.body_weldid[b]) != 0]
+    gap = floor_gap(model, qpos, [b for b in bodies if b != 0])
+    if gap is None:
+        return placement
+    if robot.base == "floating":
+        lift = -gap
+        if abs(lift) < 1e-9:
+            return placement
+        what = f"set down {gap:.4f} m onto the floor" if gap > 0 else f"lifted {lift:.4f} m"
+        robot.notes.append(f"{robot.source}: floating base {what} (lowest point on the floor)")
+    else:
+        if gap >= 0.0:
+            return placement
+        lift = CLEARANCE - gap
+        robot.notes.append(
+            f"{robot.source}: links reach {-gap:.4f} m through the floor in the initial "
+            f"configuration: robot lifted {lift:.4f} m"
+        )
+    pose = placement or Pose()
+    moved = Pose((pose.xyz[0], pose.xyz[1], pose.xyz[2] + lift), pose.quat)
+    robot.frame.pos = list(moved.xyz)
+    for j in robot.joint_ids(model):
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            adr = int(model.jnt_qposadr[j]) + 2
+            model.qpos0[adr] += lift
+            qpos[adr] += lift
+    return moved
+
+
+def _report_start(model: mujoco.MjModel, robots: Sequence[_Robot]) -> None:
+    """Warn once about every contact still present at the start, and about every note."""
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    qpos = np.array(model.key_qpos[key] if key >= 0 else model.qpos0)
+    contacts = start_contacts(model, qpos)
+    for robot in robots:
+        if robot.repair:
+            robot.repairs_made = robot.source_repairs + _repairs(
+                model, robot.description, robot.repaired_inertias, robot.prefix
+            )
+        for note in robot.notes:
+            warnings.warn(note, ModelWarning, stacklevel=4)
+        if robot.repairs_made:
+            shown = "; ".join(robot.repairs_made[:6])
+            more = len(robot.repairs_made) - 6
+            warnings.warn(
+                f"{robot.source}: repaired mass/inertia of {len(robot.repairs_made)} link(s) "
+                f"(strict=True refuses instead): {shown}"
+                + (f"; and {more} more (see .repairs)" if more > 0 else ""),
+                ModelWarning,
+                stacklevel=4,
+            )
+    if contacts:
+        listed = ", ".join(str(c) for c in contacts[:8])
+        more = f" and {len(contacts) - 8} more" if len(contacts) > 8 else ""
+        message = f"{len(contacts)} contact(s) at the start: {listed}{more}"
+        robots[0].notes.append(message)
+        warnings.warn(message, ModelWarning, stacklevel=4)
 
 
 def _scene_spec(
@@ -460,16 +631,28 @@ class _Robot:
         self.modes: dict[str, ControlMode] = {}
         self.actuated: tuple[str, ...] = ()
         self.srdf_bytes: bytes | None = None
+        self.srdf_pairs: tuple[tuple[str, str], ...] = ()
+        self.repairs_made: tuple[str, ...] = ()
+        self.notes: list[str] = []
+        self.declared_self_collide: bool | None = None
+        self.frame: Any = None
+        self.base: BaseKind = "fixed"
+        self.self_collision: SelfCollisionReport | None = None
+        self.repair = robot.repair_inertia and not robot.strict
+        _check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":
-            root, self.model_bytes = read_xml_file(path)
+            root, self.model_bytes, read_notes = read_lenient_xml(path, strict=robot.strict)
+            notes = [*read_notes, *lenient_urdf(root, self.source, strict=robot.strict)]
+            self.notes.extend(str(n) for n in notes)
+            self.declared_self_collide = declared_self_collide(root)
             self.description = urdf_from_element(root, self.source)
             prepared = mujoco_urdf_xml(
                 root,
                 path,
                 packages=robot.packages,
                 visuals=robot.visuals,
-                repair_inertia=robot.repair_inertia,
+                repair_inertia=self.repair,
                 cache_dir=cache_dir,
             )
             self.source_repairs, self.repaired_inertias = prepared.repairs, prepared.inertias
@@ -478,11 +661,21 @@ class _Robot:
             self.extension_keys = extension.keyframes
             for joint_name, armature in extension.armature.items():
                 self.spec.joint(joint_name).armature = armature
+            if robot.base == "floating":
+                if any(link.name == "world" for link in self.description.links):
+                    raise ModelStructureError(
+                        f"{self.source}: base='floating' but the URDF fixes the robot to a "
+                        "link named 'world'"
+                    )
+                _make_floating(self.spec, self.source)
+                self.base = "floating"
         elif self.kind == "sdf":
             read_sdf, build_spec = _sdf_api()
             self.model_bytes = path.read_bytes()
             self.description = read_sdf(path)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
+            self.declared_self_collide = declared_self_collide(read_xml_file(path)[0])
+            self.base = _sdf_base(self.spec, robot.base)
         else:
             _, self.model_bytes = read_xml_file(path)
             self.spec = _spec_from_file(path)
@@ -527,6 +720,57 @@ class _Robot:
                     qpos[start : start + width] = model.key_qpos[own][start : start + width]
                 return own, True
         return -1, False
+
+
+def _check_options(robot: RobotSpec, source: str) -> None:
+    if robot.self_collision is not None and robot.self_collision not in SELF_COLLISION_POLICIES:
+        raise ModelStructureError(
+            f"{source}: unknown self_collision {robot.self_collision!r} (expected one of "
+            f"{', '.join(SELF_COLLISION_POLICIES)})"
+        )
+    if robot.self_collision == "srdf" and robot.srdf is None:
+        raise ModelStructureError(f"{source}: self_collision='srdf' but no srdf is given")
+    if robot.base is not None and robot.base not in BASE_KINDS:
+        raise ModelStructureError(
+            f"{source}: unknown base {robot.base!r} (expected one of {', '.join(BASE_KINDS)})"
+        )
+
+
+FLOATING_JOINT_SUFFIX = "::__free__"
+"""Suffix of the free joint a floating URDF robot's root link gets (as SDF's)."""
+
+
+def _make_floating(spec: mujoco.MjSpec, source: str) -> None:
+    """Give each top body of a URDF robot a free joint (``base="floating"``)."""
+    for body in spec.worldbody.bodies:
+        if body.name == "world" or len(spec.worldbody.bodies) == 0:
+            continue
+        if any(True for _ in body.joints):
+            raise ModelStructureError(
+                f"{source}: base='floating' but the root link {body.name!r} is already jointed "
+                "to the world"
+            )
+        body.add_freejoint(name=f"{body.name}{FLOATING_JOINT_SUFFIX}")
+
+
+def _sdf_base(spec: mujoco.MjSpec, base: BaseKind | None) -> BaseKind:
+    """Apply ``base`` to a built SDF spec: free root links (non-static models) are floating;
+    ``"fixed"`` removes their free joints."""
+    free = [
+        joint
+        for body in spec.worldbody.bodies
+        for joint in body.joints
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE
+    ]
+    if base == "fixed":
+        for joint in free:
+            spec.delete(joint)
+        return "fixed"
+    if base == "floating" and not free:
+        raise ModelStructureError(
+            "base='floating' for a static SDF model (remove <static>, or load it fixed)"
+        )
+    return "floating" if free else "fixed"
 
 
 def _qpos_span(model: mujoco.MjModel, joint: int) -> tuple[int, int]:
@@ -587,11 +831,14 @@ def load_robot(
     packages: PackageMap | None = None,
     srdf: str | Path | None = None,
     visuals: bool = False,
-    repair_inertia: bool = False,
+    repair_inertia: bool = True,
     gains: Mapping[str, float] | None = None,
     cache_dir: str | Path | None = None,
     pose: PoseLike = None,
     initial_positions: Mapping[str, float] | None = None,
+    strict: bool = False,
+    self_collision: SelfCollision | None = None,
+    base: BaseKind | None = None,
 ) -> LoadedRobot:
     """Load ``source`` into MuJoCo with one actuator per controllable joint.
 
@@ -602,9 +849,14 @@ def load_robot(
     ``scene``: None (a floor), ``"floor"``, ``"empty"``, ``"table"`` or an MJCF world file.
     ``packages``: package name -> folder for ``package://``. ``srdf``: its
     ``<disable_collisions>`` become body-pair excludes. ``visuals``: keep visual geoms
-    (non-colliding). ``repair_inertia``: bound masses/inertias and balance inertias,
-    reporting every changed link in ``repairs``. ``gains``: joint -> kp (position) or kv
-    (velocity) overriding the defaults. ``cache_dir``: converted-mesh cache folder.
+    (non-colliding). ``repair_inertia`` (default): bound masses/inertias and balance
+    inertias, reporting every changed link in ``repairs`` and as a :class:`ModelWarning`.
+    ``strict``: refuse what a lenient load would recover or repair (bad inertias, a wrong XML
+    declaration, trailing content, equal joint limits, ...). ``self_collision``: ``"auto"``,
+    ``"off"``, ``"on"`` or ``"srdf"`` (see :mod:`harness.models.selfcollision`). ``base``:
+    ``"fixed"`` or ``"floating"`` (see :mod:`harness.models.placement`). ``gains``: joint ->
+    kp (position) or kv (velocity) overriding the defaults. ``cache_dir``: converted-mesh
+    cache folder.
     ``pose``: where the robot's base (model frame) is in the world (see
     :data:`harness.models.world.PoseLike`). ``initial_positions``: joint -> position
     overriding the ``home`` keyframe (created if the robot has none).
@@ -629,6 +881,9 @@ def load_robot(
         visuals=visuals,
         repair_inertia=repair_inertia,
         initial_positions=dict(initial_positions or {}),
+        strict=strict,
+        self_collision=self_collision,
+        base=base,
     )
     world = load_world([robot], scene=scene, cache_dir=cache_dir)
     view = world.robots[0]
@@ -645,6 +900,10 @@ def load_robot(
         sources=world.sources,
         sha256=world.sha256,
         repairs=view.repairs,
+        notes=view.notes,
+        self_collision=view.self_collision,
+        base=view.base,
+        placement=view.placement,
     )
 
 
@@ -723,6 +982,7 @@ def load_world(
                 frame = spec.worldbody.add_frame()
             else:
                 frame = spec.worldbody.add_frame(pos=list(placement.xyz), quat=list(placement.quat))
+            robot.frame = frame
             try:
                 with _mujoco_warnings():
                     spec.attach(robot.spec, prefix=robot.prefix, frame=frame)
@@ -737,7 +997,7 @@ def load_world(
         spec.option.timestep = timestep
     spec.modelname = first_robot.description.name if not several else "world"
 
-    first = _compile(spec, world_source)
+    first = _compile_lenient(spec, world_source, prepared)
     joint_names = {first.joint(j).name for j in range(first.njnt)}
     servo_qpos = np.array(first.qpos0, dtype=float)
     for robot in prepared:
@@ -768,12 +1028,17 @@ def load_world(
             if robot.prefix:  # only this robot's links
                 links = {link.name for link in robot.description.links}
                 body_names = {n for n in links if robot.prefix + n in body_names}
-            sources[f"srdf/{robot.prefix}{srdf.name}"] = _add_srdf_excludes(
+            sources[f"srdf/{robot.prefix}{srdf.name}"], robot.srdf_pairs = _add_srdf_excludes(
                 spec, srdf, body_names, robot.prefix
             )
+    for index, robot in enumerate(prepared):
+        _apply_self_collision(spec, first, robot, servo_qpos)
+        if robot.frame is not None:
+            placements[index] = _place_on_floor(first, robot, servo_qpos, placements[index])
     _combine_keyframes(spec, first, prepared, several)
 
     model = _compile(spec, world_source)
+    _report_start(model, prepared)
     with _mujoco_warnings():
         mjcf = spec.to_xml()
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
@@ -943,12 +1208,10 @@ def _view(
         bodies=MappingProxyType(bodies),
         home=MappingProxyType(home),
         sources=MappingProxyType({k: v for k, v in sources.items() if k in mine}),
-        repairs=(
-            robot.source_repairs
-            + _repairs(model, robot.description, robot.repaired_inertias, robot.prefix)
-            if robot.request.repair_inertia
-            else ()
-        ),
+        repairs=robot.repairs_made,
+        notes=tuple(robot.notes),
+        self_collision=robot.self_collision,
+        base=robot.base,
     )
 
 

@@ -7,7 +7,9 @@ rebuilds the same world (``harness.replay.source.rebuild_run``):
 - ``robots``: one object per robot, in the world's order: ``namespace``, ``source`` (its
   ``source/`` attachment, e.g. ``"model/left/demo_arm.urdf"``), ``pose`` (the placement used,
   ``[x, y, z, qw, qx, qy, qz]``, or null for the world origin), ``control`` (its own joint ->
-  mode), ``srdf`` (attachment or null) and, when the run knows the robot's ``RobotSpec``
+  mode), ``srdf`` (attachment or null), ``self_collision`` (policy, origin, ignored link
+  pairs with their reason), ``base`` (fixed or floating) and, when the run knows the
+  robot's ``RobotSpec``
   (``specs``), its ``initial_positions``, ``gains``, ``visuals`` and ``repair_inertia``;
 - ``objects``: the primitives added to the world (``name``, ``shape``, ``size``, ``pose``,
   ``mass``, ``rgba``).
@@ -92,6 +94,11 @@ def world_metadata(
             "control": {str(j): str(m) for j, m in view.control.items()},
             "srdf": next((n for n in sources if n.startswith("srdf/")), None),
         }
+        # issue 14: which self-collision pairs were ignored and why, and the base kind
+        report = getattr(view, "self_collision", None)
+        if report is not None:
+            entry["self_collision"] = report.as_dict()
+        entry["base"] = str(getattr(view, "base", "fixed"))
         if specs is not None and index < len(specs):
             spec = specs[index]
             entry["initial_positions"] = {

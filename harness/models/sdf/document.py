@@ -247,6 +247,8 @@ def _parse_pose(element: etree._Element | None, source: Path, version: Version) 
 
 
 def _check_inertia(mass: float, inertia: Sequence[float], where: str) -> None:
+    if mass == 0.0:
+        return  # libsdformat accepts it: a static or welded link (a moving one fails to build)
     if not mass > 0.0:
         raise SdfInertiaError(f"{where}: invalid inertia: mass {mass} must be positive")
     ixx, ixy, ixz, iyy, iyz, izz = inertia
