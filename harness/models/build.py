@@ -544,8 +544,8 @@ def _report_start(model: mujoco.MjModel, robots: Sequence[_Robot]) -> None:
             )
     if contacts:
         listed = ", ".join(str(c) for c in contacts[:8])
-        more = f" and {len(contacts) - 8} more" if len(contacts) > 8 else ""
-        message = f"{len(contacts)} contact(s) at the start: {listed}{more}"
+        extra = f" and {len(contacts) - 8} more" if len(contacts) > 8 else ""
+        message = f"{len(contacts)} contact(s) at the start: {listed}{extra}"
         robots[0].notes.append(message)
         warnings.warn(message, ModelWarning, stacklevel=4)
 
