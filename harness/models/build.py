@@ -30,6 +30,7 @@ import numpy.typing as npt
 
 from harness.models.assets import embed_files
 from harness.models.description import CONTROL_MODES, ControlMode, Pose, RobotModel
+from harness.models.drives import compensated_bodies
 from harness.models.errors import (
     CompileError,
     MasslessLinkError,
@@ -411,6 +412,65 @@ def _add_actuators(
     return tuple(actuated)
 
 
+def _start_within_limits(model: mujoco.MjModel, robot: _Robot) -> None:
+    """A URDF/SDF robot starts at its zero configuration (or its ``home``); a joint whose
+    zero lies outside its limits starts at the nearest limit instead (a real joint cannot be
+    there), through the ``home`` keyframe, with a note."""
+    if robot.kind == "mjcf":
+        return
+    home = dict(robot.extension_keys.get("home", {}))
+    moved = []
+    for joint in robot.description.joints:
+        if joint.name in home or joint.mimic is not None or joint.type not in _SCALAR:
+            continue
+        lower, upper = joint.limits.lower, joint.limits.upper
+        if joint.type == "continuous" or lower is None or upper is None or lower > upper:
+            continue
+        if not _has_joint(model, robot.prefix + joint.name):
+            continue
+        value = float(model.qpos0[model.jnt_qposadr[model.joint(robot.prefix + joint.name).id]])
+        if lower <= value <= upper:
+            continue
+        home[joint.name] = min(max(value, lower), upper)
+        moved.append(f"{joint.name} {value:g} -> {home[joint.name]:g}")
+    for joint in robot.description.joints:  # mimic followers follow their leader
+        if joint.mimic is not None and joint.mimic.joint in home and joint.name not in home:
+            if _has_joint(model, robot.prefix + joint.name):
+                lead = home[joint.mimic.joint]
+                home[joint.name] = joint.mimic.multiplier * lead + joint.mimic.offset
+    if moved:
+        robot.extension_keys = {**robot.extension_keys, "home": home}
+        robot.notes.append(
+            f"{robot.source}: zero configuration outside the joint limits; starts at the "
+            f"nearest limit: {', '.join(moved)}"
+        )
+
+
+_SCALAR = ("revolute", "continuous", "prismatic")
+
+
+def _has_joint(model: mujoco.MjModel, name: str) -> bool:
+    return bool(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) >= 0)
+
+
+def _compensate_gravity(spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robot) -> None:
+    """Gravity compensation by the drives, as real position-controlled robots have it (see
+    :mod:`harness.models.drives`)."""
+    modes = {
+        int(model.joint(robot.prefix + joint).id): mode for joint, mode in robot.modes.items()
+    }
+    bodies = {
+        link.name: int(model.body(robot.prefix + link.name).id)
+        for link in robot.description.links
+        if _has_body(model, robot.prefix + link.name)
+    }
+    for name in compensated_bodies(model, bodies, modes):
+        spec.body(robot.prefix + name).gravcomp = 1.0
+    for joint, mode in robot.modes.items():
+        if mode in ("position", "velocity"):
+            spec.joint(robot.prefix + joint).actgravcomp = True
+
+
 def _add_srdf_excludes(
     spec: mujoco.MjSpec, srdf: Path, body_names: set[str], prefix: str = ""
 ) -> tuple[bytes, tuple[tuple[str, str], ...]]:
@@ -472,10 +532,12 @@ def _apply_self_collision(
 
 
 def _filtered_by_mujoco(model: mujoco.MjModel, body1: int, body2: int) -> bool:
-    """MuJoCo never collides a body with its parent (unless the parent is the world) nor two
-    bodies welded to the world: no exclude needed (and the compiled model stays smaller)."""
+    """MuJoCo never collides a body with its parent (unless the parent is welded to the world)
+    nor two bodies welded to the world: no exclude needed (the compiled model stays smaller)."""
     parent1, parent2 = int(model.body_parentid[body1]), int(model.body_parentid[body2])
-    if (parent1 == body2 and body2 != 0) or (parent2 == body1 and body1 != 0):
+    if parent1 == body2 and int(model.body_weldid[body2]) != 0:
+        return True
+    if parent2 == body1 and int(model.body_weldid[body1]) != 0:
         return True
     return int(model.body_weldid[body1]) == 0 and int(model.body_weldid[body2]) == 0
 
@@ -1001,6 +1063,7 @@ def load_world(
     joint_names = {first.joint(j).name for j in range(first.njnt)}
     servo_qpos = np.array(first.qpos0, dtype=float)
     for robot in prepared:
+        _start_within_limits(first, robot)
         robot.key_values(first, "home", servo_qpos)
     held = _held_inertia(first, servo_qpos)
     for robot in prepared:
@@ -1021,6 +1084,7 @@ def load_world(
         robot.actuated = _add_actuators(
             spec, first, robot.description, robot.modes, gains, held, robot.prefix
         )
+        _compensate_gravity(spec, first, robot)
     for robot in prepared:
         if robot.request.srdf is not None:
             srdf = Path(robot.request.srdf)

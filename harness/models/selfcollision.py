@@ -128,12 +128,12 @@ def _sample_configuration(
     rng: np.random.Generator,
 ) -> None:
     for j in joints:
-        kind = model.jnt_type[j]
-        if kind not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        kind = int(model.jnt_type[j])
+        if kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
             continue
         if model.jnt_limited[j]:
             low, high = (float(v) for v in model.jnt_range[j])
-        elif kind == mujoco.mjtJoint.mjJNT_HINGE:
+        elif kind == int(mujoco.mjtJoint.mjJNT_HINGE):
             low, high = -np.pi, np.pi
         else:
             continue
