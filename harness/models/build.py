@@ -350,6 +350,16 @@ def _held_inertia(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> npt.N
     return diagonal
 
 
+def _drive_armature(kp: float, inertia: float, dt: float) -> float:
+    """The reflected rotor inertia a geared drive needs to servo at stiffness ``kp`` stably
+    (``sqrt(kp / (inertia + armature)) * dt <= 0.5``), for a joint whose file states none:
+    the link inertia alone (``inertia``, the smallest the joint sees) is what a motor without
+    a gearbox would move. Real gearboxes reflect rotor inertia times the square of the ratio
+    (0.01 to 1 kg m^2 for arm joints); 0 when the link inertia is already enough."""
+    needed = kp / (_STABLE_OMEGA_DT / dt) ** 2
+    return max(0.0, needed - inertia)
+
+
 def _add_actuators(
     spec: mujoco.MjSpec,
     model: mujoco.MjModel,
@@ -376,15 +386,21 @@ def _add_actuators(
         act = spec.add_actuator(name=mj_name, target=mj_name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         if mode == "position":
             kp = gains.get(name)
+            spec_joint = spec.joint(mj_name)
+            held_dof = float(held_inertia[dof])
             if kp is None:
                 kp = (effort or _DEFAULT_EFFORT) / _POSITION_SATURATION_ERROR
+                added = _drive_armature(kp, inertia, dt) if spec_joint.armature == 0 else 0.0
+                if added > 0.0:
+                    spec_joint.armature = added
+                    inertia += added
+                    held_dof += added
                 kp = min(kp, inertia * (_STABLE_OMEGA_DT / dt) ** 2)
-            spec_joint = spec.joint(mj_name)
             damping = float(spec_joint.damping[0])
             if effort is not None and limits.velocity is not None and limits.velocity > 0:
                 damping += effort / limits.velocity
                 spec_joint.damping = [damping, *spec_joint.damping[1:]]
-            critical = 2.0 * float(np.sqrt(kp * held_inertia[dof]))
+            critical = 2.0 * float(np.sqrt(kp * held_dof))
             act.set_to_position(kp=float(kp), kv=max(critical - damping, 0.0))
             lower, upper = limits.lower, limits.upper
             bounded = lower is not None and upper is not None and lower < upper
@@ -434,10 +450,11 @@ def _start_within_limits(model: mujoco.MjModel, robot: _Robot) -> None:
         home[joint.name] = min(max(value, lower), upper)
         moved.append(f"{joint.name} {value:g} -> {home[joint.name]:g}")
     for joint in robot.description.joints:  # mimic followers follow their leader
-        if joint.mimic is not None and joint.mimic.joint in home and joint.name not in home:
-            if _has_joint(model, robot.prefix + joint.name):
-                lead = home[joint.mimic.joint]
-                home[joint.name] = joint.mimic.multiplier * lead + joint.mimic.offset
+        mimic = joint.mimic
+        if mimic is None or mimic.joint not in home or joint.name in home:
+            continue
+        if _has_joint(model, robot.prefix + joint.name):
+            home[joint.name] = mimic.multiplier * home[mimic.joint] + mimic.offset
     if moved:
         robot.extension_keys = {**robot.extension_keys, "home": home}
         robot.notes.append(
@@ -459,6 +476,10 @@ def _compensate_gravity(spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robo
     modes = {
         int(model.joint(robot.prefix + joint).id): mode for joint, mode in robot.modes.items()
     }
+    for joint in robot.description.joints:  # a mimic follower is driven by its leader's drive
+        leader = robot.modes.get(joint.mimic.joint) if joint.mimic is not None else None
+        if leader is not None and _has_joint(model, robot.prefix + joint.name):
+            modes[int(model.joint(robot.prefix + joint.name).id)] = leader
     bodies = {
         link.name: int(model.body(robot.prefix + link.name).id)
         for link in robot.description.links
@@ -466,9 +487,9 @@ def _compensate_gravity(spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robo
     }
     for name in compensated_bodies(model, bodies, modes):
         spec.body(robot.prefix + name).gravcomp = 1.0
-    for joint, mode in robot.modes.items():
+    for name, mode in robot.modes.items():
         if mode in ("position", "velocity"):
-            spec.joint(robot.prefix + joint).actgravcomp = True
+            spec.joint(robot.prefix + name).actgravcomp = True
 
 
 def _add_srdf_excludes(
@@ -574,8 +595,9 @@ def _place_on_floor(
     pose = placement or Pose()
     moved = Pose((pose.xyz[0], pose.xyz[1], pose.xyz[2] + lift), pose.quat)
     robot.frame.pos = list(moved.xyz)
-    for j in robot.joint_ids(model):
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+    own = set(bodies)
+    for j in range(model.njnt):
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE and int(model.jnt_bodyid[j]) in own:
             adr = int(model.jnt_qposadr[j]) + 2
             model.qpos0[adr] += lift
             qpos[adr] += lift

@@ -9,8 +9,9 @@ MuJoCo's gravity compensation: every link carried only by position- or velocity-
 actuator force (``actuatorgravcomp``), so it counts against the joint's effort limit like any
 other torque of the drive: a joint too weak for its load still sags.
 
-Links carried by a passive joint (a mimic follower, a free-floating base, a ball joint) or an
-effort-controlled joint are not compensated: nothing in a real robot would apply that force.
+Links carried by a passive joint (a free-floating base, a ball joint) or an effort-controlled
+joint are not compensated: nothing in a real robot would apply that force. A mimic follower is
+driven by its leader's drive (a linkage or tendon): it counts with its leader's mode.
 """
 
 from __future__ import annotations
