@@ -457,13 +457,20 @@ def check_loaded(
         if hold[i] <= limit:
             reasons.append(None)
             continue
-        reason = _hold_reason(model, data, joints, i)
-        reasons.append(reason)
+        reasons.append(_hold_reason(model, data, joints, i))
+    weak = [
+        joints.names[i] for i, r in enumerate(reasons) if r and "below the gravity load" in r
+    ]
+    for i, reason in enumerate(reasons):
+        if reason is None:
+            continue
+        if weak and "below the gravity load" not in reason:
+            reason = reasons[i] = f"moved by {', '.join(weak[:3])}, which cannot carry its load"
         if not floating:
             unit = "mm" if joints.prismatic[i] else "mrad"
             problems.append(
-                f"{name} does not hold: {hold[i] * 1000:.3g} {unit} in {hold_seconds:g} s "
-                f"({reason})"
+                f"{joints.names[i]} does not hold: {hold[i] * 1000:.3g} {unit} in "
+                f"{hold_seconds:g} s ({reason})"
             )
     if hold_warnings and not floating:
         problems.append(f"MuJoCo warnings while holding: {hold_warnings}")
