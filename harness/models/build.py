@@ -30,7 +30,7 @@ import numpy.typing as npt
 
 from harness.models.assets import embed_files
 from harness.models.description import CONTROL_MODES, ControlMode, Pose, RobotModel
-from harness.models.drives import compensated_bodies
+from harness.models.drives import COMMAND_FILTER_SECONDS, compensated_bodies
 from harness.models.errors import (
     CompileError,
     MasslessLinkError,
@@ -401,7 +401,10 @@ def _add_actuators(
                 damping += effort / limits.velocity
                 spec_joint.damping = [damping, *spec_joint.damping[1:]]
             critical = 2.0 * float(np.sqrt(kp * held_dof))
-            act.set_to_position(kp=float(kp), kv=max(critical - damping, 0.0))
+            act.set_to_position(
+                kp=float(kp), kv=max(critical - damping, 0.0), timeconst=COMMAND_FILTER_SECONDS
+            )
+            act.actearly = True  # the force uses the filtered command of this very step
             lower, upper = limits.lower, limits.upper
             bounded = lower is not None and upper is not None and lower < upper
             if bounded and joint.type != "continuous":
@@ -1186,6 +1189,7 @@ def _combine_keyframes(
         qpos = np.array(first.qpos0 if scene_key < 0 else first.key_qpos[scene_key], dtype=float)
         qvel = np.zeros(first.nv) if scene_key < 0 else np.array(first.key_qvel[scene_key])
         ctrl = np.zeros(first.nu) if scene_key < 0 else np.array(first.key_ctrl[scene_key])
+        act = np.zeros(first.na) if scene_key < 0 else np.array(first.key_act[scene_key])
         time = 0.0 if scene_key < 0 else float(first.key_time[scene_key])
         for robot in robots:
             own, _ = robot.key_values(first, name, qpos)
@@ -1213,6 +1217,12 @@ def _combine_keyframes(
             else 0.0
             for robot, joint in added_actuators
         ]
+        # each added position servo's command filter starts at its command
+        filtered = [
+            value
+            for value, (robot, joint) in zip(added, added_actuators, strict=True)
+            if robot.modes.get(joint) == "position"
+        ]
         keys.append(
             {
                 "name": name,
@@ -1220,6 +1230,7 @@ def _combine_keyframes(
                 "qpos": qpos.tolist(),
                 "qvel": qvel.tolist(),
                 "ctrl": [*ctrl.tolist(), *added],
+                "act": [*act.tolist(), *filtered],
             }
         )
     for key in list(spec.keys):

@@ -22,7 +22,13 @@ import mujoco
 
 from harness.models.description import ControlMode
 
-__all__ = ["COMPENSATED_MODES", "compensated_bodies"]
+__all__ = ["COMMAND_FILTER_SECONDS", "COMPENSATED_MODES", "compensated_bodies"]
+
+COMMAND_FILTER_SECONDS = 0.02
+"""Time constant of the first-order filter a position drive puts on its command (as real
+drives interpolate setpoints that arrive as a staircase): a command sent every few steps is
+followed smoothly instead of as a train of velocity pulses. The filter state is MuJoCo
+actuator activation, part of the recorded physics state."""
 
 COMPENSATED_MODES: tuple[ControlMode, ...] = ("position", "velocity", "kinematic")
 """Control modes whose drive compensates gravity."""

@@ -63,7 +63,8 @@ def test_a_step_to_a_limit_stops_at_the_limit_near_the_velocity_limit(
 def test_a_small_step_is_critically_damped(demo: LoadedRobot, joint: str) -> None:
     """A step small enough not to saturate the effort limit: no overshoot to speak of (a
     critically damped servo has none; coupling to the held joints leaves under 2%) and
-    settled within 0.1 s (the arm) or 0.3 s (the heavily damped fingers)."""
+    settled within 0.1 s (the arm) or 0.35 s (the heavily damped fingers; the drive's 20 ms
+    command filter adds its lag)."""
     m = demo.model
     jid = m.joint(joint).id
     qadr, act = m.jnt_qposadr[jid], m.actuator(joint).id
@@ -84,7 +85,7 @@ def test_a_small_step_is_critically_damped(demo: LoadedRobot, joint: str) -> Non
     assert final == pytest.approx(delta, rel=0.05)
     overshoot = (moved.max() - final) if delta > 0 else (final - moved.min())
     assert overshoot <= 0.02 * abs(delta)
-    settle_steps = 50 if joint.startswith("joint") else 150
+    settle_steps = 50 if joint.startswith("joint") else 175
     assert abs(moved[settle_steps] - final) <= 0.05 * abs(delta)
 
 
