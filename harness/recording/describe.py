@@ -127,6 +127,18 @@ def world_metadata(
     }
 
 
+def _robot_metadata(robot: Any) -> dict[str, str]:
+    """A single robot's self-collision policy (with the ignored pairs) and base kind (issue
+    14; a world has them per robot in ``robots``)."""
+    report = getattr(robot, "self_collision", None)
+    if report is None or hasattr(robot, "robots"):
+        return {}
+    return {
+        "self_collision": json.dumps(report.as_dict(), sort_keys=True),
+        "base": str(getattr(robot, "base", "fixed")),
+    }
+
+
 def describe_run(
     robot: LoadedRobotLike,
     *,
@@ -138,7 +150,7 @@ def describe_run(
     objects: Sequence[Any] = (),
 ) -> RunDescription:
     """The ``harness`` metadata (timestep, integrator, seed, model SHA-256, control modes,
-    robot name; for a world its ``robots`` and ``objects``, see :func:`world_metadata`) and
+    robot name, a single robot's ``self_collision`` and ``base``; for a world its ``robots`` and ``objects``, see :func:`world_metadata`) and
     the attachments (the exact compiled model as MJB, the compiled MJCF for reading, source
     files under ``source/``, the scenario under ``scenario/<scenario_name>``) of a run of
     ``robot`` (a ``LoadedRobot`` or a ``LoadedWorld``)."""
@@ -153,6 +165,7 @@ def describe_run(
         "model_sha256": robot.sha256,
         "control_modes": json.dumps(control, sort_keys=True),
         **(world_metadata(robot, specs, objects) if hasattr(robot, "robots") else {}),
+        **_robot_metadata(robot),
         **(extra or {}),
     }
     attachments = {
