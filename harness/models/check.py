@@ -452,7 +452,7 @@ def check_loaded(
     hold_warnings = _warnings(data)
     floating = getattr(loaded, "base", "fixed") == "floating"
     reasons: list[str | None] = []
-    for i, name in enumerate(joints.names):
+    for i in range(len(joints.names)):
         limit = HOLD_M if joints.prismatic[i] else HOLD_RAD
         if hold[i] <= limit:
             reasons.append(None)

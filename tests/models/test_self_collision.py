@@ -161,5 +161,4 @@ def test_a_floating_robot_is_set_down_on_the_floor(mesh_cache):
     gap = min(mujoco.mj_geomDistance(m, d, floor, g, 1.0, None) for g in robot_geoms)
     assert abs(gap) < 1e-6  # lowest point on the floor, not above, not through
     with pytest.raises(ModelStructureError, match="fixes the robot to a link named 'world'"):
-        path = DATA / "floating_world.urdf"
-        load_robot(path, base="floating")
+        load_robot(DATA / "floating_world.urdf", base="floating")
