@@ -151,9 +151,10 @@ def describe_run(
 ) -> RunDescription:
     """The ``harness`` metadata (timestep, integrator, seed, model SHA-256, control modes,
     robot name, a single robot's ``self_collision`` and ``base``; for a world its ``robots``
-    and ``objects``, see :func:`world_metadata`) and the attachments (the exact compiled model as MJB, the compiled MJCF for reading, source
-    files under ``source/``, the scenario under ``scenario/<scenario_name>``) of a run of
-    ``robot`` (a ``LoadedRobot`` or a ``LoadedWorld``)."""
+    and ``objects``, see :func:`world_metadata`) and the attachments (the exact compiled
+    model as MJB, the compiled MJCF for reading, source files under ``source/``, the
+    scenario under ``scenario/<scenario_name>``) of a run of ``robot`` (a ``LoadedRobot`` or
+    a ``LoadedWorld``)."""
     timestep = float(robot.model.opt.timestep)
     control = {str(joint): str(mode) for joint, mode in robot.control.items()}
     metadata = {
