@@ -77,7 +77,7 @@ def format_report(report: ModelCheck) -> str:
         lines.append("does not behave:")
         lines += [f"  {problem}" for problem in report.problems]
     else:
-        lines.append("behaves: holds, steps and stands as a real robot does")
+        lines.append("behaves: no problem found")
     return "\n".join(lines)
 
 

@@ -187,7 +187,7 @@ def load_description(source: str | Path) -> RobotModel:
         return urdf_from_element(root, str(path))
     if kind == "sdf":
         read_sdf, _ = _sdf_api()
-        return read_sdf(path)
+        return read_sdf(path, strict=False)
     read_xml_file(path)  # safety and well-formedness before MuJoCo's parser sees it
     spec = _spec_from_file(path)
     return _describe_mjcf(_compile(spec, str(path)), path)
@@ -759,7 +759,7 @@ class _Robot:
         elif self.kind == "sdf":
             read_sdf, build_spec = _sdf_api()
             self.model_bytes = path.read_bytes()
-            self.description = read_sdf(path)
+            self.description = read_sdf(path, strict=robot.strict)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
             self.declared_self_collide = declared_self_collide(read_xml_file(path)[0])
             self.base = _sdf_base(self.spec, robot.base)

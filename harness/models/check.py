@@ -18,7 +18,7 @@ position servos) and simulates it without a session or bridge, straight on MuJoC
   second, as the kinematic mode does: the joints not written (mimic followers, passive
   joints) drift by less than :data:`HOLD_RAD`;
 - **stand** (floating bases): :data:`STAND_SECONDS` on the floor, no NaN, no MuJoCo warning,
-  base height finite and above the floor.
+  base height finite, nothing through the floor, nothing launched.
 
 :attr:`ModelCheck.problems` says in one line each why a robot does not behave; the reason of
 a joint that does not hold is named (its effort limit below the gravity load, a contact, a
@@ -40,7 +40,7 @@ import numpy.typing as npt
 
 from harness.errors import HarnessError
 from harness.models.errors import ModelWarning
-from harness.models.placement import start_contacts
+from harness.models.placement import floor_gap, start_contacts
 
 __all__ = [
     "HOLD_M",
@@ -103,11 +103,16 @@ class StandCheck:
     start_height: float
     end_height: float
 
+    end_gap: float = 0.0
+
     @property
     def stood(self) -> bool:
-        """No NaN, no warning, the base above the floor at the end."""
-        ok_height = math.isfinite(self.end_height) and self.end_height > 0.0
-        return self.finite and not any(self.warnings.values()) and ok_height
+        """No NaN, no warning, nothing sunk through the floor (``end_gap``, the lowest
+        point's height, above -1 cm), not launched (the base at most 0.5 m higher)."""
+        ok_height = math.isfinite(self.end_height) and self.end_height < self.start_height + 0.5
+        return (
+            self.finite and not any(self.warnings.values()) and ok_height and self.end_gap > -0.01
+        )
 
 
 @dataclass(frozen=True)
@@ -181,6 +186,7 @@ class ModelCheck:
                 "warnings": dict(self.stand.warnings),
                 "start_height": self.stand.start_height,
                 "end_height": self.stand.end_height,
+                "end_floor_gap": self.stand.end_gap,
             },
             "mass": dict(self.mass),
             "problems": list(self.problems),
@@ -399,7 +405,9 @@ def _kinematic(model: mujoco.MjModel, data: mujoco.MjData, joints: _Actuated) ->
 _HINGE_OR_SLIDE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
-def _stand(model: mujoco.MjModel, data: mujoco.MjData, seconds: float) -> StandCheck:
+def _stand(
+    model: mujoco.MjModel, data: mujoco.MjData, seconds: float, bodies: Sequence[int]
+) -> StandCheck:
     _home(model, data)
     free = [
         j for j in range(model.njnt) if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE)
@@ -410,15 +418,21 @@ def _stand(model: mujoco.MjModel, data: mujoco.MjData, seconds: float) -> StandC
     mujoco.mj_step(model, data, nstep=steps)
     finite = bool(np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel)))
     end = float(data.qpos[adr]) if adr >= 0 else math.nan
-    return StandCheck(seconds, finite, _warnings(data), start, end)
+    gap = floor_gap(model, np.array(data.qpos), bodies) if finite else None
+    end_gap = -math.inf if not finite else (0.0 if gap is None else gap)
+    return StandCheck(seconds, finite, _warnings(data), start, end, end_gap)
 
 
-def _mass_summary(model: mujoco.MjModel, loaded: Any) -> dict[str, float]:
-    bodies = [
+def _robot_bodies(model: mujoco.MjModel, loaded: Any) -> list[int]:
+    return [
         int(model.body(link.name).id)
         for link in loaded.description.links
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link.name) > 0
     ]
+
+
+def _mass_summary(model: mujoco.MjModel, loaded: Any) -> dict[str, float]:
+    bodies = _robot_bodies(model, loaded)
     masses = np.array([model.body_mass[b] for b in bodies]) if bodies else np.zeros(1)
     moving = [b for b in bodies if int(model.body_weldid[b]) != 0]
     inertia = np.array([min(model.body_inertia[b]) for b in moving]) if moving else np.zeros(1)
@@ -458,9 +472,7 @@ def check_loaded(
             reasons.append(None)
             continue
         reasons.append(_hold_reason(model, data, joints, i))
-    weak = [
-        joints.names[i] for i, r in enumerate(reasons) if r and "below the gravity load" in r
-    ]
+    weak = [joints.names[i] for i, r in enumerate(reasons) if r and "below the gravity load" in r]
     for i, reason in enumerate(reasons):
         if reason is None:
             continue
@@ -517,7 +529,7 @@ def check_loaded(
             )
     stand = None
     if floating:
-        stand = _stand(model, data, STAND_SECONDS)
+        stand = _stand(model, data, STAND_SECONDS, _robot_bodies(model, loaded))
         if not stand.stood:
             problems.append(
                 f"does not stand {STAND_SECONDS:g} s: finite={stand.finite}, warnings="

@@ -54,6 +54,11 @@ FLOATING = (
 )
 
 
+GAZEBO = HERE.parent / "data" / "gazebo_models"
+GAZEBO_MODELS = ("simple_arm", "double_pendulum_with_base", "pioneer3at", "simple_gripper")
+"""Robots of osrf/gazebo_models (SDF): held as fixed robots, stood as they are (free)."""
+
+
 def robots_dir() -> Path:
     """Where the PyPI package example-robot-data installs its robots."""
     sys.path.insert(0, str(HERE))
@@ -120,7 +125,30 @@ def run_corpus(cache: Path) -> list[Row]:
             robot, relative, hold_seconds=0.002, step_response=False, kinematic=False
         )
         stood += bool(report.stand and report.stand.stood)
+    sdf_loaded = sdf_held = sdf_stood = 0
+    sdf_errors: list[float] = []
+    for name in GAZEBO_MODELS:
+        path = GAZEBO / name / "model.sdf"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            fixed = load_robot(path, cache_dir=cache, base="fixed")
+            free = load_robot(path, cache_dir=cache)
+        sdf_loaded += 1
+        report = check_loaded(fixed, name, step_response=False, kinematic=False)
+        sdf_errors.append(report.worst_hold)
+        sdf_held += all(j.holds for j in report.joints)
+        report = check_loaded(free, name, hold_seconds=0.002, step_response=False, kinematic=False)
+        sdf_stood += bool(report.stand and report.stand.stood)
     return [
+        Row(
+            "osrf/gazebo_models (SDF)",
+            len(GAZEBO_MODELS),
+            sdf_loaded,
+            sdf_held,
+            f"{sdf_stood} of {len(GAZEBO_MODELS)}",
+            statistics.median(sdf_errors),
+            max(sdf_errors),
+        ),
         Row(
             "example-robot-data 6.0.0 (URDF)",
             len(urdfs),
@@ -129,7 +157,7 @@ def run_corpus(cache: Path) -> list[Row]:
             f"{stood} of {len(FLOATING)}",
             statistics.median(errors),
             max(errors),
-        )
+        ),
     ]
 
 
