@@ -121,23 +121,31 @@ def _contact_pairs(
     return pairs
 
 
-def _sample_configuration(
-    model: mujoco.MjModel,
-    joints: Sequence[int],
-    qpos: npt.NDArray[np.float64],
-    rng: np.random.Generator,
-) -> None:
+def _sampling_ranges(
+    model: mujoco.MjModel, joints: Sequence[int]
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """qpos addresses and ranges of the robot's hinges and slides: their limits, or a full
+    turn for an unlimited hinge (unlimited slides stay where they are)."""
+    hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+    addresses, lows, highs = [], [], []
     for j in joints:
         kind = int(model.jnt_type[j])
-        if kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+        if kind not in (hinge, slide):
             continue
         if model.jnt_limited[j]:
             low, high = (float(v) for v in model.jnt_range[j])
-        elif kind == int(mujoco.mjtJoint.mjJNT_HINGE):
+        elif kind == hinge:
             low, high = -np.pi, np.pi
         else:
             continue
-        qpos[model.jnt_qposadr[j]] = rng.uniform(low, high)
+        addresses.append(int(model.jnt_qposadr[j]))
+        lows.append(low)
+        highs.append(high)
+    return (
+        np.asarray(addresses, dtype=np.intp),
+        np.asarray(lows, dtype=np.float64),
+        np.asarray(highs, dtype=np.float64),
+    )
 
 
 def _cache_key(
@@ -194,10 +202,12 @@ def ignored_pairs(
         for pair in sorted(_contact_pairs(model, data, robot)):
             reasons.setdefault(pair, "default")
         rng = np.random.default_rng(SEED)
+        addresses, lows, highs = _sampling_ranges(model, joints)
+        samples = rng.uniform(lows, highs, size=(SAMPLES, len(addresses)))
         counts: dict[tuple[int, int], int] = {}
-        for _ in range(SAMPLES):
+        for sample in samples:
             data.qpos[:] = qpos
-            _sample_configuration(model, joints, data.qpos, rng)
+            data.qpos[addresses] = sample
             mujoco.mj_kinematics(model, data)
             mujoco.mj_collision(model, data)
             for pair in _contact_pairs(model, data, robot):
