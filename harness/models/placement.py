@@ -68,7 +68,7 @@ class StartContact(NamedTuple):
     depth: float
 
     def __str__(self) -> str:
-        return f"{self.body1}/{self.body2} {self.depth * 1000:.1f} mm"
+        return f"{self.body1} / {self.body2} {self.depth * 1000:.1f} mm"
 
 
 def start_contacts(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> list[StartContact]:

@@ -234,7 +234,20 @@ def _robot_spec(
         visuals=bool(entry.get("visuals", False)),
         repair_inertia=bool(entry.get("repair_inertia", False)),
         initial_positions=dict(entry.get("initial_positions") or {}),
+        **_collision_and_base(entry.get("self_collision"), entry.get("base"), srdf is not None),
     )
+
+
+def _collision_and_base(report: Any, base: Any, srdf: bool) -> dict[str, Any]:
+    """The recorded self-collision policy and base kind (issue 14) as load options; none
+    for recordings made before they were recorded (``"srdf"`` only when the SRDF is)."""
+    options: dict[str, Any] = {}
+    policies = ("auto", "off", "on", "srdf") if srdf else ("auto", "off", "on")
+    if isinstance(report, dict) and report.get("policy") in policies:
+        options["self_collision"] = report["policy"]
+    if base in ("fixed", "floating"):
+        options["base"] = base
+    return options
 
 
 def rebuild_world(
@@ -327,7 +340,16 @@ def rebuild_robot(
         _write_sources(sources, root)
         source = _model_source(sources, models[0], root)
         try:
-            return load_robot(source, control=modes, scene=_scene(sources, root))
+            return load_robot(
+                source,
+                control=modes,
+                scene=_scene(sources, root),
+                **_collision_and_base(
+                    json.loads(rec.metadata.get("self_collision", "null")),
+                    rec.metadata.get("base"),
+                    srdf=False,
+                ),
+            )
         except HarnessError as exc:
             raise ModelAttachmentError(
                 f"{rec.path}: cannot rebuild the robot from its source attachments: {exc}"

@@ -64,7 +64,7 @@ def test_auto_ignores_adjacent_and_initially_touching_pairs_and_says_why():
 
 
 def test_on_keeps_the_overlap_and_reports_it_once_off_ignores_every_pair():
-    with pytest.warns(ModelWarning, match=r"1 contact\(s\) at the start: base/forearm 20\.0 mm"):
+    with pytest.warns(ModelWarning, match=r"1 contact\(s\) at the start: base / forearm 20\.0 mm"):
         on = load_robot(ARM, self_collision="on")
     assert set(_pairs(on).values()) == {"adjacent"}
     assert _robot_contacts(on) == {("base", "forearm")}
@@ -162,3 +162,22 @@ def test_a_floating_robot_is_set_down_on_the_floor(mesh_cache):
     assert abs(gap) < 1e-6  # lowest point on the floor, not above, not through
     with pytest.raises(ModelStructureError, match="fixes the robot to a link named 'world'"):
         load_robot(DATA / "floating_world.urdf", base="floating")
+
+
+def test_a_recording_rebuilds_with_its_self_collision_policy(tmp_path):
+    """The policy is recorded; replay rebuilds the same model from the sources with it."""
+    from harness.recording import Recording
+    from harness.replay.source import rebuild_robot
+    from harness.session import Session
+
+    loaded = _quiet(ARM, self_collision="off")
+    path = tmp_path / "off.mcap"
+    with Session(loaded, record_to=path) as session:
+        session.step(5)
+    with Recording(path) as rec:
+        assert json.loads(rec.metadata["self_collision"])["policy"] == "off"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            rebuilt = rebuild_robot(rec)
+    assert rebuilt.self_collision == loaded.self_collision
+    assert rebuilt.mjb == loaded.mjb
