@@ -476,9 +476,7 @@ def _has_joint(model: mujoco.MjModel, name: str) -> bool:
 def _compensate_gravity(spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robot) -> None:
     """Gravity compensation by the drives, as real position-controlled robots have it (see
     :mod:`harness.models.drives`)."""
-    modes = {
-        int(model.joint(robot.prefix + joint).id): mode for joint, mode in robot.modes.items()
-    }
+    modes = {int(model.joint(robot.prefix + joint).id): mode for joint, mode in robot.modes.items()}
     for joint in robot.description.joints:  # a mimic follower is driven by its leader's drive
         leader = robot.modes.get(joint.mimic.joint) if joint.mimic is not None else None
         if leader is not None and _has_joint(model, robot.prefix + joint.name):
