@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -453,7 +453,24 @@ def check_loaded(
     step_response: bool = True,
     kinematic: bool = True,
 ) -> ModelCheck:
-    """Check an already loaded robot (a :class:`harness.models.LoadedRobot`)."""
+    """Check an already loaded robot (a :class:`harness.models.LoadedRobot`). MuJoCo's
+    printed warnings (an unstable step) are not printed: they become problems."""
+    printed: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(printed.append)
+    try:
+        report = _check(loaded, source, hold_seconds, step_response, kinematic)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    if printed and report.error is None:
+        unstable = f"MuJoCo warned {len(printed)} time(s): {' '.join(printed[0].split())}"
+        report = replace(report, problems=(*report.problems, unstable))
+    return report
+
+
+def _check(
+    loaded: Any, source: str, hold_seconds: float, step_response: bool, kinematic: bool
+) -> ModelCheck:
     model = loaded.model
     data = mujoco.MjData(model)
     joints = _Actuated(loaded)

@@ -30,6 +30,7 @@ __all__ = [
     "SELF_COLLISION_POLICIES",
     "BaseKind",
     "DuplicateNamespaceError",
+    "IgnoredPair",
     "InvalidNamespaceError",
     "JointAddress",
     "LoadedRobotView",
