@@ -28,9 +28,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.models import setup
 from harness.models.assets import embed_files
 from harness.models.description import CONTROL_MODES, ControlMode, Pose, RobotModel
-from harness.models.drives import COMMAND_FILTER_SECONDS, compensated_bodies
+from harness.models.drives import COMMAND_FILTER_SECONDS
 from harness.models.errors import (
     CompileError,
     MasslessLinkError,
@@ -38,9 +39,8 @@ from harness.models.errors import (
     ModelWarning,
 )
 from harness.models.lenient import lenient_urdf, read_lenient_xml
-from harness.models.placement import CLEARANCE, floor_gap, start_contacts
 from harness.models.resolve import PackageMap
-from harness.models.selfcollision import declared_self_collide, ignored_pairs
+from harness.models.selfcollision import declared_self_collide
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
     REPAIR_BOUNDMASS,
@@ -49,11 +49,8 @@ from harness.models.urdf import (
     urdf_from_element,
 )
 from harness.models.world import (
-    BASE_KINDS,
-    SELF_COLLISION_POLICIES,
     BaseKind,
     DuplicateNamespaceError,
-    IgnoredPair,
     JointAddress,
     LoadedRobotView,
     LoadedWorld,
@@ -431,68 +428,6 @@ def _add_actuators(
     return tuple(actuated)
 
 
-def _start_within_limits(model: mujoco.MjModel, robot: _Robot) -> None:
-    """A URDF/SDF robot starts at its zero configuration (or its ``home``); a joint whose
-    zero lies outside its limits starts at the nearest limit instead (a real joint cannot be
-    there), through the ``home`` keyframe, with a note."""
-    if robot.kind == "mjcf":
-        return
-    home = dict(robot.extension_keys.get("home", {}))
-    moved = []
-    for joint in robot.description.joints:
-        if joint.name in home or joint.mimic is not None or joint.type not in _SCALAR:
-            continue
-        lower, upper = joint.limits.lower, joint.limits.upper
-        if joint.type == "continuous" or lower is None or upper is None or lower > upper:
-            continue
-        if not _has_joint(model, robot.prefix + joint.name):
-            continue
-        value = float(model.qpos0[model.jnt_qposadr[model.joint(robot.prefix + joint.name).id]])
-        if lower <= value <= upper:
-            continue
-        home[joint.name] = min(max(value, lower), upper)
-        moved.append(f"{joint.name} {value:g} -> {home[joint.name]:g}")
-    for joint in robot.description.joints:  # mimic followers follow their leader
-        mimic = joint.mimic
-        if mimic is None or mimic.joint not in home or joint.name in home:
-            continue
-        if _has_joint(model, robot.prefix + joint.name):
-            home[joint.name] = mimic.multiplier * home[mimic.joint] + mimic.offset
-    if moved:
-        robot.extension_keys = {**robot.extension_keys, "home": home}
-        robot.notes.append(
-            f"{robot.source}: zero configuration outside the joint limits; starts at the "
-            f"nearest limit: {', '.join(moved)}"
-        )
-
-
-_SCALAR = ("revolute", "continuous", "prismatic")
-
-
-def _has_joint(model: mujoco.MjModel, name: str) -> bool:
-    return bool(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) >= 0)
-
-
-def _compensate_gravity(spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robot) -> None:
-    """Gravity compensation by the drives, as real position-controlled robots have it (see
-    :mod:`harness.models.drives`)."""
-    modes = {int(model.joint(robot.prefix + joint).id): mode for joint, mode in robot.modes.items()}
-    for joint in robot.description.joints:  # a mimic follower is driven by its leader's drive
-        leader = robot.modes.get(joint.mimic.joint) if joint.mimic is not None else None
-        if leader is not None and _has_joint(model, robot.prefix + joint.name):
-            modes[int(model.joint(robot.prefix + joint.name).id)] = leader
-    bodies = {
-        link.name: int(model.body(robot.prefix + link.name).id)
-        for link in robot.description.links
-        if _has_body(model, robot.prefix + link.name)
-    }
-    for name in compensated_bodies(model, bodies, modes):
-        spec.body(robot.prefix + name).gravcomp = 1.0
-    for name, mode in robot.modes.items():
-        if mode in ("position", "velocity"):
-            spec.joint(robot.prefix + name).actgravcomp = True
-
-
 def _add_srdf_excludes(
     spec: mujoco.MjSpec, srdf: Path, body_names: set[str], prefix: str = ""
 ) -> tuple[bytes, tuple[tuple[str, str], ...]]:
@@ -508,131 +443,6 @@ def _add_srdf_excludes(
         spec.add_exclude(bodyname1=prefix + str(link1), bodyname2=prefix + str(link2))
         pairs.append((str(link1), str(link2)))
     return raw, tuple(pairs)
-
-
-def _self_collision_policy(robot: _Robot) -> tuple[SelfCollision, str]:
-    request = robot.request
-    if request.self_collision is not None:
-        return request.self_collision, "argument"
-    if robot.kind == "mjcf":
-        return "on", "file"  # an MJCF robot's own contype/exclude settings stay as written
-    if robot.declared_self_collide is not None:
-        return ("on" if robot.declared_self_collide else "off"), "file"
-    if request.srdf is not None:
-        return "srdf", "srdf"
-    return "auto", "default"
-
-
-def _apply_self_collision(
-    spec: mujoco.MjSpec, model: mujoco.MjModel, robot: _Robot, qpos: npt.NDArray[np.float64]
-) -> None:
-    """Exclude the link pairs the robot's self-collision policy ignores (see
-    :mod:`harness.models.selfcollision`)."""
-    policy, origin = _self_collision_policy(robot)
-    bodies = {
-        link.name: int(model.body(robot.prefix + link.name).id)
-        for link in robot.description.links
-        if _has_body(model, robot.prefix + link.name)
-    }
-    bodies = {name: body for name, body in bodies.items() if body != 0}
-    if robot.kind == "mjcf" and policy == "on":
-        robot.self_collision = SelfCollisionReport(policy, origin)
-        return
-    pairs = list(ignored_pairs(model, bodies, robot.joint_ids(model), qpos, policy))
-    known = {(p.link1, p.link2) for p in pairs} | {(p.link2, p.link1) for p in pairs}
-    for link1, link2 in robot.srdf_pairs:
-        if (link1, link2) not in known:
-            pairs.append(IgnoredPair(link1, link2, "srdf"))
-    for pair in pairs:
-        if pair.reason != "srdf" and not _filtered_by_mujoco(
-            model, bodies[pair.link1], bodies[pair.link2]
-        ):
-            spec.add_exclude(
-                bodyname1=robot.prefix + pair.link1, bodyname2=robot.prefix + pair.link2
-            )
-    robot.self_collision = SelfCollisionReport(policy, origin, tuple(pairs))
-
-
-def _filtered_by_mujoco(model: mujoco.MjModel, body1: int, body2: int) -> bool:
-    """MuJoCo never collides a body with its parent (unless the parent is welded to the world)
-    nor two bodies welded to the world: no exclude needed (the compiled model stays smaller)."""
-    parent1, parent2 = int(model.body_parentid[body1]), int(model.body_parentid[body2])
-    if parent1 == body2 and int(model.body_weldid[body2]) != 0:
-        return True
-    if parent2 == body1 and int(model.body_weldid[body1]) != 0:
-        return True
-    return int(model.body_weldid[body1]) == 0 and int(model.body_weldid[body2]) == 0
-
-
-def _place_on_floor(
-    model: mujoco.MjModel, robot: _Robot, qpos: npt.NDArray[np.float64], placement: Pose | None
-) -> Pose | None:
-    """Lift a fixed robot out of the floor, set a floating one down on it (see
-    :mod:`harness.models.placement`); returns the placement used."""
-    bodies = [
-        int(model.body(robot.prefix + link.name).id)
-        for link in robot.description.links
-        if _has_body(model, robot.prefix + link.name)
-    ]
-    if robot.base != "floating":  # links welded to the world never touch the floor
-        bodies = [b for b in bodies if int(model.body_weldid[b]) != 0]
-    gap = floor_gap(model, qpos, [b for b in bodies if b != 0])
-    if gap is None:
-        return placement
-    if robot.base == "floating":
-        lift = -gap
-        if abs(lift) < 1e-9:
-            return placement
-        what = f"set down {gap:.4f} m onto the floor" if gap > 0 else f"lifted {lift:.4f} m"
-        robot.notes.append(f"{robot.source}: floating base {what} (lowest point on the floor)")
-    else:
-        if gap >= 0.0:
-            return placement
-        lift = CLEARANCE - gap
-        robot.notes.append(
-            f"{robot.source}: links reach {-gap:.4f} m through the floor in the initial "
-            f"configuration: robot lifted {lift:.4f} m"
-        )
-    pose = placement or Pose()
-    moved = Pose((pose.xyz[0], pose.xyz[1], pose.xyz[2] + lift), pose.quat)
-    robot.frame.pos = list(moved.xyz)
-    own = set(bodies)
-    for j in range(model.njnt):
-        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE and int(model.jnt_bodyid[j]) in own:
-            adr = int(model.jnt_qposadr[j]) + 2
-            model.qpos0[adr] += lift
-            qpos[adr] += lift
-    return moved
-
-
-def _report_start(model: mujoco.MjModel, robots: Sequence[_Robot]) -> None:
-    """Warn once about every contact still present at the start, and about every note."""
-    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    qpos = np.array(model.key_qpos[key] if key >= 0 else model.qpos0)
-    contacts = start_contacts(model, qpos)
-    for robot in robots:
-        if robot.repair:
-            robot.repairs_made = robot.source_repairs + _repairs(
-                model, robot.description, robot.repaired_inertias, robot.prefix
-            )
-        for note in robot.notes:
-            warnings.warn(note, ModelWarning, stacklevel=4)
-        if robot.repairs_made:
-            shown = "; ".join(robot.repairs_made[:6])
-            more = len(robot.repairs_made) - 6
-            warnings.warn(
-                f"{robot.source}: repaired mass/inertia of {len(robot.repairs_made)} link(s) "
-                f"(strict=True refuses instead): {shown}"
-                + (f"; and {more} more (see .repairs)" if more > 0 else ""),
-                ModelWarning,
-                stacklevel=4,
-            )
-    if contacts:
-        listed = ", ".join(str(c) for c in contacts[:8])
-        extra = f" and {len(contacts) - 8} more" if len(contacts) > 8 else ""
-        message = f"{len(contacts)} contact(s) at the start: {listed}{extra}"
-        robots[0].notes.append(message)
-        warnings.warn(message, ModelWarning, stacklevel=4)
 
 
 def _scene_spec(
@@ -724,7 +534,7 @@ class _Robot:
         self.base: BaseKind = "fixed"
         self.self_collision: SelfCollisionReport | None = None
         self.repair = robot.repair_inertia and not robot.strict
-        _check_options(robot, self.source)
+        setup.check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":
             root, self.model_bytes, read_notes = read_lenient_xml(path, strict=robot.strict)
@@ -752,7 +562,7 @@ class _Robot:
                         f"{self.source}: base='floating' but the URDF fixes the robot to a "
                         "link named 'world'"
                     )
-                _make_floating(self.spec, self.source)
+                setup.make_floating(self.spec, self.source)
                 self.base = "floating"
         elif self.kind == "sdf":
             read_sdf, build_spec = _sdf_api()
@@ -760,7 +570,7 @@ class _Robot:
             self.description = read_sdf(path, strict=robot.strict)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
             self.declared_self_collide = declared_self_collide(read_xml_file(path)[0])
-            self.base = _sdf_base(self.spec, robot.base)
+            self.base = setup.sdf_base(self.spec, robot.base)
         else:
             _, self.model_bytes = read_xml_file(path)
             self.spec = _spec_from_file(path)
@@ -805,57 +615,6 @@ class _Robot:
                     qpos[start : start + width] = model.key_qpos[own][start : start + width]
                 return own, True
         return -1, False
-
-
-def _check_options(robot: RobotSpec, source: str) -> None:
-    if robot.self_collision is not None and robot.self_collision not in SELF_COLLISION_POLICIES:
-        raise ModelStructureError(
-            f"{source}: unknown self_collision {robot.self_collision!r} (expected one of "
-            f"{', '.join(SELF_COLLISION_POLICIES)})"
-        )
-    if robot.self_collision == "srdf" and robot.srdf is None:
-        raise ModelStructureError(f"{source}: self_collision='srdf' but no srdf is given")
-    if robot.base is not None and robot.base not in BASE_KINDS:
-        raise ModelStructureError(
-            f"{source}: unknown base {robot.base!r} (expected one of {', '.join(BASE_KINDS)})"
-        )
-
-
-FLOATING_JOINT_SUFFIX = "::__free__"
-"""Suffix of the free joint a floating URDF robot's root link gets (as SDF's)."""
-
-
-def _make_floating(spec: mujoco.MjSpec, source: str) -> None:
-    """Give each top body of a URDF robot a free joint (``base="floating"``)."""
-    for body in spec.worldbody.bodies:
-        if body.name == "world" or len(spec.worldbody.bodies) == 0:
-            continue
-        if any(True for _ in body.joints):
-            raise ModelStructureError(
-                f"{source}: base='floating' but the root link {body.name!r} is already jointed "
-                "to the world"
-            )
-        body.add_freejoint(name=f"{body.name}{FLOATING_JOINT_SUFFIX}")
-
-
-def _sdf_base(spec: mujoco.MjSpec, base: BaseKind | None) -> BaseKind:
-    """Apply ``base`` to a built SDF spec: free root links (non-static models) are floating;
-    ``"fixed"`` removes their free joints."""
-    free = [
-        joint
-        for body in spec.worldbody.bodies
-        for joint in body.joints
-        if joint.type == mujoco.mjtJoint.mjJNT_FREE
-    ]
-    if base == "fixed":
-        for joint in free:
-            spec.delete(joint)
-        return "fixed"
-    if base == "floating" and not free:
-        raise ModelStructureError(
-            "base='floating' for a static SDF model (remove <static>, or load it fixed)"
-        )
-    return "floating" if free else "fixed"
 
 
 def _qpos_span(model: mujoco.MjModel, joint: int) -> tuple[int, int]:
@@ -1086,7 +845,7 @@ def load_world(
     joint_names = {first.joint(j).name for j in range(first.njnt)}
     servo_qpos = np.array(first.qpos0, dtype=float)
     for robot in prepared:
-        _start_within_limits(first, robot)
+        setup.start_within_limits(first, robot)
         robot.key_values(first, "home", servo_qpos)
     held = _held_inertia(first, servo_qpos)
     for robot in prepared:
@@ -1107,7 +866,7 @@ def load_world(
         robot.actuated = _add_actuators(
             spec, first, robot.description, robot.modes, gains, held, robot.prefix
         )
-        _compensate_gravity(spec, first, robot)
+        setup.compensate_gravity(spec, first, robot)
     for robot in prepared:
         if robot.request.srdf is not None:
             srdf = Path(robot.request.srdf)
@@ -1119,13 +878,18 @@ def load_world(
                 spec, srdf, body_names, robot.prefix
             )
     for index, robot in enumerate(prepared):
-        _apply_self_collision(spec, first, robot, servo_qpos)
+        setup.apply_self_collision(spec, first, robot, servo_qpos)
         if robot.frame is not None:
-            placements[index] = _place_on_floor(first, robot, servo_qpos, placements[index])
+            placements[index] = setup.place_on_floor(first, robot, servo_qpos, placements[index])
     _combine_keyframes(spec, first, prepared, several)
 
     model = _compile(spec, world_source)
-    _report_start(model, prepared)
+    for robot in prepared:
+        if robot.repair:
+            robot.repairs_made = robot.source_repairs + _repairs(
+                model, robot.description, robot.repaired_inertias, robot.prefix
+            )
+    setup.report_start(model, prepared)
     with _mujoco_warnings():
         mjcf = spec.to_xml()
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
