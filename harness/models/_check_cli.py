@@ -1,4 +1,4 @@
-"""``harness check-model FILE [--json] [--base fixed|floating]``: the sanity report of a robot.
+"""``harness check-model FILE [--json] [--base fixed|floating] [--strict]``: a robot's report.
 
 Exit code 0 when the robot behaves, 1 with the reasons when it does not, 2 when it does not
 load (see :mod:`harness.models.check`).
@@ -23,6 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("fixed", "floating"),
         default=None,
         help="fixed to the world or floating (default: as the file says; URDF: fixed)",
+    )
+    parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse what a lenient load recovers or repairs (bad inertias, XML defects, ...)",
     )
 
 
@@ -83,7 +88,7 @@ def format_report(report: ModelCheck) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Check ``args.file``; the exit code is the report's."""
-    report = check_model(args.file, base=args.base)
+    report = check_model(args.file, base=args.base, strict=args.strict)
     if args.json:
         print(json.dumps(report.as_dict(), indent=2))
     else:

@@ -200,6 +200,7 @@ def check_model(
     hold_seconds: float = HOLD_SECONDS,
     step_response: bool = True,
     cache_dir: str | Path | None = None,
+    strict: bool = False,
 ) -> ModelCheck:
     """Load ``source`` with the defaults and check it (see the module docstring). Never
     raises for a robot that does not load: the report says why (exit code 2)."""
@@ -208,7 +209,12 @@ def check_model(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
-            loaded = load_robot(source, cache_dir=cache_dir, base=base)  # type: ignore[arg-type]
+            loaded = load_robot(
+                source,
+                cache_dir=cache_dir,
+                base=base,  # type: ignore[arg-type]
+                strict=strict,
+            )
     except HarnessError as exc:
         return ModelCheck(str(source), error=str(exc))
     return check_loaded(loaded, str(source), hold_seconds=hold_seconds, step_response=step_response)

@@ -69,3 +69,13 @@ def test_a_floating_robot_is_stood_instead_of_stepped(capsys):
     assert report["stand"]["seconds"] == 5.0
     assert report["stand"]["finite"] is True
     assert all(j["settling_time"] is None for j in report["joints"])
+
+
+def test_strict_refuses_what_the_default_repairs(capsys):
+    lenient = DATA / "lenient" / "trailing_content.urdf"
+    assert main(["check-model", str(lenient), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert any("content after the root element" in n for n in report["notes"])
+    assert report["repairs"]
+    assert main(["check-model", str(lenient), "--strict", "--json"]) == 2
+    assert "Extra content" in json.loads(capsys.readouterr().out)["error"]
