@@ -52,29 +52,28 @@ def run(quick: bool) -> list[Row]:
     cache = Path(tempfile.mkdtemp(prefix="bench_robots_"))
     loads: list[tuple[float, str]] = []
     checks: list[tuple[float, str]] = []
-    bare: list[float] = []
+    bare: dict[str, float] = {}
     for path in urdfs:
         name = str(path.relative_to(robots_dir()))
         try:
             loaded = load_robot(path, cache_dir=cache)  # converts meshes once
         except HarnessError:
             continue
-        bare.append(min(_seconds(loaded.spec.compile) for _ in range(3)))
+        bare[name] = min(_seconds(loaded.spec.compile) for _ in range(3))
         loads.append(
             (min(_seconds(lambda p=path: load_robot(p, cache_dir=cache)) for _ in range(2)), name)
         )
         checks.append((_seconds(lambda p=path: check_model(p, cache_dir=cache)), name))
-    limit = statistics.median(bare)
+    limit = statistics.median(bare.values())
     load_median = statistics.median(t for t, _ in loads)
     load_worst = max(loads)
     check_median = statistics.median(t for t, _ in checks)
     check_worst = max(checks)
-    worst_bare = max(bare)
     print(
         f"robots: {len(loads)} loaded; load median {load_median * 1e3:.0f} ms, worst "
         f"{load_worst[0] * 1e3:.0f} ms ({load_worst[1]}); check-model median "
         f"{check_median:.2f} s, worst {check_worst[0]:.2f} s ({check_worst[1]}); bare compile "
-        f"median {limit * 1e3:.1f} ms, worst {worst_bare * 1e3:.1f} ms"
+        f"median {limit * 1e3:.1f} ms, slowest {max(bare.values()) * 1e3:.1f} ms"
     )
     return [
         Row(
@@ -88,9 +87,9 @@ def run(quick: bool) -> list[Row]:
             note="self-collision sampling, placement, gains and two compiles",
         ),
         Row(
-            name="robots: load_robot, worst robot (vs its bare compile median)",
+            name="robots: load_robot, worst robot (vs its own bare compile)",
             ours=load_worst[0] * 1e3,
-            limit=worst_bare * 1e3,
+            limit=bare[load_worst[1]] * 1e3,
             unit="ms",
             target="report",
             passed=True,
@@ -107,9 +106,9 @@ def run(quick: bool) -> list[Row]:
             higher_is_better=False,
         ),
         Row(
-            name="robots: check-model, worst robot",
+            name="robots: check-model, worst robot (vs its own bare compile)",
             ours=check_worst[0] * 1e3,
-            limit=worst_bare * 1e3,
+            limit=bare[check_worst[1]] * 1e3,
             unit="ms",
             target="report",
             passed=True,
