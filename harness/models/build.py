@@ -19,7 +19,7 @@ import re
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -28,16 +28,20 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.models import setup
 from harness.models.assets import embed_files
 from harness.models.description import ControlMode, Pose, RobotModel
+from harness.models.drives import COMMAND_FILTER_SECONDS
 from harness.models.errors import (
     CompileError,
     MasslessLinkError,
     ModelStructureError,
     ModelWarning,
 )
+from harness.models.lenient import lenient_urdf
 from harness.models.resolve import PackageMap
 from harness.models.ros2_control import warn_replaced_hardware
+from harness.models.selfcollision import declared_self_collide
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
     REPAIR_BOUNDMASS,
@@ -52,12 +56,15 @@ from harness.models.urdf_source import (
     read_urdf_source,
 )
 from harness.models.world import (
+    BaseKind,
     DuplicateNamespaceError,
     JointAddress,
     LoadedRobotView,
     LoadedWorld,
     PoseLike,
     RobotSpec,
+    SelfCollision,
+    SelfCollisionReport,
     WorldObject,
     check_namespace,
     placement_pose,
@@ -115,7 +122,10 @@ class LoadedRobot:
     6 significant digits: for humans and viewers); ``mjb`` the exact binary model
     (``mj_saveModel``), the one to replay from. ``sources`` maps ``"<role>/<file name>"``
     (roles: model, srdf, scene) to the file bytes; ``sha256`` is of ``mjcf``; ``repairs``
-    lists every mass/inertia change made by ``repair_inertia``. ``spec`` carries the mesh and
+    lists every mass/inertia change made by ``repair_inertia``; ``notes`` what a lenient load
+    recovered and how the robot was placed; ``self_collision`` the policy and the ignored link
+    pairs; ``base`` fixed or floating; ``placement`` where the model frame is in the world
+    (the ``pose`` asked for, lifted out of the floor if need be). ``spec`` carries the mesh and
     texture files in ``spec.assets`` (content-named): it compiles without the files.
     """
 
@@ -131,6 +141,10 @@ class LoadedRobot:
     sources: Mapping[str, bytes]
     sha256: str
     repairs: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    self_collision: SelfCollisionReport | None = None
+    base: BaseKind = "fixed"
+    placement: Pose = field(default_factory=Pose)
 
 
 def _kind(path: Path) -> str:
@@ -180,10 +194,11 @@ def load_description(
         urdf = read_urdf_source(
             path, robot_args=robot_args, packages=packages, reference=str(source)
         )
+        lenient_urdf(urdf.root, str(path))
         return describe_urdf(urdf.root, str(path), urdf.origin)
     if kind == "sdf":
         read_sdf, _ = _sdf_api()
-        return read_sdf(path)
+        return read_sdf(path, strict=False)
     read_xml_file(path)  # safety and well-formedness before MuJoCo's parser sees it
     spec = _spec_from_file(path)
     return _describe_mjcf(_compile(spec, str(path)), path)
@@ -232,7 +247,37 @@ def _compile(spec: mujoco.MjSpec, source: str) -> mujoco.MjModel:
                 f'{source}: <link name="{match.group(1)}">: moving link has no mass or '
                 "inertia (fix the <inertial>, or load with repair_inertia=True)"
             ) from None
+        triangle = _TRIANGLE.search(text)
+        if triangle:
+            raise CompileError(
+                f'{source}: <link name="{triangle.group(1)}">: inertia violates the triangle '
+                "inequality (A + B >= C) (load without strict=True to have it repaired)"
+            ) from None
         raise CompileError(f"{source}: {_mujoco_message(exc)}") from None
+
+
+_TRIANGLE = re.compile(r"inertia must satisfy A \+ B >= C.*?Element name '([^']*)'", re.S)
+_MESH_VOLUME = re.compile(r"mesh volume is too small: (\S+)")
+
+
+def _compile_lenient(spec: mujoco.MjSpec, source: str, robots: Sequence[_Robot]) -> mujoco.MjModel:
+    """Compile; a mesh too thin for MuJoCo's volume-based inertia gets shell inertia (its
+    body's inertia comes from the file's ``<inertial>`` anyway), with a note, unless strict."""
+    strict = any(r.request.strict for r in robots)
+    for _ in range(64):
+        try:
+            return _compile(spec, source)
+        except CompileError as exc:
+            match = _MESH_VOLUME.search(str(exc))
+            mesh = None if match is None or strict else spec.mesh(match.group(1))
+            if mesh is None or mesh.inertia == mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL:
+                raise
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+            robots[0].notes.append(
+                f"{source}: mesh {match.group(1) if match else ''} encloses (almost) no volume: "
+                "its inertia is computed as a shell"
+            )
+    return _compile(spec, source)
 
 
 # An attached MJCF robot's <size> memory hints (nkey: it brings keyframes) lose to the world's:
@@ -314,6 +359,16 @@ def _held_inertia(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> npt.N
     return diagonal
 
 
+def _drive_armature(kp: float, inertia: float, dt: float) -> float:
+    """The reflected rotor inertia a geared drive needs to servo at stiffness ``kp`` stably
+    (``sqrt(kp / (inertia + armature)) * dt <= 0.5``), for a joint whose file states none:
+    the link inertia alone (``inertia``, the smallest the joint sees) is what a motor without
+    a gearbox would move. Real gearboxes reflect rotor inertia times the square of the ratio
+    (0.01 to 1 kg m^2 for arm joints); 0 when the link inertia is already enough."""
+    needed = kp / (_STABLE_OMEGA_DT / dt) ** 2
+    return max(0.0, needed - inertia)
+
+
 def _add_actuators(
     spec: mujoco.MjSpec,
     model: mujoco.MjModel,
@@ -340,16 +395,25 @@ def _add_actuators(
         act = spec.add_actuator(name=mj_name, target=mj_name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         if mode == "position":
             kp = gains.get(name)
+            spec_joint = spec.joint(mj_name)
+            held_dof = float(held_inertia[dof])
             if kp is None:
                 kp = (effort or _DEFAULT_EFFORT) / _POSITION_SATURATION_ERROR
+                added = _drive_armature(kp, inertia, dt) if spec_joint.armature == 0 else 0.0
+                if added > 0.0:
+                    spec_joint.armature = added
+                    inertia += added
+                    held_dof += added
                 kp = min(kp, inertia * (_STABLE_OMEGA_DT / dt) ** 2)
-            spec_joint = spec.joint(mj_name)
             damping = float(spec_joint.damping[0])
             if effort is not None and limits.velocity is not None and limits.velocity > 0:
                 damping += effort / limits.velocity
                 spec_joint.damping = [damping, *spec_joint.damping[1:]]
-            critical = 2.0 * float(np.sqrt(kp * held_inertia[dof]))
-            act.set_to_position(kp=float(kp), kv=max(critical - damping, 0.0))
+            critical = 2.0 * float(np.sqrt(kp * held_dof))
+            act.set_to_position(
+                kp=float(kp), kv=max(critical - damping, 0.0), timeconst=COMMAND_FILTER_SECONDS
+            )
+            act.actearly = True  # the force uses the filtered command of this very step
             lower, upper = limits.lower, limits.upper
             bounded = lower is not None and upper is not None and lower < upper
             if bounded and joint.type != "continuous":
@@ -378,8 +442,9 @@ def _add_actuators(
 
 def _add_srdf_excludes(
     spec: mujoco.MjSpec, srdf: Path, body_names: set[str], prefix: str = ""
-) -> bytes:
+) -> tuple[bytes, tuple[tuple[str, str], ...]]:
     root, raw = read_xml_file(srdf)
+    pairs = []
     for element in root.iter("disable_collisions"):
         link1, link2 = element.get("link1"), element.get("link2")
         for link in (link1, link2):
@@ -388,7 +453,8 @@ def _add_srdf_excludes(
                     f"{srdf}: {describe(element)}: link {link!r} is not a body of the model"
                 )
         spec.add_exclude(bodyname1=prefix + str(link1), bodyname2=prefix + str(link2))
-    return raw
+        pairs.append((str(link1), str(link2)))
+    return raw, tuple(pairs)
 
 
 def _scene_spec(
@@ -473,14 +539,26 @@ class _Robot:
         self.modes: dict[str, ControlMode] = {}
         self.actuated: tuple[str, ...] = ()
         self.srdf_bytes: bytes | None = None
+        self.srdf_pairs: tuple[tuple[str, str], ...] = ()
+        self.repairs_made: tuple[str, ...] = ()
+        self.notes: list[str] = []
+        self.declared_self_collide: bool | None = None
+        self.frame: Any = None
+        self.base: BaseKind = "fixed"
+        self.self_collision: SelfCollisionReport | None = None
+        self.repair = robot.repair_inertia and not robot.strict
+        setup.check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":
             urdf = read_urdf_source(
                 path, robot_args=robot.robot_args, packages=robot.packages,
-                reference=str(robot.source),
+                reference=str(robot.source), strict=robot.strict,
             )  # fmt: skip
             root, self.model_bytes, self.extra_sources = urdf.root, urdf.data, urdf.extra
             self.path = urdf.path  # a xacro robot is recorded as its expanded URDF
+            notes = [*urdf.notes, *lenient_urdf(root, self.source, strict=robot.strict)]
+            self.notes.extend(str(n) for n in notes)
+            self.declared_self_collide = declared_self_collide(root)
             self.description = describe_urdf(root, self.source, urdf.origin)
             warn_replaced_hardware(self.description.ros2_control, self.source)
             prepared = mujoco_urdf_xml(
@@ -488,7 +566,7 @@ class _Robot:
                 path,
                 packages=robot.packages,
                 visuals=robot.visuals,
-                repair_inertia=robot.repair_inertia,
+                repair_inertia=self.repair,
                 cache_dir=cache_dir,
             )
             self.source_repairs, self.repaired_inertias = prepared.repairs, prepared.inertias
@@ -497,11 +575,21 @@ class _Robot:
             self.extension_keys = initial_keyframes(extension.keyframes, self.description)
             for joint_name, armature in extension.armature.items():
                 self.spec.joint(joint_name).armature = armature
+            if robot.base == "floating":
+                if any(link.name == "world" for link in self.description.links):
+                    raise ModelStructureError(
+                        f"{self.source}: base='floating' but the URDF fixes the robot to a "
+                        "link named 'world'"
+                    )
+                setup.make_floating(self.spec, self.source)
+                self.base = "floating"
         elif self.kind == "sdf":
             read_sdf, build_spec = _sdf_api()
             self.model_bytes = path.read_bytes()
-            self.description = read_sdf(path)
+            self.description = read_sdf(path, strict=robot.strict)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
+            self.declared_self_collide = declared_self_collide(read_xml_file(path)[0])
+            self.base = setup.sdf_base(self.spec, robot.base)
         else:
             _, self.model_bytes = read_xml_file(path)
             self.spec = _spec_from_file(path)
@@ -606,12 +694,15 @@ def load_robot(
     packages: PackageMap | None = None,
     srdf: str | Path | None = None,
     visuals: bool = False,
-    repair_inertia: bool = False,
+    repair_inertia: bool = True,
     gains: Mapping[str, float] | None = None,
     cache_dir: str | Path | None = None,
     pose: PoseLike = None,
     initial_positions: Mapping[str, float] | None = None,
     robot_args: RobotArgs | None = None,
+    strict: bool = False,
+    self_collision: SelfCollision | None = None,
+    base: BaseKind | None = None,
 ) -> LoadedRobot:
     """Load ``source`` into MuJoCo with one actuator per controllable joint.
 
@@ -622,9 +713,14 @@ def load_robot(
     ``scene``: None (a floor), ``"floor"``, ``"empty"``, ``"table"`` or an MJCF world file.
     ``packages``: package name -> folder for ``package://``. ``srdf``: its
     ``<disable_collisions>`` become body-pair excludes. ``visuals``: keep visual geoms
-    (non-colliding). ``repair_inertia``: bound masses/inertias and balance inertias,
-    reporting every changed link in ``repairs``. ``gains``: joint -> kp (position) or kv
-    (velocity) overriding the defaults. ``cache_dir``: converted-mesh cache folder.
+    (non-colliding). ``repair_inertia`` (default): bound masses/inertias and balance
+    inertias, reporting every changed link in ``repairs`` and as a :class:`ModelWarning`.
+    ``strict``: refuse what a lenient load would recover or repair (bad inertias, a wrong XML
+    declaration, trailing content, equal joint limits, ...). ``self_collision``: ``"auto"``,
+    ``"off"``, ``"on"`` or ``"srdf"`` (see :mod:`harness.models.selfcollision`). ``base``:
+    ``"fixed"`` or ``"floating"`` (see :mod:`harness.models.placement`). ``gains``: joint ->
+    kp (position) or kv (velocity) overriding the defaults. ``cache_dir``: converted-mesh
+    cache folder.
     ``pose``: where the robot's base (model frame) is in the world (see
     :data:`harness.models.world.PoseLike`). ``initial_positions``: joint -> position
     overriding the ``home`` keyframe (created if the robot has none). ``robot_args``: the
@@ -652,6 +748,9 @@ def load_robot(
         repair_inertia=repair_inertia,
         initial_positions=dict(initial_positions or {}),
         robot_args=dict(robot_args or {}),
+        strict=strict,
+        self_collision=self_collision,
+        base=base,
     )
     world = load_world([robot], scene=scene, cache_dir=cache_dir)
     view = world.robots[0]
@@ -668,6 +767,10 @@ def load_robot(
         sources=world.sources,
         sha256=world.sha256,
         repairs=view.repairs,
+        notes=view.notes,
+        self_collision=view.self_collision,
+        base=view.base,
+        placement=view.placement,
     )
 
 
@@ -747,6 +850,7 @@ def load_world(
                 frame = spec.worldbody.add_frame()
             else:
                 frame = spec.worldbody.add_frame(pos=list(placement.xyz), quat=list(placement.quat))
+            robot.frame = frame
             try:
                 with _mujoco_warnings():
                     spec.attach(robot.spec, prefix=robot.prefix, frame=frame)
@@ -761,10 +865,11 @@ def load_world(
         spec.option.timestep = timestep
     spec.modelname = first_robot.description.name if not several else "world"
 
-    first = _compile(spec, world_source)
+    first = _compile_lenient(spec, world_source, prepared)
     joint_names = {first.joint(j).name for j in range(first.njnt)}
     servo_qpos = np.array(first.qpos0, dtype=float)
     for robot in prepared:
+        setup.start_within_limits(first, robot)
         robot.key_values(first, "home", servo_qpos)
     held = _held_inertia(first, servo_qpos)
     for robot in prepared:
@@ -786,6 +891,7 @@ def load_world(
         robot.actuated = _add_actuators(
             spec, first, robot.description, robot.modes, gains, held, robot.prefix
         )
+        setup.compensate_gravity(spec, first, robot)
     for robot in prepared:
         if robot.request.srdf is not None:
             srdf = Path(robot.request.srdf)
@@ -793,12 +899,22 @@ def load_world(
             if robot.prefix:  # only this robot's links
                 links = {link.name for link in robot.description.links}
                 body_names = {n for n in links if robot.prefix + n in body_names}
-            sources[f"srdf/{robot.prefix}{srdf.name}"] = _add_srdf_excludes(
+            sources[f"srdf/{robot.prefix}{srdf.name}"], robot.srdf_pairs = _add_srdf_excludes(
                 spec, srdf, body_names, robot.prefix
             )
+    for index, robot in enumerate(prepared):
+        setup.apply_self_collision(spec, first, robot, servo_qpos)
+        if robot.frame is not None:
+            placements[index] = setup.place_on_floor(first, robot, servo_qpos, placements[index])
     _combine_keyframes(spec, first, prepared, several)
 
     model = _compile(spec, world_source)
+    for robot in prepared:
+        if robot.repair:
+            robot.repairs_made = robot.source_repairs + _repairs(
+                model, robot.description, robot.repaired_inertias, robot.prefix
+            )
+    setup.report_start(model, prepared)
     with _mujoco_warnings():
         mjcf = spec.to_xml()
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
@@ -860,6 +976,7 @@ def _combine_keyframes(
         qpos = np.array(first.qpos0 if scene_key < 0 else first.key_qpos[scene_key], dtype=float)
         qvel = np.zeros(first.nv) if scene_key < 0 else np.array(first.key_qvel[scene_key])
         ctrl = np.zeros(first.nu) if scene_key < 0 else np.array(first.key_ctrl[scene_key])
+        act = np.zeros(first.na) if scene_key < 0 else np.array(first.key_act[scene_key])
         time = 0.0 if scene_key < 0 else float(first.key_time[scene_key])
         for robot in robots:
             own, _ = robot.key_values(first, name, qpos)
@@ -887,6 +1004,12 @@ def _combine_keyframes(
             else 0.0
             for robot, joint in added_actuators
         ]
+        # each added position servo's command filter starts at its command
+        filtered = [
+            value
+            for value, (robot, joint) in zip(added, added_actuators, strict=True)
+            if robot.modes.get(joint) == "position"
+        ]
         keys.append(
             {
                 "name": name,
@@ -894,6 +1017,7 @@ def _combine_keyframes(
                 "qpos": qpos.tolist(),
                 "qvel": qvel.tolist(),
                 "ctrl": [*ctrl.tolist(), *added],
+                "act": [*act.tolist(), *filtered],
             }
         )
     for key in list(spec.keys):
@@ -969,12 +1093,10 @@ def _view(
         bodies=MappingProxyType(bodies),
         home=MappingProxyType(home),
         sources=MappingProxyType({k: v for k, v in sources.items() if k in mine}),
-        repairs=(
-            robot.source_repairs
-            + _repairs(model, robot.description, robot.repaired_inertias, robot.prefix)
-            if robot.request.repair_inertia
-            else ()
-        ),
+        repairs=robot.repairs_made,
+        notes=tuple(robot.notes),
+        self_collision=robot.self_collision,
+        base=robot.base,
     )
 
 

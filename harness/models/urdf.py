@@ -406,6 +406,8 @@ def _repair_tensor(link: etree._Element) -> tuple[float, ...] | None:
         return None
     if ixy == ixz == iyz == 0.0:
         return None
+    if not all(np.isfinite(v) for v in (ixx, ixy, ixz, iyy, iyz, izz)):
+        return None  # not a tensor to repair: MuJoCo names the bad value
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     values, vectors = np.linalg.eigh(tensor)
     if values.min() >= REPAIR_BOUNDINERTIA:

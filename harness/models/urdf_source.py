@@ -17,11 +17,12 @@ from typing import Any, NamedTuple
 
 from harness.models.description import ControlMode, RobotModel
 from harness.models.errors import ModelStructureError, XacroError
+from harness.models.lenient import LoadNote, read_lenient_xml
 from harness.models.resolve import PackageMap, resolve_uri
 from harness.models.ros2_control import interface_modes, parse_ros2_control
 from harness.models.urdf import urdf_from_element
 from harness.models.xacro import RobotArgs, XacroOrigin, expand_xacro, is_xacro, normalize_args
-from harness.models.xmlsafe import parse_xml, read_xml_file
+from harness.models.xmlsafe import parse_xml
 
 __all__ = [
     "UrdfSource",
@@ -37,13 +38,15 @@ class UrdfSource(NamedTuple):
     """A URDF ready to build: ``path`` (relative references resolve from its folder; for a
     xacro robot the expanded file's name beside the entry file), the parsed ``root``, its
     bytes ``data`` (the expanded text for xacro), ``extra`` sources to record (xacro files
-    read, meshes named) and the xacro ``origin`` (None for a plain URDF)."""
+    read, meshes named), the xacro ``origin`` (None for a plain URDF) and the ``notes`` of
+    what a lenient read recovered (:func:`harness.models.lenient.read_lenient_xml`)."""
 
     path: Path
     root: Any
     data: bytes
     extra: Mapping[str, bytes]
     origin: XacroOrigin | None
+    notes: tuple[LoadNote, ...] = ()
 
 
 def locate(source: str | Path, packages: PackageMap | None = None) -> Path:
@@ -66,16 +69,19 @@ def read_urdf_source(
     robot_args: RobotArgs | Iterable[str] | None = None,
     packages: PackageMap | None = None,
     reference: str | None = None,
+    strict: bool = False,
 ) -> UrdfSource:
-    """Read (and for a xacro file expand with ``robot_args``) the URDF at ``path``."""
+    """Read (and for a xacro file expand with ``robot_args``) the URDF at ``path``; a plain
+    URDF is read leniently (a wrong XML declaration or trailing content is recovered with a
+    note) unless ``strict``."""
     if not is_xacro(path):
         if normalize_args(robot_args):
             raise XacroError(
                 f"{path}: robot arguments {sorted(normalize_args(robot_args))} given, but the "
                 "file is not a xacro file (.xacro, or a root declaring xmlns:xacro)"
             )
-        root, data = read_xml_file(path)
-        return UrdfSource(path, root, data, MappingProxyType({}), None)
+        root, data, notes = read_lenient_xml(path, strict=strict)
+        return UrdfSource(path, root, data, MappingProxyType({}), None, notes)
     expansion = expand_xacro(path, robot_args, packages=packages, reference=reference)
     root = parse_xml(expansion.urdf, str(path))
     return UrdfSource(

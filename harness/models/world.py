@@ -27,7 +27,11 @@ from harness.models.resolve import PackageMap
 from harness.models.xacro import RobotArgs
 
 __all__ = [
+    "BASE_KINDS",
+    "SELF_COLLISION_POLICIES",
+    "BaseKind",
     "DuplicateNamespaceError",
+    "IgnoredPair",
     "InvalidNamespaceError",
     "JointAddress",
     "LoadedRobotView",
@@ -35,6 +39,8 @@ __all__ = [
     "ObjectShape",
     "PoseLike",
     "RobotSpec",
+    "SelfCollision",
+    "SelfCollisionReport",
     "WorldObject",
     "check_namespace",
     "placement_pose",
@@ -45,6 +51,11 @@ PoseLike = Pose | Sequence[float] | None
 (fixed axes, radians, as URDF), ``[x, y, z]`` or None (the world origin)."""
 
 ObjectShape = Literal["box", "sphere", "cylinder", "capsule"]
+SelfCollision = Literal["auto", "off", "on", "srdf"]
+"""Self-collision policies (see :mod:`harness.models.selfcollision`)."""
+SELF_COLLISION_POLICIES: tuple[SelfCollision, ...] = ("auto", "off", "on", "srdf")
+BaseKind = Literal["fixed", "floating"]
+BASE_KINDS: tuple[BaseKind, ...] = ("fixed", "floating")
 
 _NAMESPACE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 _OBJECT_SIZES: Mapping[str, int] = MappingProxyType(
@@ -109,7 +120,12 @@ class RobotSpec:
     :func:`harness.models.load_robot`, with the robot's unprefixed joint and link names.
     ``initial_positions``: joint -> position overriding the robot's ``home`` keyframe (the
     servos stay tuned at the source's own ``home``). ``robot_args``: a xacro robot's
-    arguments (name -> value).
+    arguments (name -> value). ``strict``: refuse what a lenient load
+    recovers or repairs (see :mod:`harness.models.lenient`; implies no inertia repair).
+    ``self_collision``: which pairs of the robot's own links collide (see
+    :mod:`harness.models.selfcollision`; None: the file's ``self_collide``, else the SRDF
+    when given, else ``"auto"``). ``base``: ``"fixed"`` or ``"floating"`` (None: floating
+    only for an SDF model that is not static, as before).
     """
 
     source: str | Path = "demo"
@@ -120,9 +136,12 @@ class RobotSpec:
     packages: PackageMap | None = None
     srdf: str | Path | None = None
     visuals: bool = False
-    repair_inertia: bool = False
+    repair_inertia: bool = True
     initial_positions: Mapping[str, float] = field(default_factory=dict)
     robot_args: RobotArgs = field(default_factory=dict)
+    strict: bool = False
+    self_collision: SelfCollision | None = None
+    base: BaseKind | None = None
 
 
 @dataclass(frozen=True)
@@ -156,6 +175,35 @@ class WorldObject:
             raise ModelStructureError(f"{where}: mass {self.mass!r} is not positive")
 
 
+class IgnoredPair(NamedTuple):
+    """A pair of links whose collisions are ignored, and why: ``"adjacent"``, ``"default"``
+    (in contact at the initial configuration), ``"always"`` (in contact in nearly every
+    random configuration), ``"srdf"``, ``"off"`` (policy)."""
+
+    link1: str
+    link2: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class SelfCollisionReport:
+    """The self-collision policy applied to one robot: ``policy``, where it came from
+    (``origin``: ``"argument"``, ``"file"`` for a ``self_collide`` element, ``"srdf"``,
+    ``"default"``) and the ignored pairs (unprefixed link names)."""
+
+    policy: SelfCollision
+    origin: str
+    ignored: tuple[IgnoredPair, ...] = ()
+
+    def as_dict(self) -> dict[str, object]:
+        """A JSON-ready summary (for recording metadata and ``check-model --json``)."""
+        return {
+            "policy": self.policy,
+            "origin": self.origin,
+            "ignored": [[p.link1, p.link2, p.reason] for p in self.ignored],
+        }
+
+
 class JointAddress(NamedTuple):
     """Where a robot joint is in the compiled model: its MuJoCo ``name`` and ``id``, first
     ``qpos`` and ``qvel`` (dof) addresses and their counts ``nq`` and ``nv``."""
@@ -178,7 +226,9 @@ class LoadedRobotView:
     ``joints`` (joint -> :class:`JointAddress`), ``actuators`` (joint -> actuator id) and
     ``bodies`` (link -> body id) map them into the compiled model. ``home`` holds the
     combined ``home`` keyframe's position of each 1-dof joint. ``sources`` are this robot's
-    entries of the world's sources; ``repairs`` as :attr:`harness.models.LoadedRobot.repairs`.
+    entries of the world's sources; ``repairs`` as :attr:`harness.models.LoadedRobot.repairs`;
+    ``notes`` what a lenient load recovered and how the robot was placed; ``self_collision``
+    the policy applied and the link pairs it ignores; ``base`` fixed or floating.
     """
 
     namespace: str
@@ -193,6 +243,9 @@ class LoadedRobotView:
     home: Mapping[str, float]
     sources: Mapping[str, bytes]
     repairs: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    self_collision: SelfCollisionReport | None = None
+    base: BaseKind = "fixed"
 
     @property
     def prefix(self) -> str:

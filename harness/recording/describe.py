@@ -7,7 +7,9 @@ rebuilds the same world (``harness.replay.source.rebuild_run``):
 - ``robots``: one object per robot, in the world's order: ``namespace``, ``source`` (its
   ``source/`` attachment, e.g. ``"model/left/demo_arm.urdf"``), ``pose`` (the placement used,
   ``[x, y, z, qw, qx, qy, qz]``, or null for the world origin), ``control`` (its own joint ->
-  mode), ``srdf`` (attachment or null) and, when the run knows the robot's ``RobotSpec``
+  mode), ``srdf`` (attachment or null), ``self_collision`` (policy, origin, ignored link
+  pairs with their reason), ``base`` (fixed or floating) and, when the run knows the
+  robot's ``RobotSpec``
   (``specs``), its ``initial_positions``, ``gains``, ``visuals`` and ``repair_inertia``;
 - ``objects``: the primitives added to the world (``name``, ``shape``, ``size``, ``pose``,
   ``mass``, ``rgba``).
@@ -100,6 +102,11 @@ def world_metadata(
             "srdf": next((n for n in sources if n.startswith("srdf/")), None),
             **_xacro_entry(view),
         }
+        # issue 14: which self-collision pairs were ignored and why, and the base kind
+        report = getattr(view, "self_collision", None)
+        if report is not None:
+            entry["self_collision"] = report.as_dict()
+        entry["base"] = str(getattr(view, "base", "fixed"))
         if specs is not None and index < len(specs):
             spec = specs[index]
             entry["initial_positions"] = {
@@ -148,6 +155,18 @@ def _xacro_metadata(robot: Any) -> dict[str, str]:
     }
 
 
+def _robot_metadata(robot: Any) -> dict[str, str]:
+    """A single robot's self-collision policy (with the ignored pairs) and base kind (issue
+    14; a world has them per robot in ``robots``)."""
+    report = getattr(robot, "self_collision", None)
+    if report is None or hasattr(robot, "robots"):
+        return {}
+    return {
+        "self_collision": json.dumps(report.as_dict(), sort_keys=True),
+        "base": str(getattr(robot, "base", "fixed")),
+    }
+
+
 def describe_run(
     robot: LoadedRobotLike,
     *,
@@ -159,12 +178,12 @@ def describe_run(
     objects: Sequence[Any] = (),
 ) -> RunDescription:
     """The ``harness`` metadata (timestep, integrator, seed, model SHA-256, control modes,
-    robot name; for a world its ``robots`` and ``objects``, see :func:`world_metadata`) and
-    the attachments (the exact compiled model as MJB, the compiled MJCF for reading, source
-    files under ``source/``, with the meshes a URDF references
-    (:func:`harness.recording.meshes.mesh_attachments`), the scenario under
-    ``scenario/<scenario_name>``) of a run of ``robot`` (a ``LoadedRobot`` or a
-    ``LoadedWorld``)."""
+    robot name, a single robot's ``self_collision`` and ``base``; for a world its ``robots``
+    and ``objects``, see :func:`world_metadata`) and the attachments (the exact compiled
+    model as MJB, the compiled MJCF for reading, source files under ``source/``, with the
+    meshes a URDF references (:func:`harness.recording.meshes.mesh_attachments`), the
+    scenario under ``scenario/<scenario_name>``) of a run of ``robot`` (a ``LoadedRobot`` or
+    a ``LoadedWorld``)."""
     timestep = float(robot.model.opt.timestep)
     control = {str(joint): str(mode) for joint, mode in robot.control.items()}
     metadata = {
@@ -177,6 +196,7 @@ def describe_run(
         "control_modes": json.dumps(control, sort_keys=True),
         **(world_metadata(robot, specs, objects) if hasattr(robot, "robots") else {}),
         **_xacro_metadata(robot),
+        **_robot_metadata(robot),
         **(extra or {}),
     }
     attachments = {

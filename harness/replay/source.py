@@ -247,7 +247,20 @@ def _robot_spec(
         visuals=bool(entry.get("visuals", False)),
         repair_inertia=bool(entry.get("repair_inertia", False)),
         initial_positions=dict(entry.get("initial_positions") or {}),
+        **_collision_and_base(entry.get("self_collision"), entry.get("base"), srdf is not None),
     )
+
+
+def _collision_and_base(report: Any, base: Any, srdf: bool) -> dict[str, Any]:
+    """The recorded self-collision policy and base kind (issue 14) as load options; none
+    for recordings made before they were recorded (``"srdf"`` only when the SRDF is)."""
+    options: dict[str, Any] = {}
+    policies = ("auto", "off", "on", "srdf") if srdf else ("auto", "off", "on")
+    if isinstance(report, dict) and report.get("policy") in policies:
+        options["self_collision"] = report["policy"]
+    if base in ("fixed", "floating"):
+        options["base"] = base
+    return options
 
 
 def rebuild_world(
@@ -350,6 +363,11 @@ def rebuild_robot(
                 control=modes,
                 scene=_scene(sources, root),
                 packages=_packages(sources, root) or None,
+                **_collision_and_base(
+                    json.loads(rec.metadata.get("self_collision", "null")),
+                    rec.metadata.get("base"),
+                    srdf=False,
+                ),
             )
         except HarnessError as exc:
             raise ModelAttachmentError(

@@ -430,6 +430,12 @@ class Simulation:
             else:
                 self._cmd[r] = 0.0
         self.data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
+        # a filtered position command (the drive's setpoint filter) starts at its command
+        model = self.model
+        for act in self._dyn_act.tolist():
+            adr = int(model.actuator_actadr[act])
+            if adr >= 0 and model.actuator_dyntype[act] == mujoco.mjtDyn.mjDYN_FILTEREXACT:
+                self.data.act[adr] = self.data.ctrl[act]
         self._restart(0)
 
     def get_state(self) -> F64:

@@ -12,7 +12,7 @@ import pytest
 import yourdfpy
 
 from harness.models import DEMO_URDF, load_robot
-from harness.models.errors import ModelStructureError
+from harness.models.errors import ModelStructureError, ModelWarning
 
 HOME = {
     "joint1": 0.0,
@@ -67,13 +67,19 @@ def test_the_home_keyframe_comes_from_the_file(tmp_path: Path) -> None:
         assert home.qpos[m.jnt_qposadr[m.joint(joint).id]] == pytest.approx(value, abs=1e-15)
     expected_ctrl = [0.0 if j == "joint3" else HOME[j] for j in loaded.actuated]
     assert home.ctrl == pytest.approx(expected_ctrl, abs=1e-15)
-    # without the <harness> element there is no keyframe and no armature
+    # without the <harness> element the robot starts at zero, except joint4, whose zero is
+    # outside its limits: it starts at its nearest limit (a home keyframe made for it); the
+    # drives get the armature their servo needs instead of the file's
     stripped = tmp_path / "stripped.urdf"
     text = copy.read_text()
     stripped.write_text(text[: text.index("  <harness>")] + "</robot>\n")
-    bare = load_robot(stripped, scene="empty").model
-    assert bare.nkey == 0
-    assert not bare.dof_armature.any()
+    with pytest.warns(ModelWarning, match="joint4 0 -> -0.0698"):
+        bare = load_robot(stripped, scene="empty").model
+    assert bare.nkey == 1
+    start = {bare.joint(j).name: bare.key("home").qpos[bare.jnt_qposadr[j]] for j in range(7)}
+    assert start["joint4"] == pytest.approx(-0.0698)
+    assert all(v == 0.0 for name, v in start.items() if name != "joint4")
+    assert bare.dof_armature.tolist() != m.dof_armature.tolist()
 
 
 def test_other_urdf_readers_ignore_the_extension() -> None:

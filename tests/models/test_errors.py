@@ -14,6 +14,7 @@ from harness.models.errors import (
     MasslessLinkError,
     MeshError,
     ModelStructureError,
+    ModelWarning,
     ResolveError,
     UnknownPackageError,
     XMLError,
@@ -116,8 +117,9 @@ def test_massless_moving_link_is_named_and_repairable(tmp_path):
         MasslessLinkError,
         match=r"robot\.urdf: <link name=\"b\">: moving link has no mass.*repair_inertia=True",
     ):
-        load_robot(path)
-    repaired = load_robot(path, repair_inertia=True)
+        load_robot(path, strict=True)
+    with pytest.warns(ModelWarning, match=r"robot\.urdf: repaired .* b: mass 0 -> 0\.0001 kg"):
+        repaired = load_robot(path)  # the default repairs, and says so
     assert repaired.repairs == (
         "b: mass 0 -> 0.0001 kg (boundmass)",
         "b: principal inertia raised to 1e-08 kg m^2 (boundinertia)",
@@ -139,8 +141,8 @@ def test_repairs_name_exactly_the_changed_links(tmp_path):
         ]
     )
     path = _urdf(tmp_path, body)
-    with pytest.raises(HarnessError, match="balanceinertia"):
-        load_robot(path)
+    with pytest.raises(HarnessError, match=r"<link name=\"b\">: inertia violates the triangle"):
+        load_robot(path, strict=True)
     repaired = load_robot(path, repair_inertia=True)
     assert len(repaired.repairs) == 1
     assert repaired.repairs[0].startswith("b: inertia [0.01, 0.01, 0.05] -> ")

@@ -65,7 +65,10 @@ def test_mujoco_body_poses_match_yourdfpy(name, robots, data_dir, mesh_cache):
         for link in description.links:
             if link.name == "world":
                 continue
-            expected = urdf.get_transform(frame_to=link.name, frame_from=base)
+            # the robot may have been lifted out of the floor: its model frame is `placement`
+            expected = loaded.placement.matrix() @ urdf.get_transform(
+                frame_to=link.name, frame_from=base
+            )
             body = model.body(link.name).id
             actual = np.eye(4)
             actual[:3, :3] = data.xmat[body].reshape(3, 3)

@@ -201,7 +201,12 @@ def test_each_robot_has_its_own_srdf_excludes() -> None:
     for signature in model.exclude_signature:
         body1, body2 = int(signature) >> 16, int(signature) & 0xFFFF
         excluded.add(tuple(sorted((model.body(body1).name, model.body(body2).name))))
-    assert excluded == {("a/link0", "a/link2"), ("a/link5", "a/link7")}
+    # the SRDF's pairs for a, adjacent links welded together for both (hand on link7)
+    assert {("a/link0", "a/link2"), ("a/link5", "a/link7")} <= excluded
+    assert ("b/link0", "b/link2") not in excluded
+    assert all(x.split("/")[0] == y.split("/")[0] for x, y in excluded)  # no cross-robot pair
+    assert world.robot("a").self_collision.policy == "srdf"
+    assert world.robot("b").self_collision.policy == "auto"
     assert "srdf/a/demo_arm.srdf" in world.sources
     assert set(world.robot("a").sources) == {"model/a/demo_arm.urdf", "srdf/a/demo_arm.srdf"}
 

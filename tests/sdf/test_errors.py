@@ -156,7 +156,6 @@ def test_missing_version(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("inertial", "reason"),
     [
-        ("<mass>0</mass>", "mass 0.0 must be positive"),
         ("<mass>-1</mass>", "mass -1.0 must be positive"),
         (
             "<mass>1</mass><inertia><ixx>1</ixx><iyy>1</iyy><izz>3</izz></inertia>",

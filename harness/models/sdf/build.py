@@ -210,8 +210,8 @@ def _add_geom(
 
 def _add_inertial(body: mujoco.MjsBody, link: Link) -> None:
     inertial = link.inertial
-    if inertial is None:
-        return
+    if inertial is None or inertial.mass == 0.0:
+        return  # massless (static or welded) link: MuJoCo names it if it moves
     local = link.pose.inverse() * inertial.pose
     ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])

@@ -351,13 +351,15 @@ def read_sdf(
     *,
     search_paths: Sequence[str | Path] | None = None,
     model: str | None = None,
+    strict: bool = True,
 ) -> RobotModel:
     """Read an SDFormat ``<model>`` file, or one model of a ``<world>`` file (``model``, else
     the first), as a :class:`RobotModel` in the model frame.
 
     ``search_paths``: folders searched first for ``model://`` includes and meshes.
+    ``strict=False`` repairs invalid inertias with a warning (as ``load_robot`` does).
     """
-    doc = load_document(path, search_paths=search_paths)
+    doc = load_document(path, search_paths=search_paths, strict=strict)
     models = _models(doc)
     if model is not None:
         chosen = [m for m in models if m.name == model]

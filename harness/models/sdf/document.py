@@ -14,6 +14,7 @@ so an included model keeps its own version.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,7 +24,7 @@ from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.errors import ModelError
 from harness.models.description import Pose
-from harness.models.errors import ResolveError
+from harness.models.errors import ModelWarning, ResolveError
 from harness.models.resolve import find_model
 from harness.models.sdf.errors import (
     SdfCycleError,
@@ -246,31 +247,54 @@ def _parse_pose(element: etree._Element | None, source: Path, version: Version) 
     )
 
 
-def _check_inertia(mass: float, inertia: Sequence[float], where: str) -> None:
+def _check_inertia(
+    mass: float, inertia: Sequence[float], where: str, strict: bool = True
+) -> tuple[float, float, float, float, float, float]:
+    """The inertia tensor to use: as written when valid; else, unless ``strict``, repaired
+    (principal moments raised to satisfy positivity and the triangle inequality, axes kept)
+    with a :class:`ModelWarning` saying what changed (libsdformat loads such files too)."""
+    ixx, ixy, ixz, iyy, iyz, izz = inertia
+    if mass == 0.0:
+        # libsdformat accepts it: a static or welded link (a moving one fails to build)
+        return (ixx, ixy, ixz, iyy, iyz, izz)
     if not mass > 0.0:
         raise SdfInertiaError(f"{where}: invalid inertia: mass {mass} must be positive")
-    ixx, ixy, ixz, iyy, iyz, izz = inertia
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-    moments = np.linalg.eigvalsh(tensor)
+    moments, axes = np.linalg.eigh(tensor)
     tol = 1e-9 * max(1.0, float(np.max(np.abs(moments))))
+    problem = None
     if float(moments[0]) <= 0.0:
-        raise SdfInertiaError(
-            f"{where}: invalid inertia: principal moments {moments.tolist()} must be positive"
-        )
-    a, b, c = (float(m) for m in moments)
-    if a + b < c - tol:
-        raise SdfInertiaError(
-            f"{where}: invalid inertia: principal moments {moments.tolist()} violate the "
-            "triangle inequality"
-        )
+        problem = f"principal moments {moments.tolist()} must be positive"
+    elif float(moments[0] + moments[1]) < float(moments[2]) - tol:
+        problem = f"principal moments {moments.tolist()} violate the triangle inequality"
+    if problem is None:
+        return (ixx, ixy, ixz, iyy, iyz, izz)
+    if strict:
+        raise SdfInertiaError(f"{where}: invalid inertia: {problem}")
+    fixed = np.maximum(moments, _MIN_MOMENT)
+    if fixed[0] + fixed[1] < fixed[2]:  # raise the two small ones to half the largest
+        fixed[0] = max(fixed[0], fixed[2] / 2.0)
+        fixed[1] = max(fixed[1], fixed[2] / 2.0)
+    new = axes @ np.diag(fixed) @ axes.T
+    warnings.warn(
+        f"{where}: invalid inertia ({problem}): repaired to principal moments "
+        f"{np.round(fixed, 9).tolist()} (strict=True refuses instead)",
+        ModelWarning,
+        stacklevel=2,
+    )
+    return (new[0, 0], new[0, 1], new[0, 2], new[1, 1], new[1, 2], new[2, 2])
+
+
+_MIN_MOMENT = 1e-8
 
 
 class _Loader:
     """Builds the entity tree of one document (following includes)."""
 
-    def __init__(self, search_paths: Sequence[str | Path]) -> None:
+    def __init__(self, search_paths: Sequence[str | Path], strict: bool = True) -> None:
         self.search_paths = [Path(p) for p in search_paths]
         self.include_stack: list[Path] = []
+        self.strict = strict
 
     def load_root(self, path: Path) -> tuple[Entity, str]:
         self.include_stack.append(path.resolve())
@@ -419,7 +443,7 @@ class _Loader:
             for key, default in defaults.items()
         ]
         inertia = (values[0], values[1], values[2], values[3], values[4], values[5])
-        _check_inertia(mass, inertia, _where(source, element))
+        inertia = _check_inertia(mass, inertia, _where(source, element), self.strict)
         return InertialSpec(mass, _parse_pose(element.find("pose"), source, version), inertia)
 
     def _shape(self, element: etree._Element, source: Path, version: Version) -> ShapeSpec:
@@ -853,12 +877,13 @@ class SdfDocument:
 
 
 def load_document(
-    path: str | Path, *, search_paths: Sequence[str | Path] | None = None
+    path: str | Path, *, search_paths: Sequence[str | Path] | None = None, strict: bool = True
 ) -> SdfDocument:
     """Read the SDFormat file at ``path`` (``<include>``s searched in ``search_paths``, then
     the Gazebo variables GZ_SIM_RESOURCE_PATH, SDF_PATH, IGN_GAZEBO_RESOURCE_PATH,
-    GAZEBO_MODEL_PATH, then the folders above the file) and check its frame graph."""
-    loader = _Loader(search_paths or ())
+    GAZEBO_MODEL_PATH, then the folders above the file) and check its frame graph.
+    ``strict=False`` repairs invalid inertias with a warning instead of refusing them."""
+    loader = _Loader(search_paths or (), strict)
     root, version = loader.load_root(Path(path))
     document = SdfDocument(root, version)
     document.validate()

@@ -1,0 +1,183 @@
+"""Self-collision policy, placement and base: which link pairs collide, MoveIt- or
+Gazebo-style, deterministic and recorded; robots lifted out of the floor or set down on it."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import mujoco
+import numpy as np
+import pytest
+
+from harness.models import load_robot
+from harness.models.errors import ModelStructureError, ModelWarning
+from harness.models.selfcollision import SAMPLES
+from harness.recording.describe import describe_run
+
+from .conftest import DATA, robots_dir
+
+ARM = DATA / "overlapping_arm.urdf"
+KINOVA = "kinova_description/robots/kinova.urdf"
+
+
+def _quiet(path, **options):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
+        return load_robot(path, **options)
+
+
+def _pairs(loaded):
+    return {(p.link1, p.link2): p.reason for p in loaded.self_collision.ignored}
+
+
+def _robot_contacts(loaded, qpos=None):
+    m = loaded.model
+    d = mujoco.MjData(m)
+    if m.nkey:  # the initial configuration
+        mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    if qpos is not None:
+        d.qpos[:] = qpos
+    mujoco.mj_forward(m, d)
+    robot = {m.body(link.name).id for link in loaded.description.links}
+    found = set()
+    for i in range(d.ncon):
+        b1, b2 = (int(m.geom_bodyid[g]) for g in d.contact.geom[i])
+        if b1 in robot and b2 in robot:
+            found.add(tuple(sorted((m.body(b1).name, m.body(b2).name))))
+    return found
+
+
+def test_auto_ignores_adjacent_and_initially_touching_pairs_and_says_why():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        loaded = load_robot(ARM)
+    assert loaded.self_collision.policy == "auto"
+    assert loaded.self_collision.origin == "default"
+    assert _pairs(loaded) == {
+        ("base", "shoulder"): "adjacent",
+        ("shoulder", "forearm"): "adjacent",
+        ("base", "forearm"): "default",
+    }
+    assert not _robot_contacts(loaded)
+    assert not [w for w in caught if "at the start" in str(w.message)]
+
+
+def test_on_keeps_the_overlap_and_reports_it_once_off_ignores_every_pair():
+    with pytest.warns(ModelWarning, match=r"1 contact\(s\) at the start: base / forearm 20\.0 mm"):
+        on = load_robot(ARM, self_collision="on")
+    assert set(_pairs(on).values()) == {"adjacent"}
+    assert _robot_contacts(on) == {("base", "forearm")}
+    off = _quiet(ARM, self_collision="off")
+    assert _pairs(off)[("base", "forearm")] == "off"
+    assert not _robot_contacts(off)
+
+
+def test_self_collide_in_the_file_chooses_the_policy(tmp_path):
+    text = ARM.read_text()
+    for value, policy in (("false", "off"), ("true", "on")):
+        path = tmp_path / f"arm_{value}.urdf"
+        path.write_text(
+            text.replace(
+                "</robot>", f"<gazebo><self_collide>{value}</self_collide></gazebo></robot>"
+            )
+        )
+        loaded = _quiet(path)
+        assert (loaded.self_collision.policy, loaded.self_collision.origin) == (policy, "file")
+    # an argument wins over the file
+    assert _quiet(path, self_collision="auto").self_collision.policy == "auto"
+
+
+def test_unknown_policy_and_srdf_policy_without_srdf_are_refused():
+    with pytest.raises(ModelStructureError, match="unknown self_collision 'sometimes'"):
+        load_robot(ARM, self_collision="sometimes")  # type: ignore[arg-type]
+    with pytest.raises(ModelStructureError, match="self_collision='srdf' but no srdf"):
+        load_robot(ARM, self_collision="srdf")
+
+
+def test_a_real_robot_starts_free_of_self_contact_and_pairs_not_ignored_still_collide(mesh_cache):
+    """The Kinova starts with 71 contacts when every pair collides; with "auto" none, and its
+    links can still hit each other: the ignored list is not everything."""
+    path = robots_dir() / KINOVA
+    on = _quiet(path, self_collision="on", cache_dir=mesh_cache)
+    auto = _quiet(path, cache_dir=mesh_cache)
+    assert len(_robot_contacts(on)) > 3
+    assert not _robot_contacts(auto)
+    ignored = set(_pairs(auto))
+    rng = np.random.default_rng(1)
+    m = auto.model
+    hinges = [j for j in range(m.njnt) if m.jnt_limited[j]]
+    hits: set[tuple[str, str]] = set()
+    for _ in range(300):
+        qpos = np.array(m.qpos0)
+        for j in hinges:
+            qpos[m.jnt_qposadr[j]] = rng.uniform(*m.jnt_range[j])
+        hits |= _robot_contacts(auto, qpos)
+    assert hits, "no self-collision in 300 random configurations"
+    assert not {(a, b) for a, b in hits} & ignored
+
+
+def test_pairs_are_deterministic_and_recorded_in_the_metadata(mesh_cache):
+    path = robots_dir() / KINOVA
+    first = _quiet(path, cache_dir=mesh_cache)
+    second = _quiet(path, cache_dir=mesh_cache)
+    assert first.self_collision == second.self_collision
+    assert first.mjb == second.mjb
+    assert SAMPLES >= 100
+    metadata = describe_run(first).metadata
+    recorded = json.loads(metadata["self_collision"])
+    assert recorded["policy"] == "auto"
+    assert recorded["ignored"] == [
+        [p.link1, p.link2, p.reason] for p in first.self_collision.ignored
+    ]
+    assert metadata["base"] == "fixed"
+
+
+def test_a_fixed_robot_is_lifted_out_of_the_floor(mesh_cache):
+    """The UR5 at its zero configuration reaches 48.5 mm through the floor: lifted, with a
+    notice; the base alone touching the floor (the Panda) is not a reason to lift."""
+    with pytest.warns(ModelWarning, match=r"reach 0\.0485 m through the floor.*lifted 0\.0495 m"):
+        ur5 = load_robot(robots_dir() / "ur_description/urdf/ur5_robot.urdf", cache_dir=mesh_cache)
+    assert ur5.placement.xyz[2] == pytest.approx(0.0495, abs=1e-4)
+    assert not _robot_contacts(ur5)
+    d = mujoco.MjData(ur5.model)
+    mujoco.mj_forward(ur5.model, d)
+    assert d.ncon == 0  # nothing touches the floor either
+    panda = _quiet(robots_dir() / "panda_description/urdf/panda.urdf", cache_dir=mesh_cache)
+    assert panda.placement.xyz == (0.0, 0.0, 0.0)
+
+
+def test_a_floating_robot_is_set_down_on_the_floor(mesh_cache):
+    go1 = _quiet(
+        robots_dir() / "go1_description/urdf/go1.urdf", base="floating", cache_dir=mesh_cache
+    )
+    assert go1.base == "floating"
+    m = go1.model
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    mujoco.mj_forward(m, d)
+    floor = m.geom("floor").id
+    robot_geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] != 0]
+    gap = min(mujoco.mj_geomDistance(m, d, floor, g, 1.0, None) for g in robot_geoms)
+    assert abs(gap) < 1e-6  # lowest point on the floor, not above, not through
+    with pytest.raises(ModelStructureError, match="fixes the robot to a link named 'world'"):
+        load_robot(DATA / "floating_world.urdf", base="floating")
+
+
+def test_a_recording_rebuilds_with_its_self_collision_policy(tmp_path):
+    """The policy is recorded; replay rebuilds the same model from the sources with it."""
+    from harness.recording import Recording
+    from harness.replay.source import rebuild_robot
+    from harness.session import Session
+
+    loaded = _quiet(ARM, self_collision="off")
+    path = tmp_path / "off.mcap"
+    with Session(loaded, record_to=path) as session:
+        session.step(5)
+    with Recording(path) as rec:
+        assert json.loads(rec.metadata["self_collision"])["policy"] == "off"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            rebuilt = rebuild_robot(rec)
+    assert rebuilt.self_collision == loaded.self_collision
+    assert rebuilt.mjb == loaded.mjb
