@@ -35,6 +35,7 @@ from websockets.http11 import Request, Response
 from websockets.protocol import State
 
 from harness.errors import ConfigError
+from harness.rosbridge.deadlines import Deadlines
 from harness.rosbridge.errors import ExposedServerWarning, FrameError
 from harness.rosbridge.protocol import Bridge, Output
 
@@ -175,7 +176,8 @@ class BridgeServer:
         self._peers: dict[int, _Peer] = {}
         self._server: Server | None = None
         self._flush_scheduled = False
-        self._timers: set[asyncio.TimerHandle] = set()
+        self._deadlines = Deadlines()
+        self._deadline_timer: asyncio.TimerHandle | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._closers: set[asyncio.Future[None]] = set()
         self._batched: list[_Peer] = []
@@ -187,6 +189,7 @@ class BridgeServer:
         self._loop = asyncio.get_running_loop()
         self.bridge.on_pending = self._schedule_flush
         self.bridge.on_call_started = self._start_timer
+        self.bridge.on_call_ended = self._deadlines.cancel
         if not is_loopback(self.host):
             warnings.warn(
                 f"rosbridge server on {self.host!r}: reachable from other machines "
@@ -232,9 +235,11 @@ class BridgeServer:
 
     async def stop(self) -> None:
         """Close every connection and stop listening."""
-        for handle in self._timers:
-            handle.cancel()
-        self._timers.clear()
+        if self._deadline_timer is not None:
+            self._deadline_timer.cancel()
+            self._deadline_timer = None
+        self._deadlines = Deadlines()
+        self.bridge.on_call_ended = None
         if self._server is not None:
             self._server.close()
             await self._server.wait_closed()
@@ -310,20 +315,29 @@ class BridgeServer:
         return [(cid, item) for cid, item in self._pending if isinstance(item, (str, bytes))]
 
     def _start_timer(self, key: int, timeout_s: float) -> None:
+        # One loop timer, for the earliest deadline (see harness.rosbridge.deadlines).
         assert self._loop is not None
-        handle: asyncio.TimerHandle | None = None
+        deadline = self._loop.time() + timeout_s
+        self._deadlines.add(key, deadline)
+        timer = self._deadline_timer
+        if timer is None or deadline < timer.when():
+            if timer is not None:
+                timer.cancel()
+            self._deadline_timer = self._loop.call_at(deadline, self._fire_deadlines)
 
-        def fire() -> None:
-            if handle is not None:
-                self._timers.discard(handle)
+    def _fire_deadlines(self) -> None:
+        assert self._loop is not None
+        due = self._deadlines.pop_due(self._loop.time())
+        earliest = self._deadlines.next_deadline()
+        self._deadline_timer = (
+            None if earliest is None else self._loop.call_at(earliest, self._fire_deadlines)
+        )
+        for key in due:
             if self.queued:
                 self._pending.append((key, _TIMEOUT))
                 self.pending_event.set()
             else:
                 self._dispatch(self.bridge.time_out_call(key))
-
-        handle = self._loop.call_later(timeout_s, fire)
-        self._timers.add(handle)
 
     # -- output -------------------------------------------------------------------------
 
