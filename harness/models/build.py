@@ -36,6 +36,8 @@ from harness.models.errors import (
     ModelStructureError,
     ModelWarning,
 )
+from harness.models.limits import check_description, check_spec, check_urdf_counts
+from harness.models.mjcf_files import check_mjcf_files
 from harness.models.resolve import PackageMap
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
@@ -182,6 +184,7 @@ def _describe_mjcf(model: mujoco.MjModel, path: Path) -> RobotModel:
 
 
 def _spec_from_file(path: Path) -> mujoco.MjSpec:
+    check_mjcf_files(path)  # before MuJoCo opens its includes and assets
     try:
         with _mujoco_warnings():
             return mujoco.MjSpec.from_file(str(path))
@@ -207,6 +210,7 @@ _MASSLESS = re.compile(r"mass and inertia of moving bodies.*?Element name '([^']
 
 
 def _compile(spec: mujoco.MjSpec, source: str) -> mujoco.MjModel:
+    check_spec(spec, source)  # before the compiler allocates what the model declares
     try:
         with _mujoco_warnings():
             return spec.compile()
@@ -296,9 +300,9 @@ def _held_inertia(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> npt.N
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
     mujoco.mj_forward(model, data)
-    full = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, full)
-    diagonal: npt.NDArray[np.float64] = np.diag(full).copy()
+    # The diagonal straight from the sparse rows (the last entry of each lower-triangle row):
+    # the dense nv x nv matrix was quadratic in the number of joints (200 MB at 5,000).
+    diagonal: npt.NDArray[np.float64] = data.M[model.M_rowadr + model.M_rownnz - 1].copy()
     return diagonal
 
 
@@ -463,7 +467,9 @@ class _Robot:
         path = self.path
         if self.kind == "urdf":
             root, self.model_bytes = read_xml_file(path)
+            check_urdf_counts(root, self.source)
             self.description = urdf_from_element(root, self.source)
+            check_description(self.description, self.source)  # before MuJoCo reads the tree
             prepared = mujoco_urdf_xml(
                 root,
                 path,
@@ -482,6 +488,7 @@ class _Robot:
             read_sdf, build_spec = _sdf_api()
             self.model_bytes = path.read_bytes()
             self.description = read_sdf(path)
+            check_description(self.description, self.source)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
         else:
             _, self.model_bytes = read_xml_file(path)
