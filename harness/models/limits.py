@@ -149,8 +149,8 @@ def _mesh_vertices(spec: mujoco.MjSpec, assets: Mapping[str, bytes]) -> int:
 
 def _spec_depth(bodies: Iterable[Any]) -> tuple[int, str]:
     parents = {body: body.parent for body in bodies if body.parent is not None}
-    depth, deepest = _depth(parents)
-    return depth, str(deepest.name) if deepest else ""
+    depth, deepest = _depth(parents)  # counts the world body too
+    return max(depth - 1, 0), str(deepest.name) if deepest is not None else ""
 
 
 def check_spec(spec: mujoco.MjSpec, source: str, limits: ModelLimits = LIMITS) -> None:
