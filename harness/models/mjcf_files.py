@@ -8,7 +8,8 @@ includes, each read with the safe XML reader) and refuses, with one :class:`Reso
 line naming the file and element, any reference whose real path (``..`` and symlinks
 resolved) leaves the model's folder: the folder of the top-level file, or the ROS package it
 lies in (the nearest folder above it with a ``package.xml``), the folder a ``package://``
-reference is confined to. Absolute references are refused unless they lie inside too.
+reference is confined to; the harness's own scene data is always allowed (a generated scene
+points there). Absolute references are refused unless they lie inside too.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from lxml import etree
 from harness.models.errors import ResolveError
 from harness.models.xmlsafe import describe, read_xml_file
 
-__all__ = ["MAX_INCLUDES", "check_mjcf_files", "mjcf_roots"]
+__all__ = ["MAX_INCLUDES", "check_mjcf_files", "generated_from", "mjcf_roots"]
 
 MAX_INCLUDES = 1000
 """Most ``<include>`` elements one model may have, all files together (a cycle ends here)."""
@@ -38,14 +39,27 @@ _FILE_ATTRIBUTES = (
 _DIR_ATTRIBUTES = ("meshdir", "texturedir", "assetdir")
 
 
+_GENERATED: dict[Path, tuple[Path, ...]] = {}
+_OWN_DATA = Path(__file__).resolve().parent / "data"  # the scenes and meshes the harness ships
+
+
+def generated_from(generated: str | Path, source: str | Path) -> None:
+    """Record that the harness wrote MJCF file ``generated`` from ``source`` (already
+    checked), keeping its references: ``generated`` may reach what ``source`` may."""
+    _GENERATED[Path(generated).resolve()] = mjcf_roots(source)
+
+
 def mjcf_roots(path: str | Path) -> tuple[Path, ...]:
     """The folders ``path``'s references may lead into (real paths): its own folder and the
-    ROS package it lies in, if any."""
+    ROS package it lies in, if any (for a file the harness generated: its source's)."""
+    generated = _GENERATED.get(Path(path).resolve())
+    if generated is not None:
+        return generated
     folder = Path(path).resolve().parent
     for above in (folder, *folder.parents):
         if (above / "package.xml").is_file():
-            return (folder, above) if above != folder else (folder,)
-    return (folder,)
+            return (folder, above, _OWN_DATA) if above != folder else (folder, _OWN_DATA)
+    return (folder, _OWN_DATA)
 
 
 def _inside(path: Path, roots: Sequence[Path]) -> bool:

@@ -46,6 +46,7 @@ from harness.models import (
 )
 from harness.models import RobotSpec as WorldRobot
 from harness.models.description import Pose, RobotModel
+from harness.models.mjcf_files import check_mjcf_files, generated_from
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import RobotSpec, Scenario, SceneObject
@@ -229,6 +230,7 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
     env_map = scenario.environment.map
     file = env_map if isinstance(env_map, Path) else SCENES[env_map]
     try:
+        check_mjcf_files(file)
         spec = mujoco.MjSpec.from_file(str(file))
     except ValueError as exc:
         raise ScenarioError(
@@ -255,6 +257,7 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "scene.xml"
     path.write_text(spec.to_xml())
+    generated_from(path, file)  # its meshdir/texturedir point back at the map's folder
     return path
 
 

@@ -32,6 +32,9 @@ time.sleep(600)
 """
 
 
+ARGS = ("--iterations", "4", "--workers", "1")
+
+
 def _gone(pid: int) -> bool:
     try:
         stat = Path(f"/proc/{pid}/stat").read_text()
@@ -76,8 +79,7 @@ def test_signal_stops_the_run_and_writes_what_finished(tmp_path: Path, sig: int)
     )
     out = tmp_path / "out"
     run = subprocess.Popen(
-        [sys.executable, "-m", "harness", "run", str(scenario), "--iterations", "4"]
-        + ["--workers", "1", "--out", str(out)],
+        [sys.executable, "-m", "harness", "run", str(scenario), *ARGS, "--out", str(out)],
         cwd=tmp_path,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
