@@ -48,6 +48,7 @@ from harness.recording.layout import (
     schema_text,
     typestore,
 )
+from harness.recording.salvage import finish_after_failure
 
 __all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
 
@@ -272,6 +273,7 @@ class Recorder:
             # Header and attachments reach the file system now: a full disk (or a file size
             # limit) is reported here, before the run starts, not at the first flush.
             self._stream.flush()
+            self._good = (self._stream.tell(), -1, 0)  # see salvage: where a failure cuts
         except OSError as exc:
             with contextlib.suppress(OSError):
                 self._stream.close()
@@ -497,7 +499,11 @@ class Recorder:
             channel_id = known[0]
             seq = self._seq[channel_id]
             self._seq[channel_id] = seq + 1
-            self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+            try:
+                self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+            except OSError as exc:  # a full chunk was written out: disk full
+                self._failure = exc
+                self._raise_closed()
             self._last_time = sim_time_ns
             self._messages += 1
             self._dirty = True
@@ -537,13 +543,18 @@ class Recorder:
         if not self._dirty:
             return None
         start = time.perf_counter()
-        self._writer.flush()  # type: ignore[no-untyped-call]
+        try:
+            self._writer.flush()  # type: ignore[no-untyped-call]
+        except OSError as exc:
+            self._failure = exc
+            raise RecordingWriteError(f"{self.path}: recording failed: {exc}") from exc
         seconds = time.perf_counter() - start
         self._dirty = False
         self._flushes += 1
         self._flush_total += seconds
         self._flush_max = max(self._flush_max, seconds)
         size = self._stream.tell()
+        self._good = (size, self._last_time, self._messages)
         if size > self.max_bytes:
             # Further writes fail; close() still finishes a valid file.
             self._failure = RecordingWriteError(
@@ -585,12 +596,17 @@ class Recorder:
             if self._closed:
                 return
             self._closed = True
-            try:
-                self._writer.finish()  # type: ignore[no-untyped-call]
-                self._stream.close()
-            except OSError as exc:
+            if not isinstance(self._failure, OSError):
+                try:
+                    self._writer.finish()  # type: ignore[no-untyped-call]
+                    self._stream.close()
+                except OSError as exc:
+                    self._failure = exc
+            if isinstance(self._failure, OSError):  # disk full: keep what was flushed
                 raise RecordingWriteError(
-                    f"{self.path}: cannot finish recording: {exc.strerror}"
+                    finish_after_failure(
+                        self._stream, self.path, self._failure, self._good, self._messages
+                    )
                 ) from None
         if self._failure is not None:
             raise RecordingWriteError(
