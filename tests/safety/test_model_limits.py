@@ -120,3 +120,43 @@ def test_mesh_vertices_are_counted_before_compiling(tmp_path: Path) -> None:
         check_spec(spec, "m.xml", ModelLimits(mesh_vertices=11))
     check_spec(spec, "m.xml", ModelLimits(mesh_vertices=12))
     assert spec.compile().nmesh == 1
+
+
+REPLAY_CHILD = """
+import sys
+from harness.recording import Recorder, Recording
+from harness.replay.errors import ModelAttachmentError
+from harness.replay.source import resolve_model
+
+path, text = sys.argv[1], sys.argv[2]
+metadata = {"timestep": "0.002", "integrator": "IMPLICITFAST", "seed": "0",
+            "model_sha256": "", "control_modes": "{}"}
+Recorder(path, metadata=metadata, attachments={"model.mjcf.xml": text.encode()}).close()
+with Recording(path) as rec:
+    try:
+        resolve_model(rec)
+    except ModelAttachmentError as exc:
+        print(exc)
+        sys.exit(2)
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (SIZE_BOMB, "<size nuser_body> is 100000000, over the limit"),
+        ('<mujoco><include file="/etc/hostname"/></mujoco>', "escapes the model's folder"),
+    ],
+    ids=["size-bomb", "include-outside"],
+)
+def test_a_recordings_model_attachment_is_data(tmp_path: Path, text: str, expected: str) -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", REPLAY_CHILD, str(tmp_path / "r.mcap"), text],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=_limited,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr[-800:]
+    assert expected in done.stdout
