@@ -15,6 +15,7 @@ import sys
 import threading
 import warnings
 from types import FrameType
+from typing import Any
 
 from harness.models.description import CONTROL_MODES
 from harness.session.session import CLOCK_MODES
@@ -72,7 +73,9 @@ def run(args: argparse.Namespace) -> int:
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    # Installed once the robot is loaded: during the load SIGTERM ends the process and SIGINT
+    # raises KeyboardInterrupt (exit 130) as they do by default, instead of waiting for it.
+    previous: dict[int, Any] = {}
     try:
         with Session(
             args.robot,
@@ -87,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
             record_to=args.record,
             scene=args.scene,
         ) as session:
+            previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
             print(
                 f"harness serve: {session.url} robot {session.robot_name} ({args.mode}), "
