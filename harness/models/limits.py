@@ -21,7 +21,7 @@ humanoid has ~40 bodies) and far below what exhausts a shared machine.
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -147,10 +147,22 @@ def _mesh_vertices(spec: mujoco.MjSpec, assets: Mapping[str, bytes]) -> int:
     return total
 
 
-def _spec_depth(bodies: Iterable[Any]) -> tuple[int, str]:
-    parents = {body: body.parent for body in bodies if body.parent is not None}
-    depth, deepest = _depth(parents)  # counts the world body too
-    return max(depth - 1, 0), str(deepest.name) if deepest is not None else ""
+def _walk(spec: mujoco.MjSpec) -> tuple[int, int, int, int, str]:
+    """Bodies (world excluded), joints, geoms, tree depth and the deepest body's name, in one
+    pass (the spec's own ``bodies``/``joints``/``geoms`` lists cost far more per call)."""
+    bodies = joints = geoms = 0
+    depth, deepest = 0, ""
+    stack: list[tuple[Any, int]] = [(spec.worldbody, 0)]
+    while stack:
+        body, level = stack.pop()
+        if level:
+            bodies += 1
+            if level > depth:
+                depth, deepest = level, str(body.name)
+        joints += len(body.joints)
+        geoms += len(body.geoms)
+        stack.extend((child, level + 1) for child in body.bodies)
+    return bodies, joints, geoms, depth, deepest
 
 
 def check_spec(spec: mujoco.MjSpec, source: str, limits: ModelLimits = LIMITS) -> None:
@@ -164,11 +176,10 @@ def check_spec(spec: mujoco.MjSpec, source: str, limits: ModelLimits = LIMITS) -
     _over(source, "<size nstack>", int(spec.nstack), limits.memory_bytes // 8)
     _over(source, "<size njmax>", int(spec.njmax), limits.constraints)
     _over(source, "<size nconmax>", int(spec.nconmax), limits.constraints)
-    bodies = list(spec.bodies)
-    _over(source, "the number of bodies", len(bodies), limits.bodies)
-    _over(source, "the number of joints", len(spec.joints), limits.joints)
-    _over(source, "the number of geoms", len(spec.geoms), limits.geoms)
-    depth, deepest = _spec_depth(bodies)
+    bodies, joints, geoms, depth, deepest = _walk(spec)
+    _over(source, "the number of bodies", bodies, limits.bodies)
+    _over(source, "the number of joints", joints, limits.joints)
+    _over(source, "the number of geoms", geoms, limits.geoms)
     if depth > limits.tree_depth:
         where = f"the depth of the body tree (at body {deepest!r})"
         _over(source, where, depth, limits.tree_depth)
