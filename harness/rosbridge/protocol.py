@@ -327,7 +327,10 @@ class Bridge:
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
     ``tap`` sees every frame in and out; ``call_timeout_s`` is the default service-call
-    timeout the owner enforces through ``on_call_started``/:meth:`time_out_call`;
+    timeout the owner enforces through ``on_call_started``/:meth:`time_out_call` (action goals
+    too, ``goal_timeout_s`` by default; a client's ``timeout`` is bounded by
+    :func:`harness.rosbridge.deadlines.bounded_timeout`; ``on_call_ended`` says when a call or
+    goal is gone, answered or not);
     ``default_queue_length`` bounds a subscription's unsent frames when the client asks for
     ``queue_length`` 0.
     """
