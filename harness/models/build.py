@@ -39,6 +39,8 @@ from harness.models.errors import (
     ModelWarning,
 )
 from harness.models.lenient import lenient_urdf
+from harness.models.limits import check_description, check_spec, check_urdf_counts
+from harness.models.mjcf_files import check_mjcf_files
 from harness.models.resolve import PackageMap
 from harness.models.ros2_control import warn_replaced_hardware
 from harness.models.selfcollision import declared_self_collide
@@ -211,6 +213,7 @@ def _describe_mjcf(model: mujoco.MjModel, path: Path) -> RobotModel:
 
 
 def _spec_from_file(path: Path) -> mujoco.MjSpec:
+    check_mjcf_files(path)  # before MuJoCo opens its includes and assets
     try:
         with _mujoco_warnings():
             return mujoco.MjSpec.from_file(str(path))
@@ -235,7 +238,9 @@ def _mujoco_message(exc: Exception) -> str:
 _MASSLESS = re.compile(r"mass and inertia of moving bodies.*?Element name '([^']*)'", re.S)
 
 
-def _compile(spec: mujoco.MjSpec, source: str) -> mujoco.MjModel:
+def _compile(spec: mujoco.MjSpec, source: str, *, check: bool = True) -> mujoco.MjModel:
+    if check:
+        check_spec(spec, source)  # before the compiler allocates what the model declares
     try:
         with _mujoco_warnings():
             return spec.compile()
@@ -264,9 +269,12 @@ def _compile_lenient(spec: mujoco.MjSpec, source: str, robots: Sequence[_Robot])
     """Compile; a mesh too thin for MuJoCo's volume-based inertia gets shell inertia (its
     body's inertia comes from the file's ``<inertial>`` anyway), with a note, unless strict."""
     strict = any(r.request.strict for r in robots)
+    # the limits once, before the first compile: after a failed compile the spec's tree
+    # reports that compile's error when read, whatever was changed since
+    check_spec(spec, source)
     for _ in range(64):
         try:
-            return _compile(spec, source)
+            return _compile(spec, source, check=False)
         except CompileError as exc:
             match = _MESH_VOLUME.search(str(exc))
             mesh = None if match is None or strict else spec.mesh(match.group(1))
@@ -277,7 +285,7 @@ def _compile_lenient(spec: mujoco.MjSpec, source: str, robots: Sequence[_Robot])
                 f"{source}: mesh {match.group(1) if match else ''} encloses (almost) no volume: "
                 "its inertia is computed as a shell"
             )
-    return _compile(spec, source)
+    return _compile(spec, source, check=False)
 
 
 # An attached MJCF robot's <size> memory hints (nkey: it brings keyframes) lose to the world's:
@@ -353,9 +361,9 @@ def _held_inertia(model: mujoco.MjModel, qpos: npt.NDArray[np.float64]) -> npt.N
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
     mujoco.mj_forward(model, data)
-    full = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, full)
-    diagonal: npt.NDArray[np.float64] = np.diag(full).copy()
+    # The diagonal straight from the sparse rows (the last entry of each lower-triangle row):
+    # the dense nv x nv matrix was quadratic in the number of joints (200 MB at 5,000).
+    diagonal: npt.NDArray[np.float64] = data.M[model.M_rowadr + model.M_rownnz - 1].copy()
     return diagonal
 
 
@@ -556,11 +564,13 @@ class _Robot:
             )  # fmt: skip
             root, self.model_bytes, self.extra_sources = urdf.root, urdf.data, urdf.extra
             self.path = urdf.path  # a xacro robot is recorded as its expanded URDF
+            check_urdf_counts(root, self.source)
             notes = [*urdf.notes, *lenient_urdf(root, self.source, strict=robot.strict)]
             self.notes.extend(str(n) for n in notes)
             self.declared_self_collide = declared_self_collide(root)
             self.description = describe_urdf(root, self.source, urdf.origin)
             warn_replaced_hardware(self.description.ros2_control, self.source)
+            check_description(self.description, self.source)  # before MuJoCo reads the tree
             prepared = mujoco_urdf_xml(
                 root,
                 path,
@@ -587,6 +597,7 @@ class _Robot:
             read_sdf, build_spec = _sdf_api()
             self.model_bytes = path.read_bytes()
             self.description = read_sdf(path, strict=robot.strict)
+            check_description(self.description, self.source)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
             self.declared_self_collide = declared_self_collide(read_xml_file(path)[0])
             self.base = setup.sdf_base(self.spec, robot.base)

@@ -8,6 +8,7 @@ stay available.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -311,10 +312,18 @@ class RobotModel:
         raise KeyError(f"robot {self.name!r} has no link {name!r}")
 
     def joint(self, name: str) -> Joint:
+        joint = self._joints_by_name.get(name)
+        if joint is None:
+            raise KeyError(f"robot {self.name!r} has no joint {name!r}")
+        return joint
+
+    @functools.cached_property
+    def _joints_by_name(self) -> dict[str, Joint]:
+        # One lookup per joint while building made loading quadratic in the joint count.
+        found: dict[str, Joint] = {}
         for joint in self.joints:
-            if joint.name == name:
-                return joint
-        raise KeyError(f"robot {self.name!r} has no joint {name!r}")
+            found.setdefault(joint.name, joint)
+        return found
 
     @property
     def controllable_joints(self) -> tuple[Joint, ...]:

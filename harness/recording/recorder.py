@@ -55,6 +55,7 @@ from harness.recording.layout import (
     schema_text,
     typestore,
 )
+from harness.recording.salvage import finish_after_failure
 from harness.recording.tail import TailFile, provisional_chunk
 
 __all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
@@ -533,7 +534,11 @@ class Recorder:
             channel_id = known[0]
             seq = self._seq[channel_id]
             self._seq[channel_id] = seq + 1
-            self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+            try:
+                self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+            except OSError as exc:  # a full chunk was written out: disk full
+                self._failure = exc
+                self._raise_closed()
             self._last_time = sim_time_ns
             self._messages += 1
             self._dirty = True
@@ -598,12 +603,16 @@ class Recorder:
         if not self._dirty:
             return None
         start = time.perf_counter()
-        if provisional:
-            tail = provisional_chunk(self._writer, self._compression)
-            if tail is not None:
-                self._stream.write_tail(tail)
-        else:
-            self._writer.flush()  # type: ignore[no-untyped-call]
+        try:
+            if provisional:
+                tail = provisional_chunk(self._writer, self._compression)
+                if tail is not None:
+                    self._stream.write_tail(tail)
+            else:
+                self._writer.flush()  # type: ignore[no-untyped-call]
+        except OSError as exc:
+            self._failure = exc
+            raise RecordingWriteError(f"{self.path}: recording failed: {exc}") from exc
         seconds = time.perf_counter() - start
         self._dirty = False
         self._flushes += 1
@@ -651,12 +660,19 @@ class Recorder:
             if self._closed:
                 return
             self._closed = True
-            try:
-                self._writer.finish()  # type: ignore[no-untyped-call]
-                self._stream.close()
-            except OSError as exc:
+            if not isinstance(self._failure, OSError):
+                try:
+                    self._writer.finish()  # type: ignore[no-untyped-call]
+                    self._stream.close()
+                except OSError as exc:
+                    self._failure = exc
+            if isinstance(self._failure, OSError):  # disk full: keep what was flushed
                 raise RecordingWriteError(
-                    f"{self.path}: cannot finish recording: {exc.strerror}"
+                    # the committed bytes end at a record boundary: a failed write never
+                    # advances them (a provisional tail after them is cut off)
+                    finish_after_failure(
+                        self._stream, self.path, self._failure, self._stream.tell(), self._messages
+                    )
                 ) from None
         if self._failure is not None:
             raise RecordingWriteError(

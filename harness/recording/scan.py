@@ -27,7 +27,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import (
@@ -39,6 +38,7 @@ from mcap.records import (
     Statistics,
 )
 
+from harness.recording import inflate
 from harness.recording._crc import crc32
 from harness.recording.errors import RecordingDamagedError, RecordingFormatError
 
@@ -151,6 +151,8 @@ class Scan:
     # Chunk offset -> index entries of chunks whose contents are still to be checked (CRC,
     # entries against records): index_scan(check_chunks=False) leaves that to the first read.
     unchecked: dict[int, IndexEntries] = field(default_factory=dict)
+    # What the chunks read so far declare they decompress to (bounded: harness.recording.inflate).
+    declared_bytes: int = 0
 
     @property
     def message_count(self) -> int:
@@ -190,23 +192,18 @@ def _chunk_head(body: memoryview) -> _ChunkHead:
 
 
 def _decompress(chunk: _ChunkHead) -> bytes:
-    if chunk.compression == "zstd":
-        try:
-            return zstandard.ZstdDecompressor().decompress(
-                chunk.data, max_output_size=chunk.uncompressed_size
-            )
-        except zstandard.ZstdError as exc:
-            raise _Damage(f"zstd chunk does not decompress ({exc})") from None
-    if chunk.compression == "lz4":
-        import lz4.frame  # type: ignore[import-untyped]
+    try:
+        return inflate.decompress(chunk.compression, chunk.data, chunk.uncompressed_size)
+    except inflate.InflateError as exc:
+        raise _Damage(str(exc)) from None
 
-        try:
-            return bytes(lz4.frame.decompress(chunk.data))
-        except RuntimeError as exc:
-            raise _Damage(f"lz4 chunk does not decompress ({exc})") from None
-    if chunk.compression == "":
-        return bytes(chunk.data)
-    raise _Damage(f"unsupported chunk compression {chunk.compression!r}")
+
+def _charge(result: Scan, chunk: _ChunkHead) -> None:
+    result.declared_bytes += chunk.uncompressed_size
+    try:
+        inflate.current_limits().charge_file(result.declared_bytes)
+    except inflate.InflateError as exc:
+        raise _Damage(str(exc)) from None
 
 
 def _read_chunk(body: memoryview) -> tuple[_ChunkHead, bytes]:
@@ -398,6 +395,7 @@ def _index_data(
             if index is None or index.chunk_length != end - pos:
                 return None
             chunk = _chunk_head(body)
+            _charge(result, chunk)
             if (index.message_start_time, index.message_end_time, index.uncompressed_size) != (
                 chunk.message_start_time,
                 chunk.message_end_time,
@@ -629,6 +627,7 @@ def _summary_chunk_offsets(buf: memoryview, result: Scan) -> list[int]:
 def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_time: int) -> int:
     """Take in one data-section record; return the log time of the last message seen."""
     if opcode == Opcode.CHUNK:
+        _charge(result, _chunk_head(body))
         chunk, data = _read_chunk(body)
         channels: set[int] = set()
         messages = 0

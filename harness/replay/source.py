@@ -32,7 +32,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.errors import HarnessError
+from harness.errors import HarnessError, ModelError
 from harness.models import (
     DEMO_URDF,
     SCENES,
@@ -46,6 +46,8 @@ from harness.models import (
     load_world,
 )
 from harness.models.description import CONTROL_MODES, ControlMode
+from harness.models.limits import ModelLimitError, check_model, check_spec
+from harness.models.mjcf_files import check_mjcf_files
 from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
@@ -379,7 +381,22 @@ def _model_from_mjb(blob: bytes) -> mujoco.MjModel:
     with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
         path = Path(tmp) / ATTACHMENT_MODEL_BINARY
         path.write_bytes(blob)
-        return mujoco.MjModel.from_binary_path(str(path))
+        model = mujoco.MjModel.from_binary_path(str(path))
+    check_model(model, ATTACHMENT_MODEL_BINARY)  # before MjData allocates what it declares
+    return model
+
+
+def _model_from_mjcf_text(text: bytes) -> mujoco.MjModel:
+    """A recording's MJCF text compiled with no file outside it readable (a recording is
+    data: its ``<include>`` or mesh paths must not open local files) and the model limits
+    checked before compiling."""
+    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
+        path = Path(tmp) / ATTACHMENT_MODEL
+        path.write_bytes(text)
+        check_mjcf_files(path, roots=(Path(tmp).resolve(),))
+        spec = mujoco.MjSpec.from_file(str(path))
+        check_spec(spec, ATTACHMENT_MODEL)
+        return spec.compile()
 
 
 def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
@@ -390,6 +407,8 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
     if ATTACHMENT_MODEL_BINARY in names:
         try:
             return _model_from_mjb(rec.attachment(ATTACHMENT_MODEL_BINARY)), ATTACHMENT_MODEL_BINARY
+        except ModelLimitError as exc:
+            raise ModelAttachmentError(f"{rec.path}: {exc}") from None
         except (ValueError, OSError, RecordingDamagedError) as exc:
             problems.append(f"{ATTACHMENT_MODEL_BINARY}: {' '.join(str(exc).split())}")
     # A fallback says so: the replay is then only as exact as the model it was given.
@@ -421,7 +440,9 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
                 + (f" ({'; '.join(problems)})" if problems else "")
             )
         try:
-            model = mujoco.MjModel.from_xml_string(text.decode("utf-8"))
+            model = _model_from_mjcf_text(text)
+        except ModelError as exc:
+            raise ModelAttachmentError(f"{rec.path}: attachment {exc}") from None
         except (ValueError, UnicodeDecodeError) as exc:
             raise ModelAttachmentError(
                 f"{rec.path}: attachment {ATTACHMENT_MODEL!r} does not compile: "

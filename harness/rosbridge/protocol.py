@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Final, NamedTuple
 
 from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
+from harness.rosbridge.deadlines import MAX_TIMEOUT_S, bounded_timeout
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
 from harness.rosbridge.graph import (
     COMPRESSION_RANK,
@@ -267,7 +268,10 @@ class Bridge(Graph):
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
     ``tap`` sees every frame in and out; ``call_timeout_s`` is the default service-call
-    timeout the owner enforces through ``on_call_started``/:meth:`time_out_call`;
+    timeout the owner enforces through ``on_call_started``/:meth:`time_out_call` (action goals
+    too, ``goal_timeout_s`` by default; a client's ``timeout`` is bounded by
+    :func:`harness.rosbridge.deadlines.bounded_timeout`; ``on_call_ended`` says when a call or
+    goal is gone, answered or not);
     ``default_queue_length`` bounds a subscription's unsent frames when the client asks for
     ``queue_length`` 0.
     """
@@ -295,6 +299,8 @@ class Bridge(Graph):
         self.params: dict[str, str] = {}
         self.on_pending: Callable[[], None] | None = None
         self.on_call_started: Callable[[int, float], None] | None = None
+        self.on_call_ended: Callable[[int], None] | None = None
+        self.goal_timeout_s = MAX_TIMEOUT_S
         self._seq = 0
         self._next_conn = 1
         self._next_key = 1
@@ -698,7 +704,9 @@ class Bridge(Graph):
         spelled = _name_field(obj, "call_service", "service")
         msg_id = obj.get("id")
         args = obj.get("args", {})
-        timeout = _field(obj, "call_service", "timeout", float, None)
+        timeout = bounded_timeout(
+            _field(obj, "call_service", "timeout", float, None), self.call_timeout_s, "call_service"
+        )
         svc = self._services.get(normalize(spelled))
         if svc is None:
             self._service_failure(c, spelled, f"Service {spelled} does not exist", msg_id)
@@ -769,6 +777,8 @@ class Bridge(Graph):
 
     def _drop_call(self, key: int) -> _PendingCall | None:
         pending = self._calls.pop(key, None)
+        if pending is not None and self.on_call_ended is not None:
+            self.on_call_ended(key)
         if pending is not None and pending.provider_id is not None:
             self._call_by_provider.pop((pending.service.provider, pending.provider_id), None)
         if pending is not None and pending.call is not None:
@@ -821,10 +831,15 @@ class Bridge(Graph):
         )
 
     def time_out_call(self, key: int) -> list[Output]:
-        """Fail a pending service call that ran past its timeout (no-op if answered)."""
+        """Fail a pending service call or action goal that ran past its timeout (no-op if
+        answered); a timed-out goal is also canceled at its action server."""
         pending = self._calls.get(key)
         if pending is not None:
             self._finish_call(key, False, f"Service {pending.spelled} timed out")
+        goal = self._goals.get(key)
+        if goal is not None:
+            self._goal_result(key, f"Action {goal.spelled} timed out", 0, False)
+            self._cancel_orphaned_goal(goal)
         return self.drain()
 
     def _op_service_response(self, c: int, obj: Mapping[str, Any]) -> None:
@@ -887,6 +902,11 @@ class Bridge(Graph):
         spelled = _name_field(obj, "send_action_goal", "action")
         msg_id = obj.get("id")
         feedback = _field(obj, "send_action_goal", "feedback", bool, False)
+        timeout = bounded_timeout(
+            _field(obj, "send_action_goal", "timeout", float, None),
+            self.goal_timeout_s,
+            "send_action_goal",
+        )
         act = self._actions.get(normalize(spelled))
         if act is None:
             self._action_failure(c, spelled, f"Action {spelled} does not exist", msg_id)
@@ -916,6 +936,8 @@ class Bridge(Graph):
                 self._goal_result(
                     key, f"Action {act.name} handler raised {type(exc).__name__}: {exc}", 0, False
                 )
+            if key in self._goals and self.on_call_started is not None:
+                self.on_call_started(key, timeout)
             return
         act.count += 1
         gid = f"action_goal:{act.spelled}:{act.count}"
@@ -930,10 +952,14 @@ class Bridge(Graph):
             "feedback": True,
         }
         self._send(act.provider, dumps(frame), "send_action_goal", act.name, gid)
+        if self.on_call_started is not None:
+            self.on_call_started(key, timeout)
 
     def _drop_goal(self, key: int) -> _PendingGoal | None:
         pending = self._goals.pop(key, None)
         if pending is not None:
+            if self.on_call_ended is not None:
+                self.on_call_ended(key)
             self._goal_by_caller.pop((pending.caller, pending.caller_id, pending.action.name), None)
             if pending.provider_id is not None:
                 self._goal_by_provider.pop((pending.action.provider, pending.provider_id), None)

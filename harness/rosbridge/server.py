@@ -35,6 +35,7 @@ from websockets.http11 import Request, Response
 from websockets.protocol import State
 
 from harness.errors import ConfigError
+from harness.rosbridge.deadlines import Deadlines
 from harness.rosbridge.errors import ExposedServerWarning, FrameError
 from harness.rosbridge.protocol import Bridge, Output
 
@@ -150,6 +151,7 @@ class BridgeServer:
         ping_interval: float | None = 20.0,
         ping_timeout: float | None = 20.0,
         send_queue_bytes: int = 256 * 2**20,
+        max_queued_bytes: int = 512 * 2**20,
         max_pending: int = 100_000,
         token: str | None = None,
     ) -> None:
@@ -165,6 +167,11 @@ class BridgeServer:
         self.ping_interval = ping_interval
         self.ping_timeout = ping_timeout
         self.send_queue_bytes = send_queue_bytes
+        self.max_queued_bytes = max_queued_bytes
+        self.queued_bytes = 0
+        """Bytes waiting in every connection's send queue together."""
+        self.closed: dict[str, int] = {}
+        """Connections the server closed, by reason (slow clients over a queue limit)."""
         self.max_pending = max_pending
         self.metrics: dict[int, ConnectionMetrics] = {}
         self.pending_event = asyncio.Event()
@@ -175,7 +182,8 @@ class BridgeServer:
         self._peers: dict[int, _Peer] = {}
         self._server: Server | None = None
         self._flush_scheduled = False
-        self._timers: set[asyncio.TimerHandle] = set()
+        self._deadlines = Deadlines()
+        self._deadline_timer: asyncio.TimerHandle | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._closers: set[asyncio.Future[None]] = set()
         self._batched: list[_Peer] = []
@@ -187,6 +195,7 @@ class BridgeServer:
         self._loop = asyncio.get_running_loop()
         self.bridge.on_pending = self._schedule_flush
         self.bridge.on_call_started = self._start_timer
+        self.bridge.on_call_ended = self._deadlines.cancel
         if not is_loopback(self.host):
             warnings.warn(
                 f"rosbridge server on {self.host!r}: reachable from other machines "
@@ -209,6 +218,11 @@ class BridgeServer:
 
     def _check_token(self, connection: ServerConnection, request: Request) -> Response | None:
         assert self.token is not None
+        if len(request.headers.get_all("Authorization")) > 1:
+            # Headers.get would raise (HTTP 500 and a traceback per request): refuse plainly.
+            return connection.respond(
+                HTTPStatus.BAD_REQUEST, "more than one Authorization header\n"
+            )
         presented = _presented_token(request)
         if presented is not None and hmac.compare_digest(
             presented.encode("utf-8"), self.token.encode("utf-8")
@@ -232,9 +246,11 @@ class BridgeServer:
 
     async def stop(self) -> None:
         """Close every connection and stop listening."""
-        for handle in self._timers:
-            handle.cancel()
-        self._timers.clear()
+        if self._deadline_timer is not None:
+            self._deadline_timer.cancel()
+            self._deadline_timer = None
+        self._deadlines = Deadlines()
+        self.bridge.on_call_ended = None
         if self._server is not None:
             self._server.close()
             await self._server.wait_closed()
@@ -283,6 +299,7 @@ class BridgeServer:
             peer.writer.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await peer.writer
+            self._forget_queue(peer)
 
     def _close(self, cid: int) -> None:
         self._peers.pop(cid, None)
@@ -310,20 +327,29 @@ class BridgeServer:
         return [(cid, item) for cid, item in self._pending if isinstance(item, (str, bytes))]
 
     def _start_timer(self, key: int, timeout_s: float) -> None:
+        # One loop timer, for the earliest deadline (see harness.rosbridge.deadlines).
         assert self._loop is not None
-        handle: asyncio.TimerHandle | None = None
+        deadline = self._loop.time() + timeout_s
+        self._deadlines.add(key, deadline)
+        timer = self._deadline_timer
+        if timer is None or deadline < timer.when():
+            if timer is not None:
+                timer.cancel()
+            self._deadline_timer = self._loop.call_at(deadline, self._fire_deadlines)
 
-        def fire() -> None:
-            if handle is not None:
-                self._timers.discard(handle)
+    def _fire_deadlines(self) -> None:
+        assert self._loop is not None
+        due = self._deadlines.pop_due(self._loop.time())
+        earliest = self._deadlines.next_deadline()
+        self._deadline_timer = (
+            None if earliest is None else self._loop.call_at(earliest, self._fire_deadlines)
+        )
+        for key in due:
             if self.queued:
                 self._pending.append((key, _TIMEOUT))
                 self.pending_event.set()
             else:
                 self._dispatch(self.bridge.time_out_call(key))
-
-        handle = self._loop.call_later(timeout_s, fire)
-        self._timers.add(handle)
 
     # -- output -------------------------------------------------------------------------
 
@@ -369,17 +395,35 @@ class BridgeServer:
             same.append(entry)
         peer.queue.append(entry)
         peer.bytes += len(out.data)
+        self.queued_bytes += len(out.data)
         if peer.bytes > self.send_queue_bytes and entry.key is not None:
             same = peer.by_key[entry.key]
             while peer.bytes > self.send_queue_bytes and len(same) > 1:
                 self._drop(peer, same.popleft())
         if peer.bytes > self.send_queue_bytes:
-            peer.queue.clear()
-            peer.by_key.clear()
-            peer.bytes = 0
-            self._close_later(peer.ws, 1008, "send queue overflow")
+            self._overflow(peer, "send queue overflow")
             return
         peer.wake.set()
+        if self.queued_bytes > self.max_queued_bytes:
+            # Every queue together is over the server-wide cap: the slowest clients go.
+            for slow in sorted(self._peers.values(), key=lambda p: p.bytes, reverse=True):
+                if self.queued_bytes <= self.max_queued_bytes or not slow.bytes:
+                    break
+                self._overflow(slow, "send queues over the server-wide limit")
+
+    def _forget_queue(self, peer: _Peer) -> None:
+        self.queued_bytes -= peer.bytes
+        peer.queue.clear()
+        peer.by_key.clear()
+        peer.bytes = 0
+
+    def _overflow(self, peer: _Peer, reason: str) -> None:
+        """Close a client whose unsent frames are over a limit (WebSocket status 1008, the
+        reason counted in :attr:`closed`)."""
+        self._forget_queue(peer)
+        self.closed[reason] = self.closed.get(reason, 0) + 1
+        self._peers.pop(peer.cid, None)  # nothing more is queued for it
+        self._close_later(peer.ws, 1008, reason)
 
     def _close_later(self, ws: ServerConnection, code: int = 1000, reason: str = "") -> None:
         # Held until done (an unreferenced task may be collected mid-close), then forgotten.
@@ -390,6 +434,7 @@ class BridgeServer:
     def _drop(self, peer: _Peer, entry: _Entry) -> None:
         entry.alive = False
         peer.bytes -= len(entry.data)
+        self.queued_bytes -= len(entry.data)
         assert entry.key is not None
         peer.metrics.dropped[entry.key] = peer.metrics.dropped.get(entry.key, 0) + 1
         peer.unreported[entry.key] = peer.unreported.get(entry.key, 0) + 1
@@ -434,6 +479,7 @@ class BridgeServer:
                 if entry.key is not None:
                     peer.by_key[entry.key].popleft()
                 peer.bytes -= len(entry.data)
+                self.queued_bytes -= len(entry.data)
                 room -= len(entry.data)
                 frames.append(entry.data)
             if not frames:

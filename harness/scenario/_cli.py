@@ -13,6 +13,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from harness.errors import ConfigError
+from harness.scenario.interrupt import Interrupted, RunInterrupted, raise_on_signals
 from harness.scenario.reports import print_summary, write_reports
 from harness.scenario.results import IterationResult, IterationRunner
 from harness.scenario.runfile import RunConfig, load_run_file
@@ -113,14 +114,30 @@ def execute(
                     task, advance=1, last=f"{result.simulation} #{result.iteration} {mark}"
                 )
 
-            results = run_iterations(runner, specs, backend, check_determinism, advance)
+            try:
+                results = run_iterations(runner, specs, backend, check_determinism, advance)
+            except RunInterrupted as exc:
+                _write_partial(exc, out_dir, config, console)
+                raise
     else:
-        results = run_iterations(runner, specs, backend, check_determinism)
+        try:
+            results = run_iterations(runner, specs, backend, check_determinism)
+        except RunInterrupted as exc:
+            _write_partial(exc, out_dir, config, console)
+            raise
     paths = write_reports(results, out_dir, config.source)
     print_summary(results, console)
     for name, path in paths.items():
         console.print(f"{name}: {path}")
     return results
+
+
+def _write_partial(exc: RunInterrupted, out_dir: Path, config: RunConfig, console: Console) -> None:
+    """The reports of an interrupted run: the iterations that ran, nothing else."""
+    paths = write_reports(exc.results, out_dir, config.source)
+    print_summary(exc.results, console)
+    for name, path in paths.items():
+        console.print(f"{name}: {path}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -132,9 +149,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"harness run: note: {notice}", file=sys.stderr)
     backend = _backend(args, config)
     runner = session_iteration_runner()
-    results = execute(
-        config, runner, backend, args.out, console, args.iterations, args.check_determinism
-    )
+    try:
+        with raise_on_signals():
+            results = execute(
+                config, runner, backend, args.out, console, args.iterations, args.check_determinism
+            )
+    except RunInterrupted as exc:
+        print(f"harness run: {exc}; reports written to {args.out}", file=sys.stderr)
+        return exc.exit_code
+    except Interrupted as exc:
+        print(f"harness run: {exc}", file=sys.stderr)
+        return 128 + exc.signum
     return 0 if all(r.passed for r in results) else 1
 
 

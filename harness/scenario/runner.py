@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol
 
+from harness.scenario import interrupt
 from harness.scenario.errors import RunnerError, ScenarioError
 from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict
 from harness.scenario.runfile import RunConfig
@@ -105,9 +106,14 @@ def _failed(spec: IterationSpec, error: str) -> IterationResult:
 
 def run_one(runner: IterationRunner, spec: IterationSpec) -> IterationResult:
     """Run ``spec`` in this process; an exception becomes a failed result with its reason."""
+    if interrupt.worker_stopping():
+        return _failed(spec, interrupt.NOT_RUN)
     spec.out_dir.mkdir(parents=True, exist_ok=True)
     try:
-        return runner(spec)
+        with interrupt.worker_running():
+            return runner(spec)
+    except interrupt.Interrupted as exc:
+        return _failed(spec, f"{exc}: the iteration was stopped")
     except Exception as exc:
         where = traceback.extract_tb(exc.__traceback__)[-1]
         return _failed(
@@ -140,7 +146,9 @@ class LocalBackend:
         results: dict[int, IterationResult] = {}
         context = multiprocessing.get_context("spawn")
         workers = max(1, min(self.workers, len(specs)))
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        with ProcessPoolExecutor(
+            max_workers=workers, mp_context=context, initializer=interrupt.worker_initializer
+        ) as pool:
             futures: dict[Future[IterationResult], int] = {
                 pool.submit(run_one, runner, spec): index for index, spec in enumerate(specs)
             }
@@ -153,6 +161,10 @@ class LocalBackend:
                         result = _failed(specs[index], "the worker process running it died")
                     results[index] = result
                     on_result(result)
+            except interrupt.Interrupted as exc:
+                ran = interrupt.collect_interrupted(pool, futures, results)
+                finished = [ran[i] for i in sorted(ran) if ran[i].error != interrupt.NOT_RUN]
+                raise interrupt.RunInterrupted(exc.signum, finished, len(specs)) from None
             except BaseException:
                 pool.shutdown(wait=True, cancel_futures=True)
                 raise

@@ -46,6 +46,7 @@ from harness.models import (
 )
 from harness.models import RobotSpec as WorldRobot
 from harness.models.description import Pose, RobotModel
+from harness.models.mjcf_files import check_mjcf_files, generated_from
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import RobotSpec, Scenario, SceneObject
@@ -229,6 +230,7 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
     env_map = scenario.environment.map
     file = env_map if isinstance(env_map, Path) else SCENES[env_map]
     try:
+        check_mjcf_files(file)
         spec = mujoco.MjSpec.from_file(str(file))
     except ValueError as exc:
         raise ScenarioError(
@@ -255,6 +257,7 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "scene.xml"
     path.write_text(spec.to_xml())
+    generated_from(path, file)  # its meshdir/texturedir point back at the map's folder
     return path
 
 
@@ -290,6 +293,22 @@ def _joint_names(description: RobotModel) -> list[str]:
     return [j.name for j in description.joints if j.type in ("revolute", "continuous", "prismatic")]
 
 
+def _object_clashes(
+    scenario: Scenario, description: RobotModel, namespace: str, index: int, where: str
+) -> list[str]:
+    """Objects named like a robot's link or joint (MuJoCo would refuse the world naming the
+    robot's file instead of the scenario's)."""
+    prefix = f"{namespace}/" if namespace else ""
+    taken = {prefix + link.name for link in description.links}
+    taken |= {prefix + joint.name for joint in description.joints}
+    return [
+        f"{where}: objects[{number}].name: {obj.name!r} is already a link or joint name of "
+        f"robots[{index}] ({scenario.robots[index].robot}); choose another name"
+        for number, obj in enumerate(scenario.objects)
+        if obj.name in taken or f"{obj.name}_joint" in taken
+    ]
+
+
 def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
     """The world of ``scenario`` (see the module docstring); a generated scene goes to
     ``folder``. Errors name the scenario file and the key path."""
@@ -308,6 +327,7 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
             for name, value in robot.initial_joint_positions.items()
             if name not in joints
         ]
+        problems += _object_clashes(scenario, description, namespace, index, where)
         posed = robot.position != (0.0, 0.0, 0.0) or robot.orientation != (0.0, 0.0, 0.0)
         robots.append(
             WorldRobot(

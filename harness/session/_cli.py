@@ -16,6 +16,7 @@ import threading
 import warnings
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 from harness.models._cli import add_robot_arg_option, robot_args
 from harness.session.session import CLOCK_MODES
@@ -89,7 +90,9 @@ def run(args: argparse.Namespace) -> int:
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    # Installed once the robot is loaded: during the load SIGTERM ends the process and SIGINT
+    # raises KeyboardInterrupt (exit 130) as they do by default, instead of waiting for it.
+    previous: dict[int, Any] = {}
     try:
         with Session(
             args.robot,
@@ -106,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
             robot_args=robot_args(args),
             controllers=Path(args.controllers) if args.controllers else None,
         ) as session:
+            previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
             print(
                 f"harness serve: {session.url} robot {session.robot_name} "

@@ -87,8 +87,18 @@ def _duration_ns(value: Mapping[str, Any]) -> int:
     return int(value["sec"]) * 1_000_000_000 + int(value["nanosec"])
 
 
+def _check_names(names: Sequence[str], what: str) -> None:
+    """Refuse a command that names a joint twice (which value would win is arbitrary)."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise CommandRefused(f"{what} names joint {name!r} twice")
+        seen.add(name)
+
+
 def apply_joint_state(sim: CommandTarget, msg: Mapping[str, Any]) -> list[Notice]:
     """Apply a ``sensor_msgs/msg/JointState`` command (canonical rosbridge dict)."""
+    _check_names(msg["name"], "joint state command")
     try:
         return sim.command_joint_state(msg["name"], msg["position"], msg["velocity"], msg["effort"])
     except CommandError as exc:
@@ -189,6 +199,7 @@ def parse_trajectory(sim: CommandTarget, msg: Mapping[str, Any], now_ns: int) ->
         raise CommandRefused("trajectory names no joints")
     if not points:
         raise CommandRefused("trajectory has no points")
+    _check_names(names, "trajectory")
     index = {n: i for i, n in enumerate(sim.joint_names)}
     control = sim.control
     fields: list[CommandField] = []
@@ -203,8 +214,6 @@ def parse_trajectory(sim: CommandTarget, msg: Mapping[str, Any], now_ns: int) ->
                 "(use the effort forward command or joint_command)"
             )
         fields.append("velocity" if mode == "velocity" else "position")
-    if len(set(names)) != len(names):
-        raise CommandRefused(f"trajectory names a joint twice: {', '.join(names)}")
 
     start = _duration_ns(msg["header"]["stamp"]) or now_ns
     rows = [index[n] for n in names]
@@ -226,6 +235,12 @@ def parse_trajectory(sim: CommandTarget, msg: Mapping[str, Any], now_ns: int) ->
         for name, value in zip(names, positions, strict=True):
             if not math.isfinite(value):
                 raise CommandRefused(f"point {i}: position of joint {name!r} is {value!r}")
+        # Unused here, but refused like positions: every command topic checks every value.
+        for field in ("velocities", "accelerations", "effort"):
+            for j, value in enumerate(point.get(field, ())):
+                if not math.isfinite(value):
+                    joint = repr(names[j]) if j < len(names) else f"#{j}"
+                    raise CommandRefused(f"point {i}: {field} of joint {joint} is {value!r}")
         offset = _duration_ns(point["time_from_start"])
         if offset < 0 or offset <= previous:
             raise CommandRefused(
