@@ -173,8 +173,9 @@ from harness.session.errors import (
     SessionError,
     SimTimeoutError,
 )
-from harness.session.ports import ClientPort, Port, ServerPort
+from harness.session.ports import Port, ServerPort
 from harness.session.snapshot import complete_prefix
+from harness.session.upstream import UpstreamPort, UpstreamStats, redact
 from harness.sim import KinematicLimits, Notice, Simulation
 
 __all__ = ["CLOCK_MODES", "ClockMode", "LoggerFactory", "Session", "SessionTopics", "StartMode"]
@@ -208,7 +209,9 @@ class Session:
     free port, see :attr:`url`; a non-loopback host issues an ``ExposedServerWarning``); ``token``:
     clients must present it (``?token=`` on the URL or ``Authorization: Bearer``; :attr:`url`
     carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server to use instead
-    (client mode). ``record_to``: an MCAP path (``state_every``: physics state every N steps).
+    (client mode: see :mod:`harness.session.upstream`; ``connect_allow_refused``: start even
+    when that server refuses some of the simulation's topics or services). ``record_to``: an
+    MCAP path (``state_every``: physics state every N steps).
     ``joint_states_hz``, ``tf_hz``, ``clock_hz``: publication rates in simulation time
     (``tf_hz``/``clock_hz`` default to ``joint_states_hz``; 0 turns one off).
     ``joint_command_topic``: the JointState command topic, relative to each robot's namespace or
@@ -235,6 +238,7 @@ class Session:
         port: int = 0,
         token: str | None = None,
         connect_to: str | None = None,
+        connect_allow_refused: bool = False,
         record_to: str | Path | None = None,
         state_every: int = 1,
         joint_states_hz: float = 100.0,
@@ -309,6 +313,7 @@ class Session:
                         **options.to_metadata(),
                         "rate": repr(self.rate),
                         "transport": "server" if connect_to is None else "client",
+                        **({"upstream": redact(connect_to)} if connect_to is not None else {}),
                     },
                 )
                 self._recorder = Recorder(
@@ -318,20 +323,25 @@ class Session:
                     state_every=state_every,
                 )
                 hub.add_sink(RecordingSink(self._recorder))
-            client = ClientPort(connect_to) if connect_to is not None else None
-            self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub, graph=client)
+            self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
             """The sans-I/O core (touch it only from the session's thread)."""
             self.core.on_clock_change = self._on_clock_change
             self.sim: Simulation = self.core.sim
             """The simulation. Touch it only from the session's thread (loggers, predicates) or
             while nothing else can step it; prefer the session's methods."""
             self.topics: SessionTopics = self.core.topics
-            if client is not None:
-                self._port = client
+            assert self.core.bridge is not None
+            self.core.bridge.on_connect = self._on_connect
+            self.core.bridge.on_disconnect = self._on_disconnect
+            self.upstream: UpstreamStats | None = None
+            """Client mode: what the link to the external server counted (else None)."""
+            if connect_to is not None:
+                upstream = UpstreamPort(
+                    self.core.bridge, connect_to, allow_refused=connect_allow_refused
+                )
+                self.upstream = upstream.stats
+                self._port = upstream
             else:
-                assert self.core.bridge is not None
-                self.core.bridge.on_connect = self._on_connect
-                self.core.bridge.on_disconnect = self._on_disconnect
                 self._port = ServerPort(self.core.bridge, host=host, port=port, token=token)
             for sink in sinks:
                 hub.add_sink(sink)
