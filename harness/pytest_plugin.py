@@ -361,6 +361,10 @@ def _scenario_options(path: Path) -> dict[str, Any]:
         "state_every": scenario.recording.state_every,
         "scenario_text": path.read_bytes(),
     }
+    if scenario.bridge.connect is not None:
+        options["connect_to"] = scenario.bridge.connect
+    if scenario.bridge.ros2:
+        options["ros2"] = True
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode
@@ -449,6 +453,8 @@ class _TestRun:
             from_file = _scenario_options(Path(path))
             scenario_text = from_file.pop("scenario_text")
             opts = {**from_file, **opts}
+        if "connect" in opts:  # the marker's spelling of Session(connect_to=)
+            opts["connect_to"] = opts.pop("connect")
         robots = opts.pop("robots", None)
         robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)

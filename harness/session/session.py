@@ -211,7 +211,8 @@ class Session:
     carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server to use instead
     (client mode: see :mod:`harness.session.upstream`; ``connect_allow_refused``: start even
     when that server refuses some of the simulation's topics or services). ``record_to``: an
-    MCAP path (``state_every``: physics state every N steps).
+    MCAP path (``state_every``: physics state every N steps). ``ros2``: also put the
+    simulation on DDS for ROS 2 nodes (:mod:`harness.ros2`; :attr:`ros_domain_id`).
     ``joint_states_hz``, ``tf_hz``, ``clock_hz``: publication rates in simulation time
     (``tf_hz``/``clock_hz`` default to ``joint_states_hz``; 0 turns one off).
     ``joint_command_topic``: the JointState command topic, relative to each robot's namespace or
@@ -239,6 +240,7 @@ class Session:
         token: str | None = None,
         connect_to: str | None = None,
         connect_allow_refused: bool = False,
+        ros2: bool = False,
         record_to: str | Path | None = None,
         state_every: int = 1,
         joint_states_hz: float = 100.0,
@@ -261,6 +263,18 @@ class Session:
                 "token protects the embedded server; for an external server put its token "
                 "in connect_to (ws://host:port/?token=...)"
             )
+        if ros2 and connect_to is not None:
+            raise SessionConfigError(
+                "ros2 puts the session's own graph on DDS; with connect_to the external "
+                "rosbridge server's ROS 2 side does that"
+            )
+        self.ros_domain_id: int | None = None
+        """The ROS_DOMAIN_ID of the ROS 2 side (``ros2=True``), else None."""
+        self._ros2: Any = None
+        if ros2:
+            from harness.ros2 import choose_domain_id
+
+            self.ros_domain_id = choose_domain_id()
         options = CoreOptions(
             clock=clock,
             namespace=namespace,
@@ -314,6 +328,11 @@ class Session:
                         "rate": repr(self.rate),
                         "transport": "server" if connect_to is None else "client",
                         **({"upstream": redact(connect_to)} if connect_to is not None else {}),
+                        **(
+                            {"ros_domain_id": str(self.ros_domain_id)}
+                            if self.ros_domain_id is not None
+                            else {}
+                        ),
                     },
                 )
                 self._recorder = Recorder(
@@ -353,6 +372,8 @@ class Session:
             self._thread.start()
             self.url: str = self._await(self._start())
             """``ws://host:port`` of the embedded server (or the external server's URL)."""
+            if self.ros_domain_id is not None:
+                self._start_ros2()
         except BaseException:
             with contextlib.suppress(Exception):
                 self.close()
@@ -369,6 +390,22 @@ class Session:
         self.core.publish_initial()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         return url
+
+    @property
+    def ros2_refused(self) -> tuple[str, ...]:
+        """What the ROS 2 side could not put on DDS (``name (type): reason``; also warning
+        events), empty without ``ros2``."""
+        return self._ros2.refused if self._ros2 is not None else ()
+
+    def _start_ros2(self) -> None:
+        from harness.ros2 import Ros2Gateway
+        from harness.rosbridge.offer import offer_of
+
+        bridge = self.core.bridge
+        assert bridge is not None
+        assert self.ros_domain_id is not None
+        offer = self._call(lambda: offer_of(bridge))
+        self._ros2 = Ros2Gateway.start(self.url, offer, self.ros_domain_id)
 
     def _on_connect(self, connection: int) -> None:
         with self._clients:
@@ -792,6 +829,8 @@ class Session:
                 return
             self._closed = True
         errors: list[BaseException] = []
+        if self._ros2 is not None:
+            self._ros2.stop()  # its connection closes like any client's
         thread = self._thread
         if thread is not None and thread.is_alive():
             try:
