@@ -101,6 +101,9 @@ _SESSION_KEYS = (
     "kinematic_limits",
     "seed",
     "joint_command_topic",
+    "connect_to",
+    "connect_allow_refused",
+    "ros2",
 )
 MARKER_KEYS = frozenset(
     {
@@ -113,6 +116,7 @@ MARKER_KEYS = frozenset(
         "scene",
         "collisions",
         "joint_limits",
+        "connect",  # the marker's spelling of Session(connect_to=)
         *_SESSION_KEYS,
     }
 )
@@ -766,6 +770,15 @@ def harness_session(harness_session_factory: SessionFactory) -> Session:
 def rosbridge_url(harness_session: Session) -> str:
     """The ``ws://127.0.0.1:<port>`` URL of this test's rosbridge server (a free port)."""
     return harness_session.url
+
+
+@pytest.fixture
+def ros_domain_id(harness_session: Session) -> int:
+    """The private ``ROS_DOMAIN_ID`` of this test's ROS 2 side (``@pytest.mark.harness(
+    ros2=True)``): run ROS 2 nodes on it (see :mod:`harness.ros2.testing`)."""
+    if harness_session.ros_domain_id is None:
+        pytest.fail("ros_domain_id needs @pytest.mark.harness(ros2=True)", pytrace=False)
+    return harness_session.ros_domain_id
 
 
 @pytest.fixture

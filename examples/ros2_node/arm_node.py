@@ -80,8 +80,11 @@ def main() -> int:
         answered_ns = ns(future.result().sim_time)
     else:
         answered_ns = None
-    spin_until(node, lambda: bool(states) and ns(states[-1].header.stamp) >= target_ns,
-               f"/joint_states stamped {args.sim_seconds} s")
+    spin_until(
+        node,
+        lambda: bool(states) and ns(states[-1].header.stamp) >= target_ns,
+        f"/joint_states stamped {args.sim_seconds} s",
+    )
     spin_until(node, lambda: node.get_clock().now().nanoseconds >= target_ns, "/clock")
     clock_ns = node.get_clock().now().nanoseconds
 
@@ -91,14 +94,19 @@ def main() -> int:
     spin_until(node, lambda: bool(descriptions), "/robot_description")
 
     last = states[-1]
-    print(json.dumps({
-        "joint1": last.position[list(last.name).index("joint1")],
-        "stamp_ns": ns(last.header.stamp),
-        "clock_ns": clock_ns,
-        "step_answer_ns": answered_ns,
-        "joint_states": len(states),
-        "description_bytes": len(descriptions[0].data),
-    }), flush=True)
+    print(
+        json.dumps(
+            {
+                "joint1": last.position[list(last.name).index("joint1")],
+                "stamp_ns": ns(last.header.stamp),
+                "clock_ns": clock_ns,
+                "step_answer_ns": answered_ns,
+                "joint_states": len(states),
+                "description_bytes": len(descriptions[0].data),
+            }
+        ),
+        flush=True,
+    )
     node.destroy_node()
     rclpy.shutdown()
     return 0

@@ -75,8 +75,7 @@ def build(venv: Path, package: Path, work: Path) -> str:
     if stamp.exists() and stamp.read_text() == digest:
         return f"{name}: up to date"
     deps = sorted(
-        {m for f in files for m in _TYPE_REF.findall(f.read_text())} - {name}
-        | _BUILTIN_DEPS
+        {m for f in files for m in _TYPE_REF.findall(f.read_text())} - {name} | _BUILTIN_DEPS
     )
     src = work / name / "src"
     if src.exists():

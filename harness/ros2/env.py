@@ -77,9 +77,7 @@ class Ros2Install:
     python: Path
     prefix: Path | None
 
-    def environment(
-        self, domain_id: int, base: Mapping[str, str] | None = None
-    ) -> dict[str, str]:
+    def environment(self, domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
         """The environment of a ROS process on ``domain_id``, isolated to this machine."""
         env = dict(os.environ if base is None else base)
         env["ROS_DOMAIN_ID"] = str(domain_id)

@@ -68,8 +68,7 @@ class Ros2Gateway:
             gateway.stop()
             why = " | ".join(gateway.log) or "no output"
             raise Ros2Error(
-                f"the ROS 2 gateway ({ros.python}) did not become ready within {timeout:g} s: "
-                f"{why}"
+                f"the ROS 2 gateway ({ros.python}) did not become ready within {timeout:g} s: {why}"
             )
         gateway.refused = tuple(json.loads(text[6:]).get("refused", ()))
         return gateway
