@@ -316,7 +316,7 @@ class _Builder:
                 ip=ros_bridge.get("ip", "127.0.0.1"),
                 port=self.port(ros_bridge.get("port", 9090)),
                 connect=ros_bridge.get("connect"),
-                ros2=data.get("ros", {}).get("ros2", False),
+                ros2=ros_bridge.get("ros2", False),
             ),
             logging=self.logging(data.get("logging", {})),
             timestep=float(data.get("timestep", 0.002)),

@@ -297,7 +297,7 @@ def test_scenarios_pickle_and_compare_equal():
 def test_scenario_ros_routes(tmp_path):
     doc = {
         "robots": [{"robot": "demo"}],
-        "ros": {"bridge": {"connect": "ws://127.0.0.1:9090/?token=t"}, "ros2": True},
+        "ros": {"bridge": {"connect": "ws://127.0.0.1:9090/?token=t", "ros2": True}},
     }
     s = Scenario.from_mapping(doc, base_dir=tmp_path)
     assert s.bridge.connect == "ws://127.0.0.1:9090/?token=t"

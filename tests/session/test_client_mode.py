@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -96,7 +97,8 @@ def restartable() -> Iterator[_External]:
 
 
 def _wait_service(client: Client, service: str) -> None:
-    for _ in range(200):
+    deadline = time.monotonic() + 20  # readiness of the link (wall clock), not simulation
+    while time.monotonic() < deadline:
         if service in client.call("/rosapi/services")["values"]["services"]:
             return
     raise AssertionError(f"{service} never appeared")
