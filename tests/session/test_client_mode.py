@@ -118,13 +118,15 @@ def test_client_mode_records_every_frame_and_replays_at_full_level(
         robot_code.publish("/joint_command", {"name": ["joint1"], "position": [0.4]})
         robot_code.step(100)
         restartable.stop()  # the server restarts mid-run: the session reconnects
+        session.step(10)  # published while the server is away: recorded, not delivered
+        assert session.upstream is not None
+        assert session.upstream.send_failures > 0
         url_again = restartable.start()
         assert url_again == url
         robot_code = client_factory(url)
         _wait_service(robot_code, "/harness/step")  # re-advertised after the reconnect
         robot_code.step(100)
-        assert session.step_index == 200
-        assert session.upstream is not None
+        assert session.step_index == 210
         assert session.upstream.reconnects == 1
     with Recording(path) as rec:
         assert rec.metadata["transport"] == "client"
@@ -141,7 +143,7 @@ def test_client_mode_records_every_frame_and_replays_at_full_level(
     assert any("reconnected" in t for t in gap), gap
     report = replay_pipeline(path)
     assert report.reproduced, report.mismatch
-    assert report.steps == 200
+    assert report.steps == 210
 
 
 def test_a_refused_advertisement_fails_the_start_with_one_line(
