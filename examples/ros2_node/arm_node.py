@@ -2,9 +2,10 @@
 it listens to ``/joint_states``, sends a ``JointTrajectory`` moving joint1 to ``--target``, lets
 ``--sim-seconds`` of simulation time pass and prints one JSON line with what it saw.
 
-With ``--lockstep`` it moves time itself through the ``/harness/step`` service (the simulation
-runs with a lockstep clock); otherwise it waits in simulation time (``use_sim_time``: its clock
-follows ``/clock``). At the end a late subscriber reads the latched ``/robot_description``.
+With ``--lockstep`` it moves time itself through the ``/harness/step`` service, 10 ms at a
+time (the simulation runs with a lockstep clock); otherwise it waits in simulation time
+(``use_sim_time``: its clock follows ``/clock``). At the end a late subscriber reads the
+latched ``/robot_description``.
 
     python arm_node.py --target 0.3 --sim-seconds 1.0 [--lockstep]
 """
@@ -59,11 +60,23 @@ def main() -> int:
     )
     step = None
     if args.lockstep:
-        from harness_msgs.srv import Step
+        from harness_msgs.srv import GetState, Step
 
         step = node.create_client(Step, "/harness/step")
         if not step.wait_for_service(timeout_sec=READY_TIMEOUT_S):
             raise SystemExit("arm_node: no /harness/step service")
+        # A response can be lost while the server has not yet discovered the client's reader
+        # (DDS discovery): ask a question without side effects until one is answered.
+        get_state = node.create_client(GetState, "/harness/get_state")
+        get_state.wait_for_service(timeout_sec=READY_TIMEOUT_S)
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        while True:
+            probe = get_state.call_async(GetState.Request())
+            rclpy.spin_until_future_complete(node, probe, timeout_sec=1.0)
+            if probe.done():
+                break
+            if time.monotonic() > deadline:
+                raise SystemExit("arm_node: /harness/get_state never answered")
 
     msg = JointTrajectory()
     msg.joint_names = ["joint1"]
@@ -73,10 +86,14 @@ def main() -> int:
 
     target_ns = round(args.sim_seconds * 1e9)
     if step is not None:
-        request = Step.Request()
-        request.steps = round(args.sim_seconds / 0.002)
-        future = step.call_async(request)
-        spin_until(node, future.done, "the /harness/step answer")
+        # 10 ms of simulation per call, as a control loop would step (a command that goes
+        # through a rosbridge server travels beside the step calls, not before them)
+        total = round(args.sim_seconds / 0.002)
+        for done in range(0, total, 5):
+            request = Step.Request()
+            request.steps = min(5, total - done)
+            future = step.call_async(request)
+            spin_until(node, future.done, "the /harness/step answer")
         answered_ns = ns(future.result().sim_time)
     else:
         answered_ns = None

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import socket
 import subprocess
+import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -73,27 +74,26 @@ def rosbridge_server(
     its ``ws://`` URL once it accepts connections; stops it at the end."""
     port = free_port() if port is None else port
     argv, env = rosbridge_server_rs(install, port, domain_id)
-    process = subprocess.Popen(
-        argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
-    )
-    try:
-        deadline = time.monotonic() + timeout
-        while True:
-            if process.poll() is not None:
-                raise Ros2Error(f"rosbridge-server-rs exited: {process.stderr.read()[-800:]}")  # type: ignore[union-attr]
-            with socket.socket() as sock:
-                if sock.connect_ex(("127.0.0.1", port)) == 0:
-                    break
-            if time.monotonic() > deadline:
-                raise Ros2Error(f"rosbridge-server-rs did not listen on {port} in {timeout} s")
-            time.sleep(0.05)  # readiness polling of another process, not simulation time
-        yield f"ws://127.0.0.1:{port}"
-    finally:
-        process.terminate()
+    # its log goes to a file: a pipe nobody reads would fill and stall the server
+    with tempfile.TemporaryFile("w+") as log:
+        process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=log, text=True)
         try:
-            process.wait(10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-        if process.stderr is not None:
-            process.stderr.close()
+            deadline = time.monotonic() + timeout
+            while True:
+                if process.poll() is not None:
+                    log.seek(0)
+                    raise Ros2Error(f"rosbridge-server-rs exited: {log.read()[-800:]}")
+                with socket.socket() as sock:
+                    if sock.connect_ex(("127.0.0.1", port)) == 0:
+                        break
+                if time.monotonic() > deadline:
+                    raise Ros2Error(f"rosbridge-server-rs did not listen on {port} in {timeout} s")
+                time.sleep(0.05)  # readiness polling of another process, not simulation time
+            yield f"ws://127.0.0.1:{port}"
+        finally:
+            process.terminate()
+            try:
+                process.wait(10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()

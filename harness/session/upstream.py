@@ -48,6 +48,8 @@ _FORWARD = frozenset(
 """Ops of the upstream connection's outputs that go to the external server (a ``status`` the
 core sends its clients stays home: the server would call it an unknown op)."""
 _SYNC = "harness:sync"
+_WINDOW = 100
+"""Frames sent before waiting for the server to have processed them (see ``_send_loop``)."""
 
 
 class UpstreamError(SessionError):
@@ -124,7 +126,7 @@ class UpstreamPort:
         self._latched: dict[str, str] = {}  # topic -> last publish frame sent
         self._latched_topics: set[str] = set()
         self._refusals: list[str] = []
-        self._sync: asyncio.Future[None] | None = None
+        self._syncs: dict[str, asyncio.Future[None]] = {}
         self._sync_count = 0
         self._setting_up = False
         self._closing = False
@@ -256,18 +258,24 @@ class UpstreamPort:
             await ws.send(text)
 
     async def _round_trip(self, timeout: float = 10.0) -> None:
-        """Wait until the server answered a call sent after the set-up (it answers in order)."""
+        """Wait until the server answered a call sent after everything sent so far (a
+        rosbridge server processes a connection's frames in order): a call of a service nobody
+        provides, answered by any server and never handed to the bridge."""
         ws = self._ws
         if ws is None:
             return
         self._sync_count += 1
-        self._sync = asyncio.get_running_loop().create_future()
         call = f"{_SYNC}:{self._sync_count}"
+        done = self._syncs[call] = asyncio.get_running_loop().create_future()
         service = f"/harness/_sync_{self._sync_count}"
         frame = {"op": "call_service", "id": call, "service": service, "args": {}}
-        await ws.send(json.dumps(frame))
-        with contextlib.suppress(asyncio.TimeoutError):
-            await asyncio.wait_for(self._sync, timeout)
+        try:
+            await ws.send(json.dumps(frame))
+            await asyncio.wait_for(done, timeout)
+        except (asyncio.TimeoutError, ConnectionClosed, OSError):
+            pass
+        finally:
+            self._syncs.pop(call, None)
 
     # -- the link --------------------------------------------------------------------
 
@@ -312,8 +320,9 @@ class UpstreamPort:
             if isinstance(frame, dict):
                 msg_id = str(frame.get("id", ""))
                 if msg_id.startswith(_SYNC):
-                    if self._sync is not None and not self._sync.done():
-                        self._sync.set_result(None)
+                    done = self._syncs.get(msg_id)
+                    if done is not None and not done.done():
+                        done.set_result(None)
                     return
                 if frame.get("op") == "status":
                     level = str(frame.get("level", "info"))
@@ -348,6 +357,10 @@ class UpstreamPort:
         self._outgoing.put_nowait(text)
 
     async def _send_loop(self) -> None:
+        """Send in order; after every :data:`_WINDOW` frames wait for a round trip, so the
+        server's queue of unprocessed frames stays bounded (rosbridge-server-rs closes a
+        connection whose queue of 256 frames overflows, e.g. the burst of a long step call)."""
+        unconfirmed = 0
         while True:
             text = await self._outgoing.get()
             try:
@@ -356,6 +369,10 @@ class UpstreamPort:
                     self.stats.send_failures += 1
                 else:
                     await ws.send(text)
+                    unconfirmed += 1
+                    if unconfirmed >= _WINDOW:
+                        unconfirmed = 0
+                        await self._round_trip()
             except (ConnectionClosed, OSError):
                 self.stats.send_failures += 1
             finally:
