@@ -15,7 +15,7 @@ from harness.events import CollectingSink, Level, LogMessage
 from harness.recording import Recording
 from harness.replay import verify
 from harness.ros2 import Ros2Install, choose_domain_id
-from harness.ros2.testing import run_node, start_node
+from harness.ros2.testing import free_port, rosbridge_server, run_node, start_node
 from harness.session import Session
 
 BAD_NODE = """
@@ -107,3 +107,31 @@ def test_bad_input_from_a_node_is_reported_and_a_crash_leaves_the_run_going(
 def test_domain_id_honours_the_environment() -> None:
     assert choose_domain_id({"ROS_DOMAIN_ID": "42"}) == 42
     assert choose_domain_id({}) in range(1, 102)
+
+
+def test_client_mode_survives_a_rosbridge_server_rs_restart(
+    ros2: Ros2Install, tmp_path: Path
+) -> None:
+    domain = choose_domain_id()
+    port = free_port()
+    path = tmp_path / "restart.mcap"
+    with rosbridge_server(ros2, domain, port) as url:
+        session = Session("demo", connect_to=url, record_to=path)
+        try:
+            run_node(ros2, domain, ARM_NODE, ["--lockstep"])
+        except BaseException:
+            session.close()
+            raise
+    try:
+        with rosbridge_server(ros2, domain, port):  # the same server, restarted
+            result = run_node(ros2, domain, ARM_NODE, ["--lockstep", "--target", "-0.2"])
+            assert result["joint1"] == pytest.approx(-0.2, abs=0.01)
+            assert session.step_index == 1000
+            assert session.upstream is not None
+            assert session.upstream.reconnects == 1
+    finally:
+        session.close()
+    with Recording(path) as rec:
+        gap = [f.text for f in rec.bridge_frames() if f.topic == "harness/transport_status"]
+    assert any("lost: reconnecting" in t for t in gap), gap
+    assert verify(path, level="full").reproduced
