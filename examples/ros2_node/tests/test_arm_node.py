@@ -5,7 +5,7 @@ the harness, or a sourced install): they skip, saying why, without it."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -55,12 +55,15 @@ def test_node_on_dds_steps_the_simulation(
 
 
 def test_node_through_a_rosbridge_server(
-    rosbridge: tuple[str, int], ros2: Ros2Install, tmp_path: Path
+    rosbridge: tuple[str, int],
+    ros2: Ros2Install,
+    harness_session_factory: Callable[..., Session],
+    harness_recording: Path,
 ) -> None:
     url, domain = rosbridge
-    path = tmp_path / "client.mcap"
-    with Session("demo", connect_to=url, record_to=path) as session:
-        result = run_node(ros2, domain, NODE, ["--lockstep"])
-        assert session.step_index == 500
-        check(result, session)
-    assert verify(path, level="full").reproduced
+    session = harness_session_factory(connect=url)  # the marker's connect= as a keyword
+    result = run_node(ros2, domain, NODE, ["--lockstep"])
+    assert session.step_index == 500
+    check(result, session)
+    session.close()
+    assert verify(harness_recording).reproduced  # (its loggers publish on /rosout: physics level)
