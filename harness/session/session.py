@@ -774,7 +774,7 @@ class Session:
     @property
     def client_count(self) -> int:
         """Clients connected now (sockets accepted whose closing the session has not yet
-        processed; 0 in client mode)."""
+        processed; in client mode the link to the external server is the one client)."""
         return self._clients_open
 
     @property
