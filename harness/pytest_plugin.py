@@ -121,6 +121,9 @@ _SESSION_KEYS = (
     "robot_args",
     "controllers",
     "sensors",
+    "connect_to",
+    "connect_allow_refused",
+    "ros2",
 )
 MARKER_KEYS = frozenset(
     {
@@ -133,6 +136,7 @@ MARKER_KEYS = frozenset(
         "scene",
         "collisions",
         "joint_limits",
+        "connect",  # the marker's spelling of Session(connect_to=)
         *_SESSION_KEYS,
     }
 )
@@ -410,6 +414,10 @@ def _scenario_options(path: Path) -> dict[str, Any]:
         options["controllers"] = scenario.controllers
     if scenario.sensors:
         options["sensors"] = list(scenario.sensors)
+    if scenario.bridge.connect is not None:
+        options["connect_to"] = scenario.bridge.connect
+    if scenario.bridge.ros2:
+        options["ros2"] = True
     controllers = spec.controllers
     if len(controllers) == 1 and not controllers[0].joints:
         options["mode"] = controllers[0].mode
@@ -498,6 +506,8 @@ class _TestRun:
             from_file = _scenario_options(Path(path))
             scenario_text = from_file.pop("scenario_text")
             opts = {**from_file, **opts}
+        if "connect" in opts:  # the marker's spelling of Session(connect_to=)
+            opts["connect_to"] = opts.pop("connect")
         robots = opts.pop("robots", None)
         robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
@@ -809,6 +819,15 @@ def harness_session(harness_session_factory: SessionFactory) -> Session:
 def rosbridge_url(harness_session: Session) -> str:
     """The ``ws://127.0.0.1:<port>`` URL of this test's rosbridge server (a free port)."""
     return harness_session.url
+
+
+@pytest.fixture
+def ros_domain_id(harness_session: Session) -> int:
+    """The private ``ROS_DOMAIN_ID`` of this test's ROS 2 side (``@pytest.mark.harness(
+    ros2=True)``): run ROS 2 nodes on it (see :mod:`harness.ros2.testing`)."""
+    if harness_session.ros_domain_id is None:
+        pytest.fail("ros_domain_id needs @pytest.mark.harness(ros2=True)", pytrace=False)
+    return harness_session.ros_domain_id
 
 
 @pytest.fixture

@@ -18,9 +18,10 @@ Replayable clock modes: all three. ``lockstep`` steps only on recorded requests;
 which is all the core needs (wall-clock pacing never reaches the core). Inputs that are not
 client frames are recorded as markers (a socket closing, a wall-clock service-call timeout, a
 status the transport sent by itself, Python ``command``/``set_positions``/``reset``/
-``pause`` calls). Refused: client-mode recordings (the session was a client of an external
-server: no frames to replay), recordings made with ``record_bridge_frames=False`` and
-recordings not made by a session. Not reproducible from the
+``pause`` calls). A client-mode session's link to the external server is one connection of
+its bridge, recorded and re-run like any client's. Refused: client-mode recordings made
+before that (no ``upstream`` in the metadata: no frames to replay), recordings made with
+``record_bridge_frames=False`` and recordings not made by a session. Not reproducible from the
 file: frames published by Python loggers (pass the same ``loggers``).
 """
 
@@ -461,10 +462,10 @@ def replay_pipeline(
                 f"{path}: not a session recording (no 'clock' in the metadata): --level full "
                 "re-runs a Session's bridge pipeline; use --level physics"
             )
-        if metadata.get("transport") == "client":
+        if metadata.get("transport") == "client" and "upstream" not in metadata:
             raise LevelUnavailableError(
-                f"{path}: recorded by a session in client mode (connected to an external "
-                "rosbridge server): its bridge frames were not recorded, so --level full "
+                f"{path}: recorded by an older session in client mode (connected to an "
+                "external rosbridge server): its bridge frames were not recorded, so --level full "
                 "cannot re-run them; use --level physics"
             )
         if metadata.get("bridge_frames") == "false":

@@ -53,6 +53,10 @@ _NUMPY = {
 }
 
 
+_EMPTY_PLACEHOLDER = "structure_needs_at_least_one_member"
+"""The member ROS 2's C/C++ code generators give an empty message: rosbridge servers that read
+it from the type support (rosbridge-server-rs) send it; it carries nothing."""
+
 def _describe(value: object) -> str:
     names = {bool: "a bool", int: "an int", float: "a float", str: "a string", list: "a list"}
     kind = names.get(type(value), "an object" if isinstance(value, dict) else "null")
@@ -118,7 +122,7 @@ def from_json(
     definition = registry.message(msg_type)
     known = {f.name for f in definition.fields}
     for key in value:
-        if key not in known:
+        if key not in known and not (key == _EMPTY_PLACEHOLDER and not known):
             raise ConversionError(f"Message type {msg_type} does not have a field {path}{key}")
     out: dict[str, Any] = {}
     for f in definition.fields:

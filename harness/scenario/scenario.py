@@ -147,10 +147,14 @@ class RobotSpec:
 
 @dataclass(frozen=True)
 class Bridge:
-    """Where ``harness serve`` listens; ``harness run`` gives every iteration a free port."""
+    """Where ``harness serve`` listens; ``harness run`` gives every iteration a free port.
+    ``connect``: the URL of an external rosbridge server to connect to instead (client mode;
+    a token goes in the URL). ``ros2``: put the simulation on DDS too (the native ROS 2 side)."""
 
     ip: str = "127.0.0.1"
     port: int = 9090
+    connect: str | None = None
+    ros2: bool = False
 
 
 _LOGGING_OFF = LoggingConfig(enable=False)  # a scenario without a logging section
@@ -323,6 +327,8 @@ class _Builder:
             bridge=Bridge(
                 ip=ros_bridge.get("ip", "127.0.0.1"),
                 port=self.port(ros_bridge.get("port", 9090)),
+                connect=ros_bridge.get("connect"),
+                ros2=ros_bridge.get("ros2", False),
             ),
             logging=self.logging(data.get("logging")),
             timestep=float(data.get("timestep", 0.002)),

@@ -388,6 +388,8 @@ class SessionIterationRunner:
             record_bridge_frames=scenario.recording.bridge_frames,
             host=spec.host,
             port=spec.port,
+            connect_to=scenario.bridge.connect,
+            ros2=scenario.bridge.ros2,
             record_to=spec.recording_path if scenario.recording.enabled else None,
             state_every=scenario.recording.state_every,
             joint_command_topic=plan.command_topics,

@@ -69,14 +69,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="clients must present this token: ws://HOST:PORT/?token=TOKEN "
         "(default: $HARNESS_TOKEN; none when unset)",
     )
+    parser.add_argument(
+        "--connect",
+        metavar="URL",
+        default=None,
+        help="client mode: connect to the external rosbridge server at URL instead of serving "
+        "(a token goes in the URL: ws://HOST:PORT/?token=TOKEN)",
+    )
+    parser.add_argument(
+        "--connect-allow-refused",
+        action="store_true",
+        help="client mode: run even when the server refuses some of the simulation's topics "
+        "or services (they are left out)",
+    )
+    parser.add_argument(
+        "--ros2",
+        action="store_true",
+        help="also put the simulation on DDS for ROS 2 nodes (rclpy gateway; see README)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGINT/SIGTERM; exit 0 after a clean shutdown."""
     from harness.rosbridge import ExposedServerWarning, is_loopback
     from harness.session.session import Session
+    from harness.session.upstream import redact
 
-    if not is_loopback(args.host):
+    if args.connect is not None and args.token:
+        print(
+            "harness serve: error: --token protects the embedded server; with --connect put "
+            "the external server's token in the URL (ws://HOST:PORT/?token=TOKEN)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.connect is None and not is_loopback(args.host):
         guard = "clients must present the token" if args.token else "no token: use --token"
         print(
             f"harness serve: warning: binding {args.host} exposes the simulation to the "
@@ -104,6 +130,9 @@ def run(args: argparse.Namespace) -> int:
             host=args.host,
             port=args.port,
             token=args.token,
+            connect_to=args.connect,
+            connect_allow_refused=args.connect_allow_refused,
+            ros2=args.ros2,
             record_to=args.record,
             scene=args.scene,
             robot_args=robot_args(args),
@@ -111,16 +140,21 @@ def run(args: argparse.Namespace) -> int:
         ) as session:
             previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock
+            where = session.url if args.connect is None else f"connected to {redact(session.url)}"
+            extra = f", ROS 2 on domain {session.ros_domain_id}" if args.ros2 else ""
             print(
-                f"harness serve: {session.url} robot {session.robot_name} "
+                f"harness serve: {where} robot {session.robot_name} "
                 f"({ControlMode.parse(args.mode)}), "
-                f"clock {clock}; Ctrl-C to stop",
+                f"clock {clock}{extra}; Ctrl-C to stop",
                 flush=True,
             )
             while not stop.wait(0.5) and session.failure is None:
                 pass
             step = session.step_index
             failure = session.failure
+            upstream = session.upstream
+        if upstream is not None:
+            print(f"harness serve: upstream: {upstream.summary()}", flush=True)
         recorded = f", recording {args.record} closed" if args.record else ""
         if failure is not None:
             print(f"harness serve: error: {failure}{recorded}", file=sys.stderr)

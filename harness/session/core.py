@@ -46,7 +46,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from types import MappingProxyType
-from typing import Any, Literal, Protocol
+from typing import Any, ClassVar, Literal, Protocol
 
 import mujoco
 import numpy as np
@@ -496,6 +496,10 @@ class SessionBridge(Bridge):
         """Called with the id of every connection opened (the shell counts clients)."""
         self.on_disconnect: Callable[[int], None] | None = None
         """Called with the id of every connection closed."""
+        self.on_peer_status: Callable[[int, str, str], None] | None = None
+        """Called with ``(connection, level, msg)`` of every ``status`` frame a connection
+        sends (an external rosbridge server's answers in client mode, the ROS 2 gateway's
+        warnings): the core turns them into events, live and in a replay alike."""
 
     @contextlib.contextmanager
     def _core(self) -> Any:
@@ -547,6 +551,16 @@ class SessionBridge(Bridge):
         """A status the session itself sends (not a transport's)."""
         with self._core():
             super().status(connection, level, msg)
+
+    def _op_peer_status(self, c: int, obj: Mapping[str, Any]) -> None:
+        Bridge._OPS["status"](self, c, obj)  # validates level and msg
+        if self.on_peer_status is not None:
+            self.on_peer_status(c, str(obj.get("level", "info")), str(obj.get("msg", "")))
+
+    _OPS: ClassVar[dict[str, Callable[[Bridge, int, Mapping[str, Any]], None]]] = {
+        **Bridge._OPS,
+        "status": _op_peer_status,  # type: ignore[dict-item]
+    }
 
 
 class BridgePort:
@@ -728,6 +742,7 @@ class SessionCore:
             if recorder is not None and options.record_bridge_frames:
                 self.bridge.tap = self._tap
                 self.bridge.on_marker = self._marker
+            self.bridge.on_peer_status = self._peer_status
         self.graph: Graph = graph
         self.robots = self._robot_channels(robot)
         """Every robot's topics, joints and links, in the world's order."""
@@ -770,6 +785,8 @@ class SessionCore:
         """Called when a reset or pause changes how time should move (the shell re-paces)."""
         self.control = ControlHost(self, options.controllers)
         """Every robot's ros2_control controllers and controller manager."""
+        self.peer_statuses: dict[str, int] = {}
+        """Status frames received from connections, by level (see ``on_peer_status``)."""
 
     # ----------------------------------------------------------------------------- set-up
 
@@ -1187,6 +1204,11 @@ class SessionCore:
                 )
             ]
         )
+
+    def _peer_status(self, connection: int, level: str, text: str) -> None:
+        self.peer_statuses[level] = self.peer_statuses.get(level, 0) + 1
+        severity = {"info": Level.INFO, "warning": Level.WARNING}.get(level, Level.ERROR)
+        self.log(severity, f"connection {connection} status {level}: {text}")
 
     def _report_notices(self, topic: str, connection: int, notices: Sequence[Notice]) -> None:
         for notice in notices:

@@ -175,8 +175,9 @@ from harness.session.errors import (
     SessionError,
     SimTimeoutError,
 )
-from harness.session.ports import ClientPort, Port, ServerPort
+from harness.session.ports import Port, ServerPort
 from harness.session.snapshot import complete_prefix
+from harness.session.upstream import UpstreamPort, UpstreamStats, redact
 from harness.sim import KinematicLimits, Notice, Simulation
 
 __all__ = ["CLOCK_MODES", "ClockMode", "LoggerFactory", "Session", "SessionTopics", "StartMode"]
@@ -211,7 +212,10 @@ class Session:
     free port, see :attr:`url`; a non-loopback host issues an ``ExposedServerWarning``); ``token``:
     clients must present it (``?token=`` on the URL or ``Authorization: Bearer``; :attr:`url`
     carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server to use instead
-    (client mode). ``record_to``: an MCAP path (``state_every``: physics state every N steps).
+    (client mode: see :mod:`harness.session.upstream`; ``connect_allow_refused``: start even
+    when that server refuses some of the simulation's topics or services). ``record_to``: an
+    MCAP path (``state_every``: physics state every N steps). ``ros2``: also put the
+    simulation on DDS for ROS 2 nodes (:mod:`harness.ros2`; :attr:`ros_domain_id`).
     ``joint_states_hz``, ``tf_hz``, ``clock_hz``: publication rates in simulation time
     (``tf_hz``/``clock_hz`` default to ``joint_states_hz``; 0 turns one off).
     ``joint_command_topic``: the JointState command topic, relative to each robot's namespace or
@@ -245,6 +249,8 @@ class Session:
         port: int = 0,
         token: str | None = None,
         connect_to: str | None = None,
+        connect_allow_refused: bool = False,
+        ros2: bool = False,
         record_to: str | Path | None = None,
         state_every: int = 1,
         joint_states_hz: float = 100.0,
@@ -270,6 +276,18 @@ class Session:
                 "token protects the embedded server; for an external server put its token "
                 "in connect_to (ws://host:port/?token=...)"
             )
+        if ros2 and connect_to is not None:
+            raise SessionConfigError(
+                "ros2 puts the session's own graph on DDS; with connect_to the external "
+                "rosbridge server's ROS 2 side does that"
+            )
+        self.ros_domain_id: int | None = None
+        """The ROS_DOMAIN_ID of the ROS 2 side (``ros2=True``), else None."""
+        self._ros2: Any = None
+        if ros2:
+            from harness.ros2 import choose_domain_id
+
+            self.ros_domain_id = choose_domain_id()
         options = CoreOptions(
             clock=clock,
             namespace=namespace,
@@ -328,6 +346,12 @@ class Session:
                         **options.to_metadata(),
                         "rate": repr(self.rate),
                         "transport": "server" if connect_to is None else "client",
+                        **({"upstream": redact(connect_to)} if connect_to is not None else {}),
+                        **(
+                            {"ros_domain_id": str(self.ros_domain_id)}
+                            if self.ros_domain_id is not None
+                            else {}
+                        ),
                     },
                 )
                 self._recorder = Recorder(
@@ -337,20 +361,25 @@ class Session:
                     state_every=state_every,
                 )
                 hub.add_sink(RecordingSink(self._recorder))
-            client = ClientPort(connect_to) if connect_to is not None else None
-            self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub, graph=client)
+            self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
             """The sans-I/O core (touch it only from the session's thread)."""
             self.core.on_clock_change = self._on_clock_change
             self.sim: Simulation = self.core.sim
             """The simulation. Touch it only from the session's thread (loggers, predicates) or
             while nothing else can step it; prefer the session's methods."""
             self.topics: SessionTopics = self.core.topics
-            if client is not None:
-                self._port = client
+            assert self.core.bridge is not None
+            self.core.bridge.on_connect = self._on_connect
+            self.core.bridge.on_disconnect = self._on_disconnect
+            self.upstream: UpstreamStats | None = None
+            """Client mode: what the link to the external server counted (else None)."""
+            if connect_to is not None:
+                upstream = UpstreamPort(
+                    self.core.bridge, connect_to, allow_refused=connect_allow_refused
+                )
+                self.upstream = upstream.stats
+                self._port = upstream
             else:
-                assert self.core.bridge is not None
-                self.core.bridge.on_connect = self._on_connect
-                self.core.bridge.on_disconnect = self._on_disconnect
                 self._port = ServerPort(self.core.bridge, host=host, port=port, token=token)
             for sink in sinks:
                 hub.add_sink(sink)
@@ -362,6 +391,8 @@ class Session:
             self._thread.start()
             self.url: str = self._await(self._start())
             """``ws://host:port`` of the embedded server (or the external server's URL)."""
+            if self.ros_domain_id is not None:
+                self._start_ros2()
         except BaseException:
             with contextlib.suppress(Exception):
                 self.close()
@@ -378,6 +409,22 @@ class Session:
         self.core.publish_initial()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         return url
+
+    @property
+    def ros2_refused(self) -> tuple[str, ...]:
+        """What the ROS 2 side could not put on DDS (``name (type): reason``; also warning
+        events), empty without ``ros2``."""
+        return self._ros2.refused if self._ros2 is not None else ()
+
+    def _start_ros2(self) -> None:
+        from harness.ros2 import Ros2Gateway
+        from harness.rosbridge.offer import offer_of
+
+        bridge = self.core.bridge
+        assert bridge is not None
+        assert self.ros_domain_id is not None
+        offer = self._call(lambda: offer_of(bridge))
+        self._ros2 = Ros2Gateway.start(self.url, offer, self.ros_domain_id)
 
     def _on_connect(self, connection: int) -> None:
         with self._clients:
@@ -746,7 +793,7 @@ class Session:
     @property
     def client_count(self) -> int:
         """Clients connected now (sockets accepted whose closing the session has not yet
-        processed; 0 in client mode)."""
+        processed; in client mode the link to the external server is the one client)."""
         return self._clients_open
 
     @property
@@ -801,6 +848,8 @@ class Session:
                 return
             self._closed = True
         errors: list[BaseException] = []
+        if self._ros2 is not None:
+            self._ros2.stop()  # its connection closes like any client's
         thread = self._thread
         if thread is not None and thread.is_alive():
             try:

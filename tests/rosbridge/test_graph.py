@@ -12,7 +12,7 @@ import pytest
 
 from harness.rosbridge import Bridge, Message, TypeRegistry
 from harness.rosbridge.convert import default_message, from_json
-from harness.rosbridge.errors import TypeNameError
+from harness.rosbridge.errors import ConversionError, TypeNameError
 
 REGISTRY = TypeRegistry()
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -279,3 +279,11 @@ def test_a_default_that_does_not_fit_is_refused(text: str, error: str) -> None:
     reg = TypeRegistry(bundled=False, harness_msgs=False)
     with pytest.raises(TypeNameError, match=re.escape(f"demo_msgs/msg/Bad: {error}")):
         reg.register("demo_msgs/msg/Bad", text)
+
+
+def test_the_empty_message_placeholder_of_ros2_type_support_is_accepted_only_there() -> None:
+    # rosbridge-server-rs sends it for an empty request (std_srvs/Trigger, harness GetState)
+    placeholder = {"structure_needs_at_least_one_member": 0}
+    assert from_json(REGISTRY, "std_srvs/srv/Trigger_Request", placeholder, 0) == {}
+    with pytest.raises(ConversionError, match="does not have a field"):
+        from_json(REGISTRY, "std_msgs/msg/String", placeholder, 0)

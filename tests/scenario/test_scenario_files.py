@@ -290,3 +290,16 @@ def test_scenarios_pickle_and_compare_equal():
 
     s = Scenario.load(EXAMPLES / "demo.yaml")
     assert pickle.loads(pickle.dumps(s)) == s
+
+
+def test_scenario_ros_routes(tmp_path):
+    doc = {
+        "robots": [{"robot": "demo"}],
+        "ros": {"bridge": {"connect": "ws://127.0.0.1:9090/?token=t", "ros2": True}},
+    }
+    s = Scenario.from_mapping(doc, base_dir=tmp_path)
+    assert s.bridge.connect == "ws://127.0.0.1:9090/?token=t"
+    assert s.bridge.ros2 is True
+    assert Scenario.from_mapping({"robots": [{"robot": "demo"}]}).bridge.connect is None
+    with pytest.raises(ScenarioError, match="connect"):
+        Scenario.from_mapping({"robots": [{"robot": "demo"}], "ros": {"bridge": {"connect": "x"}}})
