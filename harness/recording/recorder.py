@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import os
 import platform
+import struct
 import sys
 import threading
 import time
@@ -32,6 +33,8 @@ import numpy.typing as npt
 from mcap.writer import CompressionType, Writer
 
 from harness._version import __version__
+from harness.recording.append import MessageAppender
+from harness.recording.cdr import bridge_frame, physics_state
 from harness.recording.convert import from_rosbridge
 from harness.recording.errors import RecordingWriteError
 from harness.recording.layout import (
@@ -95,7 +98,6 @@ _RESERVED = (
 )
 _EMPTY_F64: npt.NDArray[np.float64] = np.zeros(0, np.float64)
 _EMPTY_U32: npt.NDArray[np.uint32] = np.zeros(0, np.uint32)
-_EMPTY_U8: npt.NDArray[np.uint8] = np.zeros(0, np.uint8)
 
 
 class FlushInfo(NamedTuple):
@@ -282,6 +284,7 @@ class Recorder:
             # Header and attachments reach the file system now: a full disk (or a file size
             # limit) is reported here, before the run starts, not at the first flush.
             self._stream.flush()
+            self._append = MessageAppender(self._writer).append
         except OSError as exc:
             with contextlib.suppress(OSError):
                 self._stream.close()
@@ -335,19 +338,12 @@ class Recorder:
             )
         if direction not in (0, 1):
             raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {seq}: direction must be 0 or 1")
-        msg = self._types[TYPE_BRIDGE_FRAME](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            direction=direction,
-            connection=connection,
-            seq=seq,
-            op=op,
-            topic=topic,
-            binary=data is not None,
-            text=text or "",
-            data=_EMPTY_U8 if data is None else np.frombuffer(data, np.uint8),
-        )
-        self._write(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, msg, sim_time_ns)
+        try:
+            cdr = bridge_frame(step, sim_time_ns, direction, connection, seq, op, topic, text, data)
+        except (struct.error, UnicodeEncodeError, AttributeError, TypeError) as exc:
+            where = f"{TOPIC_BRIDGE} seq {seq}"
+            raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
+        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, cdr, sim_time_ns)
 
     def write_applied_input(
         self,
@@ -403,15 +399,18 @@ class Recorder:
         if step % self._state_every:
             return
         where = f"{TOPIC_STATE} step {step}"
-        msg = self._types[TYPE_PHYSICS_STATE](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            state_spec=state_spec,
-            state=_f64(state, f"{where}: state"),
-            qpos=_f64(qpos, f"{where}: qpos"),
-            qvel=_f64(qvel, f"{where}: qvel"),
-        )
-        self._write(TOPIC_STATE, TYPE_PHYSICS_STATE, msg, sim_time_ns)
+        try:
+            cdr = physics_state(
+                step,
+                sim_time_ns,
+                state_spec,
+                _f64(state, f"{where}: state"),
+                _f64(qpos, f"{where}: qpos"),
+                _f64(qvel, f"{where}: qvel"),
+            )
+        except (struct.error, TypeError) as exc:
+            raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
+        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, sim_time_ns)
 
     def write_epoch(
         self,
@@ -516,6 +515,11 @@ class Recorder:
             data = self._store.serialize_cdr(msg, msgtype)
         except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
             raise RecordingWriteError(f"{topic} ({msgtype}): cannot serialise: {exc}") from None
+        self._write_cdr(topic, msgtype, data, sim_time_ns)
+
+    def _write_cdr(
+        self, topic: str, msgtype: str, data: bytes | memoryview, sim_time_ns: int
+    ) -> None:
         with self._lock:
             if self._closed or self._failure is not None:
                 self._raise_closed()
@@ -535,7 +539,7 @@ class Recorder:
             seq = self._seq[channel_id]
             self._seq[channel_id] = seq + 1
             try:
-                self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+                self._append(channel_id, sim_time_ns, data, seq)
             except OSError as exc:  # a full chunk was written out: disk full
                 self._failure = exc
                 self._raise_closed()
