@@ -16,6 +16,9 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+from mcap.data_stream import RecordBuilder
+from mcap.opcode import Opcode
 from mcap.records import MessageIndex
 from mcap.writer import Writer
 
@@ -23,6 +26,17 @@ __all__ = ["MessageAppender"]
 
 # opcode MESSAGE (5), record length, channel id, sequence, log time, publish time
 _MESSAGE = struct.Struct("<BQHIQQ")
+
+
+class _MessageIndex(MessageIndex):
+    """A ``MessageIndex`` that writes its (time, offset) pairs with one numpy call."""
+
+    def write(self, stream: RecordBuilder) -> None:
+        stream.start_record(Opcode.MESSAGE_INDEX)
+        stream.write2(self.channel_id)
+        stream.write4(16 * len(self.records))
+        stream.write(np.array(self.records, dtype="<u8").tobytes())
+        stream.finish_record()  # type: ignore[no-untyped-call]
 
 
 class MessageAppender:
@@ -57,7 +71,7 @@ class MessageAppender:
         offset = buffer.tell()
         index = self._indices.get(channel_id)
         if index is None:
-            index = self._indices[channel_id] = MessageIndex(channel_id=channel_id, records=[])
+            index = self._indices[channel_id] = _MessageIndex(channel_id, [])
         index.records.append((time_ns, offset))
         builder.num_messages += 1
         buffer.write(_MESSAGE.pack(5, 22 + len(data), channel_id, sequence, time_ns, time_ns))

@@ -34,7 +34,13 @@ from mcap.writer import CompressionType, Writer
 
 from harness._version import __version__
 from harness.recording.append import MessageAppender
-from harness.recording.cdr import bridge_frame, physics_state
+from harness.recording.cdr import (
+    Encoder,
+    Unsupported,
+    bridge_frame,
+    compile_encoder,
+    physics_state,
+)
 from harness.recording.convert import from_rosbridge
 from harness.recording.errors import RecordingWriteError
 from harness.recording.layout import (
@@ -96,6 +102,7 @@ _RESERVED = (
     "state_every",
     "compression",
 )
+_F64 = np.dtype(np.float64)
 _EMPTY_F64: npt.NDArray[np.float64] = np.zeros(0, np.float64)
 _EMPTY_U32: npt.NDArray[np.uint32] = np.zeros(0, np.uint32)
 
@@ -171,6 +178,21 @@ def build_metadata(
     return dict(sorted(out.items()))
 
 
+def _uncompiled(value: Mapping[str, Any]) -> bytes:
+    raise AssertionError("never called: marks a type not compiled yet")
+
+
+_UNCOMPILED: Encoder = _uncompiled
+
+
+def _compile(store: Any, msgtype: str) -> Encoder | None:
+    """The compiled CDR encoder of ``msgtype`` (``None``: the type takes the generic path)."""
+    try:
+        return compile_encoder(store, msgtype)
+    except Unsupported:
+        return None
+
+
 def _media_type(name: str) -> str:
     return _MEDIA_TYPES.get(os.path.splitext(name)[1].lower(), "application/octet-stream")
 
@@ -243,6 +265,7 @@ class Recorder:
         self._store = typestore()
         self._types = self._store.types
         self._on_flush = on_flush
+        self._encoders: dict[str, Encoder | None] = {}
         self._lock = threading.Lock()
         self._channels: dict[str, tuple[int, str]] = {}
         self._schemas: dict[str, int] = {}
@@ -313,6 +336,17 @@ class Recorder:
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
         """Record ``msg`` on ``topic``: a dict in rosbridge JSON form or a rosbags object."""
         if isinstance(msg, Mapping):
+            encode = self._encoders.get(msgtype, _UNCOMPILED)
+            if encode is _UNCOMPILED:
+                encode = self._encoders[msgtype] = _compile(self._store, msgtype)
+            if encode is not None:
+                try:
+                    data = encode(msg)
+                except Unsupported:
+                    pass  # the generic path below serialises it or says what is wrong
+                else:
+                    self._write_cdr(topic, msgtype, data, sim_time_ns)
+                    return
             msg = from_rosbridge(self._store, msgtype, msg, where=f"{topic} ({msgtype})")
         elif getattr(msg, "__msgtype__", msgtype) != msgtype:
             raise RecordingWriteError(f"{topic}: message is a {msg.__msgtype__}, not a {msgtype}")
@@ -398,17 +432,17 @@ class Recorder:
         """Record the state after ``step`` if ``step`` is a multiple of ``state_every``."""
         if step % self._state_every:
             return
-        where = f"{TOPIC_STATE} step {step}"
         try:
-            cdr = physics_state(
-                step,
-                sim_time_ns,
-                state_spec,
-                _f64(state, f"{where}: state"),
-                _f64(qpos, f"{where}: qpos"),
-                _f64(qvel, f"{where}: qvel"),
-            )
+            # MuJoCo's own float64 arrays go as they are (tobytes copies any layout).
+            if not (type(state) is np.ndarray and state.dtype is _F64):
+                state = _f64(state, f"{TOPIC_STATE} step {step}: state")
+            if not (type(qpos) is np.ndarray and qpos.dtype is _F64):
+                qpos = _f64(qpos, f"{TOPIC_STATE} step {step}: qpos")
+            if not (type(qvel) is np.ndarray and qvel.dtype is _F64):
+                qvel = _f64(qvel, f"{TOPIC_STATE} step {step}: qvel")
+            cdr = physics_state(step, sim_time_ns, state_spec, state, qpos, qvel)
         except (struct.error, TypeError) as exc:
+            where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
         self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, sim_time_ns)
 
