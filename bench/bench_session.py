@@ -89,6 +89,56 @@ def _lockstep(
     return steps / float(out.stdout.strip())
 
 
+def _raw_server_loop(steps: int) -> float:
+    """The limit: the same client against a bare ``websockets`` asyncio server (the library
+    the session serves with) on a thread of this process, answering each ``call_service``
+    with a ``service_response`` (the frames parsed as JSON, nothing else done)."""
+    import asyncio
+    import json
+    import threading
+
+    from websockets.asyncio.server import ServerConnection, serve
+
+    async def handler(ws: ServerConnection) -> None:
+        async for frame in ws:
+            request = json.loads(frame)
+            if request.get("op") == "call_service":
+                await ws.send(
+                    json.dumps(
+                        {"op": "service_response", "service": request["service"],
+                         "id": request["id"], "values": {"sim_time": {"sec": 0, "nanosec": 0}},
+                         "result": True}
+                    )
+                )  # fmt: skip
+
+    ready = threading.Event()
+    box: dict[str, object] = {}
+
+    async def main() -> None:
+        async with serve(handler, "127.0.0.1", 0, compression=None) as server:
+            box["port"] = server.sockets[0].getsockname()[1]
+            box["loop"] = asyncio.get_running_loop()
+            box["stop"] = stop = asyncio.Event()
+            ready.set()
+            await stop.wait()
+
+    thread = threading.Thread(target=asyncio.run, args=(main(),), daemon=True)
+    thread.start()
+    ready.wait()
+    try:
+        out = subprocess.run(
+            [sys.executable, "-c", _CLIENT, f"ws://127.0.0.1:{box['port']}", str(steps)],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    finally:
+        loop = box["loop"]
+        loop.call_soon_threadsafe(box["stop"].set)  # type: ignore[attr-defined]
+        thread.join()
+    return steps / float(out.stdout.strip())
+
+
 _FRESH = r"""
 import sys, time
 start = time.perf_counter()
@@ -134,6 +184,7 @@ def run(quick: bool) -> list[Row]:
         for i in range(2):
             plain = max(plain, _lockstep(robot, steps, None, None))
             recorded = max(recorded, _lockstep(robot, steps, folder / f"bench{i}.mcap", None))
+        raw = max(_raw_server_loop(steps) for _ in range(2))
         profile = cProfile.Profile()
         _lockstep(robot, steps // 2, folder / "profiled.mcap", profile)
         bare_again = max(_bare(robot, steps) for _ in range(3))
@@ -151,6 +202,17 @@ def run(quick: bool) -> list[Row]:
                     note=note,
                 )
             )
+        rows.append(
+            Row(
+                "lockstep: publish + /harness/step per step vs raw websockets request/response",
+                plain,
+                raw,
+                "st/s",
+                "ratio >= 0.7",
+                plain / raw >= 0.7,
+                note="same client; limit: a bare websockets server answering each call",
+            )
+        )
         # Issue 5's measure of recording overhead: the same lockstep session with full
         # recording (state every step, joint states at 100 Hz, every bridge frame) vs none.
         rows.append(
