@@ -52,6 +52,46 @@ with connect(url, compression=None) as ws:
     print(time.perf_counter() - start, flush=True)
 """
 
+_UNTIL_CLIENT = r"""
+import json, sys, time
+from websockets.sync.client import connect
+url, n, batched = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
+with connect(url, compression=None) as ws:
+    ws.send(json.dumps({"op": "subscribe", "topic": "/joint_states",
+                        "type": "sensor_msgs/msg/JointState"}))
+    one = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}, "id": "s"}
+    until = {"op": "call_service", "service": "/harness/step", "id": "s",
+             "args": {"steps": 1000, "until_topic": "/joint_states", "until_count": 1}}
+    def wait_state():  # one /joint_states per call: step until it came
+        got = False
+        while not got:
+            ws.send(json.dumps(until if batched else one))
+            while True:
+                frame = json.loads(ws.recv())
+                got = got or frame.get("topic") == "/joint_states"
+                if frame["op"] == "service_response":
+                    break
+    for _ in range(20):
+        wait_state()
+    start = time.perf_counter()
+    for _ in range(n):
+        wait_state()
+    print(time.perf_counter() - start, flush=True)
+"""
+
+
+def _until(robot: LoadedRobot, n: int, batched: bool) -> float:
+    """Joint states received per second by a client that steps until each one arrives."""
+    with Session(robot) as session:
+        out = subprocess.run(
+            [sys.executable, "-c", _UNTIL_CLIENT, session.url, str(n), "1" if batched else "0"],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    return n / float(out.stdout.strip())
+
+
 _GAZEBO_STARTUP_S = 3.0
 
 
@@ -211,6 +251,20 @@ def run(quick: bool) -> list[Row]:
                 "ratio >= 0.7",
                 plain / raw >= 0.7,
                 note="same client; limit: a bare websockets server answering each call",
+            )
+        )
+        n_states = 50 if quick else 200
+        per_step = max(_until(robot, n_states, False) for _ in range(2))
+        batched = max(_until(robot, n_states, True) for _ in range(2))
+        rows.append(
+            Row(
+                "lockstep: step until the next /joint_states, batched vs one call per step",
+                batched,
+                per_step,
+                "msg/s",
+                "report",
+                True,
+                note="{steps, until_topic, until_count} in one /harness/step call",
             )
         )
         # Issue 5's measure of recording overhead: the same lockstep session with full
