@@ -52,6 +52,46 @@ with connect(url, compression=None) as ws:
     print(time.perf_counter() - start, flush=True)
 """
 
+_UNTIL_CLIENT = r"""
+import json, sys, time
+from websockets.sync.client import connect
+url, n, batched = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
+with connect(url, compression=None) as ws:
+    ws.send(json.dumps({"op": "subscribe", "topic": "/joint_states",
+                        "type": "sensor_msgs/msg/JointState"}))
+    one = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}, "id": "s"}
+    until = {"op": "call_service", "service": "/harness/step", "id": "s",
+             "args": {"steps": 1000, "until_topic": "/joint_states", "until_count": 1}}
+    def wait_state():  # one /joint_states per call: step until it came
+        got = False
+        while not got:
+            ws.send(json.dumps(until if batched else one))
+            while True:
+                frame = json.loads(ws.recv())
+                got = got or frame.get("topic") == "/joint_states"
+                if frame["op"] == "service_response":
+                    break
+    for _ in range(20):
+        wait_state()
+    start = time.perf_counter()
+    for _ in range(n):
+        wait_state()
+    print(time.perf_counter() - start, flush=True)
+"""
+
+
+def _until(robot: LoadedRobot, n: int, batched: bool) -> float:
+    """Joint states received per second by a client that steps until each one arrives."""
+    with Session(robot) as session:
+        out = subprocess.run(
+            [sys.executable, "-c", _UNTIL_CLIENT, session.url, str(n), "1" if batched else "0"],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    return n / float(out.stdout.strip())
+
+
 _GAZEBO_STARTUP_S = 3.0
 
 
@@ -86,6 +126,56 @@ def _lockstep(
         )
         if profile is not None:
             session.call(profile.disable)
+    return steps / float(out.stdout.strip())
+
+
+def _raw_server_loop(steps: int) -> float:
+    """The limit: the same client against a bare ``websockets`` asyncio server (the library
+    the session serves with) on a thread of this process, answering each ``call_service``
+    with a ``service_response`` (the frames parsed as JSON, nothing else done)."""
+    import asyncio
+    import json
+    import threading
+
+    from websockets.asyncio.server import ServerConnection, serve
+
+    async def handler(ws: ServerConnection) -> None:
+        async for frame in ws:
+            request = json.loads(frame)
+            if request.get("op") == "call_service":
+                await ws.send(
+                    json.dumps(
+                        {"op": "service_response", "service": request["service"],
+                         "id": request["id"], "values": {"sim_time": {"sec": 0, "nanosec": 0}},
+                         "result": True}
+                    )
+                )  # fmt: skip
+
+    ready = threading.Event()
+    box: dict[str, object] = {}
+
+    async def main() -> None:
+        async with serve(handler, "127.0.0.1", 0, compression=None) as server:
+            box["port"] = server.sockets[0].getsockname()[1]
+            box["loop"] = asyncio.get_running_loop()
+            box["stop"] = stop = asyncio.Event()
+            ready.set()
+            await stop.wait()
+
+    thread = threading.Thread(target=asyncio.run, args=(main(),), daemon=True)
+    thread.start()
+    ready.wait()
+    try:
+        out = subprocess.run(
+            [sys.executable, "-c", _CLIENT, f"ws://127.0.0.1:{box['port']}", str(steps)],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    finally:
+        loop = box["loop"]
+        loop.call_soon_threadsafe(box["stop"].set)  # type: ignore[attr-defined]
+        thread.join()
     return steps / float(out.stdout.strip())
 
 
@@ -134,6 +224,7 @@ def run(quick: bool) -> list[Row]:
         for i in range(2):
             plain = max(plain, _lockstep(robot, steps, None, None))
             recorded = max(recorded, _lockstep(robot, steps, folder / f"bench{i}.mcap", None))
+        raw = max(_raw_server_loop(steps) for _ in range(2))
         profile = cProfile.Profile()
         _lockstep(robot, steps // 2, folder / "profiled.mcap", profile)
         bare_again = max(_bare(robot, steps) for _ in range(3))
@@ -151,6 +242,31 @@ def run(quick: bool) -> list[Row]:
                     note=note,
                 )
             )
+        rows.append(
+            Row(
+                "lockstep: publish + /harness/step per step vs raw websockets request/response",
+                plain,
+                raw,
+                "st/s",
+                "ratio >= 0.7",
+                plain / raw >= 0.7,
+                note="same client; limit: a bare websockets server answering each call",
+            )
+        )
+        n_states = 50 if quick else 200
+        per_step = max(_until(robot, n_states, False) for _ in range(2))
+        batched = max(_until(robot, n_states, True) for _ in range(2))
+        rows.append(
+            Row(
+                "lockstep: step until the next /joint_states, batched vs one call per step",
+                batched,
+                per_step,
+                "msg/s",
+                "report",
+                True,
+                note="{steps, until_topic, until_count} in one /harness/step call",
+            )
+        )
         # Issue 5's measure of recording overhead: the same lockstep session with full
         # recording (state every step, joint states at 100 Hz, every bridge frame) vs none.
         rows.append(

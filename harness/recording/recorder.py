@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import os
 import platform
+import struct
 import sys
 import threading
 import time
@@ -32,6 +33,14 @@ import numpy.typing as npt
 from mcap.writer import CompressionType, Writer
 
 from harness._version import __version__
+from harness.recording.append import MessageAppender
+from harness.recording.cdr import (
+    Encoder,
+    Unsupported,
+    bridge_frame,
+    compile_encoder,
+    physics_state,
+)
 from harness.recording.convert import from_rosbridge
 from harness.recording.errors import RecordingWriteError
 from harness.recording.layout import (
@@ -93,9 +102,9 @@ _RESERVED = (
     "state_every",
     "compression",
 )
+_F64 = np.dtype(np.float64)
 _EMPTY_F64: npt.NDArray[np.float64] = np.zeros(0, np.float64)
 _EMPTY_U32: npt.NDArray[np.uint32] = np.zeros(0, np.uint32)
-_EMPTY_U8: npt.NDArray[np.uint8] = np.zeros(0, np.uint8)
 
 
 class FlushInfo(NamedTuple):
@@ -167,6 +176,21 @@ def build_metadata(
         compression=compression,
     )
     return dict(sorted(out.items()))
+
+
+def _uncompiled(value: Mapping[str, Any]) -> bytes:
+    raise AssertionError("never called: marks a type not compiled yet")
+
+
+_UNCOMPILED: Encoder = _uncompiled
+
+
+def _compile(store: Any, msgtype: str) -> Encoder | None:
+    """The compiled CDR encoder of ``msgtype`` (``None``: the type takes the generic path)."""
+    try:
+        return compile_encoder(store, msgtype)
+    except Unsupported:
+        return None
 
 
 def _media_type(name: str) -> str:
@@ -241,6 +265,7 @@ class Recorder:
         self._store = typestore()
         self._types = self._store.types
         self._on_flush = on_flush
+        self._encoders: dict[str, Encoder | None] = {}
         self._lock = threading.Lock()
         self._channels: dict[str, tuple[int, str]] = {}
         self._schemas: dict[str, int] = {}
@@ -282,6 +307,7 @@ class Recorder:
             # Header and attachments reach the file system now: a full disk (or a file size
             # limit) is reported here, before the run starts, not at the first flush.
             self._stream.flush()
+            self._append = MessageAppender(self._writer).append
         except OSError as exc:
             with contextlib.suppress(OSError):
                 self._stream.close()
@@ -310,6 +336,17 @@ class Recorder:
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
         """Record ``msg`` on ``topic``: a dict in rosbridge JSON form or a rosbags object."""
         if isinstance(msg, Mapping):
+            encode = self._encoders.get(msgtype, _UNCOMPILED)
+            if encode is _UNCOMPILED:
+                encode = self._encoders[msgtype] = _compile(self._store, msgtype)
+            if encode is not None:
+                try:
+                    data = encode(msg)
+                except Unsupported:
+                    pass  # the generic path below serialises it or says what is wrong
+                else:
+                    self._write_cdr(topic, msgtype, data, sim_time_ns)
+                    return
             msg = from_rosbridge(self._store, msgtype, msg, where=f"{topic} ({msgtype})")
         elif getattr(msg, "__msgtype__", msgtype) != msgtype:
             raise RecordingWriteError(f"{topic}: message is a {msg.__msgtype__}, not a {msgtype}")
@@ -335,19 +372,12 @@ class Recorder:
             )
         if direction not in (0, 1):
             raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {seq}: direction must be 0 or 1")
-        msg = self._types[TYPE_BRIDGE_FRAME](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            direction=direction,
-            connection=connection,
-            seq=seq,
-            op=op,
-            topic=topic,
-            binary=data is not None,
-            text=text or "",
-            data=_EMPTY_U8 if data is None else np.frombuffer(data, np.uint8),
-        )
-        self._write(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, msg, sim_time_ns)
+        try:
+            cdr = bridge_frame(step, sim_time_ns, direction, connection, seq, op, topic, text, data)
+        except (struct.error, UnicodeEncodeError, AttributeError, TypeError) as exc:
+            where = f"{TOPIC_BRIDGE} seq {seq}"
+            raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
+        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, cdr, sim_time_ns)
 
     def write_applied_input(
         self,
@@ -402,16 +432,19 @@ class Recorder:
         """Record the state after ``step`` if ``step`` is a multiple of ``state_every``."""
         if step % self._state_every:
             return
-        where = f"{TOPIC_STATE} step {step}"
-        msg = self._types[TYPE_PHYSICS_STATE](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            state_spec=state_spec,
-            state=_f64(state, f"{where}: state"),
-            qpos=_f64(qpos, f"{where}: qpos"),
-            qvel=_f64(qvel, f"{where}: qvel"),
-        )
-        self._write(TOPIC_STATE, TYPE_PHYSICS_STATE, msg, sim_time_ns)
+        try:
+            # MuJoCo's own float64 arrays go as they are (tobytes copies any layout).
+            if not (type(state) is np.ndarray and state.dtype is _F64):
+                state = _f64(state, f"{TOPIC_STATE} step {step}: state")
+            if not (type(qpos) is np.ndarray and qpos.dtype is _F64):
+                qpos = _f64(qpos, f"{TOPIC_STATE} step {step}: qpos")
+            if not (type(qvel) is np.ndarray and qvel.dtype is _F64):
+                qvel = _f64(qvel, f"{TOPIC_STATE} step {step}: qvel")
+            cdr = physics_state(step, sim_time_ns, state_spec, state, qpos, qvel)
+        except (struct.error, TypeError) as exc:
+            where = f"{TOPIC_STATE} step {step}"
+            raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
+        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, sim_time_ns)
 
     def write_epoch(
         self,
@@ -516,6 +549,11 @@ class Recorder:
             data = self._store.serialize_cdr(msg, msgtype)
         except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
             raise RecordingWriteError(f"{topic} ({msgtype}): cannot serialise: {exc}") from None
+        self._write_cdr(topic, msgtype, data, sim_time_ns)
+
+    def _write_cdr(
+        self, topic: str, msgtype: str, data: bytes | memoryview, sim_time_ns: int
+    ) -> None:
         with self._lock:
             if self._closed or self._failure is not None:
                 self._raise_closed()
@@ -535,7 +573,7 @@ class Recorder:
             seq = self._seq[channel_id]
             self._seq[channel_id] = seq + 1
             try:
-                self._writer.add_message(channel_id, sim_time_ns, data, sim_time_ns, seq)  # type: ignore[arg-type]
+                self._append(channel_id, sim_time_ns, data, seq)
             except OSError as exc:  # a full chunk was written out: disk full
                 self._failure = exc
                 self._raise_closed()

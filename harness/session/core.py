@@ -85,6 +85,7 @@ from harness.session.errors import (
     SessionError,
 )
 from harness.session.listed import ListedJoints
+from harness.session.stepping import PublishCounter, parse_step_request, run_step
 from harness.session.tf import RobotFrames, TfTree
 from harness.session.topics import (
     HARNESS_NODE,
@@ -776,6 +777,7 @@ class SessionCore:
         self.published = self._published_topics()
         """Every topic the simulation publishes (type, node, latched), in advertising order."""
         self._next_seq = 0
+        self.publish_counts = PublishCounter()  # what /harness/step's until_topic counts
         self.paused = options.start != "now"
         self.failure: BaseException | None = None
         """Why the simulation stopped (an unstable step, a recording error), else None."""
@@ -1088,6 +1090,7 @@ class SessionCore:
     ) -> None:
         """Publish on the graph (when someone listens or ``latch``) and record (``record``);
         ``build`` makes the message only when needed."""
+        self.publish_counts.note(topic)
         recorder = self.recorder if record else None
         send = latch or self.graph.has_subscribers(topic)
         if recorder is None and not send:
@@ -1337,16 +1340,9 @@ class SessionCore:
     # ----------------------------------------------------------------------------- services
 
     def _srv_step(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        steps = int(request["steps"])
-        if steps > self.options.max_step_request:
-            raise SessionError(
-                f"{steps} steps requested, more than max_step_request="
-                f"{self.options.max_step_request} per call: nothing stepped; ask in several "
-                "calls"
-            )
+        step = parse_step_request(request, self.options.max_step_request)
         self.check_running()
-        for _ in range(steps):
-            self.advance()
+        run_step(step, self.advance, self.publish_counts)
         return {"sim_time": stamp(self.sim.sim_time_ns)}
 
     def _srv_reset(self, request: Mapping[str, Any]) -> Mapping[str, Any]:

@@ -941,7 +941,7 @@ def test_rosapi(wire: Wire) -> None:
     req = call(wire, a, "/rosapi/service_request_details", {"type": "harness_msgs/Step"})[
         "typedefs"
     ]
-    assert req[0]["fieldnames"] == ["steps"]
+    assert req[0]["fieldnames"] == ["steps", "until_topic", "until_count"]
     bad = wire.send(
         a, {"op": "call_service", "service": "/rosapi/message_details", "args": {"type": "no/Such"}}
     )

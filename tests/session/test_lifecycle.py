@@ -218,7 +218,7 @@ def test_namespace_and_rosapi(
         details = client.call("/rosapi/service_request_details", {"type": "harness_msgs/srv/Step"})[
             "values"
         ]
-        assert details["typedefs"][0]["fieldnames"] == ["steps"]
+        assert details["typedefs"][0]["fieldnames"] == ["steps", "until_topic", "until_count"]
         description = client.call("/rosapi/message_details", {"type": "harness_msgs/BridgeFrame"})
         assert "connection" in description["values"]["typedefs"][0]["fieldnames"]
 
