@@ -121,6 +121,10 @@ def _contact_pairs(
     return pairs
 
 
+_SLIDE_SPAN = 10.0
+"""Metres either side of zero within which a slide is sampled."""
+
+
 def _sampling_ranges(
     model: mujoco.MjModel, joints: Sequence[int]
 ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
@@ -134,6 +138,12 @@ def _sampling_ranges(
             continue
         if model.jnt_limited[j]:
             low, high = (float(v) for v in model.jnt_range[j])
+            # beyond a turn a hinge repeats itself; a slide is sampled within _SLIDE_SPAN
+            # (and a range wider than a float can span cannot be sampled at all)
+            bound = np.pi if kind == hinge else _SLIDE_SPAN
+            low, high = max(low, -bound), min(high, bound)
+            if low > high:  # a range wholly outside the window: held at its lower limit
+                low, high = float(model.jnt_range[j][0]), float(model.jnt_range[j][0])
         elif kind == hinge:
             low, high = -np.pi, np.pi
         else:

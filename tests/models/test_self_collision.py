@@ -181,3 +181,24 @@ def test_a_recording_rebuilds_with_its_self_collision_policy(tmp_path):
             rebuilt = rebuild_robot(rec)
     assert rebuilt.self_collision == loaded.self_collision
     assert rebuilt.mjb == loaded.mjb
+
+
+def test_auto_policy_samples_ranges_wider_than_a_float_can_span(tmp_path):
+    """Limits of +-1e308 (found by the URDF fuzzer: numpy cannot sample high - low) load;
+    the hinge is sampled within a turn, the slide within its window."""
+    link = (
+        '<link name="{0}"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" '
+        'ixz="0" iyz="0"/></inertial><collision><geometry><box size="0.1 0.1 0.1"/></geometry>'
+        "</collision></link>"
+    )
+    urdf = tmp_path / "wide.urdf"
+    urdf.write_text(
+        '<robot name="wide"><link name="base"/>' + link.format("arm") + link.format("arm2")
+        + '<joint name="j" type="revolute"><parent link="base"/><child link="arm"/>'
+        '<limit lower="-1e308" upper="1e308" effort="1" velocity="1"/></joint>'
+        '<joint name="k" type="prismatic"><parent link="arm"/><child link="arm2"/>'
+        '<limit lower="50" upper="1e308" effort="1" velocity="1"/></joint></robot>'
+    )
+    with pytest.warns(ModelWarning):
+        robot = load_robot(urdf, self_collision="auto")
+    assert robot.model.njnt == 2
