@@ -186,21 +186,22 @@ def load_description(
     *,
     robot_args: RobotArgs | None = None,
     packages: PackageMap | None = None,
+    strict: bool = False,
 ) -> RobotModel:
     """The :class:`RobotModel` of ``source`` ("demo", .urdf, .xacro with ``robot_args``,
     ``package://``, .sdf/.world, MJCF) without building the MuJoCo model for URDF and SDF
-    (MJCF is compiled to read it)."""
+    (MJCF is compiled to read it). ``strict``: as for :func:`load_robot`."""
     path = _source_path(source, packages)
     kind = _kind(path)
     if kind == "urdf":
         urdf = read_urdf_source(
-            path, robot_args=robot_args, packages=packages, reference=str(source)
+            path, robot_args=robot_args, packages=packages, reference=str(source), strict=strict
         )
-        lenient_urdf(urdf.root, str(path))
+        lenient_urdf(urdf.root, str(path), strict=strict)
         return describe_urdf(urdf.root, str(path), urdf.origin)
     if kind == "sdf":
         read_sdf, _ = _sdf_api()
-        return read_sdf(path, strict=False)
+        return read_sdf(path, strict=strict)
     read_xml_file(path)  # safety and well-formedness before MuJoCo's parser sees it
     spec = _spec_from_file(path)
     return _describe_mjcf(_compile(spec, str(path)), path)

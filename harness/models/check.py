@@ -41,6 +41,9 @@ import numpy.typing as npt
 from harness.errors import HarnessError
 from harness.models.errors import ModelWarning
 from harness.models.placement import floor_gap, start_contacts
+from harness.models.resolve import PackageMap
+from harness.models.world import SelfCollision
+from harness.models.xacro import RobotArgs
 
 __all__ = [
     "HOLD_M",
@@ -201,9 +204,14 @@ def check_model(
     step_response: bool = True,
     cache_dir: str | Path | None = None,
     strict: bool = False,
+    self_collision: SelfCollision | None = None,
+    robot_args: RobotArgs | None = None,
+    packages: PackageMap | None = None,
 ) -> ModelCheck:
-    """Load ``source`` with the defaults and check it (see the module docstring). Never
-    raises for a robot that does not load: the report says why (exit code 2)."""
+    """Load ``source`` with the defaults and check it (see the module docstring).
+    ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments) and
+    ``packages``: as for :func:`harness.models.load_robot`. Never raises for a robot that
+    does not load: the report says why in one line (exit code 2)."""
     from harness.models.build import load_robot
 
     try:
@@ -214,6 +222,9 @@ def check_model(
                 cache_dir=cache_dir,
                 base=base,  # type: ignore[arg-type]
                 strict=strict,
+                self_collision=self_collision,
+                robot_args=robot_args,
+                packages=packages,
             )
     except HarnessError as exc:
         return ModelCheck(str(source), error=str(exc))
