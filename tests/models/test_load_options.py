@@ -123,22 +123,31 @@ def test_a_world_of_a_scenario_records_its_options_per_robot(tmp_path):
 
 
 def test_the_marker_takes_the_options_and_refuses_a_wrong_spelling(pytester):
+    (pytester.path / "arm.urdf").write_bytes(ARM.read_bytes())
+    pytester.makefile(
+        ".yaml", cell="robots:\n  - {robot: arm.urdf, self_collision: 'off', base: floating}\n"
+    )
     pytester.makepyfile(
-        test_opts=f"""
+        test_opts="""
         import pytest
 
-        @pytest.mark.harness(robot={str(ARM)!r}, self_collision="on", base="floating")
-        def test_good(harness_session):
+        @pytest.mark.harness(robot="arm.urdf", self_collision="on", base="floating")
+        def test_marker(harness_session):
             assert harness_session.robot.self_collision.policy == "on"
             assert harness_session.robot.base == "floating"
 
-        @pytest.mark.harness(robot={str(ARM)!r}, self_collision="sometimes")
+        @pytest.mark.harness(scenario="cell.yaml")
+        def test_scenario(harness_session):
+            assert harness_session.robot.self_collision.policy == "off"
+            assert harness_session.robot.base == "floating"
+
+        @pytest.mark.harness(robot="arm.urdf", self_collision="sometimes")
         def test_bad(harness_session):
             pass
         """
     )
-    result = pytester.runpytest_subprocess(*PLUGIN_ARGS, "-p", "no:cacheprovider", "-n", "0")
-    result.assert_outcomes(passed=1, errors=1)
+    result = pytester.runpytest_inprocess(*PLUGIN_ARGS, "-p", "no:cacheprovider")
+    result.assert_outcomes(passed=2, errors=1)
     result.stdout.fnmatch_lines(
         ["*harness option 'self_collision': unknown self_collision 'sometimes' (one of auto*"]
     )
