@@ -1,7 +1,9 @@
 """``check_model``: the sanity report a user runs first on a robot (``harness check-model``).
 
 It loads the robot with the defaults (lenient, self-collision ``auto``, gravity-compensated
-position servos) and simulates it without a session or bridge, straight on MuJoCo:
+position servos; ``harness check-model`` takes ``--robot-arg``, ``--self-collision``, ``--base``
+and ``--strict`` as :func:`harness.models.load_robot` does) and simulates it without a session
+or bridge, straight on MuJoCo:
 
 - **hold**: every actuated joint commanded to its initial position for :data:`HOLD_SECONDS`
   under gravity; the error is the largest ``|position - command|`` seen (checked every

@@ -135,11 +135,7 @@ def link_self_collide(
     def flag(link: str) -> bool | None:
         return flags.get(link, model_flag)
 
-    kept = [
-        p
-        for p in pairs
-        if p.reason in GEOMETRIC or not (flag(p.link1) or flag(p.link2))
-    ]
+    kept = [p for p in pairs if p.reason in GEOMETRIC or not (flag(p.link1) or flag(p.link2))]
     ignored = {frozenset((p.link1, p.link2)) for p in kept}
     has_geom = np.zeros(model.nbody, dtype=bool)
     has_geom[model.geom_bodyid[_colliding_geoms(model)]] = True
