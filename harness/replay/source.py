@@ -248,6 +248,7 @@ def _robot_spec(
         srdf=None if srdf is None else root / srdf,
         visuals=bool(entry.get("visuals", False)),
         repair_inertia=bool(entry.get("repair_inertia", False)),
+        strict=bool(entry.get("strict", False)),
         initial_positions=dict(entry.get("initial_positions") or {}),
         **_collision_and_base(entry.get("self_collision"), entry.get("base"), srdf is not None),
     )

@@ -111,7 +111,7 @@ def test_a_world_of_a_scenario_records_its_options_per_robot(tmp_path):
     from harness.models import RobotSpec
 
     path = tmp_path / "world.mcap"
-    robots = [RobotSpec(ARM, namespace="a", self_collision="off", base="floating")]
+    robots = [RobotSpec(ARM, namespace="a", self_collision="off", base="floating", strict=True)]
     with Session(robots=robots, record_to=path) as s:
         sha = s.world.sha256
         s.step(5)
@@ -119,6 +119,7 @@ def test_a_world_of_a_scenario_records_its_options_per_robot(tmp_path):
     (entry,) = json.loads(rec.metadata["robots"])
     assert entry["self_collision"]["policy"] == "off"
     assert entry["base"] == "floating"
+    assert entry["strict"] is True
     assert rebuild_run(rec).sha256 == sha
 
 
