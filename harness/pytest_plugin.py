@@ -42,9 +42,10 @@ default ``tolerance`` is the solver's soft-limit zone of each joint,
 the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``, ``robot_args`` (a xacro robot's arguments, name -> value; recorded in
-the recording's and the golden's metadata), ``controllers`` (a ros2_control controllers YAML,
-relative to the test file's folder, or False), ``sensors``. Markers on the module/class/function
-merge, the closest wins.
+the recording's and the golden's metadata), ``self_collision`` (``auto|off|on|srdf``), ``base``
+(``fixed|floating``), ``strict`` (see :func:`harness.models.load_robot`), ``controllers``
+(a ros2_control controllers YAML, relative to the test file's folder, or False), ``sensors``.
+Markers on the module/class/function merge, the closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
@@ -124,6 +125,9 @@ _SESSION_KEYS = (
     "connect_to",
     "connect_allow_refused",
     "ros2",
+    "self_collision",
+    "base",
+    "strict",
 )
 MARKER_KEYS = frozenset(
     {
@@ -355,6 +359,24 @@ def parse_mode(mode: Any, where: str = "harness option 'mode'") -> Any:
         pytest.fail(str(exc), pytrace=False)
 
 
+def _parse_load_options(opts: dict[str, Any], where: str) -> None:
+    """The marker's ``self_collision`` and ``base`` parsed in place (one spelling, from
+    :mod:`harness.vocabulary`); a wrong value fails the test naming it."""
+    from harness.vocabulary import RobotBase, SelfCollisionPolicy
+
+    try:
+        if opts.get("self_collision") is not None:
+            opts["self_collision"] = SelfCollisionPolicy.parse(
+                opts["self_collision"], f"{where}: harness option 'self_collision'"
+            ).value
+        if opts.get("base") is not None:
+            opts["base"] = RobotBase.parse(opts["base"], f"{where}: harness option 'base'").value
+    except ValueError as exc:
+        pytest.fail(str(exc), pytrace=False)
+    if "strict" in opts and not isinstance(opts["strict"], bool):
+        pytest.fail(f"{where}: harness option 'strict' must be true or false", pytrace=False)
+
+
 def suite_mode(mode: Any, suite: str | None) -> Any:
     """The control mode a session runs in: the test's ``mode`` (parsed: ``dynamic`` is
     ``position``) unless ``--harness-mode`` forces every joint kinematic, or every kinematic
@@ -410,6 +432,11 @@ def _scenario_options(path: Path) -> dict[str, Any]:
     }
     if spec.robot_args:
         options["robot_args"] = dict(spec.robot_args)
+    for key in ("self_collision", "base"):
+        if getattr(spec, key, None) is not None:
+            options[key] = getattr(spec, key)
+    if getattr(spec, "strict", False):
+        options["strict"] = True
     if scenario.controllers is not None:
         options["controllers"] = scenario.controllers
     if scenario.sensors:
@@ -514,6 +541,7 @@ class _TestRun:
         if "controllers" in opts:
             opts["controllers"] = _resolve_path(opts["controllers"], self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.mode)
+        _parse_load_options(opts, self.item.nodeid)
         if robots is not None:
             if options.get("mode") is not None:
                 pytest.fail(

@@ -1,4 +1,5 @@
-"""``harness check-model FILE [--json] [--base fixed|floating] [--strict]``: a robot's report.
+"""``harness check-model FILE [--json] [--robot-arg NAME:=VALUE ...] [--self-collision auto|off|on]
+[--base fixed|floating] [--strict]``: a robot's report.
 
 Exit code 0 when the robot behaves, 1 with the reasons when it does not, 2 when it does not
 load (see :mod:`harness.models.check`).
@@ -9,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
 from harness.models.check import ModelCheck, check_model
 
 __all__ = ["add_arguments", "format_report", "run"]
@@ -16,19 +18,12 @@ __all__ = ["add_arguments", "format_report", "run"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``harness check-model``."""
-    parser.add_argument("file", help='a .urdf, .sdf/.world or MJCF file, or "demo"')
+    parser.add_argument(
+        "file", help='a .urdf, .xacro, .sdf/.world or MJCF file, package://pkg/path, or "demo"'
+    )
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
-    parser.add_argument(
-        "--base",
-        choices=("fixed", "floating"),
-        default=None,
-        help="fixed to the world or floating (default: as the file says; URDF: fixed)",
-    )
-    parser.add_argument(
-        "--strict",
-        action="store_true",
-        help="refuse what a lenient load recovers or repairs (bad inertias, XML defects, ...)",
-    )
+    add_robot_arg_option(parser)
+    add_load_options(parser)
 
 
 def _value(value: float | None, scale: float = 1.0, unit: str = "") -> str:
@@ -88,7 +83,7 @@ def format_report(report: ModelCheck) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Check ``args.file``; the exit code is the report's."""
-    report = check_model(args.file, base=args.base, strict=args.strict)
+    report = check_model(args.file, robot_args=robot_args(args), **load_options(args))
     if args.json:
         print(json.dumps(report.as_dict(), indent=2))
     else:

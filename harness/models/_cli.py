@@ -12,7 +12,15 @@ from typing import Any
 
 from harness.models.description import RobotModel
 
-__all__ = ["add_arguments", "add_robot_arg_option", "robot_args", "run", "to_json"]
+__all__ = [
+    "add_arguments",
+    "add_load_options",
+    "add_robot_arg_option",
+    "load_options",
+    "robot_args",
+    "run",
+    "to_json",
+]
 
 
 def _robot_arg(text: str) -> tuple[str, str]:
@@ -44,6 +52,47 @@ def robot_args(args: argparse.Namespace) -> dict[str, str]:
     return dict(getattr(args, "robot_args", None) or [])
 
 
+def add_load_options(parser: argparse.ArgumentParser, *, strict_only: bool = False) -> None:
+    """``--self-collision``, ``--base`` and ``--strict`` (the ``self_collision``, ``base``
+    and ``strict`` options of :func:`harness.models.load_robot`); ``strict_only`` adds only
+    ``--strict`` (a command that reads a description without simulating it)."""
+    from harness.vocabulary import BASE_KINDS, SELF_COLLISION_POLICIES
+
+    if not strict_only:
+        parser.add_argument(
+            "--self-collision",
+            dest="self_collision",
+            choices=SELF_COLLISION_POLICIES,
+            default=None,
+            help="which pairs of the robot's own links collide (default: the file's "
+            "self_collide, else auto)",
+        )
+        parser.add_argument(
+            "--base",
+            choices=BASE_KINDS,
+            default=None,
+            help="fixed to the world or floating (default: as the file says; URDF: fixed)",
+        )
+    parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse what a lenient load recovers or repairs (bad inertias, XML defects, ...)",
+    )
+
+
+def load_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The options of :func:`add_load_options` given on the command line, as keyword
+    arguments of :func:`harness.models.load_robot` (those not given are left out)."""
+    options: dict[str, Any] = {}
+    for name in ("self_collision", "base"):
+        value = getattr(args, name, None)
+        if value is not None:
+            options[name] = value
+    if getattr(args, "strict", False):
+        options["strict"] = True
+    return options
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``harness inspect-model``."""
     parser.add_argument(
@@ -51,6 +100,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print the JSON contract")
     add_robot_arg_option(parser)
+    add_load_options(parser, strict_only=True)
 
 
 def to_json(model: RobotModel) -> dict[str, Any]:
@@ -138,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the description of ``args.file``."""
     from harness.models.build import load_description
 
-    model = load_description(args.file, robot_args=robot_args(args))
+    model = load_description(args.file, robot_args=robot_args(args), strict=args.strict)
     if args.json:
         print(json.dumps(to_json(model), indent=2))
     else:

@@ -43,7 +43,7 @@ from harness.models.limits import check_description, check_spec, check_urdf_coun
 from harness.models.mjcf_files import check_mjcf_files
 from harness.models.resolve import PackageMap
 from harness.models.ros2_control import warn_replaced_hardware
-from harness.models.selfcollision import declared_self_collide
+from harness.models.selfcollision import declared_link_self_collide, declared_self_collide
 from harness.models.urdf import (
     REPAIR_BOUNDINERTIA,
     REPAIR_BOUNDMASS,
@@ -186,21 +186,22 @@ def load_description(
     *,
     robot_args: RobotArgs | None = None,
     packages: PackageMap | None = None,
+    strict: bool = False,
 ) -> RobotModel:
     """The :class:`RobotModel` of ``source`` ("demo", .urdf, .xacro with ``robot_args``,
     ``package://``, .sdf/.world, MJCF) without building the MuJoCo model for URDF and SDF
-    (MJCF is compiled to read it)."""
+    (MJCF is compiled to read it). ``strict``: as for :func:`load_robot`."""
     path = _source_path(source, packages)
     kind = _kind(path)
     if kind == "urdf":
         urdf = read_urdf_source(
-            path, robot_args=robot_args, packages=packages, reference=str(source)
+            path, robot_args=robot_args, packages=packages, reference=str(source), strict=strict
         )
-        lenient_urdf(urdf.root, str(path))
+        lenient_urdf(urdf.root, str(path), strict=strict)
         return describe_urdf(urdf.root, str(path), urdf.origin)
     if kind == "sdf":
         read_sdf, _ = _sdf_api()
-        return read_sdf(path, strict=False)
+        return read_sdf(path, strict=strict)
     read_xml_file(path)  # safety and well-formedness before MuJoCo's parser sees it
     spec = _spec_from_file(path)
     return _describe_mjcf(_compile(spec, str(path)), path)
@@ -551,6 +552,7 @@ class _Robot:
         self.repairs_made: tuple[str, ...] = ()
         self.notes: list[str] = []
         self.declared_self_collide: bool | None = None
+        self.link_self_collide: dict[str, bool] = {}
         self.frame: Any = None
         self.base: BaseKind = "fixed"
         self.self_collision: SelfCollisionReport | None = None
@@ -568,6 +570,7 @@ class _Robot:
             notes = [*urdf.notes, *lenient_urdf(root, self.source, strict=robot.strict)]
             self.notes.extend(str(n) for n in notes)
             self.declared_self_collide = declared_self_collide(root)
+            self.link_self_collide = declared_link_self_collide(root)
             self.description = describe_urdf(root, self.source, urdf.origin)
             warn_replaced_hardware(self.description.ros2_control, self.source)
             check_description(self.description, self.source)  # before MuJoCo reads the tree
@@ -599,7 +602,9 @@ class _Robot:
             self.description = read_sdf(path, strict=robot.strict)
             check_description(self.description, self.source)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
-            self.declared_self_collide = declared_self_collide(read_xml_file(path)[0])
+            sdf_root = read_xml_file(path)[0]
+            self.declared_self_collide = declared_self_collide(sdf_root)
+            self.link_self_collide = declared_link_self_collide(sdf_root)
             self.base = setup.sdf_base(self.spec, robot.base)
         else:
             _, self.model_bytes = read_xml_file(path)

@@ -1,7 +1,9 @@
 """``check_model``: the sanity report a user runs first on a robot (``harness check-model``).
 
 It loads the robot with the defaults (lenient, self-collision ``auto``, gravity-compensated
-position servos) and simulates it without a session or bridge, straight on MuJoCo:
+position servos; ``harness check-model`` takes ``--robot-arg``, ``--self-collision``, ``--base``
+and ``--strict`` as :func:`harness.models.load_robot` does) and simulates it without a session
+or bridge, straight on MuJoCo:
 
 - **hold**: every actuated joint commanded to its initial position for :data:`HOLD_SECONDS`
   under gravity; the error is the largest ``|position - command|`` seen (checked every
@@ -41,6 +43,9 @@ import numpy.typing as npt
 from harness.errors import HarnessError
 from harness.models.errors import ModelWarning
 from harness.models.placement import floor_gap, start_contacts
+from harness.models.resolve import PackageMap
+from harness.models.world import SelfCollision
+from harness.models.xacro import RobotArgs
 
 __all__ = [
     "HOLD_M",
@@ -201,9 +206,14 @@ def check_model(
     step_response: bool = True,
     cache_dir: str | Path | None = None,
     strict: bool = False,
+    self_collision: SelfCollision | None = None,
+    robot_args: RobotArgs | None = None,
+    packages: PackageMap | None = None,
 ) -> ModelCheck:
-    """Load ``source`` with the defaults and check it (see the module docstring). Never
-    raises for a robot that does not load: the report says why (exit code 2)."""
+    """Load ``source`` with the defaults and check it (see the module docstring).
+    ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments) and
+    ``packages``: as for :func:`harness.models.load_robot`. Never raises for a robot that
+    does not load: the report says why in one line (exit code 2)."""
     from harness.models.build import load_robot
 
     try:
@@ -214,6 +224,9 @@ def check_model(
                 cache_dir=cache_dir,
                 base=base,  # type: ignore[arg-type]
                 strict=strict,
+                self_collision=self_collision,
+                robot_args=robot_args,
+                packages=packages,
             )
     except HarnessError as exc:
         return ModelCheck(str(source), error=str(exc))

@@ -15,7 +15,17 @@ policies:
 - ``"srdf"``: the SRDF's ``<disable_collisions>`` pairs (and adjacent links).
 
 A URDF ``<gazebo><self_collide>`` or an SDF ``<model><self_collide>`` chooses ``"on"`` or
-``"off"`` when no policy is passed. Pairs are computed on the compiled model; results are
+``"off"`` when no policy is passed. A link's own ``self_collide`` (URDF ``<gazebo
+reference="LINK">``, SDF ``<link><self_collide>``) is honoured as SDFormat defines it: two
+links collide when either has ``self_collide`` true (a link without one takes the model's),
+links joined by a joint never do. So a link marked true collides with the robot's other
+links even under ``"off"``, except adjacent ones, SRDF-disabled ones and the pairs found in
+contact at the initial configuration or in nearly every configuration (``"default"``,
+``"always"``: in MuJoCo a mesh collides as its convex hull, and such a pair would hold the
+robot still from the first step; they stay reported); a pair whose links are both false, one
+by its own flag, is ignored (``"link"``). A policy passed as an argument overrides the file,
+these flags included.
+Pairs are computed on the compiled model; results are
 cached in memory by a hash of that model, the robot and the sampling settings. Pairs that are
 not ignored keep colliding and are reported by the CollisionLogger like any other contact.
 """
@@ -35,10 +45,13 @@ from harness.models.world import IgnoredPair, SelfCollision
 
 __all__ = [
     "ALWAYS_FRACTION",
+    "GEOMETRIC",
     "SAMPLES",
     "SEED",
+    "declared_link_self_collide",
     "declared_self_collide",
     "ignored_pairs",
+    "link_self_collide",
 ]
 
 SAMPLES = 200
@@ -71,6 +84,69 @@ def declared_self_collide(root: etree._Element) -> bool | None:
         if element is not None and element.text is not None:
             return element.text.strip().lower() in ("1", "true")
     return None
+
+
+def _flag(element: etree._Element | None) -> bool | None:
+    if element is None or element.text is None:
+        return None
+    return bool(element.text.strip().lower() in ("1", "true"))
+
+
+GEOMETRIC = ("adjacent", "srdf", "default", "always")
+"""Reasons a pair stays ignored when a link of it has ``self_collide`` true."""
+
+
+def declared_link_self_collide(root: etree._Element) -> dict[str, bool]:
+    """Each link's own ``self_collide``: a URDF ``<gazebo reference="LINK">`` block's, or an
+    SDF ``<link>``'s (of the first model); links without one are left out."""
+    flags: dict[str, bool] = {}
+    if root.tag == "robot":
+        for gazebo in root.findall("gazebo"):
+            link, value = gazebo.get("reference"), _flag(gazebo.find("self_collide"))
+            if link and value is not None:
+                flags[link] = value
+    elif root.tag == "sdf":
+        model = root.find("model")
+        if model is None:
+            world = root.find("world")
+            model = world.find("model") if world is not None else None
+        for element in model.findall("link") if model is not None else ():
+            value = _flag(element.find("self_collide"))
+            if element.get("name") and value is not None:
+                flags[str(element.get("name"))] = value
+    return flags
+
+
+def link_self_collide(
+    model: mujoco.MjModel,
+    robot_bodies: Mapping[str, int],
+    pairs: Sequence[IgnoredPair],
+    flags: Mapping[str, bool],
+    model_flag: bool | None,
+) -> list[IgnoredPair]:
+    """``pairs`` (the policy's ignored pairs) with the links' own ``self_collide`` applied
+    (see the module docstring): a pair with a link whose flag is true (its own, else
+    ``model_flag``) is no longer ignored unless adjacent, disabled by the SRDF or in contact
+    at the start or always (:data:`GEOMETRIC`); a pair whose links are both false, one of
+    them by its own flag, is ignored as ``"link"``."""
+    if not flags:
+        return list(pairs)
+
+    def flag(link: str) -> bool | None:
+        return flags.get(link, model_flag)
+
+    kept = [p for p in pairs if p.reason in GEOMETRIC or not (flag(p.link1) or flag(p.link2))]
+    ignored = {frozenset((p.link1, p.link2)) for p in kept}
+    has_geom = np.zeros(model.nbody, dtype=bool)
+    has_geom[model.geom_bodyid[_colliding_geoms(model)]] = True
+    links = [link for link, body in robot_bodies.items() if has_geom[body]]
+    for i, a in enumerate(links):
+        for b in links[i + 1 :]:
+            if frozenset((a, b)) in ignored or (a not in flags and b not in flags):
+                continue
+            if flag(a) is False and flag(b) is False:
+                kept.append(IgnoredPair(a, b, "link"))
+    return kept
 
 
 def _colliding_geoms(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
@@ -241,6 +317,7 @@ REASONS: Mapping[str, str] = MappingProxyType(
         "always": f"in contact in >= {ALWAYS_FRACTION:.0%} of {SAMPLES} random configurations",
         "srdf": "disabled by the SRDF",
         "off": "self-collision off",
+        "link": "self_collide false on both links (the file's per-link setting)",
     }
 )
 """What each reason of an :class:`IgnoredPair` means."""

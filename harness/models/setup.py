@@ -19,7 +19,7 @@ from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.drives import compensated_bodies
 from harness.models.errors import ModelStructureError, ModelWarning
 from harness.models.placement import CLEARANCE, floor_gap, start_contacts
-from harness.models.selfcollision import ignored_pairs
+from harness.models.selfcollision import ignored_pairs, link_self_collide
 from harness.models.world import (
     BASE_KINDS,
     SELF_COLLISION_POLICIES,
@@ -56,6 +56,7 @@ class RobotInBuild(Protocol):
     modes: dict[str, ControlMode]
     extension_keys: Mapping[str, Mapping[str, float]]
     declared_self_collide: bool | None
+    link_self_collide: dict[str, bool]
     srdf_pairs: tuple[tuple[str, str], ...]
     self_collision: SelfCollisionReport | None
     notes: list[str]
@@ -157,6 +158,10 @@ def apply_self_collision(
         robot.self_collision = SelfCollisionReport(policy, origin)
         return
     pairs = list(ignored_pairs(model, bodies, robot.joint_ids(model), qpos, policy))
+    if origin != "argument":  # the links' own self_collide (an argument overrides the file)
+        pairs = link_self_collide(
+            model, bodies, pairs, robot.link_self_collide, robot.declared_self_collide
+        )
     known = {(p.link1, p.link2) for p in pairs} | {(p.link2, p.link1) for p in pairs}
     for link1, link2 in robot.srdf_pairs:
         if (link1, link2) not in known:

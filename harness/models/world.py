@@ -17,10 +17,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, cast
 
 import mujoco
 
+from harness import vocabulary
 from harness.models.description import ControlMode, Joint, Link, ModelFrame, Pose, RobotModel
 from harness.models.errors import ModelStructureError
 from harness.models.resolve import PackageMap
@@ -53,9 +54,14 @@ PoseLike = Pose | Sequence[float] | None
 ObjectShape = Literal["box", "sphere", "cylinder", "capsule"]
 SelfCollision = Literal["auto", "off", "on", "srdf"]
 """Self-collision policies (see :mod:`harness.models.selfcollision`)."""
-SELF_COLLISION_POLICIES: tuple[SelfCollision, ...] = ("auto", "off", "on", "srdf")
+SELF_COLLISION_POLICIES: tuple[SelfCollision, ...] = cast(
+    "tuple[SelfCollision, ...]", vocabulary.SELF_COLLISION_POLICIES
+)
+"""The spellings of :class:`harness.vocabulary.SelfCollisionPolicy` (its members are accepted
+too: they compare equal to their strings)."""
 BaseKind = Literal["fixed", "floating"]
-BASE_KINDS: tuple[BaseKind, ...] = ("fixed", "floating")
+BASE_KINDS: tuple[BaseKind, ...] = cast("tuple[BaseKind, ...]", vocabulary.BASE_KINDS)
+"""The spellings of :class:`harness.vocabulary.RobotBase`."""
 
 _NAMESPACE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 _OBJECT_SIZES: Mapping[str, int] = MappingProxyType(

@@ -10,7 +10,8 @@ rebuilds the same world (``harness.replay.source.rebuild_run``):
   mode), ``srdf`` (attachment or null), ``self_collision`` (policy, origin, ignored link
   pairs with their reason), ``base`` (fixed or floating) and, when the run knows the
   robot's ``RobotSpec``
-  (``specs``), its ``initial_positions``, ``gains``, ``visuals`` and ``repair_inertia``;
+  (``specs``), its ``initial_positions``, ``gains``, ``visuals``, ``repair_inertia`` and
+  ``strict``;
 - ``objects``: the primitives added to the world (``name``, ``shape``, ``size``, ``pose``,
   ``mass``, ``rgba``).
 
@@ -117,6 +118,7 @@ def world_metadata(
             )
             entry["visuals"] = bool(spec.visuals)
             entry["repair_inertia"] = bool(spec.repair_inertia)
+            entry["strict"] = bool(getattr(spec, "strict", False))
         robots.append(entry)
     listed = [
         {

@@ -248,6 +248,7 @@ def _robot_spec(
         srdf=None if srdf is None else root / srdf,
         visuals=bool(entry.get("visuals", False)),
         repair_inertia=bool(entry.get("repair_inertia", False)),
+        strict=bool(entry.get("strict", False)),
         initial_positions=dict(entry.get("initial_positions") or {}),
         **_collision_and_base(entry.get("self_collision"), entry.get("base"), srdf is not None),
     )
@@ -258,7 +259,13 @@ def _collision_and_base(report: Any, base: Any, srdf: bool) -> dict[str, Any]:
     for recordings made before they were recorded (``"srdf"`` only when the SRDF is)."""
     options: dict[str, Any] = {}
     policies = ("auto", "off", "on", "srdf") if srdf else ("auto", "off", "on")
-    if isinstance(report, dict) and report.get("policy") in policies:
+    # only a policy that was passed: one the file chose (its self_collide, per link too),
+    # the SRDF or the default comes back from the same sources by itself
+    if (
+        isinstance(report, dict)
+        and report.get("policy") in policies
+        and report.get("origin", "argument") == "argument"
+    ):
         options["self_collision"] = report["policy"]
     if base in ("fixed", "floating"):
         options["base"] = base

@@ -29,8 +29,10 @@ from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode
 from harness.models.resolve import resolve_uri
+from harness.models.world import BaseKind, SelfCollision
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
+from harness.vocabulary import RobotBase, SelfCollisionPolicy
 
 __all__ = [
     "BUILTIN_MAPS",
@@ -131,7 +133,8 @@ class RobotSpec:
     scenario's name for it (``robot``, ``robot1``, ... when not given); ``named``: whether
     the file gave the name (a given name is the robot's namespace when a run has several
     robots, see :func:`harness.scenario.world.robot_namespaces`). ``robot_args``: the
-    arguments of a xacro robot (name -> value as text)."""
+    arguments of a xacro robot (name -> value as text). ``self_collision``, ``base`` and
+    ``strict``: as for :func:`harness.models.load_robot` (None: the default)."""
 
     robot: str | Path
     name: str
@@ -143,6 +146,9 @@ class RobotSpec:
     loggers: tuple[LoggerSpec, ...] = ()
     named: bool = False
     robot_args: Mapping[str, str] = field(default_factory=dict)
+    self_collision: SelfCollision | None = None
+    base: BaseKind | None = None
+    strict: bool = False
 
 
 @dataclass(frozen=True)
@@ -492,6 +498,14 @@ class _Builder:
             ),
             named="name" in data,
             robot_args={str(k): _arg_text(v) for k, v in data.get("robot_args", {}).items()},
+            # the schema's enums are harness.vocabulary's: parsed to their plain spellings
+            self_collision=(
+                None
+                if "self_collision" not in data
+                else SelfCollisionPolicy(data["self_collision"]).value
+            ),
+            base=None if "base" not in data else RobotBase(data["base"]).value,
+            strict=bool(data.get("strict", False)),
         )
 
     def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:

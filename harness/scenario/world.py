@@ -337,6 +337,9 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
                 control=modes,
                 initial_positions=dict(robot.initial_joint_positions),
                 robot_args=dict(robot.robot_args),
+                self_collision=robot.self_collision,
+                base=robot.base,
+                strict=robot.strict,
             )
         )
     if problems:

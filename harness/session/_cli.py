@@ -18,7 +18,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from harness.models._cli import add_robot_arg_option, robot_args
+from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
 from harness.session.session import CLOCK_MODES
 from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
 
@@ -33,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="robot model file (.urdf, .xacro, .sdf, MJCF), package://pkg/path or 'demo' (default)",
     )
     add_robot_arg_option(parser)
+    add_load_options(parser)
     parser.add_argument(
         "--mode",
         choices=CONTROL_MODE_INPUTS,
@@ -136,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
             record_to=args.record,
             scene=args.scene,
             robot_args=robot_args(args),
+            **load_options(args),
             controllers=Path(args.controllers) if args.controllers else None,
         ) as session:
             previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}

@@ -157,6 +157,7 @@ from harness.models import (
     load_robot,
     load_world,
 )
+from harness.models.world import BaseKind, SelfCollision
 from harness.recording import Recorder, describe_run
 from harness.session.control import ControllersOption, controllers_option, resolve_default
 from harness.session.core import (
@@ -226,7 +227,9 @@ class Session:
     ``record_bridge_frames``: record the bridge frames and markers (default True).
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
     ``robot_args``: the arguments of a xacro ``robot`` (name -> value; with ``robots`` each
-    RobotSpec has its own); ``robot`` may be ``package://pkg/path``.
+    RobotSpec has its own); ``robot`` may be ``package://pkg/path``. ``self_collision``
+    (``auto|off|on|srdf``), ``base`` (``fixed|floating``) and ``strict``: as for
+    :func:`harness.models.load_robot` (``robot=`` only; with ``robots`` each RobotSpec has its own).
     ``controllers``: the robot's ros2_control controllers: a controllers YAML (file, text or
     mapping, :func:`harness.controllers.load_controllers`), None for the default set
     (:func:`harness.controllers.default_controllers`) or False for none.
@@ -268,6 +271,9 @@ class Session:
         robot_args: Mapping[str, Any] | None = None,
         controllers: ControllersOption = None,
         sensors: Sequence[Mapping[str, Any]] = (),
+        self_collision: SelfCollision | None = None,
+        base: BaseKind | None = None,
+        strict: bool = False,
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
@@ -323,7 +329,8 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        loaded = _load(robot, robots, objects, mode, scene, namespace, robot_args)
+        load_options = _load_options(self_collision, base, strict)
+        loaded = _load(robot, robots, objects, mode, scene, namespace, robot_args, load_options)
         options = dataclasses.replace(
             options, controllers=resolve_default(options.controllers, loaded)
         )
@@ -920,6 +927,20 @@ class Session:
         return f"Session({self.robot_name!r}, clock={self.clock!r}, {state})"
 
 
+def _load_options(
+    self_collision: SelfCollision | None, base: BaseKind | None, strict: bool
+) -> dict[str, Any]:
+    """The robot load options a session was given (none left at their default)."""
+    options: dict[str, Any] = {}
+    if self_collision is not None:
+        options["self_collision"] = self_collision
+    if base is not None:
+        options["base"] = base
+    if strict:
+        options["strict"] = True
+    return options
+
+
 def _load(
     robot: str | Path | LoadedRobot | None,
     robots: Sequence[RobotSpec] | LoadedWorld | None,
@@ -928,12 +949,18 @@ def _load(
     scene: str | Path | None,
     namespace: str,
     robot_args: Mapping[str, Any] | None = None,
+    load_options: Mapping[str, Any] | None = None,
 ) -> LoadedRobot | LoadedWorld:
     """What a session runs: ``robot`` loaded (or as given), or the world of ``robots``."""
     if robot_args and (robots is not None or isinstance(robot, LoadedRobot)):
         raise SessionConfigError(
             "robot_args apply when the session loads robot=; give each RobotSpec its "
             "robot_args, or load_robot(..., robot_args=...) yourself"
+        )
+    if load_options and (robots is not None or isinstance(robot, LoadedRobot)):
+        raise SessionConfigError(
+            f"{', '.join(load_options)} apply when the session loads robot=; give each "
+            "RobotSpec its own, or pass them to load_robot(...) yourself"
         )
     if robots is None:
         if objects:
@@ -952,6 +979,7 @@ def _load(
             control=mode or "position",
             scene=scene,
             robot_args=robot_args,
+            **(load_options or {}),
         )
     if robot is not None:
         raise SessionConfigError("give robot= (one robot) or robots= (a world), not both")

@@ -202,3 +202,63 @@ def test_auto_policy_samples_ranges_wider_than_a_float_can_span(tmp_path):
     with pytest.warns(ModelWarning):
         robot = load_robot(urdf, self_collision="auto")
     assert robot.model.njnt == 2
+
+
+def _with_gazebo(tmp_path, name, blocks):
+    path = tmp_path / f"{name}.urdf"
+    path.write_text(ARM.read_text().replace("</robot>", f"{blocks}</robot>"))
+    return path
+
+
+def _gazebo(value, link=None):
+    reference = f' reference="{link}"' if link else ""
+    return f"<gazebo{reference}><self_collide>{value}</self_collide></gazebo>"
+
+
+def test_a_link_self_collide_is_honoured_as_gazebo_does(tmp_path):
+    # the model says off, the forearm says true: the forearm collides with the base
+    path = _with_gazebo(tmp_path, "forearm_on", _gazebo("false") + _gazebo("true", "forearm"))
+    with pytest.warns(ModelWarning, match=r"contact\(s\) at the start: base / forearm"):
+        loaded = load_robot(path)
+    assert (loaded.self_collision.policy, loaded.self_collision.origin) == ("off", "file")
+    assert set(_pairs(loaded).values()) == {"adjacent"}
+    assert _robot_contacts(loaded) == {("base", "forearm")}
+    # the model says on, both links say false: that pair is ignored (SDFormat: either true)
+    path = _with_gazebo(
+        tmp_path, "both_off", _gazebo("true") + _gazebo("0", "base") + _gazebo("0", "forearm")
+    )
+    loaded = _quiet(path)
+    assert _pairs(loaded)[("base", "forearm")] == "link"
+    assert not _robot_contacts(loaded)
+    # one link false, the other true by the model's setting: they collide
+    path = _with_gazebo(tmp_path, "one_off", _gazebo("true") + _gazebo("false", "forearm"))
+    assert _robot_contacts(_quiet(path)) == {("base", "forearm")}
+    # a policy passed as an argument overrides the file, per-link settings included
+    path = _with_gazebo(tmp_path, "argument", _gazebo("true", "forearm"))
+    assert _pairs(_quiet(path, self_collision="off"))[("base", "forearm")] == "off"
+
+
+def test_sdf_links_self_collide_are_read():
+    from harness.models.selfcollision import declared_link_self_collide
+    from harness.models.xmlsafe import read_xml_file
+
+    path = DATA.parent / "gazebo_models/double_pendulum_with_base/model.sdf"
+    root = read_xml_file(path)[0]
+    assert declared_link_self_collide(root) == {"upper_link": False, "lower_link": False}
+
+
+def test_a_link_self_collide_survives_record_and_rebuild(tmp_path):
+    from harness.recording import Recording
+    from harness.replay.source import rebuild_robot
+    from harness.session import Session
+
+    path = _with_gazebo(tmp_path, "forearm_on", _gazebo("false") + _gazebo("true", "forearm"))
+    record = tmp_path / "run.mcap"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
+        with Session(path, record_to=record) as session:
+            sha = session.robot.sha256
+            session.step(5)
+        rebuilt = rebuild_robot(Recording(record))
+    assert rebuilt.sha256 == sha
+    assert set(_pairs(rebuilt).values()) == {"adjacent"}
