@@ -2,7 +2,8 @@
 
 - ``/joint_states`` at 1 kHz delivered to an rclpy node over DDS (``Session(ros2=True)``, fast
   clock, 1 kHz sim rate): messages the node received per simulated second, against what a raw
-  rclpy publisher at 1 kHz delivers between two processes in the same run (same counter node).
+  rclpy publisher at 1 kHz delivers between two processes in the same run (same counter node);
+  and the same through rosbridge-server-rs with the session connected to it as a client.
 - Service round trip from a node: ``/harness/get_state`` (answered at once) called N times
   through the gateway, and the same through rosbridge-server-rs with the session connected to
   it as a client; the limit is a raw rclpy service (``std_srvs/srv/Trigger``) in another process.
@@ -113,6 +114,18 @@ def run(quick: bool) -> list[Row]:
         robot, ros2=True, clock="realtime", joint_states_hz=1000.0, tf_hz=100.0, clock_hz=100.0
     ) as session:
         ours = _count(ros2, session.ros_domain_id or 0, seconds, lambda: None)
+    with (
+        rosbridge_server(ros2, domain) as url,
+        Session(
+            robot,
+            connect_to=url,
+            clock="realtime",
+            joint_states_hz=1000.0,
+            tf_hz=100.0,
+            clock_hz=100.0,
+        ),
+    ):
+        through_rs = _count(ros2, domain, seconds, lambda: None)
     with Session("demo", ros2=True) as session:
         gateway = run_node(
             ros2,
@@ -129,6 +142,17 @@ def run(quick: bool) -> list[Row]:
             ">=90% raw",
             ours >= 0.9 * raw,
             note="realtime, 1 kHz sim rate (/tf, /clock 100 Hz) vs a raw rclpy publisher",
+        )
+    )
+    rows.append(
+        Row(
+            "ros2: /joint_states 1 kHz delivered via rosbridge-server-rs",
+            through_rs / seconds,
+            raw / seconds,
+            "msg/s",
+            "(info)",
+            True,
+            note="client mode, same session settings, vs a raw rclpy publisher",
         )
     )
     server = start_node(ros2, domain, _RAW_SERVICE)
