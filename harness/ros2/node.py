@@ -19,6 +19,7 @@ Only the standard library, rclpy (with the message packages) and websockets.
 from __future__ import annotations
 
 import base64
+import functools
 import importlib
 import itertools
 import json
@@ -258,7 +259,8 @@ class Gateway:
             self.node(a["nodes"]),
             cls,
             name,
-            lambda handle, name=name, type_=type_, cls=cls: self.execute(handle, name, type_, cls),
+            # a partial of a coroutine function: rclpy awaits it (a lambda's coroutine it would not)
+            functools.partial(self.execute, name=name, type_=type_, cls=cls),
             goal_callback=lambda _goal: GoalResponse.ACCEPT,
             cancel_callback=cancel,
         )
