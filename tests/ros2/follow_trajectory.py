@@ -1,8 +1,9 @@
 """An rclpy ActionClient in a process of its own (run in the ROS 2 interpreter): sends one
 FollowJointTrajectory goal to the demo arm's joint_trajectory_controller over DDS, moves time
-through /harness/step (the session runs in lockstep) until the result arrives, and prints one
-JSON line: the goal's status, result, feedback count, first feedback and the joint positions
-/harness/get_state gives afterwards."""
+through /harness/step (the session runs in lockstep) until the result arrives, then sends a
+second goal (back home) and cancels it mid-motion. Prints one JSON line: the first goal's
+status, result, feedback count, first feedback, the joint positions /harness/get_state gives
+after it, and the second goal's cancel answer and status."""
 
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ READY_TIMEOUT_S = 30.0  # wall clock: discovery and start-up only, never simulat
 ACTION = "/joint_trajectory_controller/follow_joint_trajectory"
 JOINTS = [f"joint{i}" for i in range(1, 8)]
 TARGET = [0.3, 0.2, 0.1, -1.4, 0.1, 1.8, -0.5]
+HOME = [0.0, 0.0, 0.0, -1.57079, 0.0, 1.57079, -0.7853]
 STEPS_PER_CALL = 25  # 50 ms of simulation per /harness/step call
 MAX_CALLS = 80  # 4 s of simulation at most
 
@@ -83,10 +85,24 @@ def main() -> int:
         call(node, step, Step.Request(steps=STEPS_PER_CALL), "the /harness/step answer")
         calls += 1
     spin_until(node, result.done, "the goal's result")
-    # the feedback sent before the result travels ahead of it on the bridge; over DDS it is
-    # another topic: let it arrive (bounded)
     done = result.result()
     state = call(node, get_state, GetState.Request(), "the /harness/get_state answer")
+
+    back = FollowJointTrajectory.Goal()
+    back.trajectory.joint_names = JOINTS
+    back.trajectory.points = [JointTrajectoryPoint(positions=HOME, time_from_start=Duration(sec=2))]
+    sent = arm.send_goal_async(back)
+    spin_until(node, sent.done, "the second goal's acceptance")
+    second = sent.result()
+    call(node, step, Step.Request(steps=STEPS_PER_CALL), "the /harness/step answer")
+    cancel = second.cancel_goal_async()
+    spin_until(node, cancel.done, "the cancel answer")
+    canceled = second.get_result_async()
+    for _ in range(MAX_CALLS):
+        if canceled.done():
+            break
+        call(node, step, Step.Request(steps=STEPS_PER_CALL), "the /harness/step answer")
+    spin_until(node, canceled.done, "the canceled goal's result")
     js = state.joint_state
     first = feedback[0] if feedback else None
     print(
@@ -106,6 +122,8 @@ def main() -> int:
                 },
                 "positions": dict(zip(js.name, js.position, strict=True)),
                 "step_calls": calls,
+                "cancel_goals": len(cancel.result().goals_canceling),
+                "canceled_status": canceled.result().status,
             }
         ),
         flush=True,
