@@ -7,11 +7,13 @@ DDS is a bridge frame the session records and replays: for every topic the sessi
 it subscribes over rosbridge and publishes on DDS (latched topics transient local); for every
 topic the session subscribes to it advertises over rosbridge and subscribes on DDS; every
 service becomes a ROS 2 service whose calls go over rosbridge; every action becomes a ROS 2
-action server whose goals and cancels go over rosbridge (``send_action_goal`` /
-``cancel_action_goal``) and whose feedback and results come back from it. The DDS entities belong to
-nodes named as the session's graph names them. Warnings (a publisher on DDS with another type
-or with QoS that cannot match, a type the ROS side lacks) go to the session as ``status``
-frames, which it logs as events. Prints ``ready {JSON}`` on stdout once everything exists.
+action server whose goals and cancels go over rosbridge (``send_action_goal``,
+``cancel_action_goal``) and whose feedback and results come back from it (a goal the session
+ends canceled without a cancel from DDS, a preempted one, ends aborted on DDS: rclpy allows
+canceled only after a cancel request). The DDS entities belong to nodes named as the
+session's graph names them. Warnings (a publisher on DDS with another type or with QoS that
+cannot match, a type the ROS side lacks) go to the session as ``status`` frames, which it
+logs as events. Prints ``ready {JSON}`` on stdout once everything exists.
 
 Only the standard library, rclpy (with the message packages) and websockets.
 """
@@ -45,7 +47,7 @@ _BYTES = ("uint8", "char", "octet")
 _FLOATS = ("float", "double", "long double")
 _CHECK_PERIOD_S = 0.5
 _CALL_TIMEOUT_S = 120.0
-# rosbridge goal status (action_msgs/GoalStatus): succeeded, canceled, aborted
+# rosbridge goal status (action_msgs/GoalStatus): succeeded, canceled
 _SUCCEEDED, _CANCELED = 4, 5
 
 
