@@ -2,10 +2,16 @@
 
 - ``/joint_states`` at 1 kHz delivered to an rclpy node over DDS (``Session(ros2=True)``, fast
   clock, 1 kHz sim rate): messages the node received per simulated second, against what a raw
-  rclpy publisher at 1 kHz delivers between two processes in the same run (same counter node).
+  rclpy publisher at 1 kHz delivers between two processes in the same run (same counter node);
+  and the same through rosbridge-server-rs with the session connected to it as a client.
 - Service round trip from a node: ``/harness/get_state`` (answered at once) called N times
   through the gateway, and the same through rosbridge-server-rs with the session connected to
   it as a client; the limit is a raw rclpy service (``std_srvs/srv/Trigger``) in another process.
+- Command -> applied latency: a node publishes ``/joint_command`` (joint1 to +-0.3 in turn) and
+  waits for the first ``/joint_states`` whose joint1 effort has the new command's sign (the
+  position actuator's force turns at the next step); realtime, 1 kHz sim rate, 1 kHz
+  ``/joint_states``. The limit is a raw rclpy ping-pong (publish, echo node, back) between two
+  processes.
 """
 
 from __future__ import annotations
@@ -73,6 +79,72 @@ times.sort()
 print(json.dumps({"p50": times[len(times) // 2] * 1e3, "p99": times[int(len(times) * 0.99)] * 1e3}))
 """
 
+_LATENCY = r"""
+import json, sys, time, rclpy
+from sensor_msgs.msg import JointState
+n = int(sys.argv[1])
+rclpy.init(); node = rclpy.create_node("latency")
+last = []
+node.create_subscription(JointState, "/joint_states", last.append, 1000)
+pub = node.create_publisher(JointState, "/joint_command", 10)
+while pub.get_subscription_count() == 0 or not last:
+    rclpy.spin_once(node, timeout_sec=0.05)
+times = []
+for i in range(n + 5):  # the first few may go before discovery completes: not counted
+    target = 0.3 if i % 2 == 0 else -0.3
+    last.clear()
+    t = time.perf_counter()
+    pub.publish(JointState(name=["joint1"], position=[target]))
+    deadline = t + 2.0
+    def applied():
+        for m in last:
+            e = m.effort[list(m.name).index("joint1")]
+            if e * target > 0:
+                return True
+        last.clear()
+        return False
+    while not applied() and time.perf_counter() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.01)
+    if i >= 5:
+        times.append(time.perf_counter() - t)
+times.sort()
+print(json.dumps({"p50": times[len(times) // 2] * 1e3, "p99": times[int(len(times) * 0.99)] * 1e3}))
+"""
+
+_PING = r"""
+import json, sys, time, rclpy
+from std_msgs.msg import Int64
+n = int(sys.argv[1])
+rclpy.init(); node = rclpy.create_node("ping")
+got = []
+node.create_subscription(Int64, "/pong", lambda m: got.append(m.data), 10)
+pub = node.create_publisher(Int64, "/ping", 10)
+while pub.get_subscription_count() == 0 or node.count_publishers("/pong") == 0:
+    rclpy.spin_once(node, timeout_sec=0.05)
+times = []
+for i in range(n + 5):
+    got.clear()
+    t = time.perf_counter()
+    pub.publish(Int64(data=i))
+    deadline = t + 2.0
+    while i not in got and time.perf_counter() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.01)
+    if i >= 5:
+        times.append(time.perf_counter() - t)
+times.sort()
+print(json.dumps({"p50": times[len(times) // 2] * 1e3, "p99": times[int(len(times) * 0.99)] * 1e3}))
+"""
+
+_PONG = r"""
+import rclpy
+from std_msgs.msg import Int64
+rclpy.init(); node = rclpy.create_node("pong")
+pub = node.create_publisher(Int64, "/pong", 10)
+node.create_subscription(Int64, "/ping", pub.publish, 10)
+print("ready", flush=True)
+rclpy.spin(node)
+"""
+
 _RAW_SERVICE = r"""
 import rclpy
 from std_srvs.srv import Trigger
@@ -113,6 +185,25 @@ def run(quick: bool) -> list[Row]:
         robot, ros2=True, clock="realtime", joint_states_hz=1000.0, tf_hz=100.0, clock_hz=100.0
     ) as session:
         ours = _count(ros2, session.ros_domain_id or 0, seconds, lambda: None)
+        applied = run_node(ros2, session.ros_domain_id or 0, _LATENCY, [str(calls)])
+    pong = start_node(ros2, domain, _PONG)
+    assert pong.stdout is not None
+    pong.stdout.readline()
+    ping = run_node(ros2, domain, _PING, [str(calls)])
+    pong.kill()
+    pong.communicate()
+    with (
+        rosbridge_server(ros2, domain) as url,
+        Session(
+            robot,
+            connect_to=url,
+            clock="realtime",
+            joint_states_hz=1000.0,
+            tf_hz=100.0,
+            clock_hz=100.0,
+        ),
+    ):
+        through_rs = _count(ros2, domain, seconds, lambda: None)
     with Session("demo", ros2=True) as session:
         gateway = run_node(
             ros2,
@@ -131,6 +222,30 @@ def run(quick: bool) -> list[Row]:
             note="realtime, 1 kHz sim rate (/tf, /clock 100 Hz) vs a raw rclpy publisher",
         )
     )
+    rows.append(
+        Row(
+            "ros2: /joint_states 1 kHz delivered via rosbridge-server-rs",
+            through_rs / seconds,
+            raw / seconds,
+            "msg/s",
+            "(info)",
+            True,
+            note="client mode, same session settings, vs a raw rclpy publisher",
+        )
+    )
+    for q in ("p50", "p99"):
+        rows.append(
+            Row(
+                f"ros2: command->applied latency {q} via gateway",
+                applied[q],
+                ping[q],
+                "ms",
+                "(info)",
+                True,
+                higher_is_better=False,
+                note="/joint_command to /joint_states effort, 1 kHz realtime; vs rclpy ping-pong",
+            )
+        )
     server = start_node(ros2, domain, _RAW_SERVICE)
     assert server.stdout is not None
     server.stdout.readline()

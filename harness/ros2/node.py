@@ -6,10 +6,14 @@ It is a rosbridge v2 client of the session's embedded server, so every message t
 DDS is a bridge frame the session records and replays: for every topic the session publishes
 it subscribes over rosbridge and publishes on DDS (latched topics transient local); for every
 topic the session subscribes to it advertises over rosbridge and subscribes on DDS; every
-service becomes a ROS 2 service whose calls go over rosbridge. The DDS entities belong to
-nodes named as the session's graph names them. Warnings (a publisher on DDS with another type
-or with QoS that cannot match, a type the ROS side lacks) go to the session as ``status``
-frames, which it logs as events. Prints ``ready {JSON}`` on stdout once everything exists.
+service becomes a ROS 2 service whose calls go over rosbridge; every action becomes a ROS 2
+action server whose goals and cancels go over rosbridge (``send_action_goal``,
+``cancel_action_goal``) and whose feedback and results come back from it (a goal the session
+ends canceled without a cancel from DDS, a preempted one, ends aborted on DDS: rclpy allows
+canceled only after a cancel request). The DDS entities belong to nodes named as the
+session's graph names them. Warnings (a publisher on DDS with another type or with QoS that
+cannot match, a type the ROS side lacks) go to the session as ``status`` frames, which it
+logs as events. Prints ``ready {JSON}`` on stdout once everything exists.
 
 Only the standard library, rclpy (with the message packages) and websockets.
 """
@@ -17,6 +21,7 @@ Only the standard library, rclpy (with the message packages) and websockets.
 from __future__ import annotations
 
 import base64
+import functools
 import importlib
 import itertools
 import json
@@ -25,9 +30,11 @@ import threading
 from typing import Any
 
 import rclpy
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
 from rosidl_parser.definition import (
     AbstractGenericString,
     AbstractNestedType,
@@ -40,6 +47,8 @@ _BYTES = ("uint8", "char", "octet")
 _FLOATS = ("float", "double", "long double")
 _CHECK_PERIOD_S = 0.5
 _CALL_TIMEOUT_S = 120.0
+# rosbridge goal status (action_msgs/GoalStatus): succeeded, canceled
+_SUCCEEDED, _CANCELED = 4, 5
 
 
 def _import_type(full: str) -> Any:
@@ -136,6 +145,8 @@ class Gateway:
         self.ids = itertools.count(1)
         self.warned: set[tuple[str, str, str]] = set()
         self.keep: list[Any] = []
+        self.executor: SingleThreadedExecutor | None = None
+        self.goals: dict[str, tuple[Any, Any, Future]] = {}  # id -> (goal handle, class, result)
 
     def node(self, names: list[str]) -> Node:
         full = names[0] if names else "/harness"
@@ -165,7 +176,7 @@ class Gateway:
         for s in self.offer["services"]:
             self.mirror_service(s)
         for a in self.offer["actions"]:
-            self.refused.append(f"{a['name']} ({a['type']}): actions are not mirrored on DDS yet")
+            self.mirror_action(a)
         for what in self.refused:  # the session logs them as warning events (recorded)
             self.status("warning", f"not on DDS: {what}")
 
@@ -231,6 +242,70 @@ class Gateway:
 
         self.keep.append(self.node(s["nodes"]).create_service(cls, name, serve))
 
+    def mirror_action(self, a: dict[str, Any]) -> None:
+        name, type_ = a["name"], a["type"]
+        try:
+            cls = _import_type(type_)
+        except (ImportError, AttributeError, ValueError):
+            self.refused.append(f"{name} ({type_}): no type support on the ROS 2 side")
+            return
+
+        def cancel(goal_handle: Any, name: str = name) -> CancelResponse:
+            for goal_id, (handle, _, _) in list(self.goals.items()):
+                if handle is goal_handle:
+                    self.send({"op": "cancel_action_goal", "id": goal_id, "action": name})
+                    return CancelResponse.ACCEPT
+            return CancelResponse.REJECT
+
+        server = ActionServer(
+            self.node(a["nodes"]),
+            cls,
+            name,
+            # a partial of a coroutine function: rclpy awaits it (a lambda's coroutine it would not)
+            functools.partial(self.execute, name=name, type_=type_, cls=cls),
+            goal_callback=lambda _goal: GoalResponse.ACCEPT,
+            cancel_callback=cancel,
+        )
+        self.keep.append(server)
+
+    async def execute(self, goal_handle: Any, name: str, type_: str, cls: Any) -> Any:
+        """Forward an accepted goal over rosbridge and wait (without blocking the executor:
+        /harness/step calls go on meanwhile) for its result."""
+        goal_id = f"ros2:{name}:{next(self.ids)}"
+        done = Future(executor=self.executor)
+        self.goals[goal_id] = (goal_handle, cls, done)
+        # sent before the executor serves anything else: a step the client asks for after the
+        # goal was accepted comes after the goal on the bridge
+        self.send({"op": "send_action_goal", "id": goal_id, "action": name, "action_type": type_,
+                   "args": to_json(goal_handle.request), "feedback": True})  # fmt: skip
+        frame: dict[str, Any] = await done
+        status = frame.get("status", 0)
+        if not frame.get("result", False):
+            print(f"gateway: {name} failed: {frame.get('values')}", file=sys.stderr, flush=True)
+            goal_handle.abort()
+            return cls.Result()
+        if status == _SUCCEEDED:
+            goal_handle.succeed()
+        elif status == _CANCELED and goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        else:
+            goal_handle.abort()
+        return to_ros(cls.Result, frame.get("values", {}))
+
+    def action_frame(self, frame: dict[str, Any]) -> None:
+        """Feedback or a result from the session (called in the receiver thread)."""
+        goal_id = str(frame.get("id"))
+        entry = self.goals.get(goal_id)
+        if entry is None:
+            return
+        goal_handle, cls, done = entry
+        if frame.get("op") == "action_feedback":
+            goal_handle.publish_feedback(to_ros(cls.Feedback, frame.get("values", {})))
+            return
+        del self.goals[goal_id]
+        if self.executor is not None:  # resolved in the executor's thread, which it wakes
+            self.executor.create_task(done.set_result, frame)
+
     def receive_forever(self) -> None:
         try:
             self._receive()
@@ -253,6 +328,8 @@ class Gateway:
                 if waiting is not None:
                     waiting[1].append(frame)
                     waiting[0].set()
+            elif op in ("action_feedback", "action_result"):
+                self.action_frame(frame)
             elif op == "status":
                 print(f"gateway: session status {frame.get('level')}: {frame.get('msg')}",
                       file=sys.stderr, flush=True)  # fmt: skip
@@ -306,6 +383,7 @@ def run(gateway: Gateway) -> int:
     # one thread: a command published before a /harness/step call is forwarded before it
     # (rclpy serves ready subscriptions before ready services)
     executor = SingleThreadedExecutor()
+    gateway.executor = executor
     for node in gateway.nodes.values():
         executor.add_node(node)
     if gateway.nodes:
