@@ -467,7 +467,8 @@ def _add_srdf_excludes(
 
 def _scene_spec(
     scene: str | Path | None, source: str, cache_dir: str | Path | None
-) -> tuple[mujoco.MjSpec, Path]:
+) -> tuple[mujoco.MjSpec, Path, dict[str, bytes]]:
+    """The scene's spec, its file and its sources (an SDF world: every file it reads)."""
     if scene is None:
         scene = "floor"
     path = SCENES.get(str(scene)) if isinstance(scene, str) else None
@@ -477,10 +478,15 @@ def _scene_spec(
             raise ModelStructureError(
                 f"{source}: scene {str(scene)!r} is neither a file nor one of {sorted(SCENES)}"
             )
+    from harness.models import worldfile  # imports the SDF reader: only when a world is used
+
+    if worldfile.is_sdf_world(path):
+        world = worldfile.load_world_file(path, cache_dir=cache_dir)
+        return world.spec, path, dict(world.sources)
     read_xml_file(path)
     spec = _spec_from_file(path)
     embed_files(spec, source=str(path), cache_dir=cache_dir)
-    return spec, path
+    return spec, path, {f"scene/{path.name}": path.read_bytes()}
 
 
 def _repairs(
@@ -852,8 +858,8 @@ def load_world(
         for number, obj in enumerate(objects):
             _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
-        spec, scene_path = _scene_spec(scene, world_source, cache_dir)
-        sources[f"scene/{scene_path.name}"] = scene_path.read_bytes()
+        spec, _scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
+        sources.update(scene_sources)
         for number, obj in enumerate(objects):
             _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
         for robot, placement in zip(prepared, placements, strict=True):
