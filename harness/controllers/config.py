@@ -178,6 +178,14 @@ def load_controllers(source: str | Path | Mapping[str, Any]) -> ControllersConfi
         raise ControllersConfigError(
             f"{where}: {_MANAGER}.update_rate must be a number > 0 (Hz), not {rate!r}"
         )
+    for key, value in list(manager.items()):  # ``name.type: plugin``, ROS's dotted spelling
+        if isinstance(key, str) and key.endswith(".type") and isinstance(value, str):
+            entry = manager.get(key.removesuffix(".type"))
+            manager[key.removesuffix(".type")] = {
+                **(entry if isinstance(entry, Mapping) else {}),
+                "type": value,
+            }
+            del manager[key]
     specs: list[ControllerSpec] = []
     for name, entry in manager.items():
         if not isinstance(entry, Mapping):

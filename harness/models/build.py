@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models import setup
+from harness.models import setup, surfaces
 from harness.models.assets import embed_files
 from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.drives import COMMAND_FILTER_SECONDS
@@ -591,6 +591,9 @@ class _Robot:
             self.extension_keys = initial_keyframes(extension.keyframes, self.description)
             for joint_name, armature in extension.armature.items():
                 self.spec.joint(joint_name).armature = armature
+            surfaces.apply_frictions(
+                self.spec, surfaces.gazebo_frictions(root, self.source), self.source
+            )
             if robot.base == "floating":
                 if any(link.name == "world" for link in self.description.links):
                     raise ModelStructureError(

@@ -20,20 +20,28 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
 import mujoco
 from lxml import etree
 
+from harness.models.description import ModelFrame, RobotModel
 from harness.models.errors import ModelStructureError
 from harness.models.sdf.build import build_spec
 from harness.models.sdf.convert import PlacedModel, read_sdf_world
 from harness.models.sdf.document import Entity, load_document
 from harness.models.xmlsafe import read_xml_file
 
-__all__ = ["BUNDLED_MODELS", "WORLD_SUFFIXES", "WorldScene", "is_sdf_world", "load_world_file"]
+__all__ = [
+    "BUNDLED_MODELS",
+    "WORLD_SUFFIXES",
+    "WorldScene",
+    "is_sdf_world",
+    "load_world_file",
+    "world_description",
+]
 
 BUNDLED_MODELS = Path(__file__).parent / "data" / "gazebo_models"
 """Stock Gazebo models the harness ships (``ground_plane``): searched after the user's paths."""
@@ -195,4 +203,67 @@ def load_world_file(
         timestep=timestep,
         gravity=None if gravity is None else (gravity[0], gravity[1], gravity[2]),
         sources=MappingProxyType(world_sources(path, every, meshes)),
+    )
+
+
+def _scoped(prefix: str, name: str) -> str:
+    return name if name == "world" else prefix + name
+
+
+def world_description(
+    path: str | Path, *, search_paths: Sequence[str | Path] | None = None
+) -> RobotModel:
+    """Every model of the SDF world at ``path`` as one :class:`RobotModel` in the world frame,
+    names scoped ``model::link`` (for ``harness inspect-model``)."""
+    path = Path(path)
+    world = read_sdf_world(path, search_paths=[*(search_paths or ()), BUNDLED_MODELS])
+    links, joints, frames = [], [], list(world.frames)
+    for placed in world.models:
+        prefix, place = f"{placed.name}::", placed.pose
+        model = placed.model
+        for link in model.links:
+            inertial = link.inertial
+            links.append(
+                replace(
+                    link,
+                    name=prefix + link.name,
+                    pose=place * link.pose,
+                    inertial=None
+                    if inertial is None
+                    else replace(inertial, pose=place * inertial.pose),
+                    collisions=tuple(replace(c, pose=place * c.pose) for c in link.collisions),
+                    visuals=tuple(replace(v, pose=place * v.pose) for v in link.visuals),
+                )
+            )
+        for joint in model.joints:
+            joints.append(
+                replace(
+                    joint,
+                    name=prefix + joint.name,
+                    parent=_scoped(prefix, joint.parent),
+                    child=_scoped(prefix, joint.child),
+                    pose=place * joint.pose,
+                    axis=place.rotate(joint.axis),
+                    mimic=None
+                    if joint.mimic is None
+                    else replace(joint.mimic, joint=prefix + joint.mimic.joint),
+                )
+            )
+        frames.append(ModelFrame(f"{placed.name}::__model__", "world", place))
+        for frame in model.frames:
+            frames.append(
+                replace(
+                    frame,
+                    name=prefix + frame.name,
+                    attached_to=_scoped(prefix, frame.attached_to),
+                    pose=place * frame.pose,
+                )
+            )
+    return RobotModel(
+        world.name or path.stem,
+        tuple(links),
+        tuple(joints),
+        tuple(frames),
+        source=str(path),
+        format="sdf",
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -82,3 +83,22 @@ def test_a_recording_in_the_world_replays_after_the_world_files_are_deleted(
     report = verify(path)
     assert report.reproduced, report
     assert report.states_compared >= 100
+
+
+def test_inspect_model_lists_every_model_of_a_world_scoped(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from harness.cli import main
+
+    assert main(["inspect-model", str(DATA / "room.world"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    links = {link["name"]: link["pose"] for link in doc["links"]}
+    assert set(links) == {"ground_plane::link", "wall::link", "crate::body"}
+    assert links["wall::link"][:3] == [2.0, 0.0, 0.25]
+    (joint,) = doc["joints"]
+    assert (joint["name"], joint["parent"], joint["child"]) == (
+        "crate::body::__free__",
+        "world",
+        "crate::body",
+    )
+    assert {"crate::__model__", "wall::__model__"} <= {f["name"] for f in doc["frames"]}
