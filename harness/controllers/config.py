@@ -68,6 +68,10 @@ class ControllerSpec:
     def __post_init__(self) -> None:
         object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # a scenario crosses to its worker process pickled; a mappingproxy does not pickle
+        return (ControllerSpec, (self.name, self.type, dict(self.params)))
+
 
 @dataclass(frozen=True)
 class ControllersConfig:

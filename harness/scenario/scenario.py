@@ -29,6 +29,7 @@ from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode
 from harness.models.resolve import resolve_uri
+from harness.models.world import BaseKind
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
 
@@ -143,6 +144,8 @@ class RobotSpec:
     loggers: tuple[LoggerSpec, ...] = ()
     named: bool = False
     robot_args: Mapping[str, str] = field(default_factory=dict)
+    base: BaseKind | None = None
+    """``"fixed"``, ``"floating"`` (a mobile base) or None (the file's)."""
 
 
 @dataclass(frozen=True)
@@ -206,6 +209,8 @@ class Criteria:
     joint_limits: bool = True
     joint_limit_tolerance: float | None = None
     deterministic: bool = False
+    returns_to_start: float | None = None
+    """Metres: each floating-base robot ends within this horizontal distance of its start."""
 
 
 @dataclass(frozen=True)
@@ -349,6 +354,11 @@ class _Builder:
                     else float(crit["joint_limit_tolerance"])
                 ),
                 deterministic=crit.get("deterministic", False),
+                returns_to_start=(
+                    None
+                    if crit.get("returns_to_start") is None
+                    else float(crit["returns_to_start"])
+                ),
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
             source=source,
@@ -486,6 +496,7 @@ class _Builder:
             ),
             named="name" in data,
             robot_args={str(k): _arg_text(v) for k, v in data.get("robot_args", {}).items()},
+            base=data.get("base"),
         )
 
     def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:

@@ -349,6 +349,7 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
                 control=modes,
                 initial_positions=dict(robot.initial_joint_positions),
                 robot_args=dict(robot.robot_args),
+                base=robot.base,
             )
         )
     if problems:
