@@ -57,6 +57,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scene", "--world", default=None, help="scene name, MJCF scene or SDF world file"
     )
+    parser.add_argument(
+        "--base",
+        choices=("fixed", "floating"),
+        default=None,
+        help="floating: a mobile base set down on the floor (default: the file's)",
+    )
     parser.add_argument("--record", metavar="PATH", default=None, help="record the run to MCAP")
     parser.add_argument(
         "--controllers",
@@ -96,9 +102,19 @@ def run(args: argparse.Namespace) -> int:
     # raises KeyboardInterrupt (exit 130) as they do by default, instead of waiting for it.
     previous: dict[int, Any] = {}
     try:
+        robot: Any = args.robot
+        mode: ControlMode | None = ControlMode.parse(args.mode, "--mode")
+        if args.base is not None:  # the session loads robots with the file's base
+            from harness.models import load_robot
+
+            robot = load_robot(
+                args.robot, control=mode or "position", scene=args.scene, base=args.base,
+                robot_args=robot_args(args),
+            )  # fmt: skip
+            mode = None
         with Session(
-            args.robot,
-            mode=ControlMode.parse(args.mode, "--mode"),
+            robot,
+            mode=mode,
             kinematic_limits=args.kinematic_limits,
             clock=args.clock,
             rate=args.rate,
@@ -107,8 +123,8 @@ def run(args: argparse.Namespace) -> int:
             port=args.port,
             token=args.token,
             record_to=args.record,
-            scene=args.scene,
-            robot_args=robot_args(args),
+            scene=None if args.base is not None else args.scene,
+            robot_args=None if args.base is not None else robot_args(args),
             controllers=Path(args.controllers) if args.controllers else None,
         ) as session:
             previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
