@@ -31,6 +31,7 @@ import numpy.typing as npt
 from harness.models import setup, surfaces
 from harness.models.assets import embed_files
 from harness.models.description import ControlMode, Pose, RobotModel
+from harness.models.drive_plugins import plugin_modes, plugin_wheels
 from harness.models.drives import COMMAND_FILTER_SECONDS
 from harness.models.errors import (
     CompileError,
@@ -561,6 +562,7 @@ class _Robot:
         self.base: BaseKind = "fixed"
         self.self_collision: SelfCollisionReport | None = None
         self.repair = robot.repair_inertia and not robot.strict
+        self.plugin_wheels: tuple[str, ...] = ()  # joints a file's drive plugin drives
         setup.check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":
@@ -594,6 +596,7 @@ class _Robot:
             surfaces.apply_frictions(
                 self.spec, surfaces.gazebo_frictions(root, self.source), self.source
             )
+            self.plugin_wheels = plugin_wheels(root)
             if robot.base == "floating":
                 if any(link.name == "world" for link in self.description.links):
                     raise ModelStructureError(
@@ -902,6 +905,7 @@ def load_world(
         }
         robot.modes = _resolve_control(robot.description, own_joints, robot.request.control, where)
         robot.modes = control_defaults(robot.description, robot.modes, robot.request.control)
+        robot.modes = plugin_modes(robot.modes, robot.plugin_wheels, robot.request.control)
         gains = dict(robot.request.gains or {})
         unknown_gains = sorted(set(gains) - set(robot.modes))
         if unknown_gains:
