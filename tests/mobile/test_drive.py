@@ -52,6 +52,7 @@ def test_straight_at_0_2_m_s_for_2_s_moves_0_4_m(drive: Any) -> None:
     _, client = drive
     odom = client.subscribe("/odom", "nav_msgs/msg/Odometry")
     truth = client.subscribe("/ground_truth/odom", "nav_msgs/msg/Odometry")
+    tf = client.subscribe("/tf", "tf2_msgs/msg/TFMessage")
     client.step(50)
     start = _xy(truth.messages[-1])
     _hold(client, _twist(0.2, 0.0), 2.0)
@@ -62,6 +63,16 @@ def test_straight_at_0_2_m_s_for_2_s_moves_0_4_m(drive: Any) -> None:
     tx, ty = _xy(truth.messages[-1])
     assert math.hypot(tx - start[0], ty - start[1]) == pytest.approx(0.4, abs=0.02)
     assert truth.messages[-1]["child_frame_id"] == "base_link"
+    # the floating base's true pose is on /tf as world -> base_link, equal to ground truth
+    base = [
+        t
+        for m in tf.messages
+        for t in m["transforms"]
+        if (t["header"]["frame_id"], t["child_frame_id"]) == ("world", "base_link")
+    ]
+    assert base
+    latest = base[-1]["transform"]["translation"]
+    assert latest["x"] == pytest.approx(tx, abs=1e-3)
 
 
 def test_a_quarter_turn_in_place(drive: Any) -> None:
