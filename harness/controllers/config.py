@@ -68,6 +68,10 @@ class ControllerSpec:
     def __post_init__(self) -> None:
         object.__setattr__(self, "params", MappingProxyType(dict(self.params)))
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # a scenario crosses to its worker process pickled; a mappingproxy does not pickle
+        return (ControllerSpec, (self.name, self.type, dict(self.params)))
+
 
 @dataclass(frozen=True)
 class ControllersConfig:
@@ -178,6 +182,14 @@ def load_controllers(source: str | Path | Mapping[str, Any]) -> ControllersConfi
         raise ControllersConfigError(
             f"{where}: {_MANAGER}.update_rate must be a number > 0 (Hz), not {rate!r}"
         )
+    for key, value in list(manager.items()):  # ``name.type: plugin``, ROS's dotted spelling
+        if isinstance(key, str) and key.endswith(".type") and isinstance(value, str):
+            entry = manager.get(key.removesuffix(".type"))
+            manager[key.removesuffix(".type")] = {
+                **(entry if isinstance(entry, Mapping) else {}),
+                "type": value,
+            }
+            del manager[key]
     specs: list[ControllerSpec] = []
     for name, entry in manager.items():
         if not isinstance(entry, Mapping):

@@ -23,6 +23,7 @@ from harness.controllers.config import (
     ControllersConfig,
     ControllerSpec,
 )
+from harness.controllers.diff_drive import TYPE_DIFF_DRIVE, DiffDriveController
 from harness.controllers.forward_command import FORWARD_TYPES, ForwardCommandController
 from harness.controllers.gripper_action import GRIPPER_TYPES, GripperActionController
 from harness.controllers.joint_trajectory import JointTrajectoryController
@@ -59,6 +60,8 @@ def make_controller(
         return ForwardCommandController(spec, source, controllable)
     if spec.type in GRIPPER_TYPES:
         return GripperActionController(spec, source, controllable)
+    if spec.type == TYPE_DIFF_DRIVE:
+        return DiffDriveController(spec, source, controllable)
     if spec.type == TYPE_JOINT_STATE_BROADCASTER:
         return JointStateBroadcaster(spec, joints)
     return Unsupported(spec)
@@ -205,7 +208,13 @@ class ControllerManager:
         self, request: Mapping[str, Any]
     ) -> tuple[dict[str, Any], Output]:
         types = sorted(
-            {TYPE_JOINT_TRAJECTORY, TYPE_JOINT_STATE_BROADCASTER, *FORWARD_TYPES, *GRIPPER_TYPES}
+            {
+                TYPE_JOINT_TRAJECTORY,
+                TYPE_JOINT_STATE_BROADCASTER,
+                TYPE_DIFF_DRIVE,
+                *FORWARD_TYPES,
+                *GRIPPER_TYPES,
+            }
         )
         return {"types": types, "base_classes": [_BASE_CLASS] * len(types)}, Output()
 

@@ -186,9 +186,15 @@ def format_table(model: RobotModel) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Print the description of ``args.file``."""
-    from harness.models.build import load_description
+    from pathlib import Path
 
-    model = load_description(args.file, robot_args=robot_args(args), strict=args.strict)
+    from harness.models.build import load_description
+    from harness.models.worldfile import is_sdf_world, world_description
+
+    if is_sdf_world(Path(args.file)):  # every model of the world, names scoped model::link
+        model = world_description(args.file)
+    else:
+        model = load_description(args.file, robot_args=robot_args(args), strict=args.strict)
     if args.json:
         print(json.dumps(to_json(model), indent=2))
     else:

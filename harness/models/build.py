@@ -28,9 +28,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models import setup
+from harness.models import setup, surfaces
 from harness.models.assets import embed_files
 from harness.models.description import ControlMode, Pose, RobotModel
+from harness.models.drive_plugins import plugin_modes, plugin_wheels
 from harness.models.drives import COMMAND_FILTER_SECONDS
 from harness.models.errors import (
     CompileError,
@@ -468,7 +469,8 @@ def _add_srdf_excludes(
 
 def _scene_spec(
     scene: str | Path | None, source: str, cache_dir: str | Path | None
-) -> tuple[mujoco.MjSpec, Path]:
+) -> tuple[mujoco.MjSpec, Path, dict[str, bytes]]:
+    """The scene's spec, its file and its sources (an SDF world: every file it reads)."""
     if scene is None:
         scene = "floor"
     path = SCENES.get(str(scene)) if isinstance(scene, str) else None
@@ -478,10 +480,15 @@ def _scene_spec(
             raise ModelStructureError(
                 f"{source}: scene {str(scene)!r} is neither a file nor one of {sorted(SCENES)}"
             )
+    from harness.models import worldfile  # imports the SDF reader: only when a world is used
+
+    if worldfile.is_sdf_world(path):
+        world = worldfile.load_world_file(path, cache_dir=cache_dir)
+        return world.spec, path, dict(world.sources)
     read_xml_file(path)
     spec = _spec_from_file(path)
     embed_files(spec, source=str(path), cache_dir=cache_dir)
-    return spec, path
+    return spec, path, {f"scene/{path.name}": path.read_bytes()}
 
 
 def _repairs(
@@ -557,6 +564,7 @@ class _Robot:
         self.base: BaseKind = "fixed"
         self.self_collision: SelfCollisionReport | None = None
         self.repair = robot.repair_inertia and not robot.strict
+        self.plugin_wheels: tuple[str, ...] = ()  # joints a file's drive plugin drives
         setup.check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":
@@ -588,6 +596,10 @@ class _Robot:
             self.extension_keys = initial_keyframes(extension.keyframes, self.description)
             for joint_name, armature in extension.armature.items():
                 self.spec.joint(joint_name).armature = armature
+            surfaces.apply_frictions(
+                self.spec, surfaces.gazebo_frictions(root, self.source), self.source
+            )
+            self.plugin_wheels = plugin_wheels(root)
             if robot.base == "floating":
                 if any(link.name == "world" for link in self.description.links):
                     raise ModelStructureError(
@@ -857,8 +869,8 @@ def load_world(
         for number, obj in enumerate(objects):
             _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
-        spec, scene_path = _scene_spec(scene, world_source, cache_dir)
-        sources[f"scene/{scene_path.name}"] = scene_path.read_bytes()
+        spec, _scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
+        sources.update(scene_sources)
         for number, obj in enumerate(objects):
             _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
         for robot, placement in zip(prepared, placements, strict=True):
@@ -898,6 +910,7 @@ def load_world(
         }
         robot.modes = _resolve_control(robot.description, own_joints, robot.request.control, where)
         robot.modes = control_defaults(robot.description, robot.modes, robot.request.control)
+        robot.modes = plugin_modes(robot.modes, robot.plugin_wheels, robot.request.control)
         gains = dict(robot.request.gains or {})
         unknown_gains = sorted(set(gains) - set(robot.modes))
         if unknown_gains:

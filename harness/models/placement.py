@@ -24,11 +24,12 @@ _FAR = 100.0
 
 
 def _floors(model: mujoco.MjModel) -> list[int]:
-    """Plane geoms of the world body that collide: the scene's floors."""
+    """Plane geoms fixed to the world that collide: the scene's floors (an SDF world's ground
+    plane is a static model's link, a body welded to the world)."""
     return [
         g
         for g in range(model.ngeom)
-        if model.geom_bodyid[g] == 0
+        if model.body_weldid[model.geom_bodyid[g]] == 0
         and model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE
         and (model.geom_contype[g] or model.geom_conaffinity[g])
     ]

@@ -148,6 +148,7 @@ class RobotSpec:
     robot_args: Mapping[str, str] = field(default_factory=dict)
     self_collision: SelfCollision | None = None
     base: BaseKind | None = None
+    """``"fixed"``, ``"floating"`` (a mobile base) or None (the file's)."""
     strict: bool = False
 
 
@@ -216,6 +217,8 @@ class Criteria:
     joint_limits: bool = True
     joint_limit_tolerance: float | None = None
     deterministic: bool = False
+    returns_to_start: float | None = None
+    """Metres: each floating-base robot ends within this horizontal distance of its start."""
 
 
 @dataclass(frozen=True)
@@ -361,6 +364,11 @@ class _Builder:
                     else float(crit["joint_limit_tolerance"])
                 ),
                 deterministic=crit.get("deterministic", False),
+                returns_to_start=(
+                    None
+                    if crit.get("returns_to_start") is None
+                    else float(crit["returns_to_start"])
+                ),
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
             source=source,

@@ -89,6 +89,7 @@ from harness.scenario.scenario import (
     JointLoggerSpec,
     Scenario,
 )
+from harness.scenario.travel import BaseTracker, travel_verdict
 from harness.scenario.world import kinematic_limits, plan_world
 from harness.session import Session, SessionError, StartMode
 
@@ -171,6 +172,7 @@ class _Observer:
         self.cmd: list[F64] = []
         self.step = sim.step_index
         self.first = sim.step_index + 1
+        self.bases = BaseTracker(session.world, model, sim.data)
         self._sample(sim.step_index, sim.sim_time_ns)
 
     def _sample(self, step: int, sim_time_ns: int) -> None:
@@ -438,6 +440,9 @@ class SessionIterationRunner:
         )
         limits = obs.limits()
         verdicts = list(judge(scenario.criteria, outcome, collisions, limits))
+        if scenario.criteria.returns_to_start is not None:
+            travels = obs.bases.travels(session.sim.data)
+            verdicts.append(travel_verdict(scenario.criteria.returns_to_start, travels))
         problem = failure or stepper_error
         if problem is not None:
             verdicts.append(Verdict("simulation", False, f"the simulation stopped: {problem}"))

@@ -47,6 +47,7 @@ from harness.models import (
 from harness.models import RobotSpec as WorldRobot
 from harness.models.description import Pose, RobotModel
 from harness.models.mjcf_files import check_mjcf_files, generated_from
+from harness.models.worldfile import is_sdf_world, load_world_file
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import RobotSpec, Scenario, SceneObject
@@ -93,13 +94,6 @@ def check_runnable(scenario: Scenario) -> list[str]:
     def problem(path: list[str | int], value: object, text: str) -> None:
         problems.append(f"{where}: {format_path(path)}: {value!r} {text}")
 
-    env_map = scenario.environment.map
-    if isinstance(env_map, Path) and env_map.suffix.lower() in (".sdf", ".world"):
-        problem(
-            ["environment", "map"],
-            str(env_map),
-            "is an SDF world: a run's map must be a built-in scene or an MJCF world file",
-        )
     several = len(scenario.robots) > 1
     for index, robot in enumerate(scenario.robots):
         state_topics = [
@@ -230,9 +224,12 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
     env_map = scenario.environment.map
     file = env_map if isinstance(env_map, Path) else SCENES[env_map]
     try:
-        check_mjcf_files(file)
-        spec = mujoco.MjSpec.from_file(str(file))
-    except ValueError as exc:
+        if is_sdf_world(file):
+            spec = _sdf_world_spec(scenario, file)
+        else:
+            check_mjcf_files(file)
+            spec = mujoco.MjSpec.from_file(str(file))
+    except (ValueError, ModelError) as exc:
         raise ScenarioError(
             [f"{_where(scenario)}: environment.map: {str(file)!r} {' '.join(str(exc).split())}"]
         ) from None
@@ -259,6 +256,21 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
     path.write_text(spec.to_xml())
     generated_from(path, file)  # its meshdir/texturedir point back at the map's folder
     return path
+
+
+def _sdf_world_spec(scenario: Scenario, file: Path) -> mujoco.MjSpec:
+    """The SDF world ``file`` as a spec that can be written out with the scenario's objects
+    (refused when the world brings meshes: they live in memory, not beside the file)."""
+    world = load_world_file(file)
+    if world.spec.assets and (scenario.objects or world.spec.option.timestep != scenario.timestep):
+        raise ScenarioError(
+            [
+                f"{_where(scenario)}: environment.map: {str(file)!r} has meshes: objects and "
+                "a timestep other than the world's <max_step_size> cannot be added to it; "
+                "put them in the world file"
+            ]
+        )
+    return world.spec
 
 
 def _map_name(env_map: str | Path) -> str:

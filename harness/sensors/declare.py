@@ -193,7 +193,7 @@ def default_topics(kind: SensorType, topic: str, base: str) -> dict[str, str]:
             }
         if kind == "lidar":
             return {"scan": topic, "points": f"{topic}/points"}
-        output = {"imu": "imu", "force_torque": "wrench", "contact": "contacts"}[kind]
+        output = {"imu": "imu", "force_torque": "wrench", "contact": "contacts"}.get(kind, "odom")
         return {output: topic}
     camera = {
         "image": f"{base}/image_raw",
@@ -206,6 +206,8 @@ def default_topics(kind: SensorType, topic: str, base: str) -> dict[str, str]:
         return {k: v for k, v in camera.items() if k in OUTPUTS[kind]}
     if kind == "lidar":
         return {"scan": f"{base}/scan", "points": f"{base}/points"}
+    if kind == "ground_truth":
+        return {"odom": "ground_truth/odom"}
     output = {"imu": "imu", "force_torque": "wrench", "contact": "contacts"}[kind]
     return {output: f"{base}/{output}"}
 
@@ -335,4 +337,3 @@ def declared_in_sources(sources: Mapping[str, bytes]) -> list[SensorSpec]:
         except ModelError as exc:
             raise SensorConfigError(f"{name}: cannot read sensors: {exc}") from None
     return out
-

@@ -23,7 +23,9 @@ __all__ = [
     "SensorType",
 ]
 
-SensorType = Literal["camera", "depth", "rgbd", "lidar", "imu", "force_torque", "contact"]
+SensorType = Literal[
+    "camera", "depth", "rgbd", "lidar", "imu", "force_torque", "contact", "ground_truth"
+]
 SENSOR_TYPES: tuple[SensorType, ...] = get_args(SensorType)
 FtFrame = Literal["child", "parent", "sensor"]
 FtDirection = Literal["child_to_parent", "parent_to_child"]
@@ -37,6 +39,7 @@ DEFAULT_RATES: Mapping[SensorType, float] = MappingProxyType(
         "imu": 100.0,
         "force_torque": 100.0,
         "contact": 100.0,
+        "ground_truth": 50.0,
     }
 )
 """Update rate (Hz of simulation time) of a declaration that gives none."""
@@ -50,6 +53,7 @@ OUTPUTS: Mapping[SensorType, tuple[str, ...]] = MappingProxyType(
         "imu": ("imu",),
         "force_torque": ("wrench",),
         "contact": ("contacts",),
+        "ground_truth": ("odom",),
     }
 )
 """The outputs of each sensor type (the keys of :attr:`SensorSpec.topics`)."""

@@ -29,6 +29,7 @@ from harness.sensors.contact import ContactSensor
 from harness.sensors.declare import declared_in_sources, default_topics
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.force_torque import ForceTorqueSensor
+from harness.sensors.ground_truth import GroundTruthSensor
 from harness.sensors.imu import ImuSensor
 from harness.sensors.lidar import LidarSensor
 from harness.sensors.messages import static_tf_msg
@@ -143,6 +144,8 @@ class SensorSuite:
             return ImuSensor(spec, mount, topics, frame_id)
         if spec.type == "force_torque":
             return ForceTorqueSensor(spec, model, mount, topics, frame_id)
+        if spec.type == "ground_truth":
+            return GroundTruthSensor(spec, mount, topics, spec.frame_id or "world")
         return ContactSensor(spec, model, mount, topics, frame_id, robot.prefix)
 
     @classmethod

@@ -55,7 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=9090, help="port (default 9090; 0: any)")
     parser.add_argument("--namespace", default="", help="robot topics under /NAMESPACE/")
-    parser.add_argument("--scene", default=None, help="scene name or MJCF world file")
+    parser.add_argument(
+        "--scene", "--world", default=None, help="scene name, MJCF scene or SDF world file"
+    )
     parser.add_argument("--record", metavar="PATH", default=None, help="record the run to MCAP")
     parser.add_argument(
         "--controllers",
@@ -121,9 +123,11 @@ def run(args: argparse.Namespace) -> int:
     # raises KeyboardInterrupt (exit 130) as they do by default, instead of waiting for it.
     previous: dict[int, Any] = {}
     try:
+        robot: Any = args.robot
+        mode: ControlMode | None = ControlMode.parse(args.mode, "--mode")
         with Session(
-            args.robot,
-            mode=ControlMode.parse(args.mode, "--mode"),
+            robot,
+            mode=mode,
             kinematic_limits=args.kinematic_limits,
             clock=args.clock,
             rate=args.rate,

@@ -15,6 +15,7 @@ recording replays it bit for bit.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -76,7 +77,22 @@ def resolve_default(
     if config != _CONFIG_DEFAULT or not isinstance(robot, LoadedRobot):
         return config
     # a single robot's controllable joints, in the simulation's order (its control order)
-    return default_controllers(list(robot.control), robot.control)
+    default = default_controllers(list(robot.control), robot.control)
+    return with_drive_plugins(default, robot)
+
+
+def with_drive_plugins(config: ControllersConfig, robot: LoadedRobot) -> ControllersConfig:
+    """``config`` plus a diff drive controller per drive plugin the robot's file declares."""
+    from harness.controllers.gazebo_plugins import drive_plugins
+    from harness.models.xmlsafe import parse_xml
+
+    specs: list[Any] = []
+    for name, data in robot.sources.items():
+        if name.startswith("model/") and name.endswith((".urdf", ".sdf", ".xacro", ".world")):
+            specs += drive_plugins(parse_xml(data, name), name)
+    if not specs:
+        return config
+    return replace(config, controllers=(*config.controllers, *specs))
 
 
 def controllers_metadata(config: ControllersConfig | str) -> str:

@@ -322,7 +322,9 @@ class _Loader:
             if child.tag == "model":
                 world.children.append(self._model(child, world, source, version))
             elif child.tag == "include":
-                world.children.append(self._include(child, world, source, version))
+                included = self._include(child, world, source, version, light_ok=True)
+                if included is not None:  # a light-only include (Gazebo's sun) has no physics
+                    world.children.append(included)
             elif child.tag == "frame":
                 world.children.append(self._frame(child, world, source, version))
         self._check_names(world)
@@ -380,7 +382,9 @@ class _Loader:
             elif child.tag == "model":
                 model.children.append(self._model(child, model, source, version))
             elif child.tag == "include":
-                model.children.append(self._include(child, model, source, version))
+                included = self._include(child, model, source, version)
+                assert included is not None  # light_ok=False: a light-only include raises
+                model.children.append(included)
         self._check_names(model)
         return model
 
@@ -544,8 +548,13 @@ class _Loader:
         )
 
     def _include(
-        self, element: etree._Element, scope: Entity, source: Path, version: Version
-    ) -> Entity:
+        self,
+        element: etree._Element,
+        scope: Entity,
+        source: Path,
+        version: Version,
+        light_ok: bool = False,
+    ) -> Entity | None:
         where = _where(source, element)
         uri_el = element.find("uri")
         uri = (uri_el.text or "").strip() if uri_el is not None else ""
@@ -559,6 +568,8 @@ class _Loader:
         try:
             root, inc_version, _ = self._read_sdf(path)
             model_el = root.find("model")
+            if model_el is None and light_ok and root.find("light") is not None:
+                return None
             if model_el is None:
                 raise SdfIncludeError(f"{where}: included file {path} has no <model>")
             name_el = element.find("name")

@@ -1,0 +1,295 @@
+"""``diff_drive_controller/DiffDriveController``, with ros2_controllers' parameter names and
+semantics.
+
+Input: ``geometry_msgs/msg/TwistStamped`` on ``~/cmd_vel`` (``use_stamped_vel: false`` takes
+``geometry_msgs/msg/Twist``, as the Humble controller and most teleop tools send it); the
+harness parameter ``cmd_vel_topic`` stands for a launch file's remapping (e.g.
+``/cmd_vel``). Each command sets the body velocity (``linear.x``, ``angular.z``); the wheel
+velocities are ``(v -/+ w * s / 2) / r`` with ``s = wheel_separation *
+wheel_separation_multiplier`` and ``r = wheel_radius * {left,right}_wheel_radius_multiplier``,
+the same on every wheel of a side. ``cmd_vel_timeout`` (seconds, default 0.5) after the last
+command the wheels are commanded to stop. ``linear.x.*`` and ``angular.z.*`` limits
+(``max_velocity``, ``min_velocity``, ``max_acceleration``, ``max_deceleration``) clamp the
+command every update, as the controller's speed limiter does (jerk limits are not applied).
+
+Output: ``nav_msgs/msg/Odometry`` on ``~/odom`` (``odom_topic`` remaps it) at
+``publish_rate`` Hz, integrated from the wheels' encoder positions (mean per side;
+``position_feedback: false`` or ``open_loop: true`` integrate the commanded velocity
+instead), and, with ``enable_odom_tf`` (default true), ``odom_frame_id`` ->
+``base_frame_id`` on ``/tf``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from harness.controllers.base import (
+    ActionEndpoint,
+    Command,
+    JointReadings,
+    LogLine,
+    Output,
+    Publication,
+    TopicEndpoint,
+)
+from harness.controllers.config import ControllerSpec
+from harness.controllers.params import Params, stamp
+
+__all__ = ["TYPE_DIFF_DRIVE", "DiffDriveController", "Odometry", "SpeedLimits"]
+
+TYPE_DIFF_DRIVE = "diff_drive_controller/DiffDriveController"
+_NS = 1_000_000_000
+
+
+def _nested(params: Mapping[str, Any], dotted: str) -> Any:
+    """``params["a.b.c"]`` or ``params["a"]["b"]["c"]`` (a YAML file nests dotted names)."""
+    if dotted in params:
+        return params[dotted]
+    value: Any = params
+    for part in dotted.split("."):
+        if not isinstance(value, Mapping) or part not in value:
+            return None
+        value = value[part]
+    return value
+
+
+class SpeedLimits:
+    """One axis's limits (None: unlimited), applied as the controller's speed limiter."""
+
+    def __init__(self, p: Params, axis: str) -> None:
+        def limit(name: str) -> float | None:
+            value = _nested(p.spec.params, f"{axis}.{name}")
+            if value is None or (isinstance(value, float) and math.isnan(value)):
+                return None
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise p.error(f"{axis}.{name} must be a number, not {value!r}")
+            return float(value)
+
+        self.max_velocity = limit("max_velocity")
+        self.min_velocity = limit("min_velocity")
+        self.max_acceleration = limit("max_acceleration")
+        self.max_deceleration = limit("max_deceleration")
+
+    def clamp(self, wanted: float, previous: float, dt: float) -> float:
+        """``wanted`` limited in velocity, then in change from ``previous`` over ``dt``."""
+        value = wanted
+        if self.max_velocity is not None:
+            value = min(value, self.max_velocity)
+        low = (
+            self.min_velocity
+            if self.min_velocity is not None
+            else (-self.max_velocity if self.max_velocity is not None else None)
+        )
+        if low is not None:
+            value = max(value, low)
+        if dt > 0:
+            speeding_up = abs(value) > abs(previous)
+            rate = self.max_acceleration if speeding_up else self.max_deceleration
+            if rate is None and not speeding_up:
+                rate = self.max_acceleration
+            if rate is not None and rate > 0:
+                step = rate * dt
+                value = min(max(value, previous - step), previous + step)
+        return value
+
+
+class Odometry:
+    """Planar pose integrated from wheel travel, as ros2_controllers' odometry: second-order
+    Runge-Kutta for a small heading change, the exact arc otherwise."""
+
+    def __init__(self) -> None:
+        self.x = 0.0
+        self.y = 0.0
+        self.heading = 0.0
+        self.linear = 0.0
+        self.angular = 0.0
+
+    def integrate(self, distance: float, rotation: float, dt: float) -> None:
+        """Advance by ``distance`` along the heading and ``rotation`` about z over ``dt``."""
+        if abs(rotation) < 1e-6:
+            direction = self.heading + rotation * 0.5
+            self.x += distance * math.cos(direction)
+            self.y += distance * math.sin(direction)
+            self.heading += rotation
+        else:
+            old = self.heading
+            radius = distance / rotation
+            self.heading += rotation
+            self.x += radius * (math.sin(self.heading) - math.sin(old))
+            self.y += -radius * (math.cos(self.heading) - math.cos(old))
+        if dt > 0:
+            self.linear = distance / dt
+            self.angular = rotation / dt
+
+
+class DiffDriveController:
+    """One diff drive controller (see the module docstring)."""
+
+    actions: tuple[ActionEndpoint, ...] = ()
+
+    def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        p = Params(spec, source)
+        self.name = spec.name
+        self.type = spec.type
+        self.left = p.joints(p.strings("left_wheel_names"), controllable)
+        self.right = p.joints(p.strings("right_wheel_names"), controllable)
+        if set(self.left) & set(self.right):
+            raise p.error("a joint is both a left and a right wheel")
+        self.separation = p.number("wheel_separation", 0.0, minimum=0.0) * p.number(
+            "wheel_separation_multiplier", 1.0
+        )
+        radius = p.number("wheel_radius", 0.0, minimum=0.0)
+        self.left_radius = radius * p.number("left_wheel_radius_multiplier", 1.0)
+        self.right_radius = radius * p.number("right_wheel_radius_multiplier", 1.0)
+        if self.separation <= 0 or self.left_radius <= 0 or self.right_radius <= 0:
+            raise p.error("wheel_separation and wheel_radius must be given and positive")
+        self.timeout_ns = round(p.number("cmd_vel_timeout", 0.5, minimum=0.0) * _NS)
+        rate = p.number("publish_rate", 50.0, minimum=0.0)
+        self.publish_period_ns = round(_NS / rate) if rate > 0 else 0
+        self.odom_frame = p.string("odom_frame_id", "odom")
+        self.base_frame = p.string("base_frame_id", "base_link")
+        self.odom_tf = p.flag("enable_odom_tf", True)
+        self.open_loop = p.flag("open_loop", False) or not p.flag("position_feedback", True)
+        self.stamped = p.flag("use_stamped_vel", True)
+        self.linear_limits = SpeedLimits(p, "linear.x")
+        self.angular_limits = SpeedLimits(p, "angular.z")
+        cmd_type = "geometry_msgs/msg/TwistStamped" if self.stamped else "geometry_msgs/msg/Twist"
+        self.cmd_topic = p.string("cmd_vel_topic", "~/cmd_vel")
+        self.odom_topic = p.string("odom_topic", "~/odom")
+        self.subscriptions = (TopicEndpoint(self.cmd_topic, cmd_type),)
+        publishers = [TopicEndpoint(self.odom_topic, "nav_msgs/msg/Odometry")]
+        if self.odom_tf:
+            publishers.append(TopicEndpoint("/tf", "tf2_msgs/msg/TFMessage"))
+        self.publishers = tuple(publishers)
+        self.command_interfaces = tuple(f"{j}/velocity" for j in (*self.left, *self.right))
+        self.state_interfaces = tuple(f"{j}/position" for j in (*self.left, *self.right))
+        self.active = False
+        self.odometry = Odometry()
+        self.wanted = (0.0, 0.0)
+        self.applied = (0.0, 0.0)
+        self.last_command_ns: int | None = None
+        self.last_publish_ns: int | None = None
+        self.previous: tuple[float, float] | None = None
+
+    def _sides(self, state: JointReadings) -> tuple[float, float]:
+        left = sum(state.position[j] for j in self.left) / len(self.left)
+        right = sum(state.position[j] for j in self.right) / len(self.right)
+        return left, right
+
+    def activate(self, state: JointReadings) -> Output:
+        """Start: odometry from the current wheel positions, zero velocity."""
+        self.active = True
+        self.previous = self._sides(state)
+        self.wanted = self.applied = (0.0, 0.0)
+        self.last_command_ns = None
+        return Output(commands=self._wheel_commands(0.0, 0.0))
+
+    def deactivate(self, state: JointReadings) -> Output:
+        """Stop the wheels."""
+        self.active = False
+        return Output(commands=self._wheel_commands(0.0, 0.0))
+
+    def _wheel_commands(self, linear: float, angular: float) -> list[Command]:
+        half = angular * self.separation / 2
+        left = (linear - half) / self.left_radius
+        right = (linear + half) / self.right_radius
+        return [Command(j, velocity=left) for j in self.left] + [
+            Command(j, velocity=right) for j in self.right
+        ]
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> Output:
+        """A velocity command: taken at the next update."""
+        out = Output()
+        if not self.active:
+            out.logs.append(LogLine(40, "inactive, command ignored", connection))
+            return out
+        twist = msg.get("twist", msg) if self.stamped else msg
+        try:
+            linear = float(twist["linear"]["x"])
+            angular = float(twist["angular"]["z"])
+        except (KeyError, TypeError, ValueError) as exc:
+            out.logs.append(LogLine(40, f"command refused: no {exc}", connection))
+            return out
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            out.logs.append(LogLine(40, "command refused: non-finite velocity", connection))
+            return out
+        self.wanted = (linear, angular)
+        self.last_command_ns = state.sim_time_ns
+        return out
+
+    def update(self, state: JointReadings, period_ns: int) -> Output:
+        """Odometry, the timeout, the speed limiter, the wheel commands, the publications."""
+        out = Output()
+        if not self.active:
+            return out
+        dt = period_ns / _NS
+        now = state.sim_time_ns
+        sides = self._sides(state)
+        if self.open_loop or self.previous is None:
+            distance, rotation = self.applied[0] * dt, self.applied[1] * dt
+        else:
+            d_left = (sides[0] - self.previous[0]) * self.left_radius
+            d_right = (sides[1] - self.previous[1]) * self.right_radius
+            distance = (d_left + d_right) / 2
+            rotation = (d_right - d_left) / self.separation
+        self.previous = sides
+        self.odometry.integrate(distance, rotation, dt)
+        wanted = self.wanted
+        if self.last_command_ns is None or now - self.last_command_ns > self.timeout_ns:
+            wanted = (0.0, 0.0)
+        linear = self.linear_limits.clamp(wanted[0], self.applied[0], dt)
+        angular = self.angular_limits.clamp(wanted[1], self.applied[1], dt)
+        self.applied = (linear, angular)
+        out.commands += self._wheel_commands(linear, angular)
+        due = self.publish_period_ns == 0 or self.last_publish_ns is None
+        due = due or now - (self.last_publish_ns or 0) >= self.publish_period_ns
+        if due:
+            self.last_publish_ns = now
+            out.publications += self._publications(now)
+        return out
+
+    def _publications(self, now: int) -> list[Publication]:
+        o = self.odometry
+        quat = {"x": 0.0, "y": 0.0, "z": math.sin(o.heading / 2), "w": math.cos(o.heading / 2)}
+        header = {"stamp": stamp(now), "frame_id": self.odom_frame}
+        odom = {
+            "header": header,
+            "child_frame_id": self.base_frame,
+            "pose": {
+                "pose": {"position": {"x": o.x, "y": o.y, "z": 0.0}, "orientation": quat},
+                "covariance": [0.0] * 36,
+            },
+            "twist": {
+                "twist": {
+                    "linear": {"x": o.linear, "y": 0.0, "z": 0.0},
+                    "angular": {"x": 0.0, "y": 0.0, "z": o.angular},
+                },
+                "covariance": [0.0] * 36,
+            },
+        }
+        out = [Publication(self.odom_topic, "nav_msgs/msg/Odometry", odom)]
+        if self.odom_tf:
+            transform = {
+                "header": header,
+                "child_frame_id": self.base_frame,
+                "transform": {
+                    "translation": {"x": o.x, "y": o.y, "z": 0.0},
+                    "rotation": quat,
+                },
+            }
+            out.append(Publication("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [transform]}))
+        return out
+
+    def on_goal(
+        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
+    ) -> Output:
+        """No actions."""
+        return Output()
+
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+        """No actions."""
+        return Output()

@@ -1,0 +1,42 @@
+"""``environment.map`` may be an SDF world: as it is, or with the scenario's objects added."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+
+from harness.scenario import Scenario
+from harness.scenario.world import build_world, scene_for
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+WORLD = DATA / "worlds" / "room.world"
+TWO_LINK = DATA / "scenario" / "robots" / "two_link.urdf"
+
+
+def _scenario(objects: list[dict[str, object]]) -> Scenario:
+    return Scenario.from_mapping(
+        {
+            "robots": [{"robot": str(TWO_LINK)}],
+            "environment": {"map": str(WORLD)},
+            "objects": objects,
+        }
+    )
+
+
+def test_an_sdf_world_map_is_the_scene_as_it_is(tmp_path: Path) -> None:
+    scenario = _scenario([])
+    assert scene_for(scenario, tmp_path) == WORLD
+    world = build_world(scenario, tmp_path)
+    names = {world.model.body(b).name for b in range(world.model.nbody)}
+    assert {"wall::link", "crate::body", "arm"} <= names
+    assert any(name.startswith("scene/include/") for name in world.sources)
+
+
+def test_scenario_objects_join_an_sdf_world(tmp_path: Path) -> None:
+    scenario = _scenario(
+        [{"name": "ball", "shape": "sphere", "size": [0.05], "position": [0.5, 0, 0.3], "mass": 1}]
+    )
+    model = mujoco.MjModel.from_xml_path(str(scene_for(scenario, tmp_path)))
+    assert model.body("ball").id > 0
+    assert model.body("crate::body").id > 0
