@@ -346,6 +346,8 @@ class Gateway:
             else:
                 infos = probe.get_subscriptions_info_by_topic(topic)
             for info in infos:
+                if info.node_name.startswith("_NODE_NAME_UNKNOWN"):
+                    continue  # discovery has not named its node yet: a later check does
                 node = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
                 if node in own:
                     continue
