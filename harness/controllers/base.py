@@ -17,6 +17,7 @@ __all__ = [
     "GOAL_CANCELED",
     "GOAL_SUCCEEDED",
     "ActionEndpoint",
+    "BaseVelocity",
     "Command",
     "Controller",
     "Feedback",
@@ -54,6 +55,17 @@ class Command:
     position: float | None = None
     velocity: float | None = None
     effort: float | None = None
+
+
+@dataclass(frozen=True)
+class BaseVelocity:
+    """A body velocity for a floating base driven as a planar base (its free joint ``joint``):
+    ``linear_x``, ``linear_y`` (m/s, heading frame), ``angular_z`` (rad/s)."""
+
+    joint: str
+    linear_x: float
+    linear_y: float
+    angular_z: float
 
 
 @dataclass(frozen=True)
@@ -101,6 +113,7 @@ class Output:
     feedback: list[Feedback] = field(default_factory=list)
     results: list[Result] = field(default_factory=list)
     logs: list[LogLine] = field(default_factory=list)
+    base: BaseVelocity | None = None
 
     def extend(self, other: Output) -> None:
         """Append ``other``'s items."""
@@ -109,6 +122,8 @@ class Output:
         self.feedback += other.feedback
         self.results += other.results
         self.logs += other.logs
+        if other.base is not None:
+            self.base = other.base
 
 
 @dataclass(frozen=True)

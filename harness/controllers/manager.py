@@ -27,6 +27,7 @@ from harness.controllers.diff_drive import TYPE_DIFF_DRIVE, DiffDriveController
 from harness.controllers.forward_command import FORWARD_TYPES, ForwardCommandController
 from harness.controllers.gripper_action import GRIPPER_TYPES, GripperActionController
 from harness.controllers.joint_trajectory import JointTrajectoryController
+from harness.controllers.planar import TYPE_PLANAR, PlanarController
 
 __all__ = ["SERVICES", "ControllerManager", "LoadedController", "make_controller"]
 
@@ -62,6 +63,8 @@ def make_controller(
         return GripperActionController(spec, source, controllable)
     if spec.type == TYPE_DIFF_DRIVE:
         return DiffDriveController(spec, source, controllable)
+    if spec.type == TYPE_PLANAR:
+        return PlanarController(spec, source)
     if spec.type == TYPE_JOINT_STATE_BROADCASTER:
         return JointStateBroadcaster(spec, joints)
     return Unsupported(spec)
@@ -212,6 +215,7 @@ class ControllerManager:
                 TYPE_JOINT_TRAJECTORY,
                 TYPE_JOINT_STATE_BROADCASTER,
                 TYPE_DIFF_DRIVE,
+                TYPE_PLANAR,
                 *FORWARD_TYPES,
                 *GRIPPER_TYPES,
             }

@@ -40,7 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=RESIM_MODE_INPUTS,
         default=None,
         help="re-simulate the recorded joint commands with every joint kinematic, or every "
-        "joint a position servo (position, or its alias dynamic)",
+        "joint a position servo (position, or its alias dynamic); a recording with a mobile "
+        "base controller: re-run its /cmd_vel with a planar or a diff drive base",
     )
     parser.add_argument("--report", type=Path, default=None, help="write the report as JSON")
     parser.add_argument(
@@ -70,6 +71,15 @@ def run(args: argparse.Namespace) -> int:
         mode: ResimMode = (
             "kinematic" if ControlMode.parse(args.mode) is ControlMode.KINEMATIC else "dynamic"
         )
+        from harness.replay.base_resim import is_base_recording, resimulate_base
+
+        if is_base_recording(args.file):
+            base = resimulate_base(args.file, mode, allow_damaged=args.allow_damaged)
+            print(base.format())
+            if args.report is not None:
+                args.report.write_text(json.dumps(base.to_json(), indent=2) + "\n")
+            limit = args.max_tracking_error  # a base's: the path deviation in metres
+            return 0 if limit is None or base.max_path_deviation <= limit else 1
         with progress_bar(f"re-simulating ({mode})") as progress:
             resim = resimulate(
                 args.file,

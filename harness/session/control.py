@@ -21,6 +21,7 @@ from typing import Any, Protocol
 
 from harness.controllers import (
     SERVICES,
+    BaseVelocity,
     Command,
     ControllerManager,
     ControllersConfig,
@@ -34,7 +35,7 @@ from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
 from harness.session.topics import node_name
-from harness.sim import CommandError, Notice
+from harness.sim import CommandError, ControlConfigError, Notice
 
 __all__ = [
     "ControlHost",
@@ -328,6 +329,8 @@ class ControlHost:
             core.log(Level(log.level), text)
         if out.commands:
             self._command(robot, out.commands, where, connection)
+        if out.base is not None:
+            self._base(out.base, where)
         for pub in out.publications:
             # to subscribers only: the frames sent are recorded (as /rosout's are), no channel
             # of its own (a session's recorded channels stay what they were)
@@ -349,6 +352,15 @@ class ControlHost:
                 goal = robot.goals.pop(result.goal, None)
                 if goal is not None:
                     goal.finish(result.values, result.status)
+
+    def _base(self, base: BaseVelocity, where: str) -> None:
+        """A planar base's velocity: a recorded kinematic write of its free joint."""
+        try:
+            self.core.sim.set_base_velocity(
+                base.linear_x, base.linear_y, base.angular_z, joint=base.joint
+            )
+        except (CommandError, ControlConfigError) as exc:
+            self.core.log(Level.ERROR, f"{where}: base velocity refused: {exc}")
 
     def _command(
         self, robot: _RobotControl, commands: list[Command], where: str, connection: int

@@ -47,6 +47,7 @@ from harness.sim.errors import (
     TimestepError,
 )
 from harness.sim.inputs import AppliedInput
+from harness.sim.planar import PlanarBase
 
 __all__ = [
     "STATE_SPEC",
@@ -257,6 +258,7 @@ class Simulation:
         self._no_warnings = bytes(self._warnings.nbytes)
         self._warning_names = warning_names()
         self._observers: list[Observer] = []
+        self._planar: PlanarBase | None = None
         self._scratch: mujoco.MjData | None = None
 
         actuators: dict[int, list[int]] = {}
@@ -537,7 +539,7 @@ class Simulation:
             raise SimulationError(f"step count must be >= 0, not {n}")
         if self._failed is not None:
             raise SimulationError(self._failed)
-        if n > 1 and not self._observers and not self._has_kin:
+        if n > 1 and not self._observers and not self._has_kin and self._planar is None:
             self._step_batch(n)
             return
         for _ in range(n):
@@ -547,15 +549,25 @@ class Simulation:
                     fn(self)
 
     def _update_fast(self) -> None:
-        self._fast = not (self._dirty or self._has_kin or self._observers or self._failed)
+        self._fast = not (
+            self._dirty or self._has_kin or self._observers or self._failed or self._planar
+        )
 
     def _step_one(self) -> None:
         data = self.data
-        if self._dirty or self._kin_moving:
+        if self._dirty or self._kin_moving or self._planar is not None:
             self._prepare_input()
         else:
             self._changed = False
-        if self._has_kin:
+        if self._planar is not None:
+            applied = self._applied
+            assert applied is not None
+            data.qpos[applied.qpos_index] = applied.qpos_value
+            data.qvel[applied.qvel_index] = applied.qvel_value
+            mujoco.mj_step(self.model, data)
+            data.qpos[applied.qpos_index] = applied.qpos_value
+            data.qvel[applied.qvel_index] = applied.qvel_value
+        elif self._has_kin:
             data.qpos[self._kin_qadr] = self._kin_pos
             data.qvel[self._kin_dadr] = self._kin_vel
             mujoco.mj_step(self.model, data)
@@ -608,15 +620,28 @@ class Simulation:
         nmocap = self.model.nmocap
         qfrc = data.qfrc_applied
         xfrc = data.xfrc_applied
+        kin_names = self._kin_names
+        qpos_i, qpos_v, qvel_i, qvel_v = _EMPTY_U, _EMPTY_F, _EMPTY_U, _EMPTY_F
+        if self._has_kin:
+            qpos_i, qpos_v = self._kin_qadr, self._kin_pos.copy()
+            qvel_i, qvel_v = self._kin_dadr, self._kin_vel.copy()
+        if self._planar is not None:
+            # The planar base's write joins the kinematic writes (recorded, replayed alike).
+            base_q, base_v = self._planar.write(data.qpos, self._dt)
+            kin_names = (*kin_names, self._planar.joint)
+            qpos_i = np.concatenate([qpos_i, self._planar.qpos_index])
+            qpos_v = np.concatenate([qpos_v, base_q])
+            qvel_i = np.concatenate([qvel_i, self._planar.qvel_index])
+            qvel_v = np.concatenate([qvel_v, base_v])
         applied = AppliedInput(
             step=self._step + 1,
             sim_time_ns=(self._step + 1) * self.dt_ns,
             ctrl=np.array(data.ctrl, dtype=np.float64),
-            kinematic_joints=self._kin_names,
-            qpos_index=self._kin_qadr if self._has_kin else _EMPTY_U,
-            qpos_value=self._kin_pos.copy() if self._has_kin else _EMPTY_F,
-            qvel_index=self._kin_dadr if self._has_kin else _EMPTY_U,
-            qvel_value=self._kin_vel.copy() if self._has_kin else _EMPTY_F,
+            kinematic_joints=kin_names,
+            qpos_index=qpos_i,
+            qpos_value=qpos_v,
+            qvel_index=qvel_i,
+            qvel_value=qvel_v,
             mocap_pos=np.array(data.mocap_pos, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
             mocap_quat=np.array(data.mocap_quat, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
             qfrc_applied=np.array(qfrc, dtype=np.float64) if qfrc.any() else _EMPTY_F,
@@ -740,6 +765,23 @@ class Simulation:
                 )
             entries.extend((name[i], field, values[i]) for i in range(len(values)))
         return self._apply(self._validate(entries))
+
+    def set_base_velocity(
+        self,
+        linear_x: float,
+        linear_y: float = 0.0,
+        angular_z: float = 0.0,
+        *,
+        joint: str | None = None,
+    ) -> None:
+        """Drive the floating base as a planar base (:class:`~harness.sim.planar.PlanarBase`)
+        at this body velocity from the next step on; from then on the base's pose is a recorded
+        kinematic write every step. ``joint``: the base's free joint (default the first)."""
+        if self._planar is None or (joint is not None and joint != self._planar.joint):
+            self._planar = PlanarBase(self.model, joint)
+        self._planar.command(linear_x, linear_y, angular_z)
+        self._dirty = True
+        self._fast = False
 
     def apply_wrench(
         self, body: str, force: Sequence[float], torque: Sequence[float] = (0.0, 0.0, 0.0)

@@ -1,0 +1,187 @@
+"""A planar (holonomic) base controller, the counterpart of Gazebo Classic's
+``libgazebo_ros_planar_move.so``: the commanded body velocity is applied directly to the
+robot's floating base, a kinematic write of its free joint recorded with every step's applied
+input (:class:`~harness.sim.planar.PlanarBase`), so a run replays bit for bit.
+
+Parameters (diff_drive's names where they mean the same): ``cmd_vel_topic`` (default
+``~/cmd_vel``), ``use_stamped_vel`` (default true: ``geometry_msgs/msg/TwistStamped``; false:
+``Twist``), ``cmd_vel_timeout`` (seconds, default 0.5: the base stops after it),
+``linear.x.*``, ``linear.y.*`` and ``angular.z.*`` speed limits, ``odom_topic`` (``~/odom``),
+``publish_rate`` (50 Hz), ``odom_frame_id``, ``base_frame_id``, ``enable_odom_tf``, and
+``base_joint`` (the free joint, default ``<base_frame_id>::__free__``). Odometry integrates
+the applied command (the base follows it exactly).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from harness.controllers.base import (
+    ActionEndpoint,
+    BaseVelocity,
+    JointReadings,
+    LogLine,
+    Output,
+    Publication,
+    TopicEndpoint,
+)
+from harness.controllers.config import ControllerSpec
+from harness.controllers.diff_drive import SpeedLimits
+from harness.controllers.params import Params, stamp
+
+__all__ = ["TYPE_PLANAR", "PlanarController"]
+
+TYPE_PLANAR = "planar_controller/PlanarController"
+_NS = 1_000_000_000
+_FREE = "::__free__"
+
+
+class PlanarController:
+    """One planar base controller (see the module docstring)."""
+
+    actions: tuple[ActionEndpoint, ...] = ()
+    command_interfaces: tuple[str, ...] = ()
+    state_interfaces: tuple[str, ...] = ()
+
+    def __init__(self, spec: ControllerSpec, source: str) -> None:
+        p = Params(spec, source)
+        self.name = spec.name
+        self.type = spec.type
+        self.timeout_ns = round(p.number("cmd_vel_timeout", 0.5, minimum=0.0) * _NS)
+        rate = p.number("publish_rate", 50.0, minimum=0.0)
+        self.publish_period_ns = round(_NS / rate) if rate > 0 else 0
+        self.odom_frame = p.string("odom_frame_id", "odom")
+        self.base_frame = p.string("base_frame_id", "base_link")
+        self.base_joint = p.string("base_joint", self.base_frame + _FREE)
+        self.odom_tf = p.flag("enable_odom_tf", True)
+        self.stamped = p.flag("use_stamped_vel", True)
+        self.limits = (
+            SpeedLimits(p, "linear.x"),
+            SpeedLimits(p, "linear.y"),
+            SpeedLimits(p, "angular.z"),
+        )
+        cmd_type = "geometry_msgs/msg/TwistStamped" if self.stamped else "geometry_msgs/msg/Twist"
+        self.cmd_topic = p.string("cmd_vel_topic", "~/cmd_vel")
+        self.odom_topic = p.string("odom_topic", "~/odom")
+        self.subscriptions = (TopicEndpoint(self.cmd_topic, cmd_type),)
+        publishers = [TopicEndpoint(self.odom_topic, "nav_msgs/msg/Odometry")]
+        if self.odom_tf:
+            publishers.append(TopicEndpoint("/tf", "tf2_msgs/msg/TFMessage"))
+        self.publishers = tuple(publishers)
+        self.active = False
+        self.wanted = (0.0, 0.0, 0.0)
+        self.applied = (0.0, 0.0, 0.0)
+        self.pose = [0.0, 0.0, 0.0]  # x, y, heading in the odometry frame
+        self.last_command_ns: int | None = None
+        self.last_publish_ns: int | None = None
+
+    def _base(self, velocity: tuple[float, float, float]) -> BaseVelocity:
+        return BaseVelocity(self.base_joint, *velocity)
+
+    def activate(self, state: JointReadings) -> Output:
+        """Start at rest."""
+        self.active = True
+        self.wanted = self.applied = (0.0, 0.0, 0.0)
+        self.last_command_ns = None
+        return Output(base=self._base(self.applied))
+
+    def deactivate(self, state: JointReadings) -> Output:
+        """Stop the base."""
+        self.active = False
+        self.applied = (0.0, 0.0, 0.0)
+        return Output(base=self._base(self.applied))
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> Output:
+        """A velocity command: taken at the next update."""
+        out = Output()
+        if not self.active:
+            out.logs.append(LogLine(40, "inactive, command ignored", connection))
+            return out
+        twist = msg.get("twist", msg) if self.stamped else msg
+        try:
+            wanted = (
+                float(twist["linear"]["x"]),
+                float(twist["linear"]["y"]),
+                float(twist["angular"]["z"]),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            out.logs.append(LogLine(40, f"command refused: no {exc}", connection))
+            return out
+        if not all(math.isfinite(v) for v in wanted):
+            out.logs.append(LogLine(40, "command refused: non-finite velocity", connection))
+            return out
+        self.wanted = wanted
+        self.last_command_ns = state.sim_time_ns
+        return out
+
+    def update(self, state: JointReadings, period_ns: int) -> Output:
+        """Odometry, the timeout, the speed limits, the base velocity, the publications."""
+        out = Output()
+        if not self.active:
+            return out
+        dt = period_ns / _NS
+        now = state.sim_time_ns
+        vx, vy, wz = self.applied
+        x, y, heading = self.pose
+        cos, sin = math.cos(heading), math.sin(heading)
+        self.pose = [x + (vx * cos - vy * sin) * dt, y + (vx * sin + vy * cos) * dt,
+                     heading + wz * dt]  # fmt: skip
+        wanted = self.wanted
+        if self.last_command_ns is None or now - self.last_command_ns > self.timeout_ns:
+            wanted = (0.0, 0.0, 0.0)
+        applied = tuple(
+            lim.clamp(w, a, dt) for lim, w, a in zip(self.limits, wanted, self.applied, strict=True)
+        )
+        if applied != self.applied:
+            out.base = self._base((applied[0], applied[1], applied[2]))
+        self.applied = (applied[0], applied[1], applied[2])
+        due = self.publish_period_ns == 0 or self.last_publish_ns is None
+        due = due or now - (self.last_publish_ns or 0) >= self.publish_period_ns
+        if due:
+            self.last_publish_ns = now
+            out.publications += self._publications(now)
+        return out
+
+    def _publications(self, now: int) -> list[Publication]:
+        x, y, heading = self.pose
+        vx, vy, wz = self.applied
+        quat = {"x": 0.0, "y": 0.0, "z": math.sin(heading / 2), "w": math.cos(heading / 2)}
+        header = {"stamp": stamp(now), "frame_id": self.odom_frame}
+        odom = {
+            "header": header,
+            "child_frame_id": self.base_frame,
+            "pose": {
+                "pose": {"position": {"x": x, "y": y, "z": 0.0}, "orientation": quat},
+                "covariance": [0.0] * 36,
+            },
+            "twist": {
+                "twist": {
+                    "linear": {"x": vx, "y": vy, "z": 0.0},
+                    "angular": {"x": 0.0, "y": 0.0, "z": wz},
+                },
+                "covariance": [0.0] * 36,
+            },
+        }
+        out = [Publication(self.odom_topic, "nav_msgs/msg/Odometry", odom)]
+        if self.odom_tf:
+            transform = {
+                "header": header,
+                "child_frame_id": self.base_frame,
+                "transform": {"translation": {"x": x, "y": y, "z": 0.0}, "rotation": quat},
+            }
+            out.append(Publication("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [transform]}))
+        return out
+
+    def on_goal(
+        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
+    ) -> Output:
+        """No actions."""
+        return Output()
+
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+        """No actions."""
+        return Output()

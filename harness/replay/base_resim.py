@@ -1,0 +1,244 @@
+"""``harness replay --mode kinematic|dynamic`` for a mobile base: re-run a recording's
+``/cmd_vel`` stream with the planar (kinematic) base or the wheeled diff drive (dynamic) base
+and measure how the base's path differs.
+
+The recorded base controller (a ``diff_drive_controller/DiffDriveController`` or a
+``planar_controller/PlanarController`` in the recording's controllers configuration) names the
+command topic. ``kinematic`` re-runs with a planar controller taking the recorded controller's
+topic, message type, timeout and ``linear.x``/``angular.z`` limits; ``dynamic`` needs the
+wheels, so a recorded diff drive (a planar recording has no wheel geometry and is refused).
+The re-run is a live :class:`~harness.session.Session` of the robot rebuilt from the
+recording's sources: every recorded incoming ``publish`` frame on the command topic is sent
+at the step it was recorded at, and the base's free joint pose is compared step by step with
+the recorded physics states: path deviation (the largest and mean planar distance between
+the two bases at the same step), final pose error (distance and heading), and each path's
+length.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.controllers.config import ControllersConfig, ControllerSpec
+from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
+from harness.controllers.planar import TYPE_PLANAR
+from harness.models import LoadedWorld
+from harness.replay.errors import LevelUnavailableError
+from harness.replay.resim import ResimMode
+from harness.replay.source import open_recording, read_states, rebuild_run
+
+__all__ = ["BaseResimReport", "base_controller", "is_base_recording", "resimulate_base"]
+
+F64 = npt.NDArray[np.float64]
+_COPIED = (
+    "cmd_vel_topic", "use_stamped_vel", "cmd_vel_timeout", "odom_topic", "publish_rate",
+    "odom_frame_id", "base_frame_id", "enable_odom_tf", "linear", "angular",
+    "linear.x.max_velocity", "linear.x.min_velocity", "linear.x.max_acceleration",
+    "linear.x.max_deceleration", "angular.z.max_velocity", "angular.z.min_velocity",
+    "angular.z.max_acceleration", "angular.z.max_deceleration",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class BaseResimReport:
+    """How the re-run base's path differs from the recorded one (metres, radians)."""
+
+    path: str
+    mode: str
+    recorded_controller: str
+    command_topic: str
+    commands: int
+    steps_compared: int
+    max_path_deviation: float
+    mean_path_deviation: float
+    final_position_error: float
+    final_heading_error: float
+    recorded_path_length: float
+    resimulated_path_length: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The report as plain JSON values."""
+        return asdict(self)
+
+    def format(self) -> str:
+        """A short text report."""
+        return "\n".join(
+            [
+                f"{self.path}: base re-run ({self.mode}) of {self.commands} commands on "
+                f"{self.command_topic} (recorded with {self.recorded_controller})",
+                f"  steps compared        {self.steps_compared}",
+                f"  path deviation        max {self.max_path_deviation:.4f} m, "
+                f"mean {self.mean_path_deviation:.4f} m",
+                f"  final pose error      {self.final_position_error:.4f} m, "
+                f"{math.degrees(self.final_heading_error):.2f} deg",
+                f"  path length           recorded {self.recorded_path_length:.4f} m, "
+                f"re-run {self.resimulated_path_length:.4f} m",
+            ]
+        )
+
+
+def base_controller(config: ControllersConfig | str) -> ControllerSpec | None:
+    """The recorded run's base controller (diff drive or planar), if any."""
+    if isinstance(config, str):
+        return None
+    for spec in config.controllers:
+        if spec.type in (TYPE_DIFF_DRIVE, TYPE_PLANAR):
+            return spec
+    return None
+
+
+def _topic(spec: ControllerSpec) -> str:
+    name = str(spec.params.get("cmd_vel_topic", "~/cmd_vel"))
+    return f"/{spec.name}/" + name.removeprefix("~/") if name.startswith("~/") else name
+
+
+def _free_joint(model: mujoco.MjModel, spec: ControllerSpec) -> tuple[str, int]:
+    free = {
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or "": j
+        for j in range(model.njnt)
+        if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE)
+    }
+    wanted = str(spec.params.get("base_joint", f"{spec.params.get('base_frame_id', 'base_link')}"
+                                 "::__free__"))  # fmt: skip
+    if wanted in free:
+        return wanted, int(model.jnt_qposadr[free[wanted]])
+    robots = [name for name in free if name.count("::") == 1]  # world models: model::link::
+    if len(robots) == 1:
+        return robots[0], int(model.jnt_qposadr[free[robots[0]]])
+    raise LevelUnavailableError(
+        f"no floating base for controller {spec.name!r}: free joints {sorted(free)}"
+    )
+
+
+def _alternate(spec: ControllerSpec, mode: ResimMode, base_joint: str) -> ControllerSpec:
+    if mode == "dynamic":
+        if spec.type != TYPE_DIFF_DRIVE:
+            raise LevelUnavailableError(
+                f"controller {spec.name!r} is a planar base: --mode dynamic needs a diff drive "
+                "(its wheels), which the recording does not have"
+            )
+        return spec
+    params: dict[str, Any] = {k: v for k, v in spec.params.items() if k in _COPIED}
+    params["base_joint"] = base_joint
+    if spec.type == TYPE_DIFF_DRIVE:
+        params.setdefault("use_stamped_vel", True)  # diff drive's default, kept
+    return ControllerSpec(spec.name, TYPE_PLANAR, params)
+
+
+def _poses(model: mujoco.MjModel, qpos: F64, adr: int) -> F64:
+    """(N, 3): x, y, heading of the free joint at ``adr`` in each row of ``qpos``."""
+    xy = qpos[:, adr : adr + 2]
+    w, x, y, z = (qpos[:, adr + 3 + i] for i in range(4))
+    heading = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.column_stack([xy, heading])
+
+
+def resimulate_base(
+    path: str | Path, mode: ResimMode, *, allow_damaged: bool = False
+) -> BaseResimReport:
+    """Re-run the recording's base commands in ``mode`` (see the module docstring)."""
+    from harness.session import Session
+    from harness.session.control import controllers_from_metadata
+    from harness.testing import connect
+
+    rec = open_recording(path, allow_damaged=allow_damaged)
+    try:
+        config = controllers_from_metadata(rec.metadata.get("controllers"))
+        spec = base_controller(config)
+        if spec is None or isinstance(config, str):
+            raise LevelUnavailableError(
+                f"{path}: no base controller (diff drive or planar) in the recording"
+            )
+        robot = rebuild_run(rec)
+        if isinstance(robot, LoadedWorld):
+            raise LevelUnavailableError(
+                f"{path}: a world of several robots: base re-runs take one robot"
+            )
+        joint, adr = _free_joint(robot.model, spec)
+        topic = _topic(spec)
+        frames = [
+            (f.step, json.loads(f.text))
+            for f in rec.bridge_frames()
+            if f.direction == 0 and f.op == "publish" and f.topic == topic and not f.binary
+        ]
+        recorded = read_states(rec)
+        msg_type = (
+            "geometry_msgs/msg/TwistStamped"
+            if spec.params.get("use_stamped_vel", True)
+            else "geometry_msgs/msg/Twist"
+        )
+    finally:
+        rec.close()
+    alternate = _alternate(spec, mode, joint)
+    controllers = replace(
+        config,
+        controllers=tuple(alternate if c is spec else c for c in config.controllers),
+    )
+    last = int(recorded.steps[-1])
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "rerun.mcap"
+        session = Session(robot, controllers=controllers, record_to=out)
+        with session, connect(session.url) as client:
+            now = 0
+            for step, frame in frames:
+                if step - 1 > now:
+                    client.step(step - 1 - now)
+                    now = step - 1
+                msg: Mapping[str, Any] = frame.get("msg", {})
+                client.publish(topic, msg_type, msg)
+            if last > now:
+                client.step(last - now)
+        rerun_rec = open_recording(out)
+        try:
+            rerun = read_states(rerun_rec)
+        finally:
+            rerun_rec.close()
+    common, ia, ib = np.intersect1d(recorded.steps, rerun.steps, return_indices=True)
+    a = _poses(robot.model, recorded.qpos[ia], adr)
+    b = _poses(robot.model, rerun.qpos[ib], adr)
+    if not common.size:
+        raise LevelUnavailableError(f"{path}: the re-run shares no step with the recording")
+    deviation = np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])
+    heading = float(b[-1, 2] - a[-1, 2])
+    heading = math.atan2(math.sin(heading), math.cos(heading))
+
+    def length(p: F64) -> float:
+        return float(np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1])).sum())
+
+    return BaseResimReport(
+        path=str(path),
+        mode=mode,
+        recorded_controller=spec.type,
+        command_topic=topic,
+        commands=len(frames),
+        steps_compared=int(common.size),
+        max_path_deviation=float(deviation.max()),
+        mean_path_deviation=float(deviation.mean()),
+        final_position_error=float(deviation[-1]),
+        final_heading_error=abs(heading),
+        recorded_path_length=length(a),
+        resimulated_path_length=length(b),
+    )
+
+
+def is_base_recording(path: str | Path) -> bool:
+    """Whether the recording's run had a base controller (``--mode`` then re-runs the base)."""
+    from harness.session.control import controllers_from_metadata
+
+    rec = open_recording(path, allow_damaged=True)
+    try:
+        return (
+            base_controller(controllers_from_metadata(rec.metadata.get("controllers"))) is not None
+        )
+    finally:
+        rec.close()
