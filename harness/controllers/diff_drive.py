@@ -35,7 +35,8 @@ from harness.controllers.base import (
     TopicEndpoint,
 )
 from harness.controllers.config import ControllerSpec
-from harness.controllers.params import Params, stamp
+from harness.controllers.odometry import OdometryFrames, odometry_publications
+from harness.controllers.params import Params
 
 __all__ = ["TYPE_DIFF_DRIVE", "DiffDriveController", "Odometry", "SpeedLimits"]
 
@@ -254,35 +255,8 @@ class DiffDriveController:
 
     def _publications(self, now: int) -> list[Publication]:
         o = self.odometry
-        quat = {"x": 0.0, "y": 0.0, "z": math.sin(o.heading / 2), "w": math.cos(o.heading / 2)}
-        header = {"stamp": stamp(now), "frame_id": self.odom_frame}
-        odom = {
-            "header": header,
-            "child_frame_id": self.base_frame,
-            "pose": {
-                "pose": {"position": {"x": o.x, "y": o.y, "z": 0.0}, "orientation": quat},
-                "covariance": [0.0] * 36,
-            },
-            "twist": {
-                "twist": {
-                    "linear": {"x": o.linear, "y": 0.0, "z": 0.0},
-                    "angular": {"x": 0.0, "y": 0.0, "z": o.angular},
-                },
-                "covariance": [0.0] * 36,
-            },
-        }
-        out = [Publication(self.odom_topic, "nav_msgs/msg/Odometry", odom)]
-        if self.odom_tf:
-            transform = {
-                "header": header,
-                "child_frame_id": self.base_frame,
-                "transform": {
-                    "translation": {"x": o.x, "y": o.y, "z": 0.0},
-                    "rotation": quat,
-                },
-            }
-            out.append(Publication("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [transform]}))
-        return out
+        frames = OdometryFrames(self.odom_topic, self.odom_frame, self.base_frame, self.odom_tf)
+        return odometry_publications(frames, now, (o.x, o.y, o.heading), (o.linear, 0.0, o.angular))
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings

@@ -29,7 +29,8 @@ from harness.controllers.base import (
 )
 from harness.controllers.config import ControllerSpec
 from harness.controllers.diff_drive import SpeedLimits
-from harness.controllers.params import Params, stamp
+from harness.controllers.odometry import OdometryFrames, odometry_publications
+from harness.controllers.params import Params
 
 __all__ = ["TYPE_PLANAR", "PlanarController"]
 
@@ -147,34 +148,9 @@ class PlanarController:
         return out
 
     def _publications(self, now: int) -> list[Publication]:
+        frames = OdometryFrames(self.odom_topic, self.odom_frame, self.base_frame, self.odom_tf)
         x, y, heading = self.pose
-        vx, vy, wz = self.applied
-        quat = {"x": 0.0, "y": 0.0, "z": math.sin(heading / 2), "w": math.cos(heading / 2)}
-        header = {"stamp": stamp(now), "frame_id": self.odom_frame}
-        odom = {
-            "header": header,
-            "child_frame_id": self.base_frame,
-            "pose": {
-                "pose": {"position": {"x": x, "y": y, "z": 0.0}, "orientation": quat},
-                "covariance": [0.0] * 36,
-            },
-            "twist": {
-                "twist": {
-                    "linear": {"x": vx, "y": vy, "z": 0.0},
-                    "angular": {"x": 0.0, "y": 0.0, "z": wz},
-                },
-                "covariance": [0.0] * 36,
-            },
-        }
-        out = [Publication(self.odom_topic, "nav_msgs/msg/Odometry", odom)]
-        if self.odom_tf:
-            transform = {
-                "header": header,
-                "child_frame_id": self.base_frame,
-                "transform": {"translation": {"x": x, "y": y, "z": 0.0}, "rotation": quat},
-            }
-            out.append(Publication("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [transform]}))
-        return out
+        return odometry_publications(frames, now, (x, y, heading), self.applied)
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
