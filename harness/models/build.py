@@ -42,6 +42,7 @@ from harness.models.errors import (
 from harness.models.lenient import lenient_urdf
 from harness.models.limits import check_description, check_spec, check_urdf_counts
 from harness.models.mjcf_files import check_mjcf_files
+from harness.models.passive import declared_actuated, drop_passive
 from harness.models.resolve import PackageMap
 from harness.models.ros2_control import warn_replaced_hardware
 from harness.models.selfcollision import declared_link_self_collide, declared_self_collide
@@ -565,6 +566,7 @@ class _Robot:
         self.self_collision: SelfCollisionReport | None = None
         self.repair = robot.repair_inertia and not robot.strict
         self.plugin_wheels: tuple[str, ...] = ()  # joints a file's drive plugin drives
+        self.declared_actuated: frozenset[str] = frozenset()  # see harness.models.passive
         setup.check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":
@@ -600,6 +602,7 @@ class _Robot:
                 self.spec, surfaces.gazebo_frictions(root, self.source), self.source
             )
             self.plugin_wheels = plugin_wheels(root)
+            self.declared_actuated = declared_actuated(root, self.description, self.plugin_wheels)
             if robot.base == "floating":
                 if any(link.name == "world" for link in self.description.links):
                     raise ModelStructureError(
@@ -911,6 +914,7 @@ def load_world(
         robot.modes = _resolve_control(robot.description, own_joints, robot.request.control, where)
         robot.modes = control_defaults(robot.description, robot.modes, robot.request.control)
         robot.modes = plugin_modes(robot.modes, robot.plugin_wheels, robot.request.control)
+        robot.modes = drop_passive(robot.modes, robot.declared_actuated, robot.request.control)
         gains = dict(robot.request.gains or {})
         unknown_gains = sorted(set(gains) - set(robot.modes))
         if unknown_gains:

@@ -33,6 +33,7 @@ from harness.controllers.config import ControllersConfig, ControllerSpec
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.planar import TYPE_PLANAR
 from harness.models import LoadedWorld
+from harness.replay.base_checks import contact_pairs, encoder_distance, robot_bodies
 from harness.replay.errors import LevelUnavailableError
 from harness.replay.resim import ResimMode
 from harness.replay.source import open_recording, read_states, rebuild_run
@@ -65,6 +66,10 @@ class BaseResimReport:
     final_heading_error: float
     recorded_path_length: float
     resimulated_path_length: float
+    recorded_encoder_distance: float | None = None
+    resimulated_encoder_distance: float | None = None
+    collisions_appearing: tuple[tuple[str, str], ...] = ()
+    collisions_disappearing: tuple[tuple[str, str], ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """The report as plain JSON values."""
@@ -83,8 +88,33 @@ class BaseResimReport:
                 f"{math.degrees(self.final_heading_error):.2f} deg",
                 f"  path length           recorded {self.recorded_path_length:.4f} m, "
                 f"re-run {self.resimulated_path_length:.4f} m",
+                *self._slip_lines(),
+                "  collisions            "
+                + (
+                    "same in both runs"
+                    if not self.collisions_appearing and not self.collisions_disappearing
+                    else f"appearing {_pairs(self.collisions_appearing)}; "
+                    f"disappearing {_pairs(self.collisions_disappearing)}"
+                ),
             ]
         )
+
+    def _slip_lines(self) -> list[str]:
+        lines = []
+        for run, encoder, truth in (
+            ("recorded", self.recorded_encoder_distance, self.recorded_path_length),
+            ("re-run", self.resimulated_encoder_distance, self.resimulated_path_length),
+        ):
+            if encoder is not None:
+                lines.append(
+                    f"  wheel slip ({run})".ljust(24) + f"encoders {encoder:.4f} m vs ground "
+                    f"truth {truth:.4f} m (slip {encoder - truth:+.4f} m)"
+                )
+        return lines
+
+
+def _pairs(pairs: tuple[tuple[str, str], ...]) -> str:
+    return ", ".join(f"{a} - {b}" for a, b in pairs) or "none"
 
 
 def base_controller(config: ControllersConfig | str) -> ControllerSpec | None:
@@ -215,6 +245,17 @@ def resimulate_base(
     def length(p: F64) -> float:
         return float(np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1])).sum())
 
+    wheels = [
+        str(w)
+        for key in ("left_wheel_names", "right_wheel_names")
+        for w in spec.params.get(key, []) or []
+    ]
+    radius = float(spec.params.get("wheel_radius", 0.0) or 0.0)
+    slip = wheels and radius > 0 and spec.type == TYPE_DIFF_DRIVE
+    bodies = robot_bodies(robot.model, joint)
+    before = contact_pairs(robot.model, recorded.qpos[ia], bodies)
+    after = contact_pairs(robot.model, rerun.qpos[ib], bodies)
+
     return BaseResimReport(
         path=str(path),
         mode=mode,
@@ -228,6 +269,14 @@ def resimulate_base(
         final_heading_error=abs(heading),
         recorded_path_length=length(a),
         resimulated_path_length=length(b),
+        recorded_encoder_distance=(
+            encoder_distance(robot.model, recorded.qpos[ia], wheels, radius) if slip else None
+        ),
+        resimulated_encoder_distance=(
+            encoder_distance(robot.model, rerun.qpos[ib], wheels, radius) if slip else None
+        ),
+        collisions_appearing=tuple(sorted(after - before)),
+        collisions_disappearing=tuple(sorted(before - after)),
     )
 
 

@@ -23,7 +23,7 @@ from rich.table import Table
 
 from harness._version import __version__
 from harness.scenario.results import CollisionSummary, IterationResult, JointTrace, Traces
-from harness.scenario.sensor_report import camera_frames_html
+from harness.scenario.sensor_report import camera_frames_html, laser_scans_html
 
 __all__ = [
     "render_html",
@@ -446,7 +446,8 @@ def _iteration_section(r: IterationResult) -> str:
         f'{error}<table class="verdicts"><tr><th>criterion</th><th>result</th><th>detail</th></tr>'
         f"{rows}</table>{replay}{client}{notes}"
         f"<h3>Collisions</h3>{_timeline(r.collisions, r.sim_time)}"
-        f"<h3>Joints</h3>{plots}{camera_frames_html(r.recording)}</section>"
+        f"<h3>Joints</h3>{plots}{camera_frames_html(r.recording)}"
+        f"{laser_scans_html(r.recording)}</section>"
     )
 
 

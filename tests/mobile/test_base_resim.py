@@ -59,12 +59,18 @@ def test_replay_mode_kinematic_reports_the_path_difference(recorded: Path, tmp_p
     assert 0.0 < report["max_path_deviation"] < 0.02
     assert report["final_position_error"] <= report["max_path_deviation"]
     assert report["final_heading_error"] < math.radians(3)
+    # wheel slip: the recorded wheels roll the whole way; the planar base slides them along
+    assert report["recorded_encoder_distance"] == pytest.approx(0.3, abs=0.01)
+    assert report["resimulated_encoder_distance"] < 0.05
+    assert report["collisions_appearing"] == report["collisions_disappearing"] == []
 
 
 def test_replay_mode_dynamic_re_runs_the_wheels_the_same(recorded: Path) -> None:
     report = resimulate_base(recorded, "dynamic")
     assert report.steps_compared >= 52 * 25
     assert report.max_path_deviation == 0.0  # the recorded controller, the same commands
+    assert report.recorded_encoder_distance == report.resimulated_encoder_distance
+    assert "wheel slip (re-run)" in report.format()
     # a threshold on the path deviation sets the exit code
     assert (
         main(["replay", str(recorded), "--mode", "kinematic", "--max-tracking-error", "1e-9"]) == 1
@@ -84,3 +90,26 @@ def test_a_planar_recording_has_no_wheels_for_the_dynamic_mode(tmp_path: Path) -
         resimulate_base(path, "dynamic")
     kinematic = resimulate_base(path, "kinematic")
     assert kinematic.max_path_deviation == 0.0
+
+
+def test_contact_pairs_name_a_wall_the_base_reaches() -> None:
+    import warnings
+
+    import numpy as np
+
+    from harness.replay.base_checks import contact_pairs, robot_bodies
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the base is set down onto the floor: a note
+        robot = load_mobile_bot(pose=[1.4, 0.0, 0.0])
+    model = robot.model
+    free = next(j for j in range(model.njnt) if model.jnt_type[j] == 0)
+    adr = int(model.jnt_qposadr[free])
+    away = np.array([model.qpos0], dtype=float)  # the loaded pose: x = 1.4, on the floor
+    into = away.copy()
+    into[0, adr] = 2.0 - 0.09 + 0.01  # the chassis front 1 cm into the east wall (x = 2.0)
+    bodies = robot_bodies(model, model.joint(free).name)
+    assert contact_pairs(model, away, bodies) == set()
+    hits = contact_pairs(model, np.vstack([away, into]), bodies)
+    assert ("base_link", "room::east_wall") in hits
+    assert {other for _, other in hits} == {"room::east_wall"}

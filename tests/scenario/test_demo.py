@@ -23,7 +23,7 @@ def test_harness_demo_showcase(tmp_path):
     scenario_hashes = re.findall(r"iteration [12] state sha256 ([0-9a-f]{64})", text)
     assert len(scenario_hashes) == 2
     assert scenario_hashes[0] == scenario_hashes[1]
-    assert "2/2 iterations passed" in text
+    assert "4/4 iterations passed" in text  # the demo's 2 and the mobile sensor glance's 2
     assert "iterations: identical state streams" in text
     # 2. The replay verdict.
     assert re.search(r"REPRODUCED: 2500 steps", text), text
@@ -48,4 +48,10 @@ def test_harness_demo_showcase(tmp_path):
     assert Path(report.group(1)) == (out / "report.html").resolve()
     assert Path(report.group(1)).is_file()
     assert (out / "demo" / "iteration-001" / "recording.mcap").is_file()
+    # The mobile robot's sensors in the same report: a LaserScan plot and a camera frame.
+    page = Path(report.group(1)).read_text()
+    scan = re.search(r'<figure class="scan"><svg.*?</svg><figcaption>/scan at', page)
+    assert scan is not None
+    assert scan.group(0).count('r="1.5"') > 20  # the room's walls and obstacle, point by point
+    assert re.search(r'<img alt="/front_camera/image_raw" src="data:image/png;base64,', page)
     assert text.rstrip().splitlines()[-1].startswith("verdict: PASS")
