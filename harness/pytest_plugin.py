@@ -141,6 +141,7 @@ MARKER_KEYS = frozenset(
         "collisions",
         "joint_limits",
         "connect",  # the marker's spelling of Session(connect_to=)
+        "world",  # a Gazebo world as the map: the same option as scene (harness serve --world)
         *_SESSION_KEYS,
     }
 )
@@ -535,6 +536,13 @@ class _TestRun:
             opts = {**from_file, **opts}
         if "connect" in opts:  # the marker's spelling of Session(connect_to=)
             opts["connect_to"] = opts.pop("connect")
+        if "world" in opts:
+            if opts.get("scene") is not None:
+                raise pytest.UsageError(
+                    f"{self.item.nodeid}: harness marker: world= and scene= name the same "
+                    "option (the map); give one"
+                )
+            opts["scene"] = opts.pop("world")
         robots = opts.pop("robots", None)
         robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)

@@ -222,8 +222,10 @@ class Session:
     ``joint_command_topic``: the JointState command topic, relative to each robot's namespace or
     absolute; or namespace -> topic per robot. ``loggers``: loggers or factories ``f(session) ->
     Logger``; ``sinks``: event sinks besides the recording and ``/rosout``. ``scene``, ``seed``,
-    ``scenario``: passed to the loader and the recording's metadata. ``start``: ``"now"``,
-    ``"paused"`` or ``"on_client"`` (free-running clocks only, see the module docstring).
+    ``scenario``: passed to the loader and the recording's metadata (``scene``: a built-in
+    name, an MJCF scene or an SDF world; ``world`` is the same option, as Gazebo users name
+    it). ``start``: ``"now"``, ``"paused"`` or ``"on_client"`` (free-running clocks only, see
+    the module docstring).
     ``record_bridge_frames``: record the bridge frames and markers (default True).
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for.
     ``robot_args``: the arguments of a xacro ``robot`` (name -> value; with ``robots`` each
@@ -263,6 +265,7 @@ class Session:
         loggers: Iterable[Logger | LoggerFactory] = (),
         sinks: Iterable[Sink] = (),
         scene: str | Path | None = None,
+        world: str | Path | None = None,
         seed: int = 0,
         scenario: str | bytes | None = None,
         start: StartMode = "now",
@@ -277,6 +280,10 @@ class Session:
     ) -> None:
         if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
             raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
+        if world is not None:  # the map as a Gazebo user names it: the same option as scene
+            if scene is not None:
+                raise SessionConfigError("world and scene name the same option (the map): give one")
+            scene = world
         if token is not None and connect_to is not None:
             raise SessionConfigError(
                 "token protects the embedded server; for an external server put its token "

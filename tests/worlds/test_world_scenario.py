@@ -40,3 +40,29 @@ def test_scenario_objects_join_an_sdf_world(tmp_path: Path) -> None:
     model = mujoco.MjModel.from_xml_path(str(scene_for(scenario, tmp_path)))
     assert model.body("ball").id > 0
     assert model.body("crate::body").id > 0
+
+
+def test_world_is_the_scene_option_in_session_and_marker(pytester) -> None:
+    """``world=`` (as Gazebo users name the map) is ``scene=``: the same bodies load; giving
+    both is refused with one line."""
+    import pytest
+
+    from harness.session import Session, SessionConfigError
+
+    with Session(TWO_LINK, world=WORLD) as session:
+        names = {session.sim.model.body(b).name for b in range(session.sim.model.nbody)}
+    assert {"wall::link", "crate::body", "arm"} <= names
+    with pytest.raises(SessionConfigError, match="world and scene name the same option"):
+        Session(TWO_LINK, world=WORLD, scene="empty")
+    pytester.makepyfile(
+        test_world=f"""
+        import pytest
+
+        @pytest.mark.harness(robot={str(TWO_LINK)!r}, world={str(WORLD)!r})
+        def test_it(harness_session):
+            model = harness_session.sim.model
+            assert "crate::body" in {{model.body(b).name for b in range(model.nbody)}}
+        """
+    )
+    result = pytester.runpytest_inprocess("-p", "no:cacheprovider")  # the plugin: entry point
+    result.assert_outcomes(passed=1)
