@@ -32,10 +32,9 @@ from harness.controllers.base import (
     LogLine,
     Output,
     Publication,
-    TopicEndpoint,
 )
 from harness.controllers.config import ControllerSpec
-from harness.controllers.odometry import OdometryFrames, odometry_publications
+from harness.controllers.odometry import BaseSettings, odometry_publications, read_twist
 from harness.controllers.params import Params
 
 __all__ = ["TYPE_DIFF_DRIVE", "DiffDriveController", "Odometry", "SpeedLimits"]
@@ -146,24 +145,12 @@ class DiffDriveController:
         self.right_radius = radius * p.number("right_wheel_radius_multiplier", 1.0)
         if self.separation <= 0 or self.left_radius <= 0 or self.right_radius <= 0:
             raise p.error("wheel_separation and wheel_radius must be given and positive")
-        self.timeout_ns = round(p.number("cmd_vel_timeout", 0.5, minimum=0.0) * _NS)
-        rate = p.number("publish_rate", 50.0, minimum=0.0)
-        self.publish_period_ns = round(_NS / rate) if rate > 0 else 0
-        self.odom_frame = p.string("odom_frame_id", "odom")
-        self.base_frame = p.string("base_frame_id", "base_link")
-        self.odom_tf = p.flag("enable_odom_tf", True)
+        self.settings = BaseSettings.read(p)
         self.open_loop = p.flag("open_loop", False) or not p.flag("position_feedback", True)
-        self.stamped = p.flag("use_stamped_vel", True)
         self.linear_limits = SpeedLimits(p, "linear.x")
         self.angular_limits = SpeedLimits(p, "angular.z")
-        cmd_type = "geometry_msgs/msg/TwistStamped" if self.stamped else "geometry_msgs/msg/Twist"
-        self.cmd_topic = p.string("cmd_vel_topic", "~/cmd_vel")
-        self.odom_topic = p.string("odom_topic", "~/odom")
-        self.subscriptions = (TopicEndpoint(self.cmd_topic, cmd_type),)
-        publishers = [TopicEndpoint(self.odom_topic, "nav_msgs/msg/Odometry")]
-        if self.odom_tf:
-            publishers.append(TopicEndpoint("/tf", "tf2_msgs/msg/TFMessage"))
-        self.publishers = tuple(publishers)
+        self.subscriptions = self.settings.subscriptions
+        self.publishers = self.settings.publishers
         self.command_interfaces = tuple(f"{j}/velocity" for j in (*self.left, *self.right))
         self.state_interfaces = tuple(f"{j}/position" for j in (*self.left, *self.right))
         self.active = False
@@ -208,16 +195,13 @@ class DiffDriveController:
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
-        twist = msg.get("twist", msg) if self.stamped else msg
-        try:
-            linear = float(twist["linear"]["x"])
-            angular = float(twist["angular"]["z"])
-        except (KeyError, TypeError, ValueError) as exc:
-            out.logs.append(LogLine(40, f"command refused: no {exc}", connection))
+        twist = read_twist(
+            msg, self.settings.stamped, (("linear", "x"), ("angular", "z")), connection
+        )
+        if isinstance(twist, LogLine):
+            out.logs.append(twist)
             return out
-        if not (math.isfinite(linear) and math.isfinite(angular)):
-            out.logs.append(LogLine(40, "command refused: non-finite velocity", connection))
-            return out
+        linear, angular = twist
         self.wanted = (linear, angular)
         self.last_command_ns = state.sim_time_ns
         return out
@@ -240,14 +224,15 @@ class DiffDriveController:
         self.previous = sides
         self.odometry.integrate(distance, rotation, dt)
         wanted = self.wanted
-        if self.last_command_ns is None or now - self.last_command_ns > self.timeout_ns:
+        if self.last_command_ns is None or now - self.last_command_ns > self.settings.timeout_ns:
             wanted = (0.0, 0.0)
         linear = self.linear_limits.clamp(wanted[0], self.applied[0], dt)
         angular = self.angular_limits.clamp(wanted[1], self.applied[1], dt)
         self.applied = (linear, angular)
         out.commands += self._wheel_commands(linear, angular)
-        due = self.publish_period_ns == 0 or self.last_publish_ns is None
-        due = due or now - (self.last_publish_ns or 0) >= self.publish_period_ns
+        period = self.settings.publish_period_ns
+        due = period == 0 or self.last_publish_ns is None
+        due = due or now - (self.last_publish_ns or 0) >= period
         if due:
             self.last_publish_ns = now
             out.publications += self._publications(now)
@@ -255,8 +240,8 @@ class DiffDriveController:
 
     def _publications(self, now: int) -> list[Publication]:
         o = self.odometry
-        frames = OdometryFrames(self.odom_topic, self.odom_frame, self.base_frame, self.odom_tf)
-        return odometry_publications(frames, now, (o.x, o.y, o.heading), (o.linear, 0.0, o.angular))
+        pose, velocity = (o.x, o.y, o.heading), (o.linear, 0.0, o.angular)
+        return odometry_publications(self.settings.frames, now, pose, velocity)
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings

@@ -25,11 +25,10 @@ from harness.controllers.base import (
     LogLine,
     Output,
     Publication,
-    TopicEndpoint,
 )
 from harness.controllers.config import ControllerSpec
 from harness.controllers.diff_drive import SpeedLimits
-from harness.controllers.odometry import OdometryFrames, odometry_publications
+from harness.controllers.odometry import BaseSettings, odometry_publications, read_twist
 from harness.controllers.params import Params
 
 __all__ = ["TYPE_PLANAR", "PlanarController"]
@@ -50,27 +49,15 @@ class PlanarController:
         p = Params(spec, source)
         self.name = spec.name
         self.type = spec.type
-        self.timeout_ns = round(p.number("cmd_vel_timeout", 0.5, minimum=0.0) * _NS)
-        rate = p.number("publish_rate", 50.0, minimum=0.0)
-        self.publish_period_ns = round(_NS / rate) if rate > 0 else 0
-        self.odom_frame = p.string("odom_frame_id", "odom")
-        self.base_frame = p.string("base_frame_id", "base_link")
-        self.base_joint = p.string("base_joint", self.base_frame + _FREE)
-        self.odom_tf = p.flag("enable_odom_tf", True)
-        self.stamped = p.flag("use_stamped_vel", True)
+        self.settings = BaseSettings.read(p)
+        self.base_joint = p.string("base_joint", self.settings.frames.base_frame + _FREE)
         self.limits = (
             SpeedLimits(p, "linear.x"),
             SpeedLimits(p, "linear.y"),
             SpeedLimits(p, "angular.z"),
         )
-        cmd_type = "geometry_msgs/msg/TwistStamped" if self.stamped else "geometry_msgs/msg/Twist"
-        self.cmd_topic = p.string("cmd_vel_topic", "~/cmd_vel")
-        self.odom_topic = p.string("odom_topic", "~/odom")
-        self.subscriptions = (TopicEndpoint(self.cmd_topic, cmd_type),)
-        publishers = [TopicEndpoint(self.odom_topic, "nav_msgs/msg/Odometry")]
-        if self.odom_tf:
-            publishers.append(TopicEndpoint("/tf", "tf2_msgs/msg/TFMessage"))
-        self.publishers = tuple(publishers)
+        self.subscriptions = self.settings.subscriptions
+        self.publishers = self.settings.publishers
         self.active = False
         self.wanted = (0.0, 0.0, 0.0)
         self.applied = (0.0, 0.0, 0.0)
@@ -102,19 +89,12 @@ class PlanarController:
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
-        twist = msg.get("twist", msg) if self.stamped else msg
-        try:
-            wanted = (
-                float(twist["linear"]["x"]),
-                float(twist["linear"]["y"]),
-                float(twist["angular"]["z"]),
-            )
-        except (KeyError, TypeError, ValueError) as exc:
-            out.logs.append(LogLine(40, f"command refused: no {exc}", connection))
+        axes = (("linear", "x"), ("linear", "y"), ("angular", "z"))
+        twist = read_twist(msg, self.settings.stamped, axes, connection)
+        if isinstance(twist, LogLine):
+            out.logs.append(twist)
             return out
-        if not all(math.isfinite(v) for v in wanted):
-            out.logs.append(LogLine(40, "command refused: non-finite velocity", connection))
-            return out
+        wanted = (twist[0], twist[1], twist[2])
         self.wanted = wanted
         self.last_command_ns = state.sim_time_ns
         return out
@@ -132,7 +112,7 @@ class PlanarController:
         self.pose = [x + (vx * cos - vy * sin) * dt, y + (vx * sin + vy * cos) * dt,
                      heading + wz * dt]  # fmt: skip
         wanted = self.wanted
-        if self.last_command_ns is None or now - self.last_command_ns > self.timeout_ns:
+        if self.last_command_ns is None or now - self.last_command_ns > self.settings.timeout_ns:
             wanted = (0.0, 0.0, 0.0)
         applied = tuple(
             lim.clamp(w, a, dt) for lim, w, a in zip(self.limits, wanted, self.applied, strict=True)
@@ -140,17 +120,17 @@ class PlanarController:
         if applied != self.applied:
             out.base = self._base((applied[0], applied[1], applied[2]))
         self.applied = (applied[0], applied[1], applied[2])
-        due = self.publish_period_ns == 0 or self.last_publish_ns is None
-        due = due or now - (self.last_publish_ns or 0) >= self.publish_period_ns
+        period = self.settings.publish_period_ns
+        due = period == 0 or self.last_publish_ns is None
+        due = due or now - (self.last_publish_ns or 0) >= period
         if due:
             self.last_publish_ns = now
             out.publications += self._publications(now)
         return out
 
     def _publications(self, now: int) -> list[Publication]:
-        frames = OdometryFrames(self.odom_topic, self.odom_frame, self.base_frame, self.odom_tf)
         x, y, heading = self.pose
-        return odometry_publications(frames, now, (x, y, heading), self.applied)
+        return odometry_publications(self.settings.frames, now, (x, y, heading), self.applied)
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
