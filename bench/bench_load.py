@@ -10,15 +10,12 @@ step rate under load against real time, and whether the recording holds every fr
 
 from __future__ import annotations
 
-import sys
 import tempfile
 from pathlib import Path
 
 from common import Row
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "load"))
-
-from loadrun import load_run
+from tests.load.loadrun import load_run
 
 CLIENTS, RATE = 20, 1000.0
 

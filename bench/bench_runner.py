@@ -27,7 +27,7 @@ from harness.scenario import (
     run_iterations,
     session_iteration_runner,
 )
-from harness.scenario.standins import StepLoadRunner
+from tests.scenario.standins import StepLoadRunner
 
 
 def _throughput(workers: int, specs: list, runner: IterationRunner) -> float:

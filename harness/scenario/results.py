@@ -2,7 +2,7 @@
 
 :class:`IterationRunner` is the narrow interface between the runner machinery (iterations,
 workers, reports) and whatever runs one iteration: the session-backed runner, or the stand-ins
-in :mod:`harness.scenario.standins`. Everything here is a frozen dataclass of plain values so
+in :mod:`tests.scenario.standins`. Everything here is a frozen dataclass of plain values so
 it pickles to worker processes and Dask workers and serialises to ``results.json``.
 """
 

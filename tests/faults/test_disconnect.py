@@ -6,11 +6,11 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
-from faultlib import recv, send, wait_until
 from websockets.asyncio.client import connect
 
 from harness.rosbridge import DEFERRED, ActionGoal, BridgeServer, ServiceCall
 from harness.session import Session
+from tests.faults.faultlib import recv, send, wait_until
 
 TRIGGER = "std_srvs/srv/Trigger"
 FIBONACCI = "example_interfaces/action/Fibonacci"

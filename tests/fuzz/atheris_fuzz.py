@@ -17,8 +17,6 @@ from pathlib import Path
 
 import atheris
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 with atheris.instrument_imports(include=["harness"]):
     import fuzzlib
 

@@ -15,11 +15,18 @@ import os
 from typing import Any
 
 import pytest
-from fuzzlib import INTERESTING, frames_seed, mutate_bytes, mutate_values, registry, targets
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from harness.rosbridge import Bridge
+from tests.fuzz.fuzzlib import (
+    INTERESTING,
+    frames_seed,
+    mutate_bytes,
+    mutate_values,
+    registry,
+    targets,
+)
 
 SCALE = int(os.environ.get("HARNESS_FUZZ_EXAMPLES", "0"))
 TARGETS = targets()

@@ -10,7 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from loadrun import load_run
+
+from tests.load.loadrun import load_run
 
 RSS_GROWTH_LIMIT_MB = 200.0
 

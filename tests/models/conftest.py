@@ -2,23 +2,13 @@
 
 from __future__ import annotations
 
-import sysconfig
 from pathlib import Path
 
 import pytest
 
+from tests.models.paths import robots_dir
+
 DATA = Path(__file__).resolve().parents[1] / "data" / "models"
-
-
-def robots_dir() -> Path:
-    """Where the PyPI package example-robot-data installs its robots."""
-    for key in ("purelib", "platlib"):
-        candidate = (
-            Path(sysconfig.get_paths()[key]) / "cmeel.prefix/share/example-robot-data/robots"
-        )
-        if candidate.is_dir():
-            return candidate
-    raise RuntimeError("example-robot-data is not installed (a test dependency)")
 
 
 @pytest.fixture(scope="session")

@@ -1,17 +1,18 @@
 """The example-robot-data corpus as the tests and the README table see it.
 
-``python tests/models/corpus.py`` prints the README's corpus table (every URDF loaded, held
+``python -m tests.models.corpus`` prints the README's corpus table (every URDF loaded, held
 for 10 s under gravity, the legged ones stood for 5 s as floating robots), from one run.
 """
 
 from __future__ import annotations
 
 import statistics
-import sys
 import tempfile
 import warnings
 from pathlib import Path
 from typing import NamedTuple
+
+from tests.models.paths import robots_dir
 
 HERE = Path(__file__).resolve().parent
 
@@ -58,17 +59,6 @@ FLOATING = (
 GAZEBO = HERE.parent / "data" / "gazebo_models"
 GAZEBO_MODELS = ("simple_arm", "double_pendulum_with_base", "pioneer3at", "simple_gripper")
 """Robots of osrf/gazebo_models (SDF): held as fixed robots, stood as they are (free)."""
-
-
-def robots_dir() -> Path:
-    """Where the PyPI package example-robot-data installs its robots."""
-    sys.path.insert(0, str(HERE))
-    try:
-        from conftest import robots_dir as find  # type: ignore[import-not-found]
-    finally:
-        sys.path.remove(str(HERE))
-    path: Path = find()
-    return path
 
 
 class Row(NamedTuple):

@@ -18,8 +18,8 @@ from harness.errors import HarnessError
 from harness.models import load_robot
 from harness.models.check import HOLD_RAD, check_loaded
 from harness.models.errors import ModelWarning
+from tests.models.paths import robots_dir
 
-from .conftest import robots_dir
 from .corpus import (
     EXPECTED_HOLD_FAILURES,
     EXPECTED_LOAD_FAILURES,

@@ -14,8 +14,9 @@ from harness.models import load_robot
 from harness.models.errors import ModelStructureError, ModelWarning
 from harness.models.selfcollision import SAMPLES
 from harness.recording.describe import describe_run
+from tests.models.paths import robots_dir
 
-from .conftest import DATA, robots_dir
+from .conftest import DATA
 
 ARM = DATA / "overlapping_arm.urdf"
 KINOVA = "kinova_description/robots/kinova.urdf"
@@ -193,7 +194,9 @@ def test_auto_policy_samples_ranges_wider_than_a_float_can_span(tmp_path):
     )
     urdf = tmp_path / "wide.urdf"
     urdf.write_text(
-        '<robot name="wide"><link name="base"/>' + link.format("arm") + link.format("arm2")
+        '<robot name="wide"><link name="base"/>'
+        + link.format("arm")
+        + link.format("arm2")
         + '<joint name="j" type="revolute"><parent link="base"/><child link="arm"/>'
         '<limit lower="-1e308" upper="1e308" effort="1" velocity="1"/></joint>'
         '<joint name="k" type="prismatic"><parent link="arm"/><child link="arm2"/>'

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -24,6 +23,7 @@ import mujoco
 import pytest
 
 from harness.models import LoadedRobot, load_robot
+from tests.models.paths import robots_dir
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parent / "data" / "models"
@@ -36,13 +36,7 @@ GOLDEN = (
 
 
 def _robots_dir() -> Path:
-    sys.path.insert(0, str(HERE))
-    try:
-        from conftest import robots_dir  # type: ignore[import-not-found]
-    finally:
-        sys.path.remove(str(HERE))
-    path: Path = robots_dir()
-    return path
+    return robots_dir()
 
 
 def _demo_mjcf(folder: Path) -> Path:

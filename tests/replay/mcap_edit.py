@@ -2,7 +2,8 @@
 
 ``rewrite(src, dst, edit=fn, metadata=fn, attachments=fn)``: ``edit(topic, msg)`` gets every
 decoded message (a rosbags object, modifiable in place) and returns it, or ``None`` to drop it;
-``metadata``/``attachments`` map the old dict to the new one; ``chunk_size`` as the recorder's.
+``metadata``/``attachments`` map the old dict to the new one (``metadata`` applies to the
+metadata record named ``metadata_name``); ``chunk_size`` as the recorder's.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ def rewrite(
     edit: Callable[[str, Any], Any] | None = None,
     metadata: Callable[[dict[str, str]], dict[str, str]] | None = None,
     attachments: Callable[[dict[str, bytes]], dict[str, bytes]] | None = None,
+    metadata_name: str = "harness",
     chunk_size: int = 1024 * 1024,
 ) -> Path:
     store = typestore()
@@ -36,7 +38,7 @@ def rewrite(
         writer.start(profile=header.profile, library=header.library)
         for record in reader.iter_metadata():
             data = dict(record.metadata)
-            if metadata is not None and record.name == "harness":
+            if metadata is not None and record.name == metadata_name:
                 data = metadata(data)
             writer.add_metadata(record.name, data)
         blobs = {a.name: (a.media_type, bytes(a.data)) for a in reader.iter_attachments()}

@@ -4,12 +4,7 @@ x86_64 Linux only)."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from harness.ros2 import Ros2Install, Ros2Unavailable, find_ros2
 

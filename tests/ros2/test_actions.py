@@ -6,13 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from ros2_paths import ROOT
 
 from harness.cli import main
 from harness.recording import Recording
 from harness.ros2 import Ros2Install
 from harness.ros2.testing import run_node
 from harness.session import Session
+from tests.ros2.ros2_paths import ROOT
 
 CLIENT = ROOT / "tests" / "ros2" / "follow_trajectory.py"
 ARM = "/joint_trajectory_controller/follow_joint_trajectory"

@@ -6,9 +6,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from ros2_paths import ROOT
-
 from harness.ros2 import Ros2Install
+from tests.ros2.ros2_paths import ROOT
 
 
 def _plugin_args() -> tuple[str, ...]:

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ros2_paths import ARM_NODE
 
 from harness.events import CollectingSink, Level, LogMessage
 from harness.recording import Recording
@@ -17,6 +16,7 @@ from harness.replay import verify
 from harness.ros2 import Ros2Install, choose_domain_id
 from harness.ros2.testing import free_port, rosbridge_server, run_node, start_node
 from harness.session import Session
+from tests.ros2.ros2_paths import ARM_NODE
 
 BAD_NODE = """
 import rclpy

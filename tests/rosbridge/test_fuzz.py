@@ -8,13 +8,13 @@ import asyncio
 import json
 from typing import Any
 
-from helpers import recv_json, send_json, wait_for
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
 from websockets.asyncio.client import connect
 
 from harness.rosbridge import Bridge, BridgeServer, TypeRegistry
+from tests.rosbridge.helpers import recv_json, send_json, wait_for
 
 REGISTRY = TypeRegistry()
 TOPICS = st.sampled_from(["/a", "/b", "c", "/good"])

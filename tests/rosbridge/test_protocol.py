@@ -11,12 +11,12 @@ from typing import Any
 import cbor2
 import numpy as np
 import pytest
-from helpers import install_test_graph
 from rosbags.typesys import Stores
 
 from harness.rosbridge import DEFERRED, Bridge, ServiceCall, TapRecord, TypeRegistry
 from harness.rosbridge.errors import TypeNameError, UnknownTypeError
 from harness.rosbridge.types import parse_type_name
+from tests.rosbridge.helpers import install_test_graph
 
 REGISTRY = TypeRegistry()  # parsing the bundled definitions once keeps the suite fast
 

@@ -8,7 +8,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-from helpers import make_server
+
+from tests.rosbridge.helpers import make_server
 
 NODE_DIR = Path(__file__).resolve().parents[1] / "node"
 SCRIPT = NODE_DIR / "rosbridge_roslibjs.mjs"

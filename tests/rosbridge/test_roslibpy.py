@@ -9,7 +9,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import make_server
+
+from tests.rosbridge.helpers import make_server
 
 SCENARIO = Path(__file__).with_name("roslibpy_scenario.py")
 

@@ -7,10 +7,10 @@ import asyncio
 import json
 from typing import Any
 
-from helpers import make_server, recv_json, send_json, wait_for
 from websockets.asyncio.client import connect
 
 from harness.rosbridge import BridgeClient, BridgeServer
+from tests.rosbridge.helpers import make_server, recv_json, send_json, wait_for
 
 STRING = "std_msgs/String"
 

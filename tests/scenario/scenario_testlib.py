@@ -1,7 +1,7 @@
 """Shared paths and helpers of the scenario tests.
 
-Imported as a top-level module (the test modules put this folder on ``sys.path``), so spawned
-worker processes, which inherit ``sys.path``, can unpickle the runners defined here.
+Imported as ``tests.scenario.scenario_testlib`` (pytest puts the project root on ``sys.path``),
+so spawned worker processes, which inherit ``sys.path``, can unpickle the runners defined here.
 """
 
 import os

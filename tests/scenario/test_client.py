@@ -9,10 +9,8 @@ from pathlib import Path
 import pytest
 
 from harness.scenario import ClientSpec, run_client
-from harness.scenario.standins import StandInHost
-
-sys.path.insert(0, str(Path(__file__).parent))
-from scenario_testlib import CLIENT, process_gone
+from tests.scenario.scenario_testlib import CLIENT, process_gone
+from tests.scenario.standins import StandInHost
 
 
 def _spec(tmp_path, mode, readiness=20.0, wall=60.0):

@@ -17,9 +17,7 @@ from harness.replay import verify
 from harness.replay.source import rebuild_run
 from harness.scenario import Scenario
 from harness.scenario.world import build_world, plan_world, robot_namespaces
-
-sys.path.insert(0, str(Path(__file__).parent))
-from scenario_testlib import DATA
+from tests.scenario.scenario_testlib import DATA
 
 LOCKSTEP = DATA / "clients" / "lockstep.py"
 TWO_LINK = DATA / "robots" / "two_link.urdf"

@@ -5,16 +5,13 @@ import dataclasses
 import re
 import struct
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from harness.scenario import ClientOutcome, Scenario, iteration_specs, load_run_file, render_html
-from harness.scenario.standins import StepLoadRunner
-
-sys.path.insert(0, str(Path(__file__).parent))
-from scenario_testlib import EXAMPLES
+from tests.scenario.scenario_testlib import EXAMPLES
+from tests.scenario.standins import StepLoadRunner
 
 CHROMIUM = Path("/usr/bin/chromium")
 

@@ -7,7 +7,6 @@ import json
 import math
 import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 import yaml
@@ -21,10 +20,8 @@ from harness.scenario import (
     run_iterations,
 )
 from harness.scenario._cli import execute
-from harness.scenario.standins import ClientRunner, StepLoadRunner
-
-sys.path.insert(0, str(Path(__file__).parent))
-from scenario_testlib import CLIENT, EXAMPLES, gone_runner, process_gone
+from tests.scenario.scenario_testlib import CLIENT, EXAMPLES, gone_runner, process_gone
+from tests.scenario.standins import ClientRunner, StepLoadRunner
 
 PASSING = {
     "robots": [{"robot": "demo"}],

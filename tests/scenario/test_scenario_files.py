@@ -4,7 +4,6 @@ agreement between the shipped JSON Schemas and the dataclasses."""
 import dataclasses
 import json
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,9 +13,7 @@ from harness.events import LOGGING_SCHEMA, SinkSpec
 from harness.scenario import Scenario, ScenarioError, load_run_file
 from harness.scenario import scenario as sc
 from harness.scenario._validation import schema, validator
-
-sys.path.insert(0, str(Path(__file__).parent))
-from scenario_testlib import DATA, EXAMPLES
+from tests.scenario.scenario_testlib import DATA, EXAMPLES
 
 BROKEN = DATA / "broken"
 

@@ -22,9 +22,7 @@ from harness.scenario import (
     session_iteration_runner,
 )
 from harness.scenario.runfile import SimulationPlan
-
-sys.path.insert(0, str(Path(__file__).parent))
-from scenario_testlib import CLIENT, DATA, process_gone
+from tests.scenario.scenario_testlib import CLIENT, DATA, process_gone
 
 LOCKSTEP = DATA / "clients" / "lockstep.py"
 TWO_LINK = DATA / "robots" / "two_link.urdf"

@@ -3,19 +3,14 @@ a suite of sensors on it, read at a step without a session."""
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import mujoco
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # importlib mode: find sensor_helpers
-
-from sensor_helpers import RIG
-
 from harness.sensors import RobotMount, SensorSuite
+from tests.sensors.sensor_helpers import RIG
 
 Read = Callable[..., dict[str, Mapping[str, Any]]]
 

@@ -12,9 +12,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from sensor_helpers import RIG
 
 from harness.session import Session
+from tests.sensors.sensor_helpers import RIG
 
 NODE_DIR = Path(__file__).resolve().parents[1] / "node"
 NODE = shutil.which("node")

@@ -7,11 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from sensor_helpers import DATA
 
 from harness.recording import Recording
 from harness.sensors import SensorConfigError, SensorSpec, sensors_from_urdf
 from harness.session import Session
+from tests.sensors.sensor_helpers import DATA
 
 
 def _recorded(robot: Path, tmp_path: Path, steps: int) -> dict[str, tuple[str, set[str]]]:

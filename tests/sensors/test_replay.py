@@ -12,11 +12,11 @@ from pathlib import Path
 import cbor2
 import numpy as np
 import websockets
-from sensor_helpers import RIG, rewrite_images
 
 from harness.recording import Recording
 from harness.replay.pipeline import replay_pipeline
 from harness.session import Session
+from tests.sensors.sensor_helpers import RIG, rewrite_images
 
 SENSORS = [
     {"name": "cam", "type": "rgbd", "parent": "mount", "width": 32, "height": 24},

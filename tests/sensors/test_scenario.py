@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from sensor_helpers import RIG
 
 from harness.scenario import Scenario, ScenarioError
+from tests.sensors.sensor_helpers import RIG
 
 
 def _scenario(sensors: list) -> dict:

@@ -9,9 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from sensor_helpers import RIG
-
 from harness.session import Session
+from tests.sensors.sensor_helpers import RIG
 
 PROBE = """
 import json, sys

@@ -3,17 +3,12 @@
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from session_helpers import Client
-
 from harness.models import LoadedRobot, load_robot
+from tests.session.session_helpers import Client
 
 
 @pytest.fixture

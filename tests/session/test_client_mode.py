@@ -10,7 +10,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from session_helpers import Client
 
 from harness.events import CollectingSink, LogMessage
 from harness.models import LoadedRobot
@@ -19,6 +18,7 @@ from harness.replay.pipeline import replay_pipeline
 from harness.rosbridge import BridgeServer
 from harness.session import Session
 from harness.session.upstream import UpstreamError
+from tests.session.session_helpers import Client
 
 
 @pytest.fixture

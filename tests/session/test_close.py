@@ -9,7 +9,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from session_helpers import Client
 
 from harness.models import LoadedRobot
 from harness.recording import BridgeFrame, Recording
@@ -17,6 +16,7 @@ from harness.replay import LevelUnavailableError, verify
 from harness.replay.diff import diff, frames_after_last_step
 from harness.replay.pipeline import replay_pipeline
 from harness.session import Session, SessionError
+from tests.session.session_helpers import Client
 
 
 def _frames(path: Path) -> list[BridgeFrame]:

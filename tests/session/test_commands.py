@@ -10,10 +10,10 @@ from typing import Any
 
 import numpy as np
 import pytest
-from session_helpers import Client
 
 from harness.models import LoadedRobot
 from harness.session import Session
+from tests.session.session_helpers import Client
 
 ARM = [f"joint{i}" for i in range(1, 8)]
 HOME = [0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4]

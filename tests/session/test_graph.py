@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from session_helpers import Client
 
 from harness.models import LoadedRobot, Pose
 from harness.recording import Recording
 from harness.session import Session
+from tests.session.session_helpers import Client
 
 PY_SCRIPT = Path(__file__).with_name("roslibpy_graph.py")
 NODE_DIR = Path(__file__).resolve().parents[1] / "node"
@@ -112,9 +112,7 @@ def _check_graph(out: dict[str, Any]) -> None:
         ],
         "services": [f"{FOLLOW}/_action/{a}" for a in actions],
     }
-    assert details["/gripper_controller"]["services"] == [
-        f"{GRIPPER}/_action/{a}" for a in actions
-    ]
+    assert details["/gripper_controller"]["services"] == [f"{GRIPPER}/_action/{a}" for a in actions]
     manager = details["/controller_manager"]["services"]
     assert "/controller_manager/list_controllers" in manager
     assert "/controller_manager/switch_controller" in manager

@@ -8,12 +8,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from session_helpers import Client
 from websockets.exceptions import ConnectionClosed
 
 from harness.models import LoadedRobot
 from harness.recording import Recording
 from harness.session import Session, SessionConfigError, SessionError, SimTimeoutError
+from tests.session.session_helpers import Client
 
 
 def _listening_ports() -> set[int]:

@@ -8,10 +8,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
-from session_helpers import Client
 
 from harness.models import LoadedRobot
 from harness.session import Session
+from tests.session.session_helpers import Client
 
 
 def _statuses(client: Client) -> list[str]:

@@ -11,12 +11,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from session_helpers import Client
 
 from harness.events import CollisionLogger
 from harness.models import LoadedRobot
 from harness.recording import Recording
 from harness.session import Session
+from tests.session.session_helpers import Client
 
 
 def test_record_to_holds_every_frame_input_and_state(

@@ -7,7 +7,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from session_helpers import Client
 
 from harness.models import LoadedRobot
 from harness.recording import Recording
@@ -17,6 +16,7 @@ from harness.session import (
     Session,
     SessionConfigError,
 )
+from tests.session.session_helpers import Client
 
 
 def test_on_client_clock_starts_at_step_zero_when_the_first_client_connects(

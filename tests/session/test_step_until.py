@@ -5,12 +5,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from session_helpers import Client
-
 from harness.models import LoadedRobot
 from harness.recording import Recording
 from harness.replay.pipeline import replay_pipeline
 from harness.session import Session
+from tests.session.session_helpers import Client
 
 
 def test_step_until_a_topic_has_published(
