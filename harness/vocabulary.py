@@ -44,8 +44,9 @@ class ControlMode(str, Enum):
 
     ``dynamic`` (the original framework's name, and the product's "kinematic vs dynamic") is an
     input alias of ``position`` (the robot's dynamic default), accepted by :meth:`parse` and by
-    ``ControlMode("dynamic")`` at every boundary (marker, ``--harness-mode``, scenario files,
-    ``Session``, ``harness serve --mode``, ``harness replay --mode``); it is never stored.
+    ``ControlMode("dynamic")`` at every boundary (marker, scenario files, ``Session``,
+    ``harness serve --mode``); it is never stored. The whole-run switch
+    (``--harness-actuation``, ``harness replay --actuation``) is :class:`Actuation`.
     """
 
     KINEMATIC = "kinematic"

@@ -523,8 +523,8 @@ def _same_mode_note(modes: Mapping[str, str], actuation: Actuation) -> str:
     if len(joints) == len(modes):
         return (
             f"every joint was recorded in {same} mode: re-simulating with {actuation} "
-            "actuation re-runs the recorded control, so only differences of the re-simulation's setup (servo "
-            "gains, unclamped kinematic limits) can show"
+            "actuation re-runs the recorded control, so only differences of the "
+            "re-simulation's setup (servo gains, unclamped kinematic limits) can show"
         )
     return f"joints {', '.join(joints)} were recorded in {same} mode already"
 
