@@ -200,7 +200,7 @@ class LimitPolicy(_Vocabulary):
     @classmethod
     def parse(cls, value: object, where: str = LIMIT_POLICY_KEY) -> LimitPolicy:
         """``value`` as a member; a ValueError naming ``where`` and the spellings otherwise."""
-        result: LimitPolicy = _parse(cls, value, where, LIMIT_POLICY_KEY, LIMIT_POLICIES)
+        result: LimitPolicy = _parse(cls, value, where, "limit policy", LIMIT_POLICIES)
         return result
 
 
