@@ -402,6 +402,8 @@ class CoreOptions:
             raise SessionConfigError(
                 f"joint_command_topic must be a topic name or namespace -> name, not {topics!r}"
             )
+        else:
+            _check_name(topics, "joint_command_topic")
 
     def command_topic(self, namespace: str) -> str:
         """The joint command topic name of the robot with ``namespace``."""
