@@ -45,10 +45,10 @@ import numpy.typing as npt
 
 from harness.errors import ConfigError, SimulationError
 from harness.models.description import CONTROL_MODE_INPUTS, CONTROL_MODES, ControlMode
+from harness.vocabulary import Actuation
 
 if TYPE_CHECKING:
     from harness.replay import Finding, ResimReport
-    from harness.replay.resim import ResimMode
 
 __all__ = [
     "MOBILE_SCENARIO",
@@ -325,7 +325,7 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
         config = dataclasses.replace(config, simulations=(*config.simulations, *glance))
     robot = scenario.robots[0]
     recorded_modes = {c.mode for c in robot.controllers} or {ControlMode.POSITION}
-    other: ResimMode = "dynamic" if recorded_modes == {"kinematic"} else "kinematic"
+    other = Actuation.SERVO if recorded_modes == {"kinematic"} else Actuation.KINEMATIC
     print(
         f"harness demo: {scenario.name}: {scenario.description}\n"
         f"1. The scenario over the rosbridge bridge, 2 iterations in 2 worker processes, recorded"
@@ -359,7 +359,7 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
     verified = verify(recording)
     print("  " + verified.format().replace("\n", "\n  "))
     checks.append(("replay reproduced", verified.reproduced))
-    print(f"3. Re-simulation with every joint {other} (harness.replay.resimulate)")
+    print(f"3. Re-simulation with {other} actuation (harness.replay.resimulate)")
     resim = resimulate(recording, other)
     for line in _resim_summary(resim):
         print(f"  {line}")

@@ -24,7 +24,7 @@ Fixtures
 
 Golden names carry every input that affects them besides the test's own code (dm_control
 style): when the session's control mode differs from the robot's default (every joint
-``position``), the mode is part of the name: ``--harness-mode=kinematic`` (or
+``position``), the mode is part of the name: ``--harness-actuation=kinematic`` (or
 ``@pytest.mark.harness(mode="kinematic")``) compares ``<test name>[kinematic].mcap``; a
 per-joint mode names the joints that differ, ``<test name>[joint1=velocity].mcap``. One test
 thus has one golden per mode, and switching modes never compares against the other's.
@@ -51,12 +51,13 @@ Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir`
 ``.harness/recordings`` under the rootdir; one sub-folder per xdist worker),
 ``--harness-keep-recordings {always,failed,never}`` (default ``failed``),
 ``--harness-update-goldens``, ``--harness-strict-bridge`` (a test whose bridge answered a
-client with an error ``status`` fails), ``--harness-mode {kinematic,position,dynamic}`` (run
-every session in kinematic or in dynamic control: ``position``, or its alias ``dynamic``, keeps
-a test's own dynamic modes and turns kinematic ones into position control),
+client with an error ``status`` fails), ``--harness-actuation {kinematic,servo}`` (run
+every session with every joint kinematic, or as a servo: ``servo`` keeps a test's own dynamic
+modes and turns kinematic ones into position control; :class:`harness.vocabulary.Actuation`;
+``--harness-mode`` with ``kinematic|position|dynamic`` is its deprecated spelling),
 ``--harness-golden-dir`` (default ``recordings``). Control modes are
 :class:`harness.vocabulary.ControlMode`: ``kinematic | position | velocity | effort``, with
-``dynamic`` accepted everywhere (marker, option, scenario) as ``position``.
+``dynamic`` accepted at every boundary (marker, scenario, ``Session``) as ``position``.
 
 On failure the report gets a ``harness`` section: the recording's path, the
 ``harness replay`` command, the collision/joint-limit/log event summary, bridge errors and the
@@ -81,7 +82,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
+from harness.vocabulary import ACTUATION_INPUTS, ACTUATIONS, Actuation, ControlMode
 
 if TYPE_CHECKING:
     from harness.events import CollectingSink
@@ -102,13 +103,8 @@ __all__ = [
 ]
 
 KEEP_CHOICES = ("always", "failed", "never")
-MODE_CHOICES = tuple(
-    m
-    for m in CONTROL_MODE_INPUTS
-    if ControlMode(m) in (ControlMode.KINEMATIC, ControlMode.POSITION)
-)
-"""``--harness-mode``: ``kinematic`` (every joint), or ``position`` (alias ``dynamic``: every
-kinematic joint becomes a position servo, dynamic modes are kept)."""
+MODE_CHOICES = ACTUATION_INPUTS
+"""The deprecated ``--harness-mode``'s spellings (``position``/``dynamic`` mean ``servo``)."""
 _SESSION_KEYS = (
     "rate",
     "namespace",
@@ -166,7 +162,7 @@ class HarnessSettings:
     keep_recordings: str
     update_goldens: bool
     strict_bridge: bool
-    mode: str | None
+    actuation: Actuation | None
     golden_dir: Path
     plugin_args: tuple[str, ...]
     """Arguments that load this plugin when it is not installed as an entry point."""
@@ -238,10 +234,19 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     _add(
         parser,
         group,
+        "--harness-actuation",
+        "harness_actuation",
+        "run every session with every joint kinematic, or as a servo: every kinematic joint "
+        "a position servo (velocity and effort joints kept)",
+        default="",
+        choices=ACTUATIONS,
+    )
+    _add(
+        parser,
+        group,
         "--harness-mode",
         "harness_mode",
-        "run every session in kinematic control, or position (alias dynamic): every "
-        "kinematic joint a position servo",
+        "deprecated spelling of --harness-actuation (position and dynamic mean servo)",
         default="",
         choices=MODE_CHOICES,
     )
@@ -264,6 +269,27 @@ def _choice(config: pytest.Config, name: str, choices: tuple[str, ...], default:
                 f"ini option {name} = {value!r}: must be one of {', '.join(choices)}"
             )
     return str(value)
+
+
+def _actuation(config: pytest.Config) -> Actuation | None:
+    """``--harness-actuation``, or the deprecated ``--harness-mode`` with a warning."""
+    actuation = _choice(config, "harness_actuation", ("", *ACTUATIONS), "")
+    old = _choice(config, "harness_mode", ("", *MODE_CHOICES), "")
+    if old:
+        new = Actuation.parse(old).value
+        if actuation and actuation != new:
+            raise pytest.UsageError(
+                f"--harness-mode {old} and --harness-actuation {actuation} disagree "
+                "(--harness-mode is the deprecated spelling: give only --harness-actuation)"
+            )
+        config.issue_config_time_warning(
+            pytest.PytestDeprecationWarning(
+                f"--harness-mode / harness_mode is deprecated: use --harness-actuation {new}"
+            ),
+            stacklevel=2,
+        )
+        actuation = new
+    return Actuation(actuation) if actuation else None
 
 
 def _flag(config: pytest.Config, name: str) -> bool:
@@ -294,8 +320,7 @@ def pytest_configure(config: pytest.Config) -> None:
         "harness(robot='demo', *, scenario=None, mode=None, clock='lockstep', ...): configure "
         "the harness_session fixture (see harness.pytest_plugin)",
     )
-    mode = _choice(config, "harness_mode", ("", *MODE_CHOICES), "")
-    mode = ControlMode.parse(mode).value if mode else ""  # one spelling: dynamic is position
+    actuation = _actuation(config)
     record_dir = _folder(config, "harness_record_dir", _DEFAULT_RECORD_DIR)
     worker = _worker_id(config)
     if worker is not None:
@@ -307,7 +332,7 @@ def pytest_configure(config: pytest.Config) -> None:
         keep_recordings=_choice(config, "harness_keep_recordings", KEEP_CHOICES, "failed"),
         update_goldens=_flag(config, "harness_update_goldens"),
         strict_bridge=_flag(config, "harness_strict_bridge"),
-        mode=mode or None,
+        actuation=actuation,
         golden_dir=_folder(config, "harness_golden_dir", _DEFAULT_GOLDEN_DIR),
         plugin_args=() if from_entry_point else ("-p", _PLUGIN_MODULE),
     )
@@ -361,11 +386,15 @@ def parse_mode(mode: Any, where: str = "harness option 'mode'") -> Any:
 
 
 def _parse_load_options(opts: dict[str, Any], where: str) -> None:
-    """The marker's ``self_collision`` and ``base`` parsed in place (one spelling, from
-    :mod:`harness.vocabulary`); a wrong value fails the test naming it."""
-    from harness.vocabulary import RobotBase, SelfCollisionPolicy
+    """The marker's ``self_collision``, ``base``, ``clock`` and ``kinematic_limits`` parsed in
+    place (one spelling, from :mod:`harness.vocabulary`); a wrong value fails the test naming
+    it."""
+    from harness.vocabulary import ClockMode, LimitPolicy, RobotBase, SelfCollisionPolicy
 
     try:
+        for key, vocabulary in (("clock", ClockMode), ("kinematic_limits", LimitPolicy)):
+            if opts.get(key) is not None:
+                opts[key] = vocabulary.parse(opts[key], f"{where}: harness option {key!r}")
         if opts.get("self_collision") is not None:
             opts["self_collision"] = SelfCollisionPolicy.parse(
                 opts["self_collision"], f"{where}: harness option 'self_collision'"
@@ -378,14 +407,14 @@ def _parse_load_options(opts: dict[str, Any], where: str) -> None:
         pytest.fail(f"{where}: harness option 'strict' must be true or false", pytrace=False)
 
 
-def suite_mode(mode: Any, suite: str | None) -> Any:
+def suite_mode(mode: Any, suite: Actuation | str | None) -> Any:
     """The control mode a session runs in: the test's ``mode`` (parsed: ``dynamic`` is
-    ``position``) unless ``--harness-mode`` forces every joint kinematic, or every kinematic
-    joint to position control."""
+    ``position``) unless the suite's actuation (``--harness-actuation``) makes every joint
+    kinematic, or every kinematic joint a position servo (``servo``)."""
     mode = parse_mode(mode)
     if suite is None:
         return mode if mode is not None else ControlMode.POSITION
-    if ControlMode.parse(suite) is ControlMode.KINEMATIC:
+    if Actuation.parse(suite, "--harness-actuation") is Actuation.KINEMATIC:
         return ControlMode.KINEMATIC
     if isinstance(mode, Mapping):
         return {j: (m if m in _DYNAMIC else ControlMode.POSITION) for j, m in mode.items()}
@@ -499,7 +528,7 @@ class _TestRun:
         if mode is None and scenario is not None:
             path = _resolve_path(scenario, self.item, self.settings.rootdir)
             mode = _scenario_options(Path(path)).get("mode")
-        return suite_mode(mode, self.settings.mode)
+        return suite_mode(mode, self.settings.actuation)
 
     def golden_path(self) -> Path:
         module = Path(self.item.nodeid.split("::", 1)[0]).stem
@@ -548,7 +577,7 @@ class _TestRun:
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
         if "controllers" in opts:
             opts["controllers"] = _resolve_path(opts["controllers"], self.item, rootdir)
-        mode = suite_mode(opts.pop("mode", None), self.settings.mode)
+        mode = suite_mode(opts.pop("mode", None), self.settings.actuation)
         _parse_load_options(opts, self.item.nodeid)
         if robots is not None:
             if options.get("mode") is not None:
@@ -557,7 +586,7 @@ class _TestRun:
                     "robots= give each RobotSpec its control",
                     pytrace=False,
                 )
-            robots, mode = _suite_robots(robots, self.settings.mode)
+            robots, mode = _suite_robots(robots, self.settings.actuation)
             opts["robots"] = robots
         clock = opts.pop("clock", "lockstep")
         collisions = opts.pop("collisions", True)
@@ -768,8 +797,8 @@ class Golden:
         return report
 
 
-def _suite_robots(robots: Any, suite: str | None) -> tuple[list[Any], Any]:
-    """The marker's ``robots`` (RobotSpecs) with ``--harness-mode`` applied to each, and
+def _suite_robots(robots: Any, suite: Actuation | None) -> tuple[list[Any], Any]:
+    """The marker's ``robots`` (RobotSpecs) with ``--harness-actuation`` applied to each, and
     the control mode the golden name carries (one mode, or MuJoCo joint name -> mode)."""
     import dataclasses
 

@@ -27,6 +27,7 @@ from pathlib import Path
 from urllib.parse import unquote
 
 from harness.models.errors import ResolveError, UnknownPackageError
+from harness.names import package_problem
 
 __all__ = [
     "MODEL_PATH_VARIABLES",
@@ -149,14 +150,12 @@ def find_model(
     return found
 
 
-_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
-
-
 def _check_name(name: str, kind: str) -> None:
     if not name:
         raise ResolveError(f"empty {kind} name")
-    if not _NAME.fullmatch(name):
-        raise ResolveError(f"invalid {kind} name {name!r}")
+    problem = package_problem(name)
+    if problem is not None:
+        raise ResolveError(f"invalid {kind} name {name!r}: it {problem}")
 
 
 def _confined(root: Path, rest: str, kind: str, name: str) -> Path:

@@ -12,7 +12,6 @@ addresses; its :class:`RobotModel` keeps unprefixed names and model-frame poses,
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -26,6 +25,7 @@ from harness.models.description import ControlMode, Joint, Link, ModelFrame, Pos
 from harness.models.errors import ModelStructureError
 from harness.models.resolve import PackageMap
 from harness.models.xacro import RobotArgs
+from harness.names import name_problem
 
 __all__ = [
     "BASE_KINDS",
@@ -63,14 +63,13 @@ BaseKind = Literal["fixed", "floating"]
 BASE_KINDS: tuple[BaseKind, ...] = cast("tuple[BaseKind, ...]", vocabulary.BASE_KINDS)
 """The spellings of :class:`harness.vocabulary.RobotBase`."""
 
-_NAMESPACE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 _OBJECT_SIZES: Mapping[str, int] = MappingProxyType(
     {"box": 3, "sphere": 1, "cylinder": 2, "capsule": 2}
 )
 
 
 class InvalidNamespaceError(ModelStructureError):
-    """A robot namespace is not one ROS name segment (a letter, then letters, digits, ``_``)."""
+    """A robot namespace is not one ROS name segment (see :mod:`harness.names`)."""
 
 
 class DuplicateNamespaceError(ModelStructureError):
@@ -78,12 +77,12 @@ class DuplicateNamespaceError(ModelStructureError):
 
 
 def check_namespace(namespace: str, where: str) -> str:
-    """``namespace`` if it is empty or a valid ROS name segment, else
+    """``namespace`` if it is empty or a valid ROS name segment (:mod:`harness.names`), else
     :class:`InvalidNamespaceError` naming ``where``."""
-    if namespace and (not _NAMESPACE.fullmatch(namespace) or "__" in namespace):
+    problem = name_problem(namespace, "segment") if namespace else None
+    if problem is not None:
         raise InvalidNamespaceError(
-            f"{where}: namespace {namespace!r} is not a ROS name segment (a letter, then "
-            "letters, digits or single underscores; no '/')"
+            f"{where}: namespace {namespace!r} is not a ROS name segment: it {problem}"
         )
     return namespace
 

@@ -2,7 +2,7 @@
 re-simulation, playback of recorded bridge traffic, and the diff engine of golden tests.
 
 - :func:`verify` -> :class:`VerifyReport` (``harness replay FILE``)
-- :func:`resimulate` -> :class:`ResimReport` (``harness replay FILE --mode kinematic|dynamic``)
+- :func:`resimulate` -> :class:`ResimReport` (``harness replay FILE --actuation kinematic|servo``)
 - :func:`diff` -> :class:`DiffReport` with :class:`Tolerances` (``harness diff A B``)
 - :class:`Player` (``harness play FILE``)
 """

@@ -1,5 +1,6 @@
 """``harness replay FILE.mcap``: verify that a recording replays (exit 0), or re-simulate it
-with the other control mode (``--mode``)."""
+with every joint kinematic or a servo (``--actuation``; ``--mode`` is its deprecated
+spelling)."""
 
 from __future__ import annotations
 
@@ -8,17 +9,9 @@ import json
 import sys
 from pathlib import Path
 
-from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
+from harness.vocabulary import ACTUATION_INPUTS, ACTUATIONS, Actuation
 
 __all__ = ["add_arguments", "run"]
-
-RESIM_MODE_INPUTS = tuple(
-    m
-    for m in CONTROL_MODE_INPUTS
-    if ControlMode(m) in (ControlMode.KINEMATIC, ControlMode.POSITION)
-)
-"""The spellings ``--mode`` accepts: the re-simulation runs every joint kinematic or every
-joint a position servo (``dynamic``, the product's name for it, or ``position``)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -35,13 +28,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             "and compare every frame, applied input and state"
         ),
     )
-    parser.add_argument(
-        "--mode",
-        choices=RESIM_MODE_INPUTS,
+    switch = parser.add_mutually_exclusive_group()
+    switch.add_argument(
+        "--actuation",
+        choices=ACTUATIONS,
         default=None,
         help="re-simulate the recorded joint commands with every joint kinematic, or every "
-        "joint a position servo (position, or its alias dynamic); a recording with a mobile "
-        "base controller: re-run its /cmd_vel with a planar or a diff drive base",
+        "joint a position servo; a recording with a mobile base controller: re-run its "
+        "/cmd_vel with a planar (kinematic) or a diff drive (servo) base",
+    )
+    switch.add_argument(
+        "--mode",
+        choices=ACTUATION_INPUTS,
+        default=None,
+        help="deprecated spelling of --actuation (position and dynamic mean servo)",
     )
     parser.add_argument("--report", type=Path, default=None, help="write the report as JSON")
     parser.add_argument(
@@ -59,7 +59,14 @@ def run(args: argparse.Namespace) -> int:
     from harness.replay.progress import progress_bar
 
     if args.mode is not None:
-        from harness.replay.resim import ResimMode, Thresholds, resimulate
+        print(
+            f"harness replay: --mode is deprecated, use --actuation "
+            f"{Actuation.parse(args.mode).value}",
+            file=sys.stderr,
+        )
+        args.actuation = args.mode
+    if args.actuation is not None:
+        from harness.replay.resim import Thresholds, resimulate
 
         defaults = Thresholds()
         thresholds = Thresholds(
@@ -68,9 +75,7 @@ def run(args: argparse.Namespace) -> int:
                 for name, value in defaults._asdict().items()
             }
         )
-        mode: ResimMode = (
-            "kinematic" if ControlMode.parse(args.mode) is ControlMode.KINEMATIC else "dynamic"
-        )
+        mode = Actuation.parse(args.actuation)
         from harness.replay.base_resim import is_base_recording, resimulate_base
 
         if is_base_recording(args.file):

@@ -1,11 +1,11 @@
-"""``harness replay --mode kinematic|dynamic`` for a mobile base: re-run a recording's
-``/cmd_vel`` stream with the planar (kinematic) base or the wheeled diff drive (dynamic) base
+"""``harness replay --actuation kinematic|servo`` for a mobile base: re-run a recording's
+``/cmd_vel`` stream with the planar (kinematic) base or the wheeled diff drive (servo) base
 and measure how the base's path differs.
 
 The recorded base controller (a ``diff_drive_controller/DiffDriveController`` or a
 ``planar_controller/PlanarController`` in the recording's controllers configuration) names the
 command topic. ``kinematic`` re-runs with a planar controller taking the recorded controller's
-topic, message type, timeout and ``linear.x``/``angular.z`` limits; ``dynamic`` needs the
+topic, message type, timeout and ``linear.x``/``angular.z`` limits; ``servo`` needs the
 wheels, so a recorded diff drive (a planar recording has no wheel geometry and is refused).
 The re-run is a live :class:`~harness.session.Session` of the robot rebuilt from the
 recording's sources: every recorded incoming ``publish`` frame on the command topic is sent
@@ -35,8 +35,9 @@ from harness.controllers.planar import TYPE_PLANAR
 from harness.models import LoadedWorld
 from harness.replay.base_checks import contact_pairs, encoder_distance, robot_bodies
 from harness.replay.errors import LevelUnavailableError
-from harness.replay.resim import ResimMode
+from harness.replay.resim import parse_actuation
 from harness.replay.source import open_recording, read_states, rebuild_run
+from harness.vocabulary import Actuation
 
 __all__ = ["BaseResimReport", "base_controller", "is_base_recording", "resimulate_base"]
 
@@ -55,7 +56,7 @@ class BaseResimReport:
     """How the re-run base's path differs from the recorded one (metres, radians)."""
 
     path: str
-    mode: str
+    actuation: Actuation
     recorded_controller: str
     command_topic: str
     commands: int
@@ -79,7 +80,7 @@ class BaseResimReport:
         """A short text report."""
         return "\n".join(
             [
-                f"{self.path}: base re-run ({self.mode}) of {self.commands} commands on "
+                f"{self.path}: base re-run ({self.actuation}) of {self.commands} commands on "
                 f"{self.command_topic} (recorded with {self.recorded_controller})",
                 f"  steps compared        {self.steps_compared}",
                 f"  path deviation        max {self.max_path_deviation:.4f} m, "
@@ -150,11 +151,11 @@ def _free_joint(model: mujoco.MjModel, spec: ControllerSpec) -> tuple[str, int]:
     )
 
 
-def _alternate(spec: ControllerSpec, mode: ResimMode, base_joint: str) -> ControllerSpec:
-    if mode == "dynamic":
+def _alternate(spec: ControllerSpec, actuation: Actuation, base_joint: str) -> ControllerSpec:
+    if actuation is Actuation.SERVO:
         if spec.type != TYPE_DIFF_DRIVE:
             raise LevelUnavailableError(
-                f"controller {spec.name!r} is a planar base: --mode dynamic needs a diff drive "
+                f"controller {spec.name!r} is a planar base: --actuation servo needs a diff drive "
                 "(its wheels), which the recording does not have"
             )
         return spec
@@ -174,9 +175,11 @@ def _poses(model: mujoco.MjModel, qpos: F64, adr: int) -> F64:
 
 
 def resimulate_base(
-    path: str | Path, mode: ResimMode, *, allow_damaged: bool = False
+    path: str | Path, actuation: Actuation | str, *, allow_damaged: bool = False
 ) -> BaseResimReport:
-    """Re-run the recording's base commands in ``mode`` (see the module docstring)."""
+    """Re-run the recording's base commands with ``actuation`` (``kinematic``: a planar
+    base; ``servo``: the diff drive; see the module docstring)."""
+    mode = parse_actuation(actuation)
     from harness.session import Session
     from harness.session.control import controllers_from_metadata
     from harness.testing import connect
@@ -258,7 +261,7 @@ def resimulate_base(
 
     return BaseResimReport(
         path=str(path),
-        mode=mode,
+        actuation=mode,
         recorded_controller=spec.type,
         command_topic=topic,
         commands=len(frames),
@@ -281,7 +284,7 @@ def resimulate_base(
 
 
 def is_base_recording(path: str | Path) -> bool:
-    """Whether the recording's run had a base controller (``--mode`` then re-runs the base)."""
+    """Whether the recording's run had a base controller (``--actuation`` then re-runs the base)."""
     from harness.session.control import controllers_from_metadata
 
     rec = open_recording(path, allow_damaged=True)

@@ -1,4 +1,5 @@
-"""Kinematic <-> dynamic re-simulation: the measurable version of "jumping".
+"""Kinematic <-> dynamic re-simulation: the measurable version of "jumping"
+(``harness replay FILE --actuation kinematic|servo``).
 
 The recorded joint commands are the *position targets* the recorded run applied, read from
 the applied inputs: for a joint driven by a position actuator, its ``ctrl`` value; for a
@@ -6,8 +7,10 @@ kinematic joint, the ``qpos_value`` written for it. Joints recorded in velocity 
 have no position target: the re-simulation uses their recorded positions as targets. The
 other mode re-simulates these targets from the recorded initial configuration with every
 controllable joint ``kinematic`` (written each step, limits *not* clamped: that is what
-teleporting does) or ``dynamic`` (position servos with the model's default gains, clamped to
-the joint range as a servo's ctrlrange is). The robot is rebuilt from the recording's source
+teleporting does) or a ``servo`` (position servos with the model's default gains, clamped to
+the joint range as a servo's ctrlrange is): the :class:`~harness.vocabulary.Actuation` of the
+re-simulation (``position``/``dynamic``, its earlier spellings, are accepted with a
+:class:`DeprecationWarning`). The robot is rebuilt from the recording's source
 attachments with :func:`harness.models.load_robot` (a world of several robots with
 :func:`harness.models.load_world`: :func:`harness.replay.source.rebuild_run`; its joints are
 named by their MuJoCo, prefixed, names).
@@ -23,18 +26,19 @@ position of a joint leaving the recorded one by more than ``max_tracking_error``
 (``deviation``), or one run exceeding a threshold at a step where the other does not (a
 recorded teleport past a joint limit that a servo cannot follow; a servo that overshoots
 where the recording did not). What both runs do alike is the recording's own behaviour, shown
-in the table but not a finding. When the requested mode is the recorded one (``dynamic`` for
-position servos), the re-simulation is the same run, and the report says so.
+in the table but not a finding. When the requested actuation is the recorded control
+(``servo`` for position servos), the re-simulation is the same run, and the report says so.
 """
 
 from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -58,19 +62,37 @@ from harness.sim import InstabilityError, Simulation
 from harness.sim.collisions import CollisionTracker
 from harness.sim.inputs import AppliedInput, advance
 from harness.sim.metrics import energy
+from harness.vocabulary import ACTUATIONS, Actuation
 
 __all__ = [
     "Finding",
     "JointSummary",
-    "ResimMode",
     "ResimReport",
     "RunSummary",
     "Thresholds",
+    "parse_actuation",
     "resimulate",
 ]
 
 F64 = npt.NDArray[np.float64]
-ResimMode = Literal["kinematic", "dynamic"]
+
+
+def parse_actuation(value: object) -> Actuation:
+    """``value`` as an :class:`~harness.vocabulary.Actuation`; its earlier spellings
+    (``position``, ``dynamic``: control modes, not actuations) with a
+    :class:`DeprecationWarning`; a :class:`LevelUnavailableError` for anything else."""
+    try:
+        actuation = Actuation.parse(value, "re-simulation")
+    except ValueError as exc:
+        raise LevelUnavailableError(str(exc)) from None
+    if Actuation.deprecated(value):
+        warnings.warn(
+            f"re-simulation actuation {value!r} is deprecated: use {actuation.value!r} "
+            f"(one of {', '.join(ACTUATIONS)})",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+    return actuation
 
 
 class Thresholds(NamedTuple):
@@ -162,7 +184,7 @@ class ResimReport:
     re-simulation behaves as the recording did within the thresholds)."""
 
     path: str
-    mode: ResimMode
+    actuation: Actuation
     steps: int
     thresholds: dict[str, float]
     recorded: RunSummary
@@ -272,11 +294,11 @@ class ResimReport:
             lines += [f"  {f.format()}" for f in self.findings]
             lines.append(
                 f"VERDICT: DIFFERENT: {len(self.findings)} finding(s); the recorded motion "
-                f"does not carry over to {self.mode} control as it is"
+                f"does not carry over to {self.actuation} control as it is"
             )
         else:
             lines.append(
-                f"VERDICT: SAME BEHAVIOUR: the re-simulation ({self.mode}) stays within every "
+                f"VERDICT: SAME BEHAVIOUR: the re-simulation ({self.actuation}) stays within every "
                 "threshold of the recording"
             )
         return "\n".join(lines)
@@ -492,33 +514,33 @@ def _differences(
     return out
 
 
-def _same_mode_note(modes: Mapping[str, str], mode: ResimMode) -> str:
-    """Say so when the requested mode is the one (some) joints were recorded in."""
-    same = "kinematic" if mode == "kinematic" else "position"
+def _same_mode_note(modes: Mapping[str, str], actuation: Actuation) -> str:
+    """Say so when the requested actuation is the mode (some) joints were recorded in."""
+    same = "kinematic" if actuation is Actuation.KINEMATIC else "position"
     joints = [j for j, m in modes.items() if m == same]
     if not joints:
         return ""
     if len(joints) == len(modes):
         return (
-            f"every joint was recorded in {same} mode: re-simulating in {mode} mode re-runs "
-            "the recorded control, so only differences of the re-simulation's setup (servo "
-            "gains, unclamped kinematic limits) can show"
+            f"every joint was recorded in {same} mode: re-simulating with {actuation} "
+            "actuation re-runs the recorded control, so only differences of the "
+            "re-simulation's setup (servo gains, unclamped kinematic limits) can show"
         )
     return f"joints {', '.join(joints)} were recorded in {same} mode already"
 
 
 def resimulate(
     path: str | Path,
-    mode: ResimMode,
+    actuation: Actuation | str,
     *,
     thresholds: Thresholds | None = None,
     allow_damaged: bool = False,
     progress: Progress | None = None,
 ) -> ResimReport:
-    """Re-simulate the recorded joint commands of ``path`` with every controllable joint in
-    ``mode`` and measure both runs (see the module docstring)."""
-    if mode not in ("kinematic", "dynamic"):
-        raise LevelUnavailableError(f"unknown mode {mode!r} (kinematic or dynamic)")
+    """Re-simulate the recorded joint commands of ``path`` with every controllable joint
+    driven as ``actuation`` says (``kinematic`` or ``servo``) and measure both runs (see the
+    module docstring)."""
+    mode = parse_actuation(actuation)
     th = thresholds if thresholds is not None else Thresholds()
     started = time.perf_counter()
     with open_recording(path, allow_damaged=allow_damaged) as rec:
@@ -528,7 +550,7 @@ def resimulate(
         try:
             other_robot = rebuild_run(rec, {j: other_mode for j in recorded_modes})  # type: ignore[misc]
         except HarnessError as exc:
-            raise LevelUnavailableError(f"--mode {mode}: {exc}") from None
+            raise LevelUnavailableError(f"--actuation {mode}: {exc}") from None
         states = read_states(rec)
         check_states_fit(rec, recorded_robot.model, states)
         inputs = read_inputs(rec, recorded_robot.model)
@@ -615,7 +637,7 @@ def resimulate(
     rec_m = _measure("recorded", _describe(recorded_modes), rec_trace, targets,
                      recorded_robot.model, run_description(recorded_robot), joints,
                      None)  # fmt: skip
-    re_m = _measure("resimulated", mode, re_trace, targets, other_robot.model,
+    re_m = _measure("resimulated", str(mode), re_trace, targets, other_robot.model,
                     run_description(other_robot), joints, unstable)  # fmt: skip
     rec_summary, re_summary = rec_m.summary, re_m.summary
     units = [_unit(recorded_robot.model, j) for j in joints]
@@ -630,7 +652,7 @@ def resimulate(
         progress(total, total)
     return ResimReport(
         path=str(path),
-        mode=mode,
+        actuation=mode,
         steps=last - first,
         thresholds=dict(th._asdict()),
         recorded=rec_summary,

@@ -21,13 +21,13 @@ import base64
 import contextlib
 import json
 import math
-import re
 import struct
 import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Final, NamedTuple
 
+from harness.names import name_problem
 from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
 from harness.rosbridge.deadlines import MAX_TIMEOUT_S, bounded_timeout
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
@@ -64,7 +64,6 @@ __all__ = [
 DIRECTION_IN: Final = 0
 DIRECTION_OUT: Final = 1
 LEVELS: Final = {"info": 0, "warning": 1, "error": 2, "none": 3}
-_NAME = re.compile(r"~?/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*/?\Z")
 _BAD_INPUT = (FrameError, ConversionError, TypeNameError, UnknownTypeError)
 _DECODER = json.JSONDecoder()
 GOAL_SUCCEEDED: Final = 4
@@ -163,8 +162,9 @@ def _field(obj: Mapping[str, Any], op: str, key: str, kind: type, default: Any =
 
 def _name_field(obj: Mapping[str, Any], op: str, key: str) -> str:
     value: str = _field(obj, op, key, str)
-    if not _NAME.match(value):
-        raise FrameError(f"{op}: Invalid {key} name {value!r}")
+    problem = name_problem(value, "topic")  # topics, services and actions: one rule set
+    if problem is not None:
+        raise FrameError(f"{op}: Invalid {key} name {value!r}: it {problem}")
     return value
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import yaml  # type: ignore[import-untyped,unused-ignore]
 
-from harness import validation
+from harness import validation, vocabulary
 from harness.scenario.errors import ScenarioError
 from harness.validation import format_path
 
@@ -57,7 +57,7 @@ def schema(name: str) -> dict[str, Any]:
     """The shipped JSON Schema ``name`` ("scenario" or "runner")."""
     text = resources.files("harness.scenario").joinpath(f"{name}.schema.json").read_text("utf-8")
     loaded: dict[str, Any] = json.loads(text)
-    return loaded
+    return vocabulary.apply_schema_enums(name, loaded)  # the enums are harness.vocabulary's
 
 
 def load_document(path: Path) -> Any:

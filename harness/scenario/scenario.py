@@ -32,7 +32,14 @@ from harness.models.resolve import resolve_uri
 from harness.models.world import BaseKind, SelfCollision
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
-from harness.vocabulary import RobotBase, SelfCollisionPolicy
+from harness.vocabulary import (
+    LIMIT_POLICY_KEY,
+    LIMIT_POLICY_OLD_KEY,
+    ClockMode,
+    LimitPolicy,
+    RobotBase,
+    SelfCollisionPolicy,
+)
 
 __all__ = [
     "BUILTIN_MAPS",
@@ -61,7 +68,6 @@ ROBOT_SUFFIXES = (".urdf", ".xacro", ".sdf", ".xml", ".mjcf")
 WORLD_SUFFIXES = (".xml", ".mjcf", ".sdf", ".world")
 
 Vector3 = tuple[float, float, float]
-ClockMode = Literal["lockstep", "fast", "realtime"]
 
 
 @dataclass(frozen=True)
@@ -89,7 +95,7 @@ class Controller:
 
     mode: ControlMode
     joints: tuple[str, ...] = ()
-    kinematic_limits: Literal["clamp", "allow"] = "clamp"
+    kinematic_limits: LimitPolicy = LimitPolicy.CLAMP
 
 
 @dataclass(frozen=True)
@@ -171,7 +177,7 @@ _LOGGING_OFF = LoggingConfig(enable=False)  # a scenario without a logging secti
 class Clock:
     """Clock mode of the run; ``rate`` is the real-time factor in ``realtime`` mode."""
 
-    mode: ClockMode = "realtime"
+    mode: ClockMode = ClockMode.REALTIME
     rate: float = 1.0
 
 
@@ -345,7 +351,9 @@ class _Builder:
             seed=int(data.get("seed", 0)),
             controllers=self.controllers(data.get("controllers")),
             sensors=self.sensors(data.get("sensors", [])),
-            clock=Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
+            clock=Clock(
+                mode=ClockMode(clock.get("mode", "realtime")), rate=float(clock.get("rate", 1.0))
+            ),
             objects=objects,
             recording=Recording(
                 enabled=rec.get("enabled", True),
@@ -496,7 +504,9 @@ class _Builder:
                 Controller(
                     mode=ControlMode.parse(c["mode"]),
                     joints=tuple(c.get("joints", ())),
-                    kinematic_limits=c.get("kinematic_limits", c.get("beyond_limits", "clamp")),
+                    kinematic_limits=LimitPolicy(
+                        c.get(LIMIT_POLICY_KEY, c.get(LIMIT_POLICY_OLD_KEY, "clamp"))
+                    ),
                 )
                 for c in data.get("controllers", [])
             ),

@@ -51,7 +51,7 @@ from harness.models.worldfile import is_sdf_world, load_world_file
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import RobotSpec, Scenario, SceneObject
-from harness.sim import KinematicLimits
+from harness.vocabulary import LimitPolicy
 
 __all__ = [
     "DEFAULT_JOINT_COMMAND_TOPIC",
@@ -169,10 +169,12 @@ def control_modes(
     return modes
 
 
-def kinematic_limits(robot: RobotSpec) -> KinematicLimits:
-    """``"allow"`` when a kinematic controller lets commands pass the limits, else ``"clamp"``."""
-    allow = any(c.mode == "kinematic" and c.kinematic_limits == "allow" for c in robot.controllers)
-    return "allow" if allow else "clamp"
+def kinematic_limits(robot: RobotSpec) -> LimitPolicy:
+    """``allow`` when a kinematic controller lets commands pass the limits, else ``clamp``."""
+    allow = any(
+        c.mode == "kinematic" and c.kinematic_limits == LimitPolicy.ALLOW for c in robot.controllers
+    )
+    return LimitPolicy.ALLOW if allow else LimitPolicy.CLAMP
 
 
 def joint_command_topic(robot: RobotSpec, namespace: str = "") -> str:

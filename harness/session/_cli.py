@@ -19,8 +19,7 @@ from types import FrameType
 from typing import Any
 
 from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
-from harness.session.session import CLOCK_MODES
-from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
+from harness.vocabulary import CLOCK_MODES, CONTROL_MODE_INPUTS, LIMIT_POLICIES, ControlMode
 
 __all__ = ["add_arguments", "run"]
 
@@ -42,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--kinematic-limits",
-        choices=("clamp", "allow"),
+        choices=LIMIT_POLICIES,
         default="clamp",
         help="kinematic commands beyond a joint's limits: clamp (default) or allow",
     )

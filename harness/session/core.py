@@ -63,6 +63,7 @@ from harness.events import (
 )
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
+from harness.names import NameKind, check_name
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
 from harness.sensors import TOPIC_TF_STATIC, SensorSpec
 from harness.sensors.hook import record_metadata, session_sensors
@@ -106,7 +107,8 @@ from harness.session.topics import (
     stamp,
 )
 from harness.session.urdf_text import description_text
-from harness.sim import CommandField, KinematicLimits, Notice, RobotJoints, Simulation
+from harness.sim import CommandField, Notice, RobotJoints, Simulation
+from harness.vocabulary import CLOCK_MODES, ClockMode, LimitPolicy
 
 __all__ = [
     "CLOCK_MODES",
@@ -132,8 +134,6 @@ __all__ = [
 
 F64 = npt.NDArray[np.float64]
 
-ClockMode = Literal["lockstep", "fast", "realtime"]
-CLOCK_MODES: tuple[ClockMode, ...] = ("lockstep", "fast", "realtime")
 StartMode = Literal["now", "paused", "on_client"]
 START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
 DEFAULT_MAX_STEP_REQUEST = 100_000
@@ -266,13 +266,8 @@ class Graph(Protocol):
         ...
 
 
-def _check_name(value: str, what: str) -> str:
-    parts = value.strip("/").split("/")
-    if not value.strip("/") or not all(p and (p[0].isalpha() or p[0] == "_") for p in parts):
-        raise SessionConfigError(f"{what} {value!r} is not a valid ROS name")
-    if not all(c.isalnum() or c in "_/" for c in value):
-        raise SessionConfigError(f"{what} {value!r} is not a valid ROS name")
-    return value
+def _check_name(value: str, what: str, kind: NameKind = "topic") -> str:
+    return check_name(value, what, kind, SessionConfigError)
 
 
 @dataclass(frozen=True)
@@ -308,9 +303,9 @@ class CoreOptions:
     ``max_step_request``: the most steps one ``/harness/step`` request may ask for (a larger
     request fails, nothing stepped)."""
 
-    clock: ClockMode = "lockstep"
+    clock: ClockMode = ClockMode.LOCKSTEP
     namespace: str = ""
-    kinematic_limits: KinematicLimits = "clamp"
+    kinematic_limits: LimitPolicy = LimitPolicy.CLAMP
     state_every: int = 1
     joint_states_hz: float = 100.0
     tf_hz: float | None = None
@@ -338,6 +333,7 @@ class CoreOptions:
             raise SessionConfigError(
                 f"clock must be one of {', '.join(CLOCK_MODES)}, not {self.clock!r}"
             )
+        object.__setattr__(self, "clock", ClockMode(self.clock))
         if self.start not in START_MODES:
             raise SessionConfigError(
                 f"start must be one of {', '.join(START_MODES)}, not {self.start!r}"
@@ -384,12 +380,14 @@ class CoreOptions:
                 raise SessionConfigError(f"{what} must be >= 0 Hz, not {hz!r}")
         if self.namespace:
             object.__setattr__(
-                self, "namespace", _check_name(self.namespace, "namespace").strip("/")
+                self, "namespace", _check_name(self.namespace, "namespace", "namespace").strip("/")
             )
-        if self.kinematic_limits not in ("clamp", "allow"):
-            raise SessionConfigError(
-                f"kinematic_limits must be 'clamp' or 'allow', not {self.kinematic_limits!r}"
+        try:
+            object.__setattr__(
+                self, "kinematic_limits", LimitPolicy.parse(self.kinematic_limits)
             )
+        except ValueError as exc:
+            raise SessionConfigError(str(exc)) from None
         topics = self.joint_command_topic
         if isinstance(topics, Mapping):
             for namespace, topic in topics.items():
@@ -404,6 +402,8 @@ class CoreOptions:
             raise SessionConfigError(
                 f"joint_command_topic must be a topic name or namespace -> name, not {topics!r}"
             )
+        else:
+            _check_name(topics, "joint_command_topic")
 
     def command_topic(self, namespace: str) -> str:
         """The joint command topic name of the robot with ``namespace``."""

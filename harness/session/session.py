@@ -140,7 +140,7 @@ import time
 from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 import mujoco
 import numpy as np
@@ -179,7 +179,8 @@ from harness.session.errors import (
 from harness.session.ports import Port, ServerPort
 from harness.session.snapshot import complete_prefix
 from harness.session.upstream import UpstreamPort, UpstreamStats, redact
-from harness.sim import KinematicLimits, Notice, Simulation
+from harness.sim import Notice, Simulation
+from harness.vocabulary import LimitPolicy
 
 __all__ = ["CLOCK_MODES", "ClockMode", "LoggerFactory", "Session", "SessionTopics", "StartMode"]
 
@@ -246,8 +247,8 @@ class Session:
         robots: Sequence[RobotSpec] | LoadedWorld | None = None,
         objects: Sequence[WorldObject] = (),
         mode: ControlMode | str | Mapping[str, ControlMode | str] | None = None,
-        kinematic_limits: KinematicLimits = "clamp",
-        clock: ClockMode = "lockstep",
+        kinematic_limits: LimitPolicy | str = LimitPolicy.CLAMP,
+        clock: ClockMode | str = ClockMode.LOCKSTEP,
         rate: float = 1.0,
         namespace: str = "",
         host: str = "127.0.0.1",
@@ -302,9 +303,10 @@ class Session:
 
             self.ros_domain_id = choose_domain_id()
         options = CoreOptions(
-            clock=clock,
+            # CoreOptions parses the spellings (and refuses others) to the vocabulary's members
+            clock=cast(ClockMode, clock),
             namespace=namespace,
-            kinematic_limits=kinematic_limits,
+            kinematic_limits=cast(LimitPolicy, kinematic_limits),
             state_every=state_every,
             joint_states_hz=joint_states_hz,
             tf_hz=tf_hz,
@@ -317,7 +319,7 @@ class Session:
             sensors=tuple(sensors),
             seed=seed,
         )
-        self.clock: ClockMode = clock
+        self.clock: ClockMode = options.clock
         self.start: StartMode = start
         self._start_on_client = start == "on_client"
         self._clients = threading.Condition()

@@ -14,7 +14,6 @@ from harness.sim.robots import RobotJoints
 from harness.sim.simulation import (
     STATE_SPEC,
     CommandField,
-    KinematicLimits,
     Notice,
     Observer,
     RobotLike,
@@ -30,7 +29,6 @@ __all__ = [
     "ContactSet",
     "ControlConfigError",
     "InstabilityError",
-    "KinematicLimits",
     "Notice",
     "Observer",
     "RobotJoints",

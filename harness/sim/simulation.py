@@ -48,11 +48,11 @@ from harness.sim.errors import (
 )
 from harness.sim.inputs import AppliedInput
 from harness.sim.planar import PlanarBase
+from harness.vocabulary import LimitPolicy
 
 __all__ = [
     "STATE_SPEC",
     "CommandField",
-    "KinematicLimits",
     "Notice",
     "Observer",
     "RobotLike",
@@ -66,7 +66,6 @@ STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 """The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
 warmstart and does not restore bit-exactly."""
 
-KinematicLimits = Literal["clamp", "allow"]
 CommandField = Literal["position", "velocity", "effort"]
 Observer = Callable[["Simulation"], None]
 
@@ -177,14 +176,14 @@ class Simulation:
     data: mujoco.MjData
     dt_ns: int
     description: RobotModel | None
-    kinematic_limits: KinematicLimits
+    kinematic_limits: LimitPolicy
     state_spec: int
 
     def __init__(
         self,
         robot: RobotLike | LoadedWorld,
         *,
-        kinematic_limits: KinematicLimits = "clamp",
+        kinematic_limits: LimitPolicy | str = LimitPolicy.CLAMP,
         keyframe: str | None = "home",
     ) -> None:
         description = (
@@ -199,7 +198,7 @@ class Simulation:
         *,
         control: Mapping[str, ControlMode],
         description: RobotModel | None = None,
-        kinematic_limits: KinematicLimits = "clamp",
+        kinematic_limits: LimitPolicy | str = LimitPolicy.CLAMP,
         keyframe: str | None = "home",
     ) -> Simulation:
         """A simulation of a compiled model: ``control`` maps each controllable joint (hinge or
@@ -216,13 +215,13 @@ class Simulation:
         model: mujoco.MjModel,
         control: Mapping[str, ControlMode],
         description: RobotModel | None,
-        kinematic_limits: KinematicLimits,
+        kinematic_limits: LimitPolicy | str,
         keyframe: str | None,
     ) -> None:
-        if kinematic_limits not in ("clamp", "allow"):
-            raise ControlConfigError(
-                f"kinematic_limits must be 'clamp' or 'allow', not {kinematic_limits!r}"
-            )
+        try:
+            limit_policy = LimitPolicy.parse(kinematic_limits)
+        except ValueError as exc:
+            raise ControlConfigError(str(exc)) from None
         dt = float(model.opt.timestep)
         dt_ns = round(dt * 1e9)
         if dt_ns <= 0 or dt_ns / 1e9 != dt:
@@ -249,7 +248,7 @@ class Simulation:
         self.data = mujoco.MjData(model)
         self.dt_ns = dt_ns
         self.description = description
-        self.kinematic_limits = kinematic_limits
+        self.kinematic_limits = limit_policy
         self.state_spec = STATE_SPEC
         self._dt = dt
         self._half_dt = dt / 2

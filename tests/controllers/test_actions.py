@@ -156,7 +156,7 @@ def test_roslibjs_action_client(tmp_path: Path) -> None:
     _within_goal(dict(zip(result["names"], result["positions"], strict=True)))
 
 
-@pytest.mark.parametrize("mode", ["kinematic", "dynamic"])
+@pytest.mark.parametrize("mode", ["kinematic", "servo"])
 def test_resimulation_replays_trajectories_sent_as_actions(roslibpy_run: Any, mode: str) -> None:
     report = resimulate(roslibpy_run[1], mode)  # type: ignore[arg-type]
     assert report.steps > 1000

@@ -1,4 +1,4 @@
-"""``harness replay --mode kinematic|dynamic`` on a recorded mobile base run: the /cmd_vel
+"""``harness replay --actuation kinematic|servo`` on a recorded mobile base run: the /cmd_vel
 stream re-run with the planar base (kinematic) or the wheeled diff drive (dynamic)."""
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_replay_mode_kinematic_reports_the_path_difference(recorded: Path, tmp_path: Path) -> None:
     report_path = tmp_path / "report.json"
-    code = main(["replay", str(recorded), "--mode", "kinematic", "--report", str(report_path)])
+    code = main(["replay", str(recorded), "--actuation", "kinematic", "--report", str(report_path)])
     assert code == 0
     report = json.loads(report_path.read_text())
     assert report["recorded_controller"] == "diff_drive_controller/DiffDriveController"
@@ -66,14 +66,17 @@ def test_replay_mode_kinematic_reports_the_path_difference(recorded: Path, tmp_p
 
 
 def test_replay_mode_dynamic_re_runs_the_wheels_the_same(recorded: Path) -> None:
-    report = resimulate_base(recorded, "dynamic")
+    report = resimulate_base(recorded, "servo")
     assert report.steps_compared >= 52 * 25
     assert report.max_path_deviation == 0.0  # the recorded controller, the same commands
     assert report.recorded_encoder_distance == report.resimulated_encoder_distance
     assert "wheel slip (re-run)" in report.format()
     # a threshold on the path deviation sets the exit code
     assert (
-        main(["replay", str(recorded), "--mode", "kinematic", "--max-tracking-error", "1e-9"]) == 1
+        main(
+            ["replay", str(recorded), "--actuation", "kinematic", "--max-tracking-error", "1e-9"]
+        )
+        == 1
     )
 
 
@@ -85,9 +88,9 @@ def test_a_planar_recording_has_no_wheels_for_the_dynamic_mode(tmp_path: Path) -
     yaml.write_text(PLANAR_YAML)
     _record(path, yaml)
     with pytest.raises(
-        LevelUnavailableError, match="planar base: --mode dynamic needs a diff drive"
+        LevelUnavailableError, match="planar base: --actuation servo needs a diff drive"
     ):
-        resimulate_base(path, "dynamic")
+        resimulate_base(path, "servo")
     kinematic = resimulate_base(path, "kinematic")
     assert kinematic.max_path_deviation == 0.0
 

@@ -223,7 +223,7 @@ def test_default_namespace_is_the_robot_name_and_must_be_unique() -> None:
     assert "\n" not in message
 
 
-@pytest.mark.parametrize("namespace", ["1arm", "a/b", "a b", "a__b", "arm-1", "_arm"])
+@pytest.mark.parametrize("namespace", ["1arm", "a/b", "a b", "arm-1", "bré"])
 def test_invalid_namespace_is_refused(namespace: str) -> None:
     with pytest.raises(InvalidNamespaceError, match=r"robots\[1\].*not a ROS name segment"):
         load_world([RobotSpec("demo", namespace="ok"), RobotSpec("demo", namespace=namespace)])

@@ -95,7 +95,7 @@ def test_replay_cli_with_the_package_deleted(tmp_path):
         ) as s:
             s.step(20)
     shutil.rmtree(tmp_path / "ur_description")
-    for extra in ([], ["--mode", "kinematic"]):
+    for extra in ([], ["--actuation", "kinematic"]):
         done = subprocess.run(
             [sys.executable, "-m", "harness", "replay", str(path), *extra],
             capture_output=True,

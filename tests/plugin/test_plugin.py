@@ -58,6 +58,7 @@ def test_every_option_has_an_ini_twin(pytester, run):
         ("--harness-keep-recordings", "harness_keep_recordings"),
         ("--harness-update-goldens", "harness_update_goldens"),
         ("--harness-strict-bridge", "harness_strict_bridge"),
+        ("--harness-actuation", "harness_actuation"),
         ("--harness-mode", "harness_mode"),
         ("--harness-golden-dir", "harness_golden_dir"),
     ]:

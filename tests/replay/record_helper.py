@@ -18,7 +18,7 @@ from harness.models import LoadedRobot, load_robot
 from harness.recording import Recorder, describe_run
 from harness.sim import Simulation
 from harness.sim.collisions import CollisionTracker
-from harness.sim.simulation import KinematicLimits
+from harness.vocabulary import LimitPolicy
 
 __all__ = ["BACK", "REACH", "demo_robot", "record"]
 
@@ -48,7 +48,7 @@ def record(
     steps: int,
     *,
     control: str = "position",
-    kinematic_limits: KinematicLimits = "clamp",
+    kinematic_limits: LimitPolicy | str = LimitPolicy.CLAMP,
     with_mjb: bool = True,
     joint_states_every: int = 10,
     chunk_size: int = 1024 * 1024,

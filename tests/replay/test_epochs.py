@@ -110,6 +110,6 @@ def test_inspect_and_diff_know_epochs(reset_recording: Path) -> None:
 def test_resimulation_replays_the_resets(reset_recording: Path) -> None:
     from harness.replay.resim import resimulate
 
-    report = resimulate(reset_recording, "dynamic")
+    report = resimulate(reset_recording, "servo")
     assert report.recorded_reproduced  # the recorded run, resets included, bit for bit
     assert report.passed, report.format()

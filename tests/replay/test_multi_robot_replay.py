@@ -84,7 +84,7 @@ def test_verify_reproduces_it_at_both_levels(two_robot_recording):
     assert full.reproduced, full.format()
 
 
-@pytest.mark.parametrize("mode", ["kinematic", "dynamic"])
+@pytest.mark.parametrize("mode", ["kinematic", "servo"])
 def test_resimulate_runs_a_two_robot_recording(two_robot_recording, mode):
     report = resimulate(two_robot_recording, mode)
     names = [j.joint for j in report.resimulated.joints]

@@ -26,7 +26,7 @@ def jump_recording(helper: ModuleType, tmp_path_factory: pytest.TempPathFactory)
 
 
 def test_kinematic_recording_shows_the_jump_and_the_limit_violation(jump_recording: Path) -> None:
-    report = resimulate(jump_recording, "dynamic")
+    report = resimulate(jump_recording, "servo")
     assert not report.passed
     found = {(f.quantity, f.name): f for f in report.findings}
     # Only the recording passes joint7's limit (a servo brakes at it) at the step of the
@@ -64,7 +64,7 @@ def test_kinematic_recording_shows_the_jump_and_the_limit_violation(jump_recordi
 def test_a_position_recording_resimulated_dynamically_is_the_same_run(
     base_recording: Path,
 ) -> None:
-    report = resimulate(base_recording, "dynamic")
+    report = resimulate(base_recording, "servo")
     assert report.passed, report.format()
     assert any("recorded in position mode" in n for n in report.notes)
     assert report.format().splitlines()[-1].startswith("VERDICT: SAME BEHAVIOUR")
@@ -78,7 +78,7 @@ def test_thresholds_are_configurable(jump_recording: Path) -> None:
         max_penetration=1.0,
         max_energy_jump=1e9,
     )
-    assert resimulate(jump_recording, "dynamic", thresholds=loose).passed
+    assert resimulate(jump_recording, "servo", thresholds=loose).passed
 
 
 def test_dynamic_recording_to_kinematic_via_cli(
@@ -86,15 +86,15 @@ def test_dynamic_recording_to_kinematic_via_cli(
 ) -> None:
     report_path = tmp_path / "resim.json"
     code = main(
-        ["replay", str(base_recording), "--mode", "kinematic", "--report", str(report_path)]
+        ["replay", str(base_recording), "--actuation", "kinematic", "--report", str(report_path)]
     )
     out = capsys.readouterr().out
     assert "recorded (position) vs re-simulated (kinematic)" in out
     data = json.loads(report_path.read_text())
-    assert data["mode"] == "kinematic"
+    assert data["actuation"] == "kinematic"
     assert code == (0 if data["passed"] else 1)
     # Kinematic joints report exactly the commanded targets.
     assert all(j["max_tracking_error"] == 0.0 for j in data["resimulated"]["joints"])
-    assert main(["replay", str(base_recording), "--mode", "kinematic", "--max-velocity-ratio",
+    assert main(["replay", str(base_recording), "--actuation", "kinematic", "--max-velocity-ratio",
                  "1e9", "--max-energy-jump", "1e9", "--max-tracking-error", "10",
                  "--max-penetration", "1", "--max-limit-violation", "1"]) == 0  # fmt: skip
