@@ -417,52 +417,54 @@ def _resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
     return value
 
 
-def _scenario_options(path: Path) -> dict[str, Any]:
-    """Session options from a scenario file (its first robot)."""
-    from harness.scenario import Scenario
-    from harness.scenario.scenario import CollisionLoggerSpec
+_ROBOT_KEYS = ("robot", "mode", "namespace", "robot_args", "self_collision", "base", "strict")
+"""Marker keys that, with a scenario, apply to its first robot (``robots=`` replaces them all)."""
 
-    scenario = Scenario.load(path)
-    spec = scenario.robots[0]
-    options: dict[str, Any] = {
-        "robot": spec.robot,
-        "scene": scenario.environment.map,
-        "seed": scenario.seed,
-        "state_every": scenario.recording.state_every,
-        "scenario_text": path.read_bytes(),
-    }
-    if spec.robot_args:
-        options["robot_args"] = dict(spec.robot_args)
-    for key in ("self_collision", "base"):
-        if getattr(spec, key, None) is not None:
-            options[key] = getattr(spec, key)
-    if getattr(spec, "strict", False):
-        options["strict"] = True
-    if scenario.controllers is not None:
-        options["controllers"] = scenario.controllers
-    if scenario.sensors:
-        options["sensors"] = list(scenario.sensors)
-    if scenario.bridge.connect is not None:
-        options["connect_to"] = scenario.bridge.connect
-    if scenario.bridge.ros2:
-        options["ros2"] = True
-    controllers = spec.controllers
-    if len(controllers) == 1 and not controllers[0].joints:
-        options["mode"] = controllers[0].mode
-        options["kinematic_limits"] = controllers[0].kinematic_limits
-    elif controllers:
-        options["mode"] = {j: c.mode for c in controllers for j in c.joints}
-    for logger in spec.loggers:
-        if isinstance(logger, CollisionLoggerSpec):
-            options["collisions"] = {
-                "debounce_steps": max(1, logger.debounce_steps),  # 0: no debounce
-                "ignore": list(logger.ignore_pairs),
-                "self_collision": logger.self_collision,
-                "robot_vs_world_only": logger.robot_vs_world_only,
-                "min_force": logger.min_force,
-                "near_miss_distance": logger.near_miss_distance,
-            }
-    return options
+
+def _scenario_session(path: Path, folder: Path) -> Any:
+    """The scenario's session (:func:`harness.scenario.session_options.scenario_session`: the
+    translation ``harness run`` uses), with the marker's default clock (``lockstep``) when
+    the file has no ``clock`` section; a bad file fails the test with its problems."""
+    from harness.scenario import Scenario, ScenarioError
+    from harness.scenario.scenario import Clock
+    from harness.scenario.session_options import scenario_session
+
+    try:
+        return scenario_session(Scenario.load(path), folder, default_clock=Clock("lockstep"))
+    except ScenarioError as exc:
+        pytest.fail(str(exc), pytrace=False)
+
+
+def _over_scenario(planned: Any, marker: dict[str, Any], where: str) -> dict[str, Any]:
+    """The scenario's Session keywords with the marker's keys over them (the marker wins):
+    world-level keys replace the scenario's; ``robots`` replaces its robots; ``robot``,
+    ``mode``, ``namespace``, ``robot_args``, ``self_collision``, ``base`` and ``strict``
+    apply to its first robot (a RobotSpec field each: ``source``, ``control``, ...)."""
+    import dataclasses
+
+    keywords = planned.keywords()
+    keywords["port"] = 0  # a free port per test: xdist workers run side by side
+    own = {k: marker.pop(k) for k in _ROBOT_KEYS if k in marker}
+    if "robots" not in marker and own:
+        if "mode" in own:
+            own["mode"] = parse_mode(own["mode"], f"{where}: harness option 'mode'")
+        _parse_load_options(own, where)
+        names = {"robot": "source", "mode": "control"}
+        first = keywords["robots"][0]
+        if "robot" in own:  # another robot: the file's joint settings are not its
+            first = dataclasses.replace(first, control="position", initial_positions={})
+            first = dataclasses.replace(first, robot_args={})
+        first = dataclasses.replace(first, **{names.get(k, k): v for k, v in own.items()})
+        keywords["robots"] = [first, *keywords["robots"][1:]]
+    elif own:
+        pytest.fail(
+            f"{where}: harness options {', '.join(sorted(own))} apply to robot=; with robots= "
+            "give each RobotSpec its own",
+            pytrace=False,
+        )
+    if "world" in marker and "scene" not in marker:
+        keywords.pop("scene")
+    return {**keywords, **marker}
 
 
 @dataclass
@@ -475,6 +477,8 @@ class _TestRun:
     modes: list[Any] = field(default_factory=list)
     recordings: list[Path] = field(default_factory=list)
     snapshots: list[Path] = field(default_factory=list)
+    folders: list[Path] = field(default_factory=list)
+    """The folders of the worlds generated for scenario sessions (a ``scene.xml``)."""
     sinks: list[CollectingSink] = field(default_factory=list)
     divergence: str | None = None
     golden_note: str | None = None
@@ -496,9 +500,12 @@ class _TestRun:
         options = _marker_options(self.item)
         mode = options.get("mode")
         scenario = options.get("scenario")
-        if mode is None and scenario is not None:
-            path = _resolve_path(scenario, self.item, self.settings.rootdir)
-            mode = _scenario_options(Path(path)).get("mode")
+        if scenario is not None and "robots" not in options:
+            file = Path(_resolve_path(scenario, self.item, self.settings.rootdir))
+            with tempfile.TemporaryDirectory() as folder:
+                planned = _scenario_session(file, Path(folder))
+            keywords = _over_scenario(planned, dict(options), self.item.nodeid)
+            return _one_mode(_suite_robots(keywords["robots"], self.settings.mode)[1])
         return suite_mode(mode, self.settings.mode)
 
     def golden_path(self) -> Path:
@@ -528,12 +535,16 @@ class _TestRun:
         rootdir = self.settings.rootdir
         opts = dict(options)
         scenario = opts.pop("scenario", None)
-        scenario_text: bytes | None = None
+        index = len(self.recordings)
+        path = self.recording_path(index)
+        planned: Any = None
         if scenario is not None:
-            path = _resolve_path(scenario, self.item, rootdir)
-            from_file = _scenario_options(Path(path))
-            scenario_text = from_file.pop("scenario_text")
-            opts = {**from_file, **opts}
+            file = Path(_resolve_path(scenario, self.item, rootdir))
+            if "robot" in opts:
+                opts["robot"] = _resolve_path(opts["robot"], self.item, rootdir)
+            planned = _scenario_session(file, path.with_name(f"{path.stem}.world"))
+            self.folders.append(path.with_name(f"{path.stem}.world"))
+            opts = _over_scenario(planned, opts, self.item.nodeid)
         if "connect" in opts:  # the marker's spelling of Session(connect_to=)
             opts["connect_to"] = opts.pop("connect")
         if "world" in opts:
@@ -544,14 +555,15 @@ class _TestRun:
                 )
             opts["scene"] = opts.pop("world")
         robots = opts.pop("robots", None)
-        robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
+        default_robot = None if robots else "demo"
+        robot = _resolve_path(opts.pop("robot", default_robot), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
         if "controllers" in opts:
             opts["controllers"] = _resolve_path(opts["controllers"], self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.mode)
         _parse_load_options(opts, self.item.nodeid)
         if robots is not None:
-            if options.get("mode") is not None:
+            if opts.get("mode") is not None:
                 pytest.fail(
                     f"{self.item.nodeid}: harness option 'mode' applies to robot=; with "
                     "robots= give each RobotSpec its control",
@@ -560,13 +572,20 @@ class _TestRun:
             robots, mode = _suite_robots(robots, self.settings.mode)
             opts["robots"] = robots
         clock = opts.pop("clock", "lockstep")
-        collisions = opts.pop("collisions", True)
-        joint_limits = opts.pop("joint_limits", True)
+        collisions: Any = opts.pop("collisions", True)
+        joint_limits: Any = opts.pop("joint_limits", True)
         loggers: list[Callable[[Session], Any]] = []
-        if collisions is not False:
+        if planned is not None:
+            # the scenario's loggers (added below), the marker's collisions/joint_limits
+            # keys replacing the scenario's collision and joint-limit loggers
+            collisions = collisions if "collisions" in options else None
+            joint_limits = joint_limits if "joint_limits" in options else None
+            if "robots" not in options:
+                mode = _one_mode(mode)
+        if collisions not in (False, None):
             kwargs = dict(collisions) if isinstance(collisions, Mapping) else {}
             loggers.append(lambda s: CollisionLogger(s.model, **kwargs))
-        if joint_limits is not False:
+        if joint_limits not in (False, None):
             jl = dict(joint_limits) if isinstance(joint_limits, Mapping) else {}
             loggers.append(
                 lambda s: JointLimitLogger(
@@ -577,8 +596,7 @@ class _TestRun:
                 )
             )
         sink = CollectingSink()
-        index = len(self.recordings)
-        path = self.recording_path(index)
+        sinks: list[Any] = [sink, *(planned.sinks() if planned is not None else ())]
         path.parent.mkdir(parents=True, exist_ok=True)
         self.recordings.append(path)
         session = Session(
@@ -588,11 +606,27 @@ class _TestRun:
             scene=scene,
             record_to=path,
             loggers=loggers,
-            sinks=[sink],
-            scenario=scenario_text,
+            sinks=sinks,
             **opts,
         )
         self.sessions.append(session)
+        if planned is not None:
+            try:
+                assert session.world is not None
+                skip = {
+                    kind
+                    for key, kind in (
+                        ("collisions", CollisionLogger),
+                        ("joint_limits", JointLimitLogger),
+                    )
+                    if key in options
+                }
+                for logger in planned.loggers(session.world):
+                    if type(logger) not in skip:
+                        session.add_logger(logger)  # before the first step
+            except BaseException:
+                session.close()
+                raise
         self.modes.append(mode)
         self.sinks.append(sink)
         return session
@@ -673,6 +707,8 @@ class _TestRun:
                         path.unlink()
                     with contextlib.suppress(OSError):
                         path.parent.rmdir()  # only when empty
+                for folder in self.folders:
+                    shutil.rmtree(folder, ignore_errors=True)
 
 
 _RUN = pytest.StashKey[_TestRun]()
@@ -785,6 +821,14 @@ def _suite_robots(robots: Any, suite: str | None) -> tuple[list[Any], Any]:
         else:
             combined[prefix + "*"] = spec.control
     return specs, combined
+
+
+def _one_mode(mode: Any) -> Any:
+    """A scenario robot's modes (every controllable joint listed) as one mode when they are
+    all the same (the golden name ``[kinematic]``, as for ``mode="kinematic"``)."""
+    if isinstance(mode, Mapping) and len(set(mode.values())) == 1:
+        return next(iter(mode.values()))
+    return mode
 
 
 def mode_label(mode: Any) -> str:

@@ -9,6 +9,7 @@ The runner machinery talks to whatever runs one iteration through :class:`Iterat
 
 from harness.scenario.client import BridgeHost, run_client, stop_group
 from harness.scenario.errors import RunnerError, ScenarioError
+from harness.scenario.execute import run_scenarios
 from harness.scenario.reports import render_html, write_reports
 from harness.scenario.results import (
     ClientOutcome,
@@ -76,6 +77,7 @@ __all__ = [
     "render_html",
     "run_client",
     "run_iterations",
+    "run_scenarios",
     "session_iteration_runner",
     "stop_group",
     "write_reports",

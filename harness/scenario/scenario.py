@@ -250,7 +250,9 @@ class Scenario:
     seed: int = 0
     sensors: tuple[Mapping[str, Any], ...] = ()
     """Sensors besides the robot files' (mappings as :class:`harness.sensors.SensorSpec`)."""
-    clock: Clock = Clock()
+    clock: Clock | None = None
+    """The ``clock`` section; None when the file has none (``harness run`` then runs
+    ``realtime``, the pytest marker ``lockstep``: see :mod:`harness.scenario.session_options`)."""
     objects: tuple[SceneObject, ...] = ()
     recording: Recording = Recording()
     criteria: Criteria = Criteria()
@@ -317,7 +319,7 @@ class _Builder:
         env = data.get("environment", {})
         ros_bridge = data.get("ros", {}).get("bridge", {})
         crit = data.get("criteria", {})
-        clock = data.get("clock", {})
+        clock = data.get("clock")
         rec = data.get("recording", {})
         default_name = source.stem if source is not None else "scenario"
         robots = tuple(self.robot(r, i) for i, r in enumerate(data["robots"]))
@@ -345,7 +347,9 @@ class _Builder:
             seed=int(data.get("seed", 0)),
             controllers=self.controllers(data.get("controllers")),
             sensors=self.sensors(data.get("sensors", [])),
-            clock=Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
+            clock=None
+            if clock is None
+            else Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
             objects=objects,
             recording=Recording(
                 enabled=rec.get("enabled", True),
