@@ -51,7 +51,11 @@ from harness.scenario.world import kinematic_limits, plan_world
 
 __all__ = [
     "DEFAULT_DEBOUNCE_STEPS",
-    "RUN_CLOCK", "ScenarioSession", "scenario_loggers", "scenario_session"]
+    "RUN_CLOCK",
+    "ScenarioSession",
+    "scenario_loggers",
+    "scenario_session",
+]
 
 DEFAULT_DEBOUNCE_STEPS = 5
 """The debounce of the collision logger a scenario gets when it lists none."""

@@ -69,9 +69,7 @@ def _session_route(file: Path, tmp: Path) -> dict[str, str]:
 
 
 def _plugin_args() -> tuple[str, ...]:
-    installed = any(
-        ep.value == "harness.pytest_plugin" for ep in entry_points(group="pytest11")
-    )
+    installed = any(ep.value == "harness.pytest_plugin" for ep in entry_points(group="pytest11"))
     return () if installed else ("-p", "harness.pytest_plugin")
 
 
