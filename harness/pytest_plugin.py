@@ -444,6 +444,7 @@ def _over_scenario(planned: Any, marker: dict[str, Any], where: str) -> dict[str
 
     keywords = planned.keywords()
     keywords["port"] = 0  # a free port per test: xdist workers run side by side
+    del keywords["record_to"]  # the test's own recording
     own = {k: marker.pop(k) for k in _ROBOT_KEYS if k in marker}
     if "robots" not in marker and own:
         if "mode" in own:

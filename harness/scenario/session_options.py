@@ -26,13 +26,12 @@ from :meth:`ScenarioSession.keywords` as is listens on the file's port.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import mujoco
 
-from harness.controllers import ControllersConfig
 from harness.events import (
     CollisionLogger,
     JointLimitLogger,
@@ -43,11 +42,13 @@ from harness.events import (
     velocity_limits,
 )
 from harness.models import LoadedWorld
-from harness.models import RobotSpec as WorldRobot
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Clock, CollisionLoggerSpec, JointLoggerSpec, Scenario
 from harness.scenario.world import kinematic_limits, plan_world
+from harness.session import SessionConfigError
+from harness.session.control import controllers_option
+from harness.session.options import CoreOptions, LoadOptions, RecordOptions, TransportOptions
 
 __all__ = [
     "DEFAULT_DEBOUNCE_STEPS",
@@ -63,19 +64,26 @@ DEFAULT_DEBOUNCE_STEPS = 5
 
 @dataclass(frozen=True)
 class ScenarioSession:
-    """What a Session gets from a scenario (see the module docstring): :meth:`keywords`
-    are :class:`harness.session.Session`'s keyword arguments; :meth:`loggers` the scenario's
-    loggers once the session's world is loaded; :meth:`sinks` its ``logging`` sinks."""
+    """What a Session gets from a scenario (see the module docstring): the options objects
+    ``Session(options=..., transport=..., record=..., load=...)`` takes (:meth:`keywords`:
+    the same as keyword arguments, for callers that override some); :meth:`loggers` the
+    scenario's loggers once the session's world is loaded; :meth:`sinks` its ``logging``
+    sinks. ``command_topics``: each robot namespace's joint command topic."""
 
     scenario: Scenario
-    robots: tuple[WorldRobot, ...]
-    scene: str | Path
-    command_topics: Mapping[str, str]
-    options: Mapping[str, Any] = field(default_factory=dict)
+    options: CoreOptions
+    transport: TransportOptions
+    record: RecordOptions
+    load: LoadOptions
+    command_topics: Mapping[str, str] = field(default_factory=dict)
 
     def keywords(self) -> dict[str, Any]:
-        """``Session(**keywords)`` runs the scenario's world with its options."""
-        return {"robots": list(self.robots), "scene": self.scene, **self.options}
+        """``Session(**keywords)`` runs the scenario's world with its options (every field of
+        the four options objects, by its keyword name)."""
+        out: dict[str, Any] = {}
+        for obj in (self.options, self.transport, self.record, self.load):
+            out.update({f.name: getattr(obj, f.name) for f in fields(obj)})
+        return out
 
     def loggers(self, world: LoadedWorld) -> list[Logger]:
         """The scenario's loggers over ``world`` (:func:`scenario_loggers`)."""
@@ -106,25 +114,32 @@ def scenario_session(
     Errors name the scenario file and the key path."""
     plan = plan_world(scenario, folder)
     clock = scenario.clock or default_clock
-    controllers: ControllersConfig | None = scenario.controllers
-    options: dict[str, Any] = {
-        "clock": clock.mode,
-        "rate": clock.rate,
-        "start": "now" if clock.mode == "lockstep" else "paused",
-        "kinematic_limits": kinematic_limits(scenario.robots[0]) if scenario.robots else "clamp",
-        "joint_command_topic": dict(plan.command_topics),
-        "state_every": scenario.recording.state_every,
-        "record_bridge_frames": scenario.recording.bridge_frames,
-        "seed": scenario.seed,
-        "controllers": controllers,
-        "sensors": tuple(scenario.sensors),
-        "host": scenario.bridge.ip,
-        "port": scenario.bridge.port,
-        "connect_to": scenario.bridge.connect,
-        "ros2": scenario.bridge.ros2,
-        "scenario": scenario.source.read_bytes() if scenario.source is not None else None,
-    }
-    return ScenarioSession(scenario, plan.robots, plan.scene, plan.command_topics, options)
+    try:
+        options = CoreOptions(
+            clock=clock.mode,
+            rate=clock.rate,
+            start="now" if clock.mode == "lockstep" else "paused",
+            kinematic_limits=kinematic_limits(scenario.robots[0]),
+            joint_command_topic=dict(plan.command_topics),
+            state_every=scenario.recording.state_every,
+            record_bridge_frames=scenario.recording.bridge_frames,
+            seed=scenario.seed,
+            controllers=controllers_option(scenario.controllers),
+            sensors=tuple(scenario.sensors),
+        )
+        transport = TransportOptions(
+            host=scenario.bridge.ip,
+            port=scenario.bridge.port,
+            connect_to=scenario.bridge.connect,
+            ros2=scenario.bridge.ros2,
+        )
+    except SessionConfigError as exc:
+        raise ScenarioError([f"{_where(scenario)}: {exc}"]) from None
+    record = RecordOptions(
+        scenario=scenario.source.read_bytes() if scenario.source is not None else None
+    )
+    load = LoadOptions(robots=plan.robots, scene=plan.scene)
+    return ScenarioSession(scenario, options, transport, record, load, plan.command_topics)
 
 
 def scenario_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:

@@ -274,17 +274,18 @@ class SessionIterationRunner:
 
         collect = CollectingSink(min_level=Level.INFO)
         sinks: list[Sink] = [*planned.sinks(), collect]
-        keywords = planned.keywords()
-        if keywords["clock"] != "lockstep" and spec.client is not None:
-            keywords["start"] = "on_client"
+        options = replace(planned.options, seed=spec.seed)
+        if options.clock != "lockstep" and spec.client is not None:
+            options = replace(options, start="on_client")
         session = Session(
-            **{
-                **keywords,
-                "host": spec.host,
-                "port": spec.port,  # a free port per iteration: iterations run side by side
-                "record_to": spec.recording_path if scenario.recording.enabled else None,
-                "seed": spec.seed,
-            },
+            options=options,
+            # a free port per iteration: iterations run side by side
+            transport=replace(planned.transport, host=spec.host, port=spec.port),
+            record=replace(
+                planned.record,
+                record_to=spec.recording_path if scenario.recording.enabled else None,
+            ),
+            load=planned.load,
             loggers=[observer],
             sinks=sinks,
         )

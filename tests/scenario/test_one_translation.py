@@ -5,6 +5,7 @@ the same options and recording metadata (issue 16, item 1)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -57,8 +58,13 @@ def _metadata(path: Path) -> dict[str, str]:
 def _session_route(file: Path, tmp: Path) -> dict[str, str]:
     planned = scenario_session(Scenario.load(file), tmp / "world")
     record = tmp / "session.mcap"
-    keywords = {**planned.keywords(), "port": 0}
-    with Session(**keywords, record_to=record, sinks=planned.sinks()) as session:
+    with Session(
+        options=planned.options,
+        transport=replace(planned.transport, port=0),
+        record=replace(planned.record, record_to=record),
+        load=planned.load,
+        sinks=planned.sinks(),
+    ) as session:
         assert session.world is not None
         for logger in planned.loggers(session.world):
             session.add_logger(logger)
