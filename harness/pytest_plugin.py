@@ -32,19 +32,32 @@ thus has one golden per mode, and switching modes never compares against the oth
 A test's sessions end with its body (the recording is complete when the report is built);
 fixtures that use a session tear down after it closed.
 
-Marker keys: ``robot`` (``"demo"``, a model path; relative paths resolve against the test
-file's folder), ``scenario`` (a scenario file: robot, scene, control modes, seed and collision
-logger options from it; marker keys win), ``mode`` (a control mode or joint -> mode),
-``clock`` (default ``lockstep``), ``scene``, ``collisions`` (``CollisionLogger`` keyword
-arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False; its
-default ``tolerance`` is the solver's soft-limit zone of each joint,
-:func:`harness.events.solver_limit_tolerance`, as in ``harness run``'s verdicts), and
-the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
+Marker keys (:func:`marker_keys`): ``robot`` (``"demo"``, a model path; relative paths
+resolve against the test file's folder), ``scenario`` (a scenario file, see below), ``mode``
+(a control mode or joint -> mode), ``clock`` (default ``lockstep``), ``scene`` (or ``world``),
+``collisions`` (``CollisionLogger`` keyword arguments, or False), ``joint_limits``
+(``JointLimitLogger`` keyword arguments, or False; its default ``tolerance`` is the solver's
+soft-limit zone of each joint, :func:`harness.events.solver_limit_tolerance`, as in ``harness
+run``'s verdicts), ``connect`` (``connect_to``), and every other field of the session's
+options objects (:mod:`harness.session.options`: ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
-``joint_command_topic``, ``robot_args`` (a xacro robot's arguments, name -> value; recorded in
-the recording's and the golden's metadata), ``self_collision`` (``auto|off|on|srdf``), ``base``
-(``fixed|floating``), ``strict`` (see :func:`harness.models.load_robot`), ``controllers``
-(a ros2_control controllers YAML, relative to the test file's folder, or False), ``sensors``.
+``joint_command_topic``, ``start``, ``controllers`` (a ros2_control controllers YAML, relative
+to the test file's folder, or False), ``sensors``, ``robots``, ``objects``, ``robot_args`` (a
+xacro robot's arguments, recorded in the metadata), ``self_collision`` (``auto|off|on|srdf``),
+``base`` (``fixed|floating``), ``strict``, ...) except ``host``, ``port``, ``token`` and
+``record_to``, which the plugin chooses (a free port, the test's recording).
+
+``scenario=``: the session ``harness run`` would start for the file
+(:func:`harness.scenario.session_options.scenario_session`: every robot with its pose, control
+modes, initial joint positions and namespace, the map with its objects and timestep, the
+subscribers' command topics, the clock, the recording settings, the seed, the controllers and
+sensors, the logging sinks and the robots' loggers), the test's session being a world
+(``harness_session.world``) as under ``harness run``. Marker keys win: world-level keys replace
+the file's; ``robots`` replaces its robots; ``robot``, ``mode``, ``namespace``, ``robot_args``,
+``self_collision``, ``base`` and ``strict`` apply to its first robot; ``collisions`` and
+``joint_limits`` replace its collision and joint-limit loggers. A file without a ``clock``
+section runs ``lockstep`` (``harness run``: ``realtime``); a free-running clock starts paused
+(``harness_session.resume()``).
 Markers on the module/class/function merge, the closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
@@ -69,6 +82,7 @@ when a fixture is first used.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
 import shlex
@@ -90,12 +104,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "KEEP_CHOICES",
-    "MARKER_KEYS",
     "MODE_CHOICES",
     "Golden",
     "GoldenMismatch",
     "HarnessSettings",
     "SessionFactory",
+    "marker_keys",
     "mode_label",
     "parse_mode",
     "suite_mode",
@@ -109,43 +123,35 @@ MODE_CHOICES = tuple(
 )
 """``--harness-mode``: ``kinematic`` (every joint), or ``position`` (alias ``dynamic``: every
 kinematic joint becomes a position servo, dynamic modes are kept)."""
-_SESSION_KEYS = (
-    "rate",
-    "namespace",
-    "state_every",
-    "joint_states_hz",
-    "tf_hz",
-    "clock_hz",
-    "kinematic_limits",
-    "seed",
-    "joint_command_topic",
-    "robot_args",
-    "controllers",
-    "sensors",
-    "connect_to",
-    "connect_allow_refused",
-    "ros2",
-    "self_collision",
-    "base",
-    "strict",
-)
-MARKER_KEYS = frozenset(
+_MARKER_OWN = frozenset(
     {
         "robot",
-        "robots",
-        "objects",
-        "scenario",
-        "mode",
-        "clock",
-        "scene",
+        "scenario",  # a scenario file (Session's scenario= is its text, attached)
         "collisions",
         "joint_limits",
         "connect",  # the marker's spelling of Session(connect_to=)
         "world",  # a Gazebo world as the map: the same option as scene (harness serve --world)
-        *_SESSION_KEYS,
     }
 )
-"""The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept."""
+_NOT_MARKER = frozenset({"host", "port", "token", "record_to"})  # the plugin's own choice
+
+
+@functools.cache
+def marker_keys() -> frozenset[str]:
+    """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept: the
+    session's options fields (:data:`harness.session.options.SESSION_KEYWORDS`) but where
+    the plugin decides (the free port, the recording path), and the marker's own keys."""
+    from harness.session.options import SESSION_KEYWORDS
+
+    return frozenset((set(SESSION_KEYWORDS) - _NOT_MARKER) | _MARKER_OWN)
+
+
+def __getattr__(name: str) -> Any:
+    if name == "MARKER_KEYS":  # computed when asked: the plugin imports little at start
+        return marker_keys()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 _DYNAMIC = (ControlMode.POSITION, ControlMode.VELOCITY, ControlMode.EFFORT)
 _PLUGIN_MODULE = "harness.pytest_plugin"
 _DEFAULT_RECORD_DIR = ".harness/recordings"
@@ -340,11 +346,11 @@ def _marker_options(item: pytest.Item) -> dict[str, Any]:
 
 
 def _check_keys(where: str, options: Mapping[str, Any]) -> None:
-    unknown = sorted(set(options) - MARKER_KEYS)
+    known = marker_keys()
+    unknown = sorted(set(options) - known)
     if unknown:
         pytest.fail(
-            f"{where}: unknown harness option {unknown[0]!r} "
-            f"(known: {', '.join(sorted(MARKER_KEYS))})",
+            f"{where}: unknown harness option {unknown[0]!r} (known: {', '.join(sorted(known))})",
             pytrace=False,
         )
 

@@ -207,6 +207,14 @@ class Session:
     call :meth:`close`): teardown stops stepping, closes every connection and the server,
     joins the thread and closes the recording, also when the ``with`` body raised.
 
+    Options come as objects, one per concern (:mod:`harness.session.options`):
+    ``options`` (:class:`~harness.session.options.CoreOptions`: clock, rate, rates, topics,
+    limits, seed, ...), ``transport`` (:class:`~harness.session.options.TransportOptions`),
+    ``record`` (:class:`~harness.session.options.RecordOptions`, or the MCAP path) and ``load``
+    (:class:`~harness.session.options.LoadOptions`); or as keyword arguments spelled as those
+    fields (``Session(clock="fast", port=9090, record_to="run.mcap")``), the fields of a group
+    given as an object not repeated as keywords. The keywords:
+
     ``robot``: ``"demo"`` (the default), a model file path or a
     :class:`~harness.models.LoadedRobot`. ``robots``: instead of ``robot``, several robots in
     one world: :class:`~harness.models.RobotSpec`\\ s (loaded with ``scene`` and ``objects``
