@@ -40,8 +40,8 @@ from harness.scenario.scenario import (
     BUILTIN_ROBOTS,
     ClientSpec,
     Criteria,
-    RobotSpec,
     Scenario,
+    ScenarioRobot,
 )
 
 __all__ = [
@@ -60,11 +60,11 @@ __all__ = [
     "JointLimitSummary",
     "JointTrace",
     "LocalBackend",
-    "RobotSpec",
     "RunConfig",
     "RunnerError",
     "Scenario",
     "ScenarioError",
+    "ScenarioRobot",
     "SimulationPlan",
     "Traces",
     "Verdict",

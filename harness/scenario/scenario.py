@@ -32,12 +32,13 @@ from harness.models.resolve import resolve_uri
 from harness.models.world import BaseKind, SelfCollision
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
+from harness.session.core import ClockMode
+from harness.session.options import TransportOptions
 from harness.vocabulary import RobotBase, SelfCollisionPolicy
 
 __all__ = [
     "BUILTIN_MAPS",
     "BUILTIN_ROBOTS",
-    "Bridge",
     "ClientSpec",
     "Clock",
     "CollisionLoggerSpec",
@@ -46,9 +47,10 @@ __all__ = [
     "Environment",
     "JointLoggerSpec",
     "LoggerSpec",
-    "Recording",
-    "RobotSpec",
     "Scenario",
+    "ScenarioBridgeSection",
+    "ScenarioRecordingSection",
+    "ScenarioRobot",
     "SceneObject",
     "Subscriber",
 ]
@@ -61,7 +63,6 @@ ROBOT_SUFFIXES = (".urdf", ".xacro", ".sdf", ".xml", ".mjcf")
 WORLD_SUFFIXES = (".xml", ".mjcf", ".sdf", ".world")
 
 Vector3 = tuple[float, float, float]
-ClockMode = Literal["lockstep", "fast", "realtime"]
 
 
 @dataclass(frozen=True)
@@ -128,10 +129,14 @@ _LOGGER_KEYS: dict[str, tuple[str, ...]] = {
 
 
 @dataclass(frozen=True)
-class RobotSpec:
-    """One robot: ``robot`` is a built-in name or the resolved model file. ``name``: the
-    scenario's name for it (``robot``, ``robot1``, ... when not given); ``named``: whether
-    the file gave the name (a given name is the robot's namespace when a run has several
+class ScenarioRobot:
+    """A ``robots[]`` entry as the file gives it (the session's robot is the
+    :class:`harness.models.RobotSpec` :func:`harness.scenario.world.plan_world` builds from
+    it, namespace and control modes resolved against the robot's description).
+
+    ``robot`` is a built-in name or the resolved model file. ``name``: the scenario's name
+    for it (``robot``, ``robot1``, ... when not given); ``named``: whether the file gave the
+    name (a given name is the robot's namespace when a run has several
     robots, see :func:`harness.scenario.world.robot_namespaces`). ``robot_args``: the
     arguments of a xacro robot (name -> value as text). ``self_collision``, ``base`` and
     ``strict``: as for :func:`harness.models.load_robot` (None: the default)."""
@@ -153,15 +158,24 @@ class RobotSpec:
 
 
 @dataclass(frozen=True)
-class Bridge:
-    """Where ``harness serve`` listens; ``harness run`` gives every iteration a free port.
-    ``connect``: the URL of an external rosbridge server to connect to instead (client mode;
-    a token goes in the URL). ``ros2``: put the simulation on DDS too (the native ROS 2 side)."""
+class ScenarioBridgeSection:
+    """The ``ros.bridge`` section as the file spells it (the original's ``ip``, ``connect``);
+    :meth:`transport` is the session's :class:`harness.session.options.TransportOptions`.
+    ``port``: where a session started from the scenario listens (None: a free port; ``harness
+    run`` and the pytest marker always take a free port: iterations and test workers run side
+    by side). ``connect``: the URL of an external rosbridge server to connect to instead
+    (client mode; a token goes in the URL). ``ros2``: put the simulation on DDS too."""
 
     ip: str = "127.0.0.1"
-    port: int = 9090
+    port: int | None = None
     connect: str | None = None
     ros2: bool = False
+
+    def transport(self) -> TransportOptions:
+        """The session's transport options of this section."""
+        return TransportOptions(
+            host=self.ip, port=self.port or 0, connect_to=self.connect, ros2=self.ros2
+        )
 
 
 _LOGGING_OFF = LoggingConfig(enable=False)  # a scenario without a logging section
@@ -189,8 +203,10 @@ class SceneObject:
 
 
 @dataclass(frozen=True)
-class Recording:
-    """What each iteration records to its MCAP file."""
+class ScenarioRecordingSection:
+    """The ``recording`` section: whether each iteration records an MCAP file; its
+    ``state_every`` and ``bridge_frames`` are the session's ``CoreOptions.state_every`` and
+    ``CoreOptions.record_bridge_frames``."""
 
     enabled: bool = True
     state_every: int = 1
@@ -240,10 +256,10 @@ class Scenario:
     """A validated scenario. Build it with :meth:`load` or :meth:`from_mapping`."""
 
     name: str
-    robots: tuple[RobotSpec, ...]
+    robots: tuple[ScenarioRobot, ...]
     environment: Environment = Environment()
     description: str = ""
-    bridge: Bridge = Bridge()
+    bridge: ScenarioBridgeSection = ScenarioBridgeSection()
     logging: LoggingConfig = _LOGGING_OFF
     timestep: float = 0.002
     duration: float = 10.0
@@ -254,7 +270,7 @@ class Scenario:
     """The ``clock`` section; None when the file has none (``harness run`` then runs
     ``realtime``, the pytest marker ``lockstep``: see :mod:`harness.scenario.session_options`)."""
     objects: tuple[SceneObject, ...] = ()
-    recording: Recording = Recording()
+    recording: ScenarioRecordingSection = ScenarioRecordingSection()
     criteria: Criteria = Criteria()
     client: ClientSpec | None = None
     source: Path | None = None
@@ -335,9 +351,9 @@ class _Builder:
                 weather=env.get("weather"),
                 time=env.get("time"),
             ),
-            bridge=Bridge(
+            bridge=ScenarioBridgeSection(
                 ip=ros_bridge.get("ip", "127.0.0.1"),
-                port=self.port(ros_bridge.get("port", 9090)),
+                port=None if "port" not in ros_bridge else self.port(ros_bridge["port"]),
                 connect=ros_bridge.get("connect"),
                 ros2=ros_bridge.get("ros2", False),
             ),
@@ -351,7 +367,7 @@ class _Builder:
             if clock is None
             else Clock(mode=clock.get("mode", "realtime"), rate=float(clock.get("rate", 1.0))),
             objects=objects,
-            recording=Recording(
+            recording=ScenarioRecordingSection(
                 enabled=rec.get("enabled", True),
                 state_every=rec.get("state_every", 1),
                 bridge_frames=rec.get("bridge_frames", True),
@@ -472,11 +488,11 @@ class _Builder:
             self.problem(["ros", "bridge", "port"], value, "is not a TCP port (0-65535)")
         return port
 
-    def robot(self, data: dict[str, Any], index: int) -> RobotSpec:
+    def robot(self, data: dict[str, Any], index: int) -> ScenarioRobot:
         path: list[str | int] = ["robots", index]
         robot = self.robot_source(data["robot"], [*path, "robot"])
         default_name = "robot" if index == 0 else f"robot{index}"
-        return RobotSpec(
+        return ScenarioRobot(
             robot=robot,
             name=data.get("name", default_name),
             position=_vec3(data.get("position")),

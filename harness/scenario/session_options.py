@@ -127,12 +127,7 @@ def scenario_session(
             controllers=controllers_option(scenario.controllers),
             sensors=tuple(scenario.sensors),
         )
-        transport = TransportOptions(
-            host=scenario.bridge.ip,
-            port=scenario.bridge.port,
-            connect_to=scenario.bridge.connect,
-            ros2=scenario.bridge.ros2,
-        )
+        transport = scenario.bridge.transport()
     except SessionConfigError as exc:
         raise ScenarioError([f"{_where(scenario)}: {exc}"]) from None
     record = RecordOptions(
