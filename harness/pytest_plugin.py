@@ -471,6 +471,8 @@ def _over_scenario(planned: Any, marker: dict[str, Any], where: str) -> dict[str
         )
     if "world" in marker and "scene" not in marker:
         keywords.pop("scene")
+    if "clock" in marker and "start" not in marker:  # as the translation starts that clock
+        keywords["start"] = "now" if marker["clock"] == "lockstep" else "paused"
     return {**keywords, **marker}
 
 

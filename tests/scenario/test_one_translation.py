@@ -137,3 +137,34 @@ def test_one_file_one_world_through_run_marker_and_session(
         assert metadata["model_sha256"] == first["model_sha256"], name
         same = {k: v for k, v in metadata.items() if k not in RUN_ONLY}
         assert same == {k: v for k, v in first.items() if k not in RUN_ONLY}, name
+
+
+MARKER_WINS = """
+import pytest
+
+@pytest.mark.harness(scenario="cell.yaml", clock="lockstep", seed=9, mode="velocity")
+def test_marker_keys_win(harness_session):
+    left, right = harness_session.world.robots
+    assert set(left.control.values()) == {"velocity"}  # robot keys: the first robot
+    assert set(right.control.values()) == {"kinematic"}
+    assert harness_session.clock == "lockstep"
+    assert harness_session.options.seed == 9
+    assert harness_session.options.state_every == 2  # the file's, not overridden
+    harness_session.step(2)
+"""
+
+
+def test_marker_keys_override_the_scenario(pytester: pytest.Pytester) -> None:
+    pytester.makefile(".yaml", cell=SCENARIO)
+    pytester.makepyfile(test_wins=MARKER_WINS)
+    result = pytester.runpytest_inprocess(*_plugin_args(), "-p", "no:cacheprovider")
+    result.assert_outcomes(passed=1)
+
+
+def test_the_bridge_port_is_the_sessions_when_given(tmp_path: Path) -> None:
+    file = tmp_path / "cell.yaml"
+    file.write_text(SCENARIO + 'ros: {bridge: {ip: 127.0.0.1, port: "9091"}}\n')
+    planned = scenario_session(Scenario.load(file), tmp_path / "world")
+    assert (planned.transport.host, planned.transport.port) == ("127.0.0.1", 9091)
+    file.write_text(SCENARIO)
+    assert scenario_session(Scenario.load(file), tmp_path / "world").transport.port == 0
