@@ -46,9 +46,6 @@ logging:
 recording: {state_every: 2}
 """
 
-# Keys that differ between two runs of one world by design (none is a setting).
-RUN_ONLY = {"transport"}
-
 
 def _metadata(path: Path) -> dict[str, str]:
     with Recording(path) as rec:
@@ -135,8 +132,7 @@ def test_one_file_one_world_through_run_marker_and_session(
     assert (first["seed"], first["state_every"]) == ("3", "2")
     for name, metadata in routes.items():
         assert metadata["model_sha256"] == first["model_sha256"], name
-        same = {k: v for k, v in metadata.items() if k not in RUN_ONLY}
-        assert same == {k: v for k, v in first.items() if k not in RUN_ONLY}, name
+        assert metadata == first, name  # every key: the world, the options, the versions
 
 
 MARKER_WINS = """
