@@ -310,8 +310,12 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
     from rich.console import Console
 
     from harness.replay import resimulate, verify
-    from harness.scenario import LocalBackend, load_run_file, session_iteration_runner
-    from harness.scenario._cli import execute
+    from harness.scenario import (
+        LocalBackend,
+        load_run_file,
+        run_scenarios,
+        session_iteration_runner,
+    )
 
     if not scenario_path.is_file():
         raise ConfigError(
@@ -332,7 +336,7 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
         " (with the mobile robot's sensor glance: a lidar scan and a camera frame in the report)"
     )
     console = Console(highlight=False)
-    results = execute(
+    results = run_scenarios(
         config,
         session_iteration_runner(),
         LocalBackend(2),

@@ -32,19 +32,32 @@ thus has one golden per mode, and switching modes never compares against the oth
 A test's sessions end with its body (the recording is complete when the report is built);
 fixtures that use a session tear down after it closed.
 
-Marker keys: ``robot`` (``"demo"``, a model path; relative paths resolve against the test
-file's folder), ``scenario`` (a scenario file: robot, scene, control modes, seed and collision
-logger options from it; marker keys win), ``mode`` (a control mode or joint -> mode),
-``clock`` (default ``lockstep``), ``scene``, ``collisions`` (``CollisionLogger`` keyword
-arguments, or False), ``joint_limits`` (``JointLimitLogger`` keyword arguments, or False; its
-default ``tolerance`` is the solver's soft-limit zone of each joint,
-:func:`harness.events.solver_limit_tolerance`, as in ``harness run``'s verdicts), and
-the :class:`~harness.Session` keywords ``rate``, ``namespace``, ``state_every``,
+Marker keys (:func:`marker_keys`): ``robot`` (``"demo"``, a model path; relative paths
+resolve against the test file's folder), ``scenario`` (a scenario file, see below), ``mode``
+(a control mode or joint -> mode), ``clock`` (default ``lockstep``), ``scene`` (or ``world``),
+``collisions`` (``CollisionLogger`` keyword arguments, or False), ``joint_limits``
+(``JointLimitLogger`` keyword arguments, or False; its default ``tolerance`` is the solver's
+soft-limit zone of each joint, :func:`harness.events.solver_limit_tolerance`, as in ``harness
+run``'s verdicts), ``connect`` (``connect_to``), and every other field of the session's
+options objects (:mod:`harness.session.options`: ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
-``joint_command_topic``, ``robot_args`` (a xacro robot's arguments, name -> value; recorded in
-the recording's and the golden's metadata), ``self_collision`` (``auto|off|on|srdf``), ``base``
-(``fixed|floating``), ``strict`` (see :func:`harness.models.load_robot`), ``controllers``
-(a ros2_control controllers YAML, relative to the test file's folder, or False), ``sensors``.
+``joint_command_topic``, ``start``, ``controllers`` (a ros2_control controllers YAML, relative
+to the test file's folder, or False), ``sensors``, ``robots``, ``objects``, ``robot_args`` (a
+xacro robot's arguments, recorded in the metadata), ``self_collision`` (``auto|off|on|srdf``),
+``base`` (``fixed|floating``), ``strict``, ...) except ``host``, ``port``, ``token`` and
+``record_to``, which the plugin chooses (a free port, the test's recording).
+
+``scenario=``: the session ``harness run`` would start for the file
+(:func:`harness.scenario.session_options.scenario_session`: every robot with its pose, control
+modes, initial joint positions and namespace, the map with its objects and timestep, the
+subscribers' command topics, the clock, the recording settings, the seed, the controllers and
+sensors, the logging sinks and the robots' loggers), the test's session being a world
+(``harness_session.world``) as under ``harness run``. Marker keys win: world-level keys replace
+the file's; ``robots`` replaces its robots; ``robot``, ``mode``, ``namespace``, ``robot_args``,
+``self_collision``, ``base`` and ``strict`` apply to its first robot; ``collisions`` and
+``joint_limits`` replace its collision and joint-limit loggers. A file without a ``clock``
+section runs ``lockstep`` (``harness run``: ``realtime``); a free-running clock starts paused
+(``harness_session.resume()``).
 Markers on the module/class/function merge, the closest wins.
 
 Options (each with an ini twin): ``--harness-record-dir`` (``harness_record_dir``; default
@@ -70,6 +83,7 @@ when a fixture is first used.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
 import shlex
@@ -82,7 +96,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from harness.vocabulary import ACTUATION_INPUTS, ACTUATIONS, Actuation, ControlMode
+from harness.vocabulary import ACTUATION_INPUTS, ACTUATIONS, Actuation, ClockMode, ControlMode
 
 if TYPE_CHECKING:
     from harness.events import CollectingSink
@@ -91,12 +105,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "KEEP_CHOICES",
-    "MARKER_KEYS",
     "MODE_CHOICES",
     "Golden",
     "GoldenMismatch",
     "HarnessSettings",
     "SessionFactory",
+    "marker_keys",
     "mode_label",
     "parse_mode",
     "suite_mode",
@@ -105,43 +119,35 @@ __all__ = [
 KEEP_CHOICES = ("always", "failed", "never")
 MODE_CHOICES = ACTUATION_INPUTS
 """The deprecated ``--harness-mode``'s spellings (``position``/``dynamic`` mean ``servo``)."""
-_SESSION_KEYS = (
-    "rate",
-    "namespace",
-    "state_every",
-    "joint_states_hz",
-    "tf_hz",
-    "clock_hz",
-    "kinematic_limits",
-    "seed",
-    "joint_command_topic",
-    "robot_args",
-    "controllers",
-    "sensors",
-    "connect_to",
-    "connect_allow_refused",
-    "ros2",
-    "self_collision",
-    "base",
-    "strict",
-)
-MARKER_KEYS = frozenset(
+_MARKER_OWN = frozenset(
     {
         "robot",
-        "robots",
-        "objects",
-        "scenario",
-        "mode",
-        "clock",
-        "scene",
+        "scenario",  # a scenario file (Session's scenario= is its text, attached)
         "collisions",
         "joint_limits",
         "connect",  # the marker's spelling of Session(connect_to=)
         "world",  # a Gazebo world as the map: the same option as scene (harness serve --world)
-        *_SESSION_KEYS,
     }
 )
-"""The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept."""
+_NOT_MARKER = frozenset({"host", "port", "token", "record_to"})  # the plugin's own choice
+
+
+@functools.cache
+def marker_keys() -> frozenset[str]:
+    """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept: the
+    session's options fields (:data:`harness.session.options.SESSION_KEYWORDS`) but where
+    the plugin decides (the free port, the recording path), and the marker's own keys."""
+    from harness.session.options import SESSION_KEYWORDS
+
+    return frozenset((set(SESSION_KEYWORDS) - _NOT_MARKER) | _MARKER_OWN)
+
+
+def __getattr__(name: str) -> Any:
+    if name == "MARKER_KEYS":  # computed when asked: the plugin imports little at start
+        return marker_keys()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 _DYNAMIC = (ControlMode.POSITION, ControlMode.VELOCITY, ControlMode.EFFORT)
 _PLUGIN_MODULE = "harness.pytest_plugin"
 _DEFAULT_RECORD_DIR = ".harness/recordings"
@@ -365,11 +371,11 @@ def _marker_options(item: pytest.Item) -> dict[str, Any]:
 
 
 def _check_keys(where: str, options: Mapping[str, Any]) -> None:
-    unknown = sorted(set(options) - MARKER_KEYS)
+    known = marker_keys()
+    unknown = sorted(set(options) - known)
     if unknown:
         pytest.fail(
-            f"{where}: unknown harness option {unknown[0]!r} "
-            f"(known: {', '.join(sorted(MARKER_KEYS))})",
+            f"{where}: unknown harness option {unknown[0]!r} (known: {', '.join(sorted(known))})",
             pytrace=False,
         )
 
@@ -446,52 +452,59 @@ def _resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
     return value
 
 
-def _scenario_options(path: Path) -> dict[str, Any]:
-    """Session options from a scenario file (its first robot)."""
-    from harness.scenario import Scenario
-    from harness.scenario.scenario import CollisionLoggerSpec
+_ROBOT_KEYS = ("robot", "mode", "namespace", "robot_args", "self_collision", "base", "strict")
+"""Marker keys that, with a scenario, apply to its first robot (``robots=`` replaces them all)."""
 
-    scenario = Scenario.load(path)
-    spec = scenario.robots[0]
-    options: dict[str, Any] = {
-        "robot": spec.robot,
-        "scene": scenario.environment.map,
-        "seed": scenario.seed,
-        "state_every": scenario.recording.state_every,
-        "scenario_text": path.read_bytes(),
-    }
-    if spec.robot_args:
-        options["robot_args"] = dict(spec.robot_args)
-    for key in ("self_collision", "base"):
-        if getattr(spec, key, None) is not None:
-            options[key] = getattr(spec, key)
-    if getattr(spec, "strict", False):
-        options["strict"] = True
-    if scenario.controllers is not None:
-        options["controllers"] = scenario.controllers
-    if scenario.sensors:
-        options["sensors"] = list(scenario.sensors)
-    if scenario.bridge.connect is not None:
-        options["connect_to"] = scenario.bridge.connect
-    if scenario.bridge.ros2:
-        options["ros2"] = True
-    controllers = spec.controllers
-    if len(controllers) == 1 and not controllers[0].joints:
-        options["mode"] = controllers[0].mode
-        options["kinematic_limits"] = controllers[0].kinematic_limits
-    elif controllers:
-        options["mode"] = {j: c.mode for c in controllers for j in c.joints}
-    for logger in spec.loggers:
-        if isinstance(logger, CollisionLoggerSpec):
-            options["collisions"] = {
-                "debounce_steps": max(1, logger.debounce_steps),  # 0: no debounce
-                "ignore": list(logger.ignore_pairs),
-                "self_collision": logger.self_collision,
-                "robot_vs_world_only": logger.robot_vs_world_only,
-                "min_force": logger.min_force,
-                "near_miss_distance": logger.near_miss_distance,
-            }
-    return options
+
+def _scenario_session(path: Path, folder: Path) -> Any:
+    """The scenario's session (:func:`harness.scenario.session_options.scenario_session`: the
+    translation ``harness run`` uses), with the marker's default clock (``lockstep``) when
+    the file has no ``clock`` section; a bad file fails the test with its problems."""
+    from harness.scenario import Scenario, ScenarioError
+    from harness.scenario.scenario import Clock
+    from harness.scenario.session_options import scenario_session
+
+    try:
+        return scenario_session(
+            Scenario.load(path), folder, default_clock=Clock(ClockMode.LOCKSTEP)
+        )
+    except ScenarioError as exc:
+        pytest.fail(str(exc), pytrace=False)
+
+
+def _over_scenario(planned: Any, marker: dict[str, Any], where: str) -> dict[str, Any]:
+    """The scenario's Session keywords with the marker's keys over them (the marker wins):
+    world-level keys replace the scenario's; ``robots`` replaces its robots; ``robot``,
+    ``mode``, ``namespace``, ``robot_args``, ``self_collision``, ``base`` and ``strict``
+    apply to its first robot (a RobotSpec field each: ``source``, ``control``, ...)."""
+    import dataclasses
+
+    keywords = planned.keywords()
+    keywords["port"] = 0  # a free port per test: xdist workers run side by side
+    del keywords["record_to"]  # the test's own recording
+    own = {k: marker.pop(k) for k in _ROBOT_KEYS if k in marker}
+    if "robots" not in marker and own:
+        if "mode" in own:
+            own["mode"] = parse_mode(own["mode"], f"{where}: harness option 'mode'")
+        _parse_load_options(own, where)
+        names = {"robot": "source", "mode": "control"}
+        first = keywords["robots"][0]
+        if "robot" in own:  # another robot: the file's joint settings are not its
+            first = dataclasses.replace(first, control="position", initial_positions={})
+            first = dataclasses.replace(first, robot_args={})
+        first = dataclasses.replace(first, **{names.get(k, k): v for k, v in own.items()})
+        keywords["robots"] = [first, *keywords["robots"][1:]]
+    elif own:
+        pytest.fail(
+            f"{where}: harness options {', '.join(sorted(own))} apply to robot=; with robots= "
+            "give each RobotSpec its own",
+            pytrace=False,
+        )
+    if "world" in marker and "scene" not in marker:
+        keywords.pop("scene")
+    if "clock" in marker and "start" not in marker:  # as the translation starts that clock
+        keywords["start"] = "now" if marker["clock"] == "lockstep" else "paused"
+    return {**keywords, **marker}
 
 
 @dataclass
@@ -504,6 +517,8 @@ class _TestRun:
     modes: list[Any] = field(default_factory=list)
     recordings: list[Path] = field(default_factory=list)
     snapshots: list[Path] = field(default_factory=list)
+    folders: list[Path] = field(default_factory=list)
+    """The folders of the worlds generated for scenario sessions (a ``scene.xml``)."""
     sinks: list[CollectingSink] = field(default_factory=list)
     divergence: str | None = None
     golden_note: str | None = None
@@ -525,9 +540,12 @@ class _TestRun:
         options = _marker_options(self.item)
         mode = options.get("mode")
         scenario = options.get("scenario")
-        if mode is None and scenario is not None:
-            path = _resolve_path(scenario, self.item, self.settings.rootdir)
-            mode = _scenario_options(Path(path)).get("mode")
+        if scenario is not None and "robots" not in options:
+            file = Path(_resolve_path(scenario, self.item, self.settings.rootdir))
+            with tempfile.TemporaryDirectory() as folder:
+                planned = _scenario_session(file, Path(folder))
+            keywords = _over_scenario(planned, dict(options), self.item.nodeid)
+            return _one_mode(_suite_robots(keywords["robots"], self.settings.actuation)[1])
         return suite_mode(mode, self.settings.actuation)
 
     def golden_path(self) -> Path:
@@ -557,12 +575,16 @@ class _TestRun:
         rootdir = self.settings.rootdir
         opts = dict(options)
         scenario = opts.pop("scenario", None)
-        scenario_text: bytes | None = None
+        index = len(self.recordings)
+        path = self.recording_path(index)
+        planned: Any = None
         if scenario is not None:
-            path = _resolve_path(scenario, self.item, rootdir)
-            from_file = _scenario_options(Path(path))
-            scenario_text = from_file.pop("scenario_text")
-            opts = {**from_file, **opts}
+            file = Path(_resolve_path(scenario, self.item, rootdir))
+            if "robot" in opts:
+                opts["robot"] = _resolve_path(opts["robot"], self.item, rootdir)
+            planned = _scenario_session(file, path.with_name(f"{path.stem}.world"))
+            self.folders.append(path.with_name(f"{path.stem}.world"))
+            opts = _over_scenario(planned, opts, self.item.nodeid)
         if "connect" in opts:  # the marker's spelling of Session(connect_to=)
             opts["connect_to"] = opts.pop("connect")
         if "world" in opts:
@@ -573,14 +595,15 @@ class _TestRun:
                 )
             opts["scene"] = opts.pop("world")
         robots = opts.pop("robots", None)
-        robot = _resolve_path(opts.pop("robot", None if robots else "demo"), self.item, rootdir)
+        default_robot = None if robots else "demo"
+        robot = _resolve_path(opts.pop("robot", default_robot), self.item, rootdir)
         scene = _resolve_path(opts.pop("scene", None), self.item, rootdir)
         if "controllers" in opts:
             opts["controllers"] = _resolve_path(opts["controllers"], self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.actuation)
         _parse_load_options(opts, self.item.nodeid)
         if robots is not None:
-            if options.get("mode") is not None:
+            if opts.get("mode") is not None:
                 pytest.fail(
                     f"{self.item.nodeid}: harness option 'mode' applies to robot=; with "
                     "robots= give each RobotSpec its control",
@@ -589,13 +612,20 @@ class _TestRun:
             robots, mode = _suite_robots(robots, self.settings.actuation)
             opts["robots"] = robots
         clock = opts.pop("clock", "lockstep")
-        collisions = opts.pop("collisions", True)
-        joint_limits = opts.pop("joint_limits", True)
+        collisions: Any = opts.pop("collisions", True)
+        joint_limits: Any = opts.pop("joint_limits", True)
         loggers: list[Callable[[Session], Any]] = []
-        if collisions is not False:
+        if planned is not None:
+            # the scenario's loggers (added below), the marker's collisions/joint_limits
+            # keys replacing the scenario's collision and joint-limit loggers
+            collisions = collisions if "collisions" in options else None
+            joint_limits = joint_limits if "joint_limits" in options else None
+            if "robots" not in options:
+                mode = _one_mode(mode)
+        if collisions not in (False, None):
             kwargs = dict(collisions) if isinstance(collisions, Mapping) else {}
             loggers.append(lambda s: CollisionLogger(s.model, **kwargs))
-        if joint_limits is not False:
+        if joint_limits not in (False, None):
             jl = dict(joint_limits) if isinstance(joint_limits, Mapping) else {}
             loggers.append(
                 lambda s: JointLimitLogger(
@@ -606,8 +636,7 @@ class _TestRun:
                 )
             )
         sink = CollectingSink()
-        index = len(self.recordings)
-        path = self.recording_path(index)
+        sinks: list[Any] = [sink, *(planned.sinks() if planned is not None else ())]
         path.parent.mkdir(parents=True, exist_ok=True)
         self.recordings.append(path)
         session = Session(
@@ -617,11 +646,27 @@ class _TestRun:
             scene=scene,
             record_to=path,
             loggers=loggers,
-            sinks=[sink],
-            scenario=scenario_text,
+            sinks=sinks,
             **opts,
         )
         self.sessions.append(session)
+        if planned is not None:
+            try:
+                assert session.world is not None
+                skip = {
+                    kind
+                    for key, kind in (
+                        ("collisions", CollisionLogger),
+                        ("joint_limits", JointLimitLogger),
+                    )
+                    if key in options
+                }
+                for logger in planned.loggers(session.world):
+                    if type(logger) not in skip:
+                        session.add_logger(logger)  # before the first step
+            except BaseException:
+                session.close()
+                raise
         self.modes.append(mode)
         self.sinks.append(sink)
         return session
@@ -702,6 +747,8 @@ class _TestRun:
                         path.unlink()
                     with contextlib.suppress(OSError):
                         path.parent.rmdir()  # only when empty
+                for folder in self.folders:
+                    shutil.rmtree(folder, ignore_errors=True)
 
 
 _RUN = pytest.StashKey[_TestRun]()
@@ -814,6 +861,14 @@ def _suite_robots(robots: Any, suite: Actuation | None) -> tuple[list[Any], Any]
         else:
             combined[prefix + "*"] = spec.control
     return specs, combined
+
+
+def _one_mode(mode: Any) -> Any:
+    """A scenario robot's modes (every controllable joint listed) as one mode when they are
+    all the same (the golden name ``[kinematic]``, as for ``mode="kinematic"``)."""
+    if isinstance(mode, Mapping) and len(set(mode.values())) == 1:
+        return next(iter(mode.values()))
+    return mode
 
 
 def mode_label(mode: Any) -> str:

@@ -33,9 +33,7 @@ def test_valid_names(kind, name):
     assert check_name(name, "x", kind) == name
 
 
-@pytest.mark.parametrize(
-    ("kind", "name"), [(k, n) for k, names in INVALID.items() for n in names]
-)
+@pytest.mark.parametrize(("kind", "name"), [(k, n) for k, names in INVALID.items() for n in names])
 def test_invalid_names_say_why_in_one_line(kind, name):
     problem = name_problem(name, kind)
     assert problem is not None

@@ -57,6 +57,7 @@ _EMPTY_PLACEHOLDER = "structure_needs_at_least_one_member"
 """The member ROS 2's C/C++ code generators give an empty message: rosbridge servers that read
 it from the type support (rosbridge-server-rs) send it; it carries nothing."""
 
+
 def _describe(value: object) -> str:
     names = {bool: "a bool", int: "an int", float: "a float", str: "a string", list: "a list"}
     kind = names.get(type(value), "an object" if isinstance(value, dict) else "null")

@@ -9,6 +9,7 @@ The runner machinery talks to whatever runs one iteration through :class:`Iterat
 
 from harness.scenario.client import BridgeHost, run_client, stop_group
 from harness.scenario.errors import RunnerError, ScenarioError
+from harness.scenario.execute import run_scenarios
 from harness.scenario.reports import render_html, write_reports
 from harness.scenario.results import (
     ClientOutcome,
@@ -39,8 +40,8 @@ from harness.scenario.scenario import (
     BUILTIN_ROBOTS,
     ClientSpec,
     Criteria,
-    RobotSpec,
     Scenario,
+    ScenarioRobot,
 )
 
 __all__ = [
@@ -59,11 +60,11 @@ __all__ = [
     "JointLimitSummary",
     "JointTrace",
     "LocalBackend",
-    "RobotSpec",
     "RunConfig",
     "RunnerError",
     "Scenario",
     "ScenarioError",
+    "ScenarioRobot",
     "SimulationPlan",
     "Traces",
     "Verdict",
@@ -76,6 +77,7 @@ __all__ = [
     "render_html",
     "run_client",
     "run_iterations",
+    "run_scenarios",
     "session_iteration_runner",
     "stop_group",
     "write_reports",

@@ -32,6 +32,7 @@ from harness.models.resolve import resolve_uri
 from harness.models.world import BaseKind, SelfCollision
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
+from harness.session.options import TransportOptions
 from harness.vocabulary import (
     LIMIT_POLICY_KEY,
     LIMIT_POLICY_OLD_KEY,
@@ -44,7 +45,6 @@ from harness.vocabulary import (
 __all__ = [
     "BUILTIN_MAPS",
     "BUILTIN_ROBOTS",
-    "Bridge",
     "ClientSpec",
     "Clock",
     "CollisionLoggerSpec",
@@ -53,9 +53,10 @@ __all__ = [
     "Environment",
     "JointLoggerSpec",
     "LoggerSpec",
-    "Recording",
-    "RobotSpec",
     "Scenario",
+    "ScenarioBridgeSection",
+    "ScenarioRecordingSection",
+    "ScenarioRobot",
     "SceneObject",
     "Subscriber",
 ]
@@ -134,10 +135,14 @@ _LOGGER_KEYS: dict[str, tuple[str, ...]] = {
 
 
 @dataclass(frozen=True)
-class RobotSpec:
-    """One robot: ``robot`` is a built-in name or the resolved model file. ``name``: the
-    scenario's name for it (``robot``, ``robot1``, ... when not given); ``named``: whether
-    the file gave the name (a given name is the robot's namespace when a run has several
+class ScenarioRobot:
+    """A ``robots[]`` entry as the file gives it (the session's robot is the
+    :class:`harness.models.RobotSpec` :func:`harness.scenario.world.plan_world` builds from
+    it, namespace and control modes resolved against the robot's description).
+
+    ``robot`` is a built-in name or the resolved model file. ``name``: the scenario's name
+    for it (``robot``, ``robot1``, ... when not given); ``named``: whether the file gave the
+    name (a given name is the robot's namespace when a run has several
     robots, see :func:`harness.scenario.world.robot_namespaces`). ``robot_args``: the
     arguments of a xacro robot (name -> value as text). ``self_collision``, ``base`` and
     ``strict``: as for :func:`harness.models.load_robot` (None: the default)."""
@@ -159,15 +164,24 @@ class RobotSpec:
 
 
 @dataclass(frozen=True)
-class Bridge:
-    """Where ``harness serve`` listens; ``harness run`` gives every iteration a free port.
-    ``connect``: the URL of an external rosbridge server to connect to instead (client mode;
-    a token goes in the URL). ``ros2``: put the simulation on DDS too (the native ROS 2 side)."""
+class ScenarioBridgeSection:
+    """The ``ros.bridge`` section as the file spells it (the original's ``ip``, ``connect``);
+    :meth:`transport` is the session's :class:`harness.session.options.TransportOptions`.
+    ``port``: where a session started from the scenario listens (None: a free port; ``harness
+    run`` and the pytest marker always take a free port: iterations and test workers run side
+    by side). ``connect``: the URL of an external rosbridge server to connect to instead
+    (client mode; a token goes in the URL). ``ros2``: put the simulation on DDS too."""
 
     ip: str = "127.0.0.1"
-    port: int = 9090
+    port: int | None = None
     connect: str | None = None
     ros2: bool = False
+
+    def transport(self) -> TransportOptions:
+        """The session's transport options of this section."""
+        return TransportOptions(
+            host=self.ip, port=self.port or 0, connect_to=self.connect, ros2=self.ros2
+        )
 
 
 _LOGGING_OFF = LoggingConfig(enable=False)  # a scenario without a logging section
@@ -195,8 +209,10 @@ class SceneObject:
 
 
 @dataclass(frozen=True)
-class Recording:
-    """What each iteration records to its MCAP file."""
+class ScenarioRecordingSection:
+    """The ``recording`` section: whether each iteration records an MCAP file; its
+    ``state_every`` and ``bridge_frames`` are the session's ``CoreOptions.state_every`` and
+    ``CoreOptions.record_bridge_frames``."""
 
     enabled: bool = True
     state_every: int = 1
@@ -246,19 +262,21 @@ class Scenario:
     """A validated scenario. Build it with :meth:`load` or :meth:`from_mapping`."""
 
     name: str
-    robots: tuple[RobotSpec, ...]
+    robots: tuple[ScenarioRobot, ...]
     environment: Environment = Environment()
     description: str = ""
-    bridge: Bridge = Bridge()
+    bridge: ScenarioBridgeSection = ScenarioBridgeSection()
     logging: LoggingConfig = _LOGGING_OFF
     timestep: float = 0.002
     duration: float = 10.0
     seed: int = 0
     sensors: tuple[Mapping[str, Any], ...] = ()
     """Sensors besides the robot files' (mappings as :class:`harness.sensors.SensorSpec`)."""
-    clock: Clock = Clock()
+    clock: Clock | None = None
+    """The ``clock`` section; None when the file has none (``harness run`` then runs
+    ``realtime``, the pytest marker ``lockstep``: see :mod:`harness.scenario.session_options`)."""
     objects: tuple[SceneObject, ...] = ()
-    recording: Recording = Recording()
+    recording: ScenarioRecordingSection = ScenarioRecordingSection()
     criteria: Criteria = Criteria()
     client: ClientSpec | None = None
     source: Path | None = None
@@ -323,7 +341,7 @@ class _Builder:
         env = data.get("environment", {})
         ros_bridge = data.get("ros", {}).get("bridge", {})
         crit = data.get("criteria", {})
-        clock = data.get("clock", {})
+        clock = data.get("clock")
         rec = data.get("recording", {})
         default_name = source.stem if source is not None else "scenario"
         robots = tuple(self.robot(r, i) for i, r in enumerate(data["robots"]))
@@ -339,9 +357,9 @@ class _Builder:
                 weather=env.get("weather"),
                 time=env.get("time"),
             ),
-            bridge=Bridge(
+            bridge=ScenarioBridgeSection(
                 ip=ros_bridge.get("ip", "127.0.0.1"),
-                port=self.port(ros_bridge.get("port", 9090)),
+                port=None if "port" not in ros_bridge else self.port(ros_bridge["port"]),
                 connect=ros_bridge.get("connect"),
                 ros2=ros_bridge.get("ros2", False),
             ),
@@ -351,11 +369,13 @@ class _Builder:
             seed=int(data.get("seed", 0)),
             controllers=self.controllers(data.get("controllers")),
             sensors=self.sensors(data.get("sensors", [])),
-            clock=Clock(
+            clock=None
+            if clock is None
+            else Clock(
                 mode=ClockMode(clock.get("mode", "realtime")), rate=float(clock.get("rate", 1.0))
             ),
             objects=objects,
-            recording=Recording(
+            recording=ScenarioRecordingSection(
                 enabled=rec.get("enabled", True),
                 state_every=rec.get("state_every", 1),
                 bridge_frames=rec.get("bridge_frames", True),
@@ -476,11 +496,11 @@ class _Builder:
             self.problem(["ros", "bridge", "port"], value, "is not a TCP port (0-65535)")
         return port
 
-    def robot(self, data: dict[str, Any], index: int) -> RobotSpec:
+    def robot(self, data: dict[str, Any], index: int) -> ScenarioRobot:
         path: list[str | int] = ["robots", index]
         robot = self.robot_source(data["robot"], [*path, "robot"])
         default_name = "robot" if index == 0 else f"robot{index}"
-        return RobotSpec(
+        return ScenarioRobot(
             robot=robot,
             name=data.get("name", default_name),
             position=_vec3(data.get("position")),

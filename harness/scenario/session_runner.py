@@ -43,7 +43,6 @@ import math
 import sys
 import time
 from dataclasses import dataclass, replace
-from typing import Any
 from urllib.parse import urlsplit
 
 import mujoco
@@ -55,22 +54,16 @@ from harness.events import (
     CollectingSink,
     CollisionBegin,
     CollisionEnd,
-    CollisionLogger,
     Event,
-    JointLimitLogger,
-    JointLogger,
     Level,
     Logger,
-    LoggerConfigError,
     Sink,
     StepContext,
     solver_limit_tolerance,
     velocity_limits,
 )
 from harness.models import LoadedWorld
-from harness.scenario._validation import format_path
 from harness.scenario.client import run_client
-from harness.scenario.errors import ScenarioError
 from harness.scenario.results import (
     ClientOutcome,
     CollisionSummary,
@@ -85,13 +78,10 @@ from harness.scenario.results import (
 )
 from harness.scenario.scenario import (
     ClientSpec,
-    CollisionLoggerSpec,
-    JointLoggerSpec,
-    Scenario,
 )
+from harness.scenario.session_options import is_body, scenario_session
 from harness.scenario.travel import BaseTracker, travel_verdict
-from harness.scenario.world import kinematic_limits, plan_world
-from harness.session import Session, SessionError, StartMode
+from harness.session import Session, SessionError
 
 __all__ = ["SessionHost", "SessionIterationRunner", "robot_links", "steps_for"]
 
@@ -234,97 +224,6 @@ class _Observer:
         )
 
 
-def _robot_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
-    """The scenario's loggers as harness.events loggers; errors name the key path."""
-    model = world.model
-    where = str(scenario.source) if scenario.source is not None else "<scenario>"
-    loggers: list[Logger] = []
-    every_link: list[str] = []
-    has_collision = has_joint = False
-    for index, (robot, view) in enumerate(zip(scenario.robots, world.robots, strict=True)):
-        links = [
-            view.mujoco_name(link.name)
-            for link in view.description.links
-            if _is_body(model, view.mujoco_name(link.name))
-        ]
-        every_link += links
-        several = len(world.robots) > 1
-        for i, spec in enumerate(robot.loggers):
-            path = format_path(["robots", index, "loggers", i])
-            name = f"robots[{index}].loggers[{i}]" if several else None
-            try:
-                if isinstance(spec, CollisionLoggerSpec):
-                    has_collision = True
-                    loggers.append(
-                        CollisionLogger(
-                            model,
-                            robot_bodies=links,
-                            self_collision=spec.self_collision,
-                            robot_vs_world_only=spec.robot_vs_world_only,
-                            ignore=[
-                                (_body(view, model, a), _body(view, model, b))
-                                for a, b in spec.ignore_pairs
-                            ],
-                            min_force=spec.min_force,
-                            debounce_steps=max(1, spec.debounce_steps),
-                            near_miss_distance=spec.near_miss_distance,
-                            name=name or f"collisions[{i}]",
-                        )
-                    )
-                elif isinstance(spec, JointLoggerSpec):
-                    has_joint = True
-                    joints = [view.mujoco_name(j) for j in spec.joints]
-                    if not joints and several:
-                        joints = [view.mujoco_name(j) for j in view.control]
-                    loggers.append(
-                        JointLogger(
-                            model,
-                            joints=joints or None,
-                            rate_hz=spec.rate,
-                            name=name or f"joints[{i}]",
-                        )
-                    )
-            except LoggerConfigError as exc:
-                raise ScenarioError([f"{where}: {path}: {exc}"]) from None
-    if not has_collision and scenario.criteria.no_collisions:
-        loggers.append(
-            CollisionLogger(model, robot_bodies=every_link, debounce_steps=_DEFAULT_DEBOUNCE_STEPS)
-        )
-    logging = scenario.logging
-    if logging.enable and not has_joint:
-        loggers.append(JointLogger(model, rate_hz=logging.frequency_hz))
-    description = world.combined_description()
-    joints = [j.name for j in description.controllable_joints]
-    speed = velocity_limits(description)
-    loggers.append(
-        JointLimitLogger(
-            model,
-            joints=joints,
-            velocity_limits={j: v for j, v in speed.items() if j in joints},
-            tolerance=scenario.criteria.joint_limit_tolerance,  # None: the solver's
-        )
-    )
-    return loggers
-
-
-def _body(view: Any, model: mujoco.MjModel, name: str) -> str:
-    """A body a robot's logger names: the robot's own link (prefixed), else a world body."""
-    own = view.mujoco_name(name)
-    return own if _is_body(model, own) else name
-
-
-def _is_body(model: mujoco.MjModel, name: str) -> bool:
-    return bool(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) > 0)
-
-
-def _sinks(scenario: Scenario) -> list[Sink]:
-    where = str(scenario.source) if scenario.source is not None else "<scenario>"
-    try:
-        return scenario.logging.create_sinks()
-    except LoggerConfigError as exc:
-        raise ScenarioError([f"{where}: logging: {exc}"]) from None
-
-
 def _client_command(client: ClientSpec) -> ClientSpec:
     if client.command and client.command[0] in _PYTHON:
         return replace(client, command=(sys.executable, *client.command[1:]))
@@ -363,7 +262,7 @@ class SessionIterationRunner:
             raise ConfigError("the scenario lists no robot")
         spec.out_dir.mkdir(parents=True, exist_ok=True)
         spec.recording_path.parent.mkdir(parents=True, exist_ok=True)
-        plan = plan_world(scenario, spec.out_dir)
+        planned = scenario_session(scenario, spec.out_dir)
         expected = steps_for(spec.sim_time_limit, round(scenario.timestep * 1e9))
         every = max(1, math.ceil(expected / max(1, self.trace_samples)))
         observers: list[_Observer] = []
@@ -374,37 +273,25 @@ class SessionIterationRunner:
             return built
 
         collect = CollectingSink(min_level=Level.INFO)
-        sinks: list[Sink] = [*_sinks(scenario), collect]
-        scenario_text = scenario.source.read_bytes() if scenario.source is not None else None
-        clock = scenario.clock
-        start: StartMode = "now"
-        if clock.mode != "lockstep":
-            start = "paused" if spec.client is None else "on_client"
+        sinks: list[Sink] = [*planned.sinks(), collect]
+        options = replace(planned.options, seed=spec.seed)
+        if options.clock != "lockstep" and spec.client is not None:
+            options = replace(options, start="on_client")
         session = Session(
-            robots=plan.robots,
-            scene=plan.scene,
-            kinematic_limits=kinematic_limits(robot_spec),
-            clock=clock.mode,
-            rate=clock.rate,
-            start=start,
-            record_bridge_frames=scenario.recording.bridge_frames,
-            host=spec.host,
-            port=spec.port,
-            connect_to=scenario.bridge.connect,
-            ros2=scenario.bridge.ros2,
-            record_to=spec.recording_path if scenario.recording.enabled else None,
-            state_every=scenario.recording.state_every,
-            joint_command_topic=plan.command_topics,
+            options=options,
+            # a free port per iteration: iterations run side by side
+            transport=replace(planned.transport, host=spec.host, port=spec.port),
+            record=replace(
+                planned.record,
+                record_to=spec.recording_path if scenario.recording.enabled else None,
+            ),
+            load=planned.load,
             loggers=[observer],
             sinks=sinks,
-            seed=spec.seed,
-            scenario=scenario_text,
-            controllers=scenario.controllers,
-            sensors=scenario.sensors,
         )
         try:
             assert session.world is not None
-            for logger in _robot_loggers(scenario, session.world):
+            for logger in planned.loggers(session.world):
                 session.add_logger(logger)  # before the first step: as if given above
         except BaseException:
             session.close()
@@ -416,7 +303,7 @@ class SessionIterationRunner:
         try:
             host = SessionHost(session)
             port = urlsplit(session.url).port or 0  # the URL may end in /?token=...
-            if clock.mode != "lockstep":
+            if session.clock != "lockstep":
                 session.pause_at(limit)  # before the clock starts
             if spec.client is None:
                 try:
@@ -480,7 +367,7 @@ def robot_links(world: LoadedWorld | None) -> list[str]:
         view.mujoco_name(link.name)
         for view in world.robots
         for link in view.description.links
-        if _is_body(model, view.mujoco_name(link.name))
+        if is_body(model, view.mujoco_name(link.name))
     ]
 
 

@@ -50,7 +50,7 @@ from harness.models.mjcf_files import check_mjcf_files, generated_from
 from harness.models.worldfile import is_sdf_world, load_world_file
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
-from harness.scenario.scenario import RobotSpec, Scenario, SceneObject
+from harness.scenario.scenario import Scenario, ScenarioRobot, SceneObject
 from harness.vocabulary import LimitPolicy
 
 __all__ = [
@@ -146,7 +146,7 @@ def require_runnable(scenario: Scenario) -> None:
 
 
 def control_modes(
-    robot: RobotSpec, description: RobotModel, path: list[str | int], where: str = "<scenario>"
+    robot: ScenarioRobot, description: RobotModel, path: list[str | int], where: str = "<scenario>"
 ) -> dict[str, ControlMode]:
     """Every controllable joint's mode from ``robots[].controllers`` (``path``: the robot's
     key path): a controller without ``joints`` covers every joint; later controllers win;
@@ -169,7 +169,7 @@ def control_modes(
     return modes
 
 
-def kinematic_limits(robot: RobotSpec) -> LimitPolicy:
+def kinematic_limits(robot: ScenarioRobot) -> LimitPolicy:
     """``allow`` when a kinematic controller lets commands pass the limits, else ``clamp``."""
     allow = any(
         c.mode == "kinematic" and c.kinematic_limits == LimitPolicy.ALLOW for c in robot.controllers
@@ -177,7 +177,7 @@ def kinematic_limits(robot: RobotSpec) -> LimitPolicy:
     return LimitPolicy.ALLOW if allow else LimitPolicy.CLAMP
 
 
-def joint_command_topic(robot: RobotSpec, namespace: str = "") -> str:
+def joint_command_topic(robot: ScenarioRobot, namespace: str = "") -> str:
     """The JointStateSubscriber's topic (the original's default ``/joint/states``), else
     :data:`DEFAULT_JOINT_COMMAND_TOPIC`; with a ``namespace``, relative to it (a topic
     already under ``/<namespace>/`` stays absolute)."""

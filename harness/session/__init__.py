@@ -21,6 +21,7 @@ from harness.session.errors import (
     SessionError,
     SimTimeoutError,
 )
+from harness.session.options import LoadOptions, RecordOptions, TransportOptions
 from harness.session.session import CLOCK_MODES, ClockMode, LoggerFactory, Session, SessionTopics
 
 __all__ = [
@@ -33,7 +34,9 @@ __all__ = [
     "ClockMode",
     "CommandRefused",
     "CoreOptions",
+    "LoadOptions",
     "LoggerFactory",
+    "RecordOptions",
     "RecordSink",
     "Session",
     "SessionClosedError",
@@ -44,5 +47,6 @@ __all__ = [
     "SimTimeoutError",
     "StartMode",
     "Trajectory",
+    "TransportOptions",
     "is_marker",
 ]

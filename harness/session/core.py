@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
@@ -52,7 +51,6 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.controllers import ControllersConfig
 from harness.events import (
     EventHub,
     JointSample,
@@ -65,7 +63,7 @@ from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.names import NameKind, check_name
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
-from harness.sensors import TOPIC_TF_STATIC, SensorSpec
+from harness.sensors import TOPIC_TF_STATIC
 from harness.sensors.hook import record_metadata, session_sensors
 from harness.session.commands import (
     FORWARD_TOPICS,
@@ -76,8 +74,6 @@ from harness.session.commands import (
 )
 from harness.session.control import (
     ControlHost,
-    controllers_from_metadata,
-    controllers_metadata,
 )
 from harness.session.errors import (
     CommandRefused,
@@ -86,6 +82,7 @@ from harness.session.errors import (
     SessionError,
 )
 from harness.session.listed import ListedJoints
+from harness.session.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
 from harness.session.stepping import PublishCounter, parse_step_request, run_step
 from harness.session.tf import RobotFrames, TfTree
 from harness.session.topics import (
@@ -108,7 +105,7 @@ from harness.session.topics import (
 )
 from harness.session.urdf_text import description_text
 from harness.sim import CommandField, Notice, RobotJoints, Simulation
-from harness.vocabulary import CLOCK_MODES, ClockMode, LimitPolicy
+from harness.vocabulary import CLOCK_MODES, ClockMode
 
 __all__ = [
     "CLOCK_MODES",
@@ -136,8 +133,6 @@ F64 = npt.NDArray[np.float64]
 
 StartMode = Literal["now", "paused", "on_client"]
 START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
-DEFAULT_MAX_STEP_REQUEST = 100_000
-"""Default cap of one ``/harness/step`` request (steps run while the loop is blocked)."""
 
 MARKER_DISCONNECT = "harness/disconnect"
 MARKER_CALL_TIMEOUT = "harness/call_timeout"
@@ -283,203 +278,6 @@ class SessionTopics:
     tf_static: str = _TF_STATIC
     clock: str = _CLOCK
     rosout: str = _ROSOUT
-
-
-def _hz(value: float | None) -> str:
-    return "" if value is None else repr(float(value))
-
-
-@dataclass(frozen=True)
-class CoreOptions:
-    """Everything besides the robot that decides what a core does (validated on creation);
-    :meth:`to_metadata`/:meth:`from_metadata` carry it through a recording's metadata.
-
-    ``start``: a free-running clock (``fast``, ``realtime``) steps from the start (``"now"``),
-    starts paused (``"paused"``: :meth:`SessionCore.set_paused`), or starts paused until its
-    first client connects (``"on_client"``, the shell's job); lockstep takes only ``"now"``.
-    ``record_bridge_frames``: whether bridge frames and markers are recorded (without them a
-    recording cannot be replayed at ``--level full``). ``joint_command_topic``: one name for
-    every robot, or robot namespace -> name (robots not listed: ``"joint_command"``).
-    ``max_step_request``: the most steps one ``/harness/step`` request may ask for (a larger
-    request fails, nothing stepped)."""
-
-    clock: ClockMode = ClockMode.LOCKSTEP
-    namespace: str = ""
-    kinematic_limits: LimitPolicy = LimitPolicy.CLAMP
-    state_every: int = 1
-    joint_states_hz: float = 100.0
-    tf_hz: float | None = None
-    clock_hz: float | None = None
-    joint_command_topic: str | Mapping[str, str] = "joint_command"
-    start: StartMode = "now"
-    record_bridge_frames: bool = True
-    max_step_request: int = DEFAULT_MAX_STEP_REQUEST
-    controllers: ControllersConfig | str = "default"
-    sensors: Sequence[Mapping[str, Any]] = ()
-    """Sensors besides those the robot files declare (see :class:`harness.sensors.SensorSpec`)."""
-    seed: int = 0
-    """The session seed (sensor noise); recorded as the ``seed`` metadata key."""
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.controllers, ControllersConfig) and self.controllers not in (
-            "default",
-            "none",
-        ):
-            raise SessionConfigError(
-                "controllers must be a ControllersConfig, 'default' or 'none', not "
-                f"{self.controllers!r} (read a YAML with harness.controllers.load_controllers)"
-            )
-        if self.clock not in CLOCK_MODES:
-            raise SessionConfigError(
-                f"clock must be one of {', '.join(CLOCK_MODES)}, not {self.clock!r}"
-            )
-        object.__setattr__(self, "clock", ClockMode(self.clock))
-        if self.start not in START_MODES:
-            raise SessionConfigError(
-                f"start must be one of {', '.join(START_MODES)}, not {self.start!r}"
-            )
-        if self.clock == "lockstep" and self.start != "now":
-            raise SessionConfigError(
-                f"start={self.start!r} applies to the fast and realtime clocks: a lockstep "
-                "clock moves only when asked"
-            )
-        sensors = []
-        for i, item in enumerate(self.sensors):
-            if isinstance(item, SensorSpec):
-                item = item.to_json()
-            if not isinstance(item, Mapping):
-                raise SessionConfigError(
-                    f"sensors[{i}] must be a mapping of sensor keys, not {item!r}"
-                )
-            sensors.append(dict(item))
-        object.__setattr__(self, "sensors", tuple(sensors))
-        if not isinstance(self.record_bridge_frames, bool):
-            raise SessionConfigError(
-                f"record_bridge_frames must be True or False, not {self.record_bridge_frames!r}"
-            )
-        if (
-            not isinstance(self.max_step_request, int)
-            or isinstance(self.max_step_request, bool)
-            or self.max_step_request < 1
-        ):
-            raise SessionConfigError(
-                f"max_step_request must be an integer >= 1, not {self.max_step_request!r}"
-            )
-        if not isinstance(self.state_every, int) or self.state_every < 1:
-            raise SessionConfigError(
-                f"state_every must be an integer >= 1, not {self.state_every!r}"
-            )
-        for what, hz in (
-            ("joint_states_hz", self.joint_states_hz),
-            ("tf_hz", self.tf_hz),
-            ("clock_hz", self.clock_hz),
-        ):
-            if hz is not None and not (
-                isinstance(hz, int | float) and math.isfinite(hz) and hz >= 0
-            ):
-                raise SessionConfigError(f"{what} must be >= 0 Hz, not {hz!r}")
-        if self.namespace:
-            object.__setattr__(
-                self, "namespace", _check_name(self.namespace, "namespace", "namespace").strip("/")
-            )
-        try:
-            object.__setattr__(
-                self, "kinematic_limits", LimitPolicy.parse(self.kinematic_limits)
-            )
-        except ValueError as exc:
-            raise SessionConfigError(str(exc)) from None
-        topics = self.joint_command_topic
-        if isinstance(topics, Mapping):
-            for namespace, topic in topics.items():
-                if not isinstance(namespace, str) or not isinstance(topic, str):
-                    raise SessionConfigError(
-                        f"joint_command_topic[{namespace!r}] must map a namespace to a topic "
-                        f"name, not {topic!r}"
-                    )
-                _check_name(topic, f"joint_command_topic[{namespace!r}]")
-            object.__setattr__(self, "joint_command_topic", MappingProxyType(dict(topics)))
-        elif not isinstance(topics, str):
-            raise SessionConfigError(
-                f"joint_command_topic must be a topic name or namespace -> name, not {topics!r}"
-            )
-        else:
-            _check_name(topics, "joint_command_topic")
-
-    def command_topic(self, namespace: str) -> str:
-        """The joint command topic name of the robot with ``namespace``."""
-        topics = self.joint_command_topic
-        if isinstance(topics, str):
-            return topics
-        return topics.get(namespace, "joint_command")
-
-    def to_metadata(self) -> dict[str, str]:
-        """The recording metadata keys of these options (all strings)."""
-        return {
-            "clock": self.clock,
-            "kinematic_limits": self.kinematic_limits,
-            "namespace": self.namespace,
-            "joint_states_hz": repr(float(self.joint_states_hz)),
-            "tf_hz": _hz(self.tf_hz),
-            "clock_hz": _hz(self.clock_hz),
-            "joint_command_topic": self.joint_command_topic
-            if isinstance(self.joint_command_topic, str)
-            else json.dumps(dict(self.joint_command_topic), sort_keys=True),
-            "start": self.start,
-            "bridge_frames": "true" if self.record_bridge_frames else "false",
-            "max_step_request": str(self.max_step_request),
-            "controllers": controllers_metadata(self.controllers),
-            **({"sensors": json.dumps(list(self.sensors), sort_keys=True)} if self.sensors else {}),
-        }  # state_every and seed: the recorder and describe_run write them
-
-    @classmethod
-    def from_metadata(cls, metadata: Mapping[str, str]) -> CoreOptions:
-        """The options of a recorded session (keys a recording lacks keep their defaults)."""
-        defaults = cls()
-
-        def number(key: str, default: float | None) -> float | None:
-            text = metadata.get(key)
-            if text is None or text == "":
-                return default
-            try:
-                return float(text)
-            except ValueError:
-                raise SessionConfigError(f"metadata {key!r} is {text!r}, not a number") from None
-
-        hz = number("joint_states_hz", defaults.joint_states_hz)
-        every = metadata.get("state_every", "1")
-        if not every.isdigit():
-            raise SessionConfigError(f"metadata 'state_every' is {every!r}, not an integer")
-        cap = metadata.get("max_step_request", str(defaults.max_step_request))
-        if not cap.isdigit():
-            raise SessionConfigError(f"metadata 'max_step_request' is {cap!r}, not an integer")
-        topic_text = metadata.get("joint_command_topic", "joint_command")
-        command_topic: str | dict[str, str] = topic_text
-        if topic_text.startswith("{"):
-            try:
-                command_topic = dict(json.loads(topic_text))
-            except (ValueError, TypeError):
-                raise SessionConfigError(
-                    f"metadata 'joint_command_topic' is {topic_text!r}, not a topic name or "
-                    "a JSON object of namespace -> topic"
-                ) from None
-        return cls(
-            clock=metadata.get("clock", defaults.clock),  # type: ignore[arg-type]
-            namespace=metadata.get("namespace", ""),
-            kinematic_limits=metadata.get(  # type: ignore[arg-type]
-                "kinematic_limits", defaults.kinematic_limits
-            ),
-            state_every=int(every),
-            joint_states_hz=defaults.joint_states_hz if hz is None else hz,
-            tf_hz=number("tf_hz", None),
-            clock_hz=number("clock_hz", None),
-            joint_command_topic=command_topic,
-            start=metadata.get("start", defaults.start),  # type: ignore[arg-type]
-            record_bridge_frames=metadata.get("bridge_frames", "true") != "false",
-            max_step_request=int(cap),
-            controllers=controllers_from_metadata(metadata.get("controllers")),
-            sensors=tuple(json.loads(metadata.get("sensors", "[]"))),
-            seed=int(metadata.get("seed", "0") or 0),
-        )
 
 
 class SessionBridge(Bridge):

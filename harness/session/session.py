@@ -140,7 +140,7 @@ import time
 from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import mujoco
 import numpy as np
@@ -159,12 +159,10 @@ from harness.models import (
 )
 from harness.models.world import BaseKind, SelfCollision
 from harness.recording import Recorder, describe_run
-from harness.session.control import ControllersOption, controllers_option, resolve_default
+from harness.session.control import resolve_default
 from harness.session.core import (
     CLOCK_MODES,
-    DEFAULT_MAX_STEP_REQUEST,
     ClockMode,
-    CoreOptions,
     SessionCore,
     SessionTopics,
     StartMode,
@@ -176,11 +174,21 @@ from harness.session.errors import (
     SessionError,
     SimTimeoutError,
 )
+from harness.session.options import (
+    CoreOptions,
+    LoadOptions,
+    RecordOptions,
+    SessionKeywords,
+    TransportOptions,
+    group_keywords,
+)
 from harness.session.ports import Port, ServerPort
 from harness.session.snapshot import complete_prefix
 from harness.session.upstream import UpstreamPort, UpstreamStats, redact
 from harness.sim import Notice, Simulation
-from harness.vocabulary import LimitPolicy
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 __all__ = ["CLOCK_MODES", "ClockMode", "LoggerFactory", "Session", "SessionTopics", "StartMode"]
 
@@ -198,6 +206,14 @@ class Session:
     optional recording and loggers. Starts in the constructor; use as a context manager (or
     call :meth:`close`): teardown stops stepping, closes every connection and the server,
     joins the thread and closes the recording, also when the ``with`` body raised.
+
+    Options come as objects, one per concern (:mod:`harness.session.options`):
+    ``options`` (:class:`~harness.session.options.CoreOptions`: clock, rate, rates, topics,
+    limits, seed, ...), ``transport`` (:class:`~harness.session.options.TransportOptions`),
+    ``record`` (:class:`~harness.session.options.RecordOptions`, or the MCAP path) and ``load``
+    (:class:`~harness.session.options.LoadOptions`); or as keyword arguments spelled as those
+    fields (``Session(clock="fast", port=9090, record_to="run.mcap")``), the fields of a group
+    given as an object not repeated as keywords. The keywords:
 
     ``robot``: ``"demo"`` (the default), a model file path or a
     :class:`~harness.models.LoadedRobot`. ``robots``: instead of ``robot``, several robots in
@@ -244,89 +260,47 @@ class Session:
         self,
         robot: str | Path | LoadedRobot | None = None,
         *,
-        robots: Sequence[RobotSpec] | LoadedWorld | None = None,
-        objects: Sequence[WorldObject] = (),
-        mode: ControlMode | str | Mapping[str, ControlMode | str] | None = None,
-        kinematic_limits: LimitPolicy | str = LimitPolicy.CLAMP,
-        clock: ClockMode | str = ClockMode.LOCKSTEP,
-        rate: float = 1.0,
-        namespace: str = "",
-        host: str = "127.0.0.1",
-        port: int = 0,
-        token: str | None = None,
-        connect_to: str | None = None,
-        connect_allow_refused: bool = False,
-        ros2: bool = False,
-        record_to: str | Path | None = None,
-        state_every: int = 1,
-        joint_states_hz: float = 100.0,
-        tf_hz: float | None = None,
-        clock_hz: float | None = None,
-        joint_command_topic: str | Mapping[str, str] = "joint_command",
+        options: CoreOptions | None = None,
+        transport: TransportOptions | None = None,
+        record: RecordOptions | str | Path | None = None,
+        load: LoadOptions | None = None,
         loggers: Iterable[Logger | LoggerFactory] = (),
         sinks: Iterable[Sink] = (),
-        scene: str | Path | None = None,
-        world: str | Path | None = None,
-        seed: int = 0,
-        scenario: str | bytes | None = None,
-        start: StartMode = "now",
-        record_bridge_frames: bool = True,
-        max_step_request: int = DEFAULT_MAX_STEP_REQUEST,
-        robot_args: Mapping[str, Any] | None = None,
-        controllers: ControllersOption = None,
-        sensors: Sequence[Mapping[str, Any]] = (),
-        self_collision: SelfCollision | None = None,
-        base: BaseKind | None = None,
-        strict: bool = False,
+        **keywords: Unpack[SessionKeywords],
     ) -> None:
-        if not (isinstance(rate, int | float) and math.isfinite(rate) and rate > 0):
-            raise SessionConfigError(f"rate must be a finite number > 0, not {rate!r}")
-        if world is not None:  # the map as a Gazebo user names it: the same option as scene
-            if scene is not None:
-                raise SessionConfigError("world and scene name the same option (the map): give one")
-            scene = world
-        if token is not None and connect_to is not None:
-            raise SessionConfigError(
-                "token protects the embedded server; for an external server put its token "
-                "in connect_to (ws://host:port/?token=...)"
-            )
-        if ros2 and connect_to is not None:
-            raise SessionConfigError(
-                "ros2 puts the session's own graph on DDS; with connect_to the external "
-                "rosbridge server's ROS 2 side does that"
-            )
+        if isinstance(record, str | Path):
+            record = RecordOptions(record_to=record)
+        groups = group_keywords(
+            keywords, {"options": options, "transport": transport, "record": record, "load": load}
+        )
+        options = groups["options"]
+        transport = groups["transport"]
+        record = groups["record"]
+        load = groups["load"]
+        assert isinstance(options, CoreOptions)
+        assert isinstance(transport, TransportOptions)
+        assert isinstance(record, RecordOptions)
+        assert isinstance(load, LoadOptions)
+        self.options: CoreOptions = options
+        """The core's options (the ``controllers`` default resolved once the robot is loaded)."""
+        self.transport: TransportOptions = transport
         self.ros_domain_id: int | None = None
         """The ROS_DOMAIN_ID of the ROS 2 side (``ros2=True``), else None."""
         self._ros2: Any = None
-        if ros2:
+        if transport.ros2:
             from harness.ros2 import choose_domain_id
 
             self.ros_domain_id = choose_domain_id()
-        options = CoreOptions(
-            # CoreOptions parses the spellings (and refuses others) to the vocabulary's members
-            clock=cast(ClockMode, clock),
-            namespace=namespace,
-            kinematic_limits=cast(LimitPolicy, kinematic_limits),
-            state_every=state_every,
-            joint_states_hz=joint_states_hz,
-            tf_hz=tf_hz,
-            clock_hz=clock_hz,
-            joint_command_topic=joint_command_topic,
-            start=start,
-            record_bridge_frames=record_bridge_frames,
-            max_step_request=max_step_request,
-            controllers=controllers_option(controllers),
-            sensors=tuple(sensors),
-            seed=seed,
-        )
-        self.clock: ClockMode = options.clock
+        clock = options.clock
+        start = options.start
+        self.clock: ClockMode = clock
         self.start: StartMode = start
         self._start_on_client = start == "on_client"
         self._clients = threading.Condition()
         self._clients_seen = 0
         self._clients_open = 0
         self._pause_at: int | None = None
-        self.rate = float(rate)
+        self.rate = options.rate
         self.namespace = options.namespace
         self._closed = False
         self._close_lock = threading.Lock()
@@ -338,29 +312,40 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        load_options = _load_options(self_collision, base, strict)
-        loaded = _load(robot, robots, objects, mode, scene, namespace, robot_args, load_options)
+        robots = load.robots
+        load_options = _load_options(load.self_collision, load.base, load.strict)
+        loaded = _load(
+            robot,
+            robots,
+            load.objects,
+            load.mode,
+            load.scene,
+            options.namespace,
+            load.robot_args,
+            load_options,
+        )
         options = dataclasses.replace(
             options, controllers=resolve_default(options.controllers, loaded)
         )
+        self.options = options
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
         """The loaded world of a session of ``robots`` (None for ``robot=``)."""
         self.robot_name = loaded.name
         self._anchor: tuple[float, int] | None = None
+        record_to, connect_to = record.record_to, transport.connect_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
             hub = EventHub()
             if self.record_path is not None:
                 description = describe_run(
                     loaded,
-                    seed=seed,
-                    scenario=scenario,
+                    seed=options.seed,
+                    scenario=record.scenario,
                     specs=robots if isinstance(robots, Sequence) else None,
-                    objects=objects,
+                    objects=load.objects,
                     extra={
                         **options.to_metadata(),
-                        "rate": repr(self.rate),
                         "transport": "server" if connect_to is None else "client",
                         **({"upstream": redact(connect_to)} if connect_to is not None else {}),
                         **(
@@ -374,7 +359,7 @@ class Session:
                     self.record_path,
                     metadata=description.metadata,
                     attachments=description.attachments,
-                    state_every=state_every,
+                    state_every=options.state_every,
                 )
                 hub.add_sink(RecordingSink(self._recorder))
             self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
@@ -391,12 +376,17 @@ class Session:
             """Client mode: what the link to the external server counted (else None)."""
             if connect_to is not None:
                 upstream = UpstreamPort(
-                    self.core.bridge, connect_to, allow_refused=connect_allow_refused
+                    self.core.bridge, connect_to, allow_refused=transport.connect_allow_refused
                 )
                 self.upstream = upstream.stats
                 self._port = upstream
             else:
-                self._port = ServerPort(self.core.bridge, host=host, port=port, token=token)
+                self._port = ServerPort(
+                    self.core.bridge,
+                    host=transport.host,
+                    port=transport.port,
+                    token=transport.token,
+                )
             for sink in sinks:
                 hub.add_sink(sink)
             for item in loggers:

@@ -73,9 +73,7 @@ def test_replay_mode_dynamic_re_runs_the_wheels_the_same(recorded: Path) -> None
     assert "wheel slip (re-run)" in report.format()
     # a threshold on the path deviation sets the exit code
     assert (
-        main(
-            ["replay", str(recorded), "--actuation", "kinematic", "--max-tracking-error", "1e-9"]
-        )
+        main(["replay", str(recorded), "--actuation", "kinematic", "--max-tracking-error", "1e-9"])
         == 1
     )
 

@@ -139,8 +139,8 @@ def test_the_marker_takes_the_options_and_refuses_a_wrong_spelling(pytester):
 
         @pytest.mark.harness(scenario="cell.yaml")
         def test_scenario(harness_session):
-            assert harness_session.robot.self_collision.policy == "off"
-            assert harness_session.robot.base == "floating"
+            assert harness_session.world.robots[0].self_collision.policy == "off"
+            assert harness_session.world.robots[0].base == "floating"
 
         @pytest.mark.harness(robot="arm.urdf", self_collision="sometimes")
         def test_bad(harness_session):

@@ -53,7 +53,7 @@ def test_marker_and_scenario_file_load_a_description_package(pytester):
 
         @pytest.mark.harness(scenario="cell.yaml")
         def test_scenario(harness_session):
-            assert dict(harness_session.robot.description.xacro.args) == {
+            assert dict(harness_session.world.robots[0].description.xacro.args) == {
                 "ur_type": "ur10e", "name": "ur", "safety_limits": "false"
             }
             harness_session.step(10)
@@ -64,10 +64,13 @@ def test_marker_and_scenario_file_load_a_description_package(pytester):
     )
     result.assert_outcomes(passed=2)
     folder = pytester.path / ".harness" / "recordings" / "test_robot"
-    for test, ur_type in (("test_marker", "ur3e"), ("test_scenario", "ur10e")):
-        with Recording(folder / f"{test}.mcap") as rec:
-            assert json.loads(rec.metadata["robot_args"])["ur_type"] == ur_type
-            assert rec.metadata["robot_xacro"].endswith("ur_mocked.urdf.xacro")
+    with Recording(folder / "test_marker.mcap") as rec:
+        assert json.loads(rec.metadata["robot_args"])["ur_type"] == "ur3e"
+        assert rec.metadata["robot_xacro"].endswith("ur_mocked.urdf.xacro")
+    with Recording(folder / "test_scenario.mcap") as rec:  # a scenario runs a world
+        (entry,) = json.loads(rec.metadata["robots"])
+        assert entry["robot_args"]["ur_type"] == "ur10e"
+        assert entry["xacro"].endswith("ur_mocked.urdf.xacro")
 
 
 def test_scenario_robot_args_reach_the_world(tmp_path):

@@ -373,7 +373,8 @@ def test_scenario_marker(pytester, run):
 
         @pytest.mark.harness(scenario="arm.yaml")
         def test_from_scenario(harness_session, harness_events):
-            assert set(harness_session.robot.control.values()) == {"velocity"}
+            # a scenario runs a world, as under harness run
+            assert set(harness_session.world.robots[0].control.values()) == {"velocity"}
             harness_session.step(8)
             harness_session.close()
             assert harness_events.events == []  # box|table ignored

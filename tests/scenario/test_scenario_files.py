@@ -62,7 +62,7 @@ def test_demo_scenario_content():
 
 def test_original_scene_config_port_as_number():
     s = Scenario.load(DATA / "config.json")
-    assert s.bridge == sc.Bridge("127.0.0.1", 9090)
+    assert s.bridge == sc.ScenarioBridgeSection("127.0.0.1", 9090)
     assert s.environment == sc.Environment("empty", "sunny", "noon")
     assert s.robots[0].robot == (DATA / "robots" / "two_link.urdf").resolve()
     assert s.robots[0].subscribers == (sc.Subscriber("JointStateSubscriber", "/joint/states"),)
@@ -239,13 +239,14 @@ def _fields(cls) -> set[str]:
 def test_schema_and_dataclasses_agree():
     top = schema("scenario")["properties"]
     assert _props("") - {"$schema", "ros"} == _fields(sc.Scenario) - {"bridge", "source"}
-    assert set(top["ros"]["properties"]["bridge"]["properties"]) == _fields(sc.Bridge)
+    bridge = set(top["ros"]["properties"]["bridge"]["properties"])
+    assert bridge == _fields(sc.ScenarioBridgeSection)
     assert _props("environment") == _fields(sc.Environment)
-    assert _props("robot") == _fields(sc.RobotSpec) - {"named"}
+    assert _props("robot") == _fields(sc.ScenarioRobot) - {"named"}
     assert _props("subscriber") == _fields(sc.Subscriber)
     assert _props("controller") - {"type", "beyond_limits"} == _fields(sc.Controller)
     assert _props("object") == _fields(sc.SceneObject)
-    assert _props("recording") == _fields(sc.Recording)
+    assert _props("recording") == _fields(sc.ScenarioRecordingSection)
     assert _props("criteria") == _fields(sc.Criteria)
     assert _props("clock") == _fields(sc.Clock)
     assert top["logging"]["$ref"] == "logging.schema.json"
