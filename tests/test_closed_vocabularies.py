@@ -98,7 +98,7 @@ def test_the_shipped_schema_lists_exactly_the_vocabularies():
 
 
 def test_scenario_clock_and_limit_policy_become_members():
-    assert _scenario().clock.mode is ClockMode.REALTIME
+    assert _scenario().clock is None  # no section: each route applies its own default
     assert _scenario(clock={"mode": "lockstep"}).clock.mode is ClockMode.LOCKSTEP
     with pytest.raises(ScenarioError) as info:
         _scenario(clock={"mode": "wallclock"})

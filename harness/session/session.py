@@ -724,8 +724,9 @@ class Session:
         if isinstance(self._loaded, LoadedRobot):
             return self._loaded
         raise SessionError(
-            "this session runs a world of several robots: use session.world (and "
-            "session.description for one description of every robot)"
+            "this session runs a world (robots= or a scenario file): use session.world "
+            "(session.world.robots[0] for its first robot; session.description for one "
+            "description of every robot)"
         )
 
     @property
