@@ -213,14 +213,16 @@ def test_a_worker_without_the_clients_files_gives_the_same_results_as_local_work
     assert {v.name for v in remote[0].verdicts} >= {"client", "determinism", "joint_limits"}
     assert remote[0].steps == 100
     # The client under test ran on the worker (its script travelled) and stepped the world.
-    assert remote[0].client.passed and remote[0].client.status in ("exited", "sim_limit")
+    assert remote[0].client.passed
+    assert remote[0].client.status in ("exited", "sim_limit")
     (trace,) = remote[0].traces.joints
     assert max(trace.command) > 0.3  # the client's commands reached the worker's session
     for r, ref in zip(remote, local, strict=True):
         # The recording came back into --out, with the client's paths in the result.
         assert r.recording == out / "remote" / f"iteration-{r.iteration:03d}" / "recording.mcap"
         assert r.recording.is_file()
-        assert r.client.log_path is not None and r.client.log_path.is_file()
+        assert r.client.log_path is not None
+        assert r.client.log_path.is_file()
         assert r.client.log_path.parent == r.recording.parent
         # Same physics, same inputs, same joint states, same compiled model as a local worker.
         assert _stream_digest(r.recording) == _stream_digest(ref.recording)
@@ -238,11 +240,13 @@ def test_a_worker_without_the_clients_files_gives_the_same_results_as_local_work
     log = backend.transfers
     assert log.sent_files == len({f.sha256 for f in _bundle_of(config)})
     ((worker, (fetched, _)),) = log.fetched.items()
-    assert worker.startswith("tcp://127.0.0.1:") and fetched == log.sent_files
+    assert worker.startswith("tcp://127.0.0.1:")
+    assert fetched == log.sent_files
     assert log.recording_bytes == sum(r.recording.stat().st_size for r in remote)
     summary = (tmp_path / "summary.txt").read_text()
     assert f"dask: scattered {log.sent_files} file(s)" in summary
-    assert "1 worker(s) fetched" in summary and "(recordings " in summary
+    assert "1 worker(s) fetched" in summary
+    assert "(recordings " in summary
 
 
 def _bundle_of(config):
