@@ -251,9 +251,11 @@ def _size(n: int) -> str:
 class DaskBackend:
     """An existing Dask distributed scheduler at ``address`` (``pip install distributed``);
     its workers need not see the client's files (see the module docstring). ``transfers``
-    holds what the last run sent and got back."""
+    holds what the runs sent and got back."""
 
     address: str
+    worker_timeout: float = 60.0
+    """Wall seconds to wait for the first worker before giving up."""
     transfers: TransferLog = field(default_factory=TransferLog, compare=False, repr=False)
 
     def run(
@@ -284,6 +286,14 @@ class DaskBackend:
         log = self.transfers
         results: dict[int, IterationResult] = {}
         try:
+            try:
+                client.wait_for_workers(1, timeout=self.worker_timeout)
+            except TimeoutError:
+                raise RunnerError(
+                    f"no Dask worker joined the scheduler at {self.address} within "
+                    f"{self.worker_timeout:g} s (start one: dask worker {self.address} "
+                    "--nthreads 1)"
+                ) from None
             held = client.scatter({BLOB_KEY_PREFIX + d: b for d, b in blobs.items()})
             dataset = f"harness-run-{uuid.uuid4().hex}"
             client.publish_dataset(**{dataset: {d: held[BLOB_KEY_PREFIX + d] for d in blobs}})

@@ -154,7 +154,7 @@ def isolated_worker(tmp_path):
                 "private",
                 "sh",
                 "-c",
-                'mount -t tmpfs -o size=512m harness-worker /tmp && exec "$@"',
+                'mount -t tmpfs -o size=512m harness-worker /tmp && cd / && exec "$@"',
                 "sh",
                 sys.executable,
                 "-m",
