@@ -40,6 +40,7 @@ from harness.models.meshes import mesh_cache_dir
 from harness.models.resolve import MODEL_PATH_VARIABLES
 from harness.scenario.errors import RunnerError
 from harness.scenario.results import IterationSpec
+from harness.scenario.scenario import Scenario
 
 __all__ = [
     "PATH_VARIABLES",
@@ -335,8 +336,9 @@ def _rewrite(value: Any, change: Callable[[Path], Path]) -> Any:
 def localise_spec(spec: IterationSpec, bundle: Bundle, root: Path, out_dir: Path) -> IterationSpec:
     """``spec`` on the worker: every client path the bundle covers moved into the tree at
     ``root``, its output into ``out_dir`` (the recording keeps its place relative to the
-    iteration folder), absolute file arguments of the client command mirrored, and the
-    client's interpreter replaced by ``python`` (the worker runs its own)."""
+    iteration folder), absolute file arguments of the client command mirrored, the
+    client's interpreter replaced by ``python`` (the worker runs its own), and file sinks of
+    the ``logging`` section writing into ``<out_dir>/sinks/``."""
 
     def change(path: Path) -> Path:
         return mirror(path, root) if path.is_absolute() and bundle.covers(path) else path
@@ -355,8 +357,31 @@ def localise_spec(spec: IterationSpec, bundle: Bundle, root: Path, out_dir: Path
             command[0] = "python"
         client = dataclasses.replace(client, command=tuple(command))
     return dataclasses.replace(
-        moved, client=client, out_dir=out_dir, recording_path=out_dir / recording
+        moved,
+        scenario=_local_sinks(moved.scenario, out_dir),
+        client=client,
+        out_dir=out_dir,
+        recording_path=out_dir / recording,
     )
+
+
+def _local_sinks(scenario: Scenario, out_dir: Path) -> Scenario:
+    """File sinks of the ``logging`` section write into ``<out_dir>/sinks/`` (so their files
+    come back with the iteration's) instead of a client path the worker does not have."""
+    logging = scenario.logging
+    destinations = []
+    for sink in logging.destinations:
+        options = tuple(
+            (key, str(out_dir / "sinks" / Path(value).name))
+            if key == "path" and isinstance(value, str)
+            else (key, value)
+            for key, value in sink.options
+        )
+        destinations.append(dataclasses.replace(sink, options=options))
+    if tuple(destinations) == logging.destinations:
+        return scenario
+    moved = dataclasses.replace(logging, destinations=tuple(destinations))
+    return dataclasses.replace(scenario, logging=moved)
 
 
 def _relative_output(spec: IterationSpec) -> Path:

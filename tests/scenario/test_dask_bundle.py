@@ -121,7 +121,12 @@ def test_a_blob_whose_bytes_do_not_match_its_name_is_refused(tmp_path):
 
 def test_paths_are_rewritten_through_frozen_dataclasses_and_the_rest_is_kept(tmp_path):
     scenario = tmp_path / "s.yaml"
-    scenario.write_text(yaml.safe_dump({"robots": [{"robot": "demo"}], "duration": 0.1}))
+    doc = {
+        "robots": [{"robot": "demo"}],
+        "duration": 0.1,
+        "logging": {"destination": [{"type": "JsonLines", "path": "logs/events.jsonl"}]},
+    }
+    scenario.write_text(yaml.safe_dump(doc))
     (spec,) = iteration_specs(load_run_file(scenario), tmp_path / "out", 1)
     moved = rewrite_paths(spec, lambda p: Path("/elsewhere", *p.parts[1:]))
     assert moved.scenario.source == Path("/elsewhere", *scenario.parts[1:])
@@ -134,3 +139,10 @@ def test_paths_are_rewritten_through_frozen_dataclasses_and_the_rest_is_kept(tmp
         )
         == spec
     )
+    # A file sink writes into the worker's iteration folder (and so comes back with it).
+    (sink,) = spec.scenario.logging.destinations
+    assert dict(sink.options)["path"] == str(tmp_path / "logs" / "events.jsonl")
+    bundle, _ = collect_bundle(spec)
+    local = localise_spec(spec, bundle, tmp_path / "tree", tmp_path / "run")
+    (sink,) = local.scenario.logging.destinations
+    assert dict(sink.options)["path"] == str(tmp_path / "run" / "sinks" / "events.jsonl")
