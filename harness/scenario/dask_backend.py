@@ -269,15 +269,19 @@ class DaskBackend:
             raise RunnerError(
                 "--backend dask needs the 'distributed' package (pip install dask distributed)"
             ) from None
-        bundles: list[Bundle] = []
+        bundles: dict[int, Bundle] = {}
         blobs: dict[str, bytes] = {}
-        made: dict[tuple[int, int], tuple[Bundle, dict[str, bytes]]] = {}
-        for spec in specs:
+        made: dict[tuple[int, int], tuple[Bundle, dict[str, bytes]] | str] = {}
+        unsent: dict[int, IterationResult] = {}
+        for index, spec in enumerate(specs):
             key = (id(spec.scenario), id(spec.client))
             if key not in made:
-                made[key] = collect_bundle(spec)
-            bundle, data = made[key]
-            bundles.append(bundle)
+                made[key] = _bundle_or_reason(spec)
+            entry = made[key]
+            if isinstance(entry, str):  # its world does not load here: nothing to send
+                unsent[index] = failed_result(spec, entry)
+                continue
+            bundles[index], data = entry
             blobs.update(data)
         try:
             client = distributed.Client(self.address, set_as_default=False, timeout=30)
@@ -294,14 +298,21 @@ class DaskBackend:
                     f"{self.worker_timeout:g} s (start one: dask worker {self.address} "
                     "--nthreads 1)"
                 ) from None
-            held = client.scatter({BLOB_KEY_PREFIX + d: b for d, b in blobs.items()})
             dataset = f"harness-run-{uuid.uuid4().hex}"
+            held = (
+                client.scatter({BLOB_KEY_PREFIX + d: b for d, b in blobs.items()}) if blobs else {}
+            )
             client.publish_dataset(**{dataset: {d: held[BLOB_KEY_PREFIX + d] for d in blobs}})
             log.sent_files += len(blobs)
             log.sent_bytes += sum(len(b) for b in blobs.values())
+            for index, result in unsent.items():
+                results[index] = result
+                on_result(result)
             futures: dict[Any, int] = {
-                client.submit(run_on_worker, runner, spec, bundle, dataset, pure=False): index
-                for index, (spec, bundle) in enumerate(zip(specs, bundles, strict=True))
+                client.submit(
+                    run_on_worker, runner, specs[index], bundle, dataset, pure=False
+                ): index
+                for index, bundle in bundles.items()
             }
             for future in distributed.as_completed(list(futures), loop=client.loop):
                 index = futures[future]
@@ -319,3 +330,12 @@ class DaskBackend:
         finally:
             client.close()
         return [results[i] for i in range(len(specs))]
+
+
+def _bundle_or_reason(spec: IterationSpec) -> tuple[Bundle, dict[str, bytes]] | str:
+    """The bundle of ``spec``, or why its files could not be gathered (a failed result's
+    reason, as a runner's exception would be on a local worker)."""
+    try:
+        return collect_bundle(spec)
+    except Exception as exc:
+        return f"the files of the iteration could not be gathered: {type(exc).__name__}: {exc}"

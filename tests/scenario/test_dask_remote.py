@@ -32,6 +32,7 @@ from harness.scenario import (
     session_iteration_runner,
 )
 from harness.scenario._cli import execute
+from harness.scenario.errors import RunnerError
 
 distributed = pytest.importorskip("distributed", reason="optional Dask backend not installed")
 
@@ -144,7 +145,7 @@ def isolated_worker(tmp_path):
         processes=False,
         protocol="tcp://",
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address="127.0.0.1:0",
     ) as cluster:
         worker = subprocess.Popen(
             [
@@ -255,3 +256,33 @@ def _bundle_of(config):
     (spec,) = iteration_specs(config, Path("/nonexistent"), 1)
     bundle, _ = collect_bundle(spec)
     return bundle.files
+
+
+def test_a_world_that_does_not_load_fails_its_iterations_and_no_worker_is_a_clear_error(
+    tmp_path,
+):
+    scenario = _client_files(tmp_path / "client")
+    broken = scenario.parent.parent / "ws" / "remote_arm" / "urdf" / "broken.urdf"
+    broken.write_text("<robot name='broken'><link name='a'></robot>")
+    doc = yaml.safe_load(scenario.read_text())
+    doc["robots"][0]["robot"] = "../ws/remote_arm/urdf/broken.urdf"
+    scenario.write_text(yaml.safe_dump(doc))
+    (spec,) = iteration_specs(load_run_file(scenario), tmp_path / "out", 1)
+    runner = session_iteration_runner()
+    options = {
+        "processes": False,
+        "protocol": "tcp://",
+        "host": "127.0.0.1",
+        "dashboard_address": "127.0.0.1:0",
+    }
+    with distributed.LocalCluster(n_workers=0, **options) as cluster:
+        backend = DaskBackend(cluster.scheduler_address, worker_timeout=0.5)
+        with pytest.raises(RunnerError, match=r"no Dask worker joined the scheduler at tcp://"):
+            backend.run(runner, [spec], lambda r: None)
+    with distributed.LocalCluster(n_workers=1, **options) as cluster:
+        backend = DaskBackend(cluster.scheduler_address)
+        (result,) = backend.run(runner, [spec], lambda r: None)
+    # Its files were not sent: the iteration failed on the client, naming the robot file.
+    assert result.error.startswith("the files of the iteration could not be gathered: ")
+    assert "broken.urdf" in result.error
+    assert backend.transfers.sent_files == 0
