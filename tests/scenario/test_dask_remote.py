@@ -4,8 +4,9 @@ The worker is a real ``dask worker`` process in its own mount namespace with a p
 over /tmp (``unshare --mount``; the test runs as root), while the scenario, robot (URDF in a
 ROS package with an STL and a COLLADA mesh), world (MJCF with a mesh and a texture) and
 client script live in the client's /tmp, and so does ``--out``. The scheduler and the worker
-bind 127.0.0.1. The results must equal those of local workers, the recordings come back into
-``--out``, and each file travels to the worker once.
+bind 127.0.0.1. The results must equal those of local workers (verdicts, state digests, the
+recordings byte for byte), the recordings come back into ``--out``, and each file travels to
+the worker once.
 """
 
 import hashlib
@@ -123,6 +124,10 @@ def _stream_digest(path: Path) -> str:
     return h.hexdigest()
 
 
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def _same(result):
     return (result.simulation, result.iteration, result.verdicts, result.steps, result.state_digest)
 
@@ -227,6 +232,8 @@ def test_a_worker_without_the_clients_files_gives_the_same_results_as_local_work
         assert r.client.log_path.parent == r.recording.parent
         # Same physics, same inputs, same joint states, same compiled model as a local worker.
         assert _stream_digest(r.recording) == _stream_digest(ref.recording)
+        # ... and, the client being lockstep, the same recording byte for byte.
+        assert _sha256(r.recording) == _sha256(ref.recording)
     assert verify(remote[1].recording).reproduced
     doc = json.loads((out / "results.json").read_text())
     assert [Path(d["recording"]) for d in doc["results"]] == [r.recording for r in remote]
