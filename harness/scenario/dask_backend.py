@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from harness.scenario import interrupt
 from harness.scenario.bundle import (
     BlobStore,
     Bundle,
@@ -314,17 +315,23 @@ class DaskBackend:
                 ): index
                 for index, bundle in bundles.items()
             }
-            for future in distributed.as_completed(list(futures), loop=client.loop):
-                index = futures[future]
-                spec = specs[index]
-                try:
-                    outcome: RemoteOutcome = future.result()
-                    result = receive(outcome, spec)
-                    log.add(outcome, spec)
-                except Exception as exc:  # the worker died, the task was lost, a disk error
-                    result = failed_result(spec, f"Dask task failed: {type(exc).__name__}: {exc}")
-                results[index] = result
-                on_result(result)
+            try:
+                for future in distributed.as_completed(list(futures), loop=client.loop):
+                    index = futures[future]
+                    spec = specs[index]
+                    try:
+                        outcome: RemoteOutcome = future.result()
+                        result = receive(outcome, spec)
+                        log.add(outcome, spec)
+                    except Exception as exc:  # the worker died, the task was lost, a disk error
+                        reason = f"Dask task failed: {type(exc).__name__}: {exc}"
+                        result = failed_result(spec, reason)
+                    results[index] = result
+                    on_result(result)
+            except interrupt.Interrupted as exc:
+                # What came back is in --out already; the rest is cancelled with the client.
+                finished = [results[i] for i in sorted(results)]
+                raise interrupt.RunInterrupted(exc.signum, finished, len(specs)) from None
             client.unpublish_dataset(dataset)
             del held
         finally:
