@@ -107,6 +107,14 @@ class Bundle:
             d == text or d.startswith(inside) for d in self.dirs
         )
 
+    def holds(self, path: Path) -> bool:
+        """True when ``path`` is a file or folder of the bundle, or inside such a folder (not
+        merely a folder above one: a command argument ``/arm`` is a topic, not ``/``'s tree)."""
+        text = str(path)
+        return any(f.path == text for f in self.files) or any(
+            d == text or text.startswith(d.rstrip("/") + "/") for d in self.dirs
+        )
+
 
 # --- finding the files ----------------------------------------------------------------------
 
@@ -350,7 +358,7 @@ def localise_spec(spec: IterationSpec, bundle: Bundle, root: Path, out_dir: Path
     client = moved.client
     if client is not None:
         command = [
-            str(mirror(a, root)) if os.path.isabs(a) and bundle.covers(Path(a)) else a
+            str(mirror(a, root)) if os.path.isabs(a) and bundle.holds(Path(a)) else a
             for a in client.command
         ]
         if command and Path(command[0]) == Path(sys.executable):

@@ -45,7 +45,14 @@ def _cell(root: Path) -> Path:
             }
         ],
         "environment": {"map": "../worlds/room.world"},
-        "client": {"command": [sys.executable, "clients/go.py", str(root / "ws")]},
+        "client": {
+            "command": [
+                sys.executable,
+                "clients/go.py",
+                str(root / "worlds" / "room.world"),
+                "/cell",
+            ]
+        },
     }
     scenario.write_text(yaml.safe_dump(doc))
     return scenario
@@ -98,7 +105,10 @@ def test_the_materialised_bundle_builds_the_same_world_once_the_clients_files_ar
     assert local.client is not None
     assert local.client.cwd == mirror(client / "cell", tree)
     # the client's interpreter becomes the worker's; an absolute argument is mirrored
-    assert local.client.command == ("python", "clients/go.py", str(mirror(client / "ws", tree)))
+    # (a topic-like argument stays as it is)
+    world = str(mirror(client / "worlds" / "room.world", tree))
+    command = ("python", "clients/go.py", world, "/cell")
+    assert local.client.command == command
     assert local.out_dir == tmp_path / "worker" / "run"
     assert local.recording_path == local.out_dir / "recording.mcap"
     env = bundle_env(bundle, tree)
