@@ -8,6 +8,7 @@ The runner machinery talks to whatever runs one iteration through :class:`Iterat
 """
 
 from harness.scenario.client import BridgeHost, run_client, stop_group
+from harness.scenario.dask_backend import DaskBackend
 from harness.scenario.errors import RunnerError, ScenarioError
 from harness.scenario.execute import run_scenarios
 from harness.scenario.reports import render_html, write_reports
@@ -27,7 +28,6 @@ from harness.scenario.results import (
 from harness.scenario.runfile import RunConfig, SimulationPlan, load_run_file
 from harness.scenario.runner import (
     Backend,
-    DaskBackend,
     LocalBackend,
     check_runnable,
     iteration_specs,

@@ -11,12 +11,12 @@ from pathlib import Path
 from rich.console import Console
 
 from harness.errors import ConfigError
+from harness.scenario.dask_backend import DaskBackend
 from harness.scenario.execute import run_scenarios
 from harness.scenario.interrupt import Interrupted, RunInterrupted, raise_on_signals
 from harness.scenario.runfile import RunConfig, load_run_file
 from harness.scenario.runner import (
     Backend,
-    DaskBackend,
     LocalBackend,
     check_runnable,
     session_iteration_runner,

@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from harness.errors import ConfigError
+from harness.scenario.dask_backend import DaskBackend
 from harness.scenario.interrupt import RunInterrupted
 from harness.scenario.reports import print_summary, write_reports
 from harness.scenario.results import IterationResult, IterationRunner
@@ -77,6 +78,9 @@ def run_scenarios(
             raise
     paths = write_reports(results, out_dir, config.source)
     print_summary(results, console)
+    if isinstance(backend, DaskBackend):  # what crossed the network, with sizes
+        for line in backend.transfers.summary():
+            console.print(line, highlight=False, markup=False, soft_wrap=True)
     for name, path in paths.items():
         console.print(f"{name}: {path}")
     return results

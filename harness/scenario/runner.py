@@ -8,7 +8,6 @@ the one place where the product's (session-backed) runner is wired in.
 
 from __future__ import annotations
 
-import importlib
 import multiprocessing
 import re
 import traceback
@@ -17,16 +16,15 @@ from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 from harness.scenario import interrupt
-from harness.scenario.errors import RunnerError, ScenarioError
+from harness.scenario.errors import ScenarioError
 from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict
 from harness.scenario.runfile import RunConfig
 
 __all__ = [
     "Backend",
-    "DaskBackend",
     "LocalBackend",
     "check_runnable",
     "iteration_specs",
@@ -168,45 +166,6 @@ class LocalBackend:
             except BaseException:
                 pool.shutdown(wait=True, cancel_futures=True)
                 raise
-        return [results[i] for i in range(len(specs))]
-
-
-@dataclass(frozen=True)
-class DaskBackend:
-    """An existing Dask distributed scheduler at ``address`` (``pip install distributed``)."""
-
-    address: str
-
-    def run(
-        self, runner: IterationRunner, specs: Sequence[IterationSpec], on_result: OnResult
-    ) -> list[IterationResult]:
-        """Submit every spec to the cluster; results come back as they finish."""
-        try:
-            distributed: Any = importlib.import_module("distributed")
-        except ImportError:
-            raise RunnerError(
-                "--backend dask needs the 'distributed' package (pip install dask distributed)"
-            ) from None
-        try:
-            client = distributed.Client(self.address, set_as_default=False, timeout=30)
-        except OSError as exc:
-            raise RunnerError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
-        results: dict[int, IterationResult] = {}
-        try:
-            futures: dict[Any, int] = {
-                client.submit(run_one, runner, spec, pure=False): index
-                for index, spec in enumerate(specs)
-            }
-            for future in distributed.as_completed(list(futures), loop=client.loop):
-                index = futures[future]
-                try:
-                    result = future.result()
-                except Exception as exc:  # the worker died or the task was lost
-                    result = _failed(specs[index], f"Dask task failed: {type(exc).__name__}: {exc}")
-                results[index] = result
-                on_result(result)
-        finally:
-            client.close()
         return [results[i] for i in range(len(specs))]
 
 
