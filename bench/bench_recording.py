@@ -23,7 +23,7 @@ import numpy as np
 from common import Row, best_of
 from mcap.writer import CompressionType, Writer
 
-from harness.recording import Recorder
+from harness.recording import BridgeFrame, PhysicsState, Recorder
 from harness.recording.layout import TYPE_PHYSICS_STATE, channel_metadata, schema_text, typestore
 
 SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -74,10 +74,10 @@ def _writer_rows(quick: bool, tmp: Path) -> list[Row]:
     def ours() -> None:
         with Recorder(tmp / "ours.mcap", metadata=METADATA) as rec:
             for k in range(n):
-                rec.write_physics_state(
+                rec.write_physics_state(PhysicsState(
                     step=k, sim_time_ns=k * 1_000_000, state_spec=SPEC, state=state,
                     qpos=qpos, qvel=qvel,
-                )  # fmt: skip
+                ))  # fmt: skip
 
     store = typestore()
     cls = store.types[TYPE_PHYSICS_STATE]
@@ -151,12 +151,19 @@ def _loop(
         else:
             mujoco.mj_getState(model, data, state, SPEC)
         recorder.write_physics_state(
-            step=k + 1, sim_time_ns=t, state_spec=SPEC, state=state, qpos=data.qpos, qvel=data.qvel
+            PhysicsState(
+                step=k + 1,
+                sim_time_ns=t,
+                state_spec=SPEC,
+                state=state,
+                qpos=data.qpos,
+                qvel=data.qvel,
+            )
         )
-        recorder.write_bridge_frame(
+        recorder.write_bridge_frame(BridgeFrame(
             step=k + 1, sim_time_ns=t, direction=0, connection=1, seq=k, op="call_service",
             topic="/harness/step", text='{"op":"call_service","service":"/harness/step"}',
-        )  # fmt: skip
+        ))  # fmt: skip
         if k % 10 == 0:
             sec, nanosec = divmod(t, 1_000_000_000)
             js = {
@@ -170,11 +177,11 @@ def _loop(
             recorder.write_message(
                 "/clock", "rosgraph_msgs/msg/Clock", {"clock": js["header"]["stamp"]}, sim_time_ns=t
             )
-            recorder.write_bridge_frame(
+            recorder.write_bridge_frame(BridgeFrame(
                 step=k + 1, sim_time_ns=t, direction=1, connection=1, seq=k, op="publish",
                 topic="/joint_states",
                 text=json.dumps({"op": "publish", "topic": "/joint_states", "msg": js}),
-            )  # fmt: skip
+            ))  # fmt: skip
     return time.perf_counter() - start
 
 
@@ -223,18 +230,18 @@ def _loop_rows(quick: bool, tmp: Path) -> list[Row]:
         t_get = best_of(lambda: [mujoco.mj_getState(model, data, state, SPEC) for _ in range(n)], 3)
         t_state = best_of(
             lambda: [
-                rec.write_physics_state(
+                rec.write_physics_state(PhysicsState(
                     step=0, sim_time_ns=0, state_spec=SPEC, state=state, qpos=data.qpos,
                     qvel=data.qvel,
-                ) for _ in range(n)
+                )) for _ in range(n)
             ], 3,
         )  # fmt: skip
         t_frame = best_of(
             lambda: [
-                rec.write_bridge_frame(
+                rec.write_bridge_frame(BridgeFrame(
                     step=0, sim_time_ns=0, direction=0, connection=1, seq=0, op="x",
                     topic="", text="{}",
-                ) for _ in range(n)
+                )) for _ in range(n)
             ], 3,
         )  # fmt: skip
     step_us = bare / steps * 1e6

@@ -30,10 +30,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-from mcap.writer import CompressionType, Writer
 
 from harness._version import __version__
-from harness.recording.append import MessageAppender
 from harness.recording.cdr import (
     Encoder,
     Unsupported,
@@ -64,8 +62,15 @@ from harness.recording.layout import (
     schema_text,
     typestore,
 )
+from harness.recording.records import (
+    AppliedInput,
+    BridgeFrame,
+    Epoch,
+    PhysicsState,
+)
 from harness.recording.salvage import finish_after_failure
-from harness.recording.tail import TailFile, provisional_chunk
+from harness.recording.tail import TailFile
+from harness.recording.writer import COMPRESSIONS, ChunkWriter
 
 __all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
 
@@ -73,11 +78,6 @@ MAX_RECORDING_BYTES = 16 * 2**30
 """Default size limit of one recording (16 GiB: hours of full-rate recording of a robot arm;
 a runaway run stops there instead of filling the disk)."""
 
-_COMPRESSION = {
-    "zstd": CompressionType.ZSTD,
-    "lz4": CompressionType.LZ4,
-    "none": CompressionType.NONE,
-}
 _MEDIA_TYPES = {
     ".xml": "application/xml",
     ".urdf": "application/xml",
@@ -245,9 +245,9 @@ class Recorder:
         on_flush: Callable[[FlushInfo], None] | None = None,
         max_bytes: int = MAX_RECORDING_BYTES,
     ) -> None:
-        if compression not in _COMPRESSION:
+        if compression not in COMPRESSIONS:
             raise RecordingWriteError(
-                f"compression must be one of {', '.join(_COMPRESSION)}, got {compression!r}"
+                f"compression must be one of {', '.join(COMPRESSIONS)}, got {compression!r}"
             )
         if not isinstance(state_every, int) or state_every < 1:
             raise RecordingWriteError(f"state_every must be an integer >= 1, got {state_every!r}")
@@ -284,30 +284,24 @@ class Recorder:
             raise RecordingWriteError(
                 f"{self.path}: cannot create recording: {exc.strerror}"
             ) from None
-        self._compression = _COMPRESSION[compression]
-        self._writer = Writer(
-            self._stream,  # type: ignore[arg-type]
-            chunk_size=chunk_size,
-            compression=self._compression,
-            enable_crcs=True,
-            enable_data_crcs=True,
-        )
         try:
-            self._writer.start(
+            self._writer = ChunkWriter(
+                self._stream,
                 profile=PROFILE,
                 library=library or f"harness/{__version__} mcap-python/{_package_version('mcap')}",
+                chunk_size=chunk_size,
+                compression=compression,
             )
             self._writer.add_metadata(METADATA_NAME, self.metadata)
             if not attachments:
                 # An MCAP without attachments gets empty index groups that strict doctors flag.
                 attachments = {"harness_msgs.txt": _definitions_text()}
             for name, blob in attachments.items():
-                self._writer.add_attachment(0, 0, name, _media_type(name), bytes(blob))
-            self._writer.flush()  # type: ignore[no-untyped-call]
+                self._writer.add_attachment(name, _media_type(name), bytes(blob))
             # Header and attachments reach the file system now: a full disk (or a file size
             # limit) is reported here, before the run starts, not at the first flush.
             self._stream.flush()
-            self._append = MessageAppender(self._writer).append
+            self._append = self._writer.add
         except OSError as exc:
             with contextlib.suppress(OSError):
                 self._stream.close()
@@ -352,86 +346,61 @@ class Recorder:
             raise RecordingWriteError(f"{topic}: message is a {msg.__msgtype__}, not a {msgtype}")
         self._write(topic, msgtype, msg, sim_time_ns)
 
-    def write_bridge_frame(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        direction: int,
-        connection: int,
-        seq: int,
-        op: str,
-        topic: str,
-        text: str | None = None,
-        data: bytes | None = None,
-    ) -> None:
-        """Record one rosbridge frame: exactly one of ``text`` (text frame) or ``data`` (binary)."""
-        if (text is None) == (data is None):
+    def write_bridge_frame(self, frame: BridgeFrame) -> None:
+        """Record one rosbridge frame: ``frame.data`` when ``frame.binary``, else ``frame.text``."""
+        if frame.text if frame.binary else frame.data:
             raise RecordingWriteError(
-                f"{TOPIC_BRIDGE} seq {seq}: give exactly one of text= or data="
+                f"{TOPIC_BRIDGE} seq {frame.seq}: a binary frame carries data, a text frame "
+                "text: give exactly one of text= or data="
             )
-        if direction not in (0, 1):
-            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {seq}: direction must be 0 or 1")
+        if frame.direction not in (0, 1):
+            raise RecordingWriteError(
+                f"{TOPIC_BRIDGE} seq {frame.seq}: direction must be 0 or 1"
+            )
         try:
-            cdr = bridge_frame(step, sim_time_ns, direction, connection, seq, op, topic, text, data)
+            binary = frame.binary
+            cdr = bridge_frame(
+                frame.step, frame.sim_time_ns, frame.direction, frame.connection, frame.seq,
+                frame.op, frame.topic, None if binary else frame.text,
+                frame.data if binary else None,
+            )  # fmt: skip
         except (struct.error, UnicodeEncodeError, AttributeError, TypeError) as exc:
-            where = f"{TOPIC_BRIDGE} seq {seq}"
+            where = f"{TOPIC_BRIDGE} seq {frame.seq}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, cdr, sim_time_ns)
+        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, cdr, frame.sim_time_ns)
 
-    def write_applied_input(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        ctrl: npt.ArrayLike,
-        kinematic_joints: Sequence[str] = (),
-        qpos_index: npt.ArrayLike = (),
-        qpos_value: npt.ArrayLike = (),
-        qvel_index: npt.ArrayLike = (),
-        qvel_value: npt.ArrayLike = (),
-        mocap_pos: npt.ArrayLike = (),
-        mocap_quat: npt.ArrayLike = (),
-        qfrc_applied: npt.ArrayLike = (),
-        xfrc_applied: npt.ArrayLike = (),
-    ) -> None:
-        """Record the physics input applied before ``step`` (fields as in AppliedInput.msg)."""
+    def write_applied_input(self, inp: AppliedInput) -> None:
+        """Record the physics input applied before ``inp.step``."""
+        step = inp.step
         where = f"{TOPIC_INPUTS} step {step}"
-        qpos_i = _u32(qpos_index, f"{where}: qpos_index")
-        qpos_v = _f64(qpos_value, f"{where}: qpos_value")
-        qvel_i = _u32(qvel_index, f"{where}: qvel_index")
-        qvel_v = _f64(qvel_value, f"{where}: qvel_value")
+        qpos_i = _u32(inp.qpos_index, f"{where}: qpos_index")
+        qpos_v = _f64(inp.qpos_value, f"{where}: qpos_value")
+        qvel_i = _u32(inp.qvel_index, f"{where}: qvel_index")
+        qvel_v = _f64(inp.qvel_value, f"{where}: qvel_value")
         if qpos_i.shape != qpos_v.shape or qvel_i.shape != qvel_v.shape:
             raise RecordingWriteError(f"{where}: index and value arrays differ in length")
         msg = self._types[TYPE_APPLIED_INPUT](
             step=step,
-            sim_time_ns=sim_time_ns,
-            ctrl=_f64(ctrl, f"{where}: ctrl"),
-            kinematic_joints=list(kinematic_joints),
+            sim_time_ns=inp.sim_time_ns,
+            ctrl=_f64(inp.ctrl, f"{where}: ctrl"),
+            kinematic_joints=list(inp.kinematic_joints),
             qpos_index=qpos_i,
             qpos_value=qpos_v,
             qvel_index=qvel_i,
             qvel_value=qvel_v,
-            mocap_pos=_f64(mocap_pos, f"{where}: mocap_pos"),
-            mocap_quat=_f64(mocap_quat, f"{where}: mocap_quat"),
-            qfrc_applied=_f64(qfrc_applied, f"{where}: qfrc_applied"),
-            xfrc_applied=_f64(xfrc_applied, f"{where}: xfrc_applied"),
+            mocap_pos=_f64(inp.mocap_pos, f"{where}: mocap_pos"),
+            mocap_quat=_f64(inp.mocap_quat, f"{where}: mocap_quat"),
+            qfrc_applied=_f64(inp.qfrc_applied, f"{where}: qfrc_applied"),
+            xfrc_applied=_f64(inp.xfrc_applied, f"{where}: xfrc_applied"),
         )
-        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, sim_time_ns)
+        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, inp.sim_time_ns)
 
-    def write_physics_state(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None:
-        """Record the state after ``step`` if ``step`` is a multiple of ``state_every``."""
+    def write_physics_state(self, record: PhysicsState) -> None:
+        """Record the state after ``record.step`` if the step is a multiple of ``state_every``."""
+        step = record.step
         if step % self._state_every:
             return
+        state, qpos, qvel = record.state, record.qpos, record.qvel
         try:
             # MuJoCo's own float64 arrays go as they are (tobytes copies any layout).
             if not (type(state) is np.ndarray and state.dtype is _F64):
@@ -440,38 +409,27 @@ class Recorder:
                 qpos = _f64(qpos, f"{TOPIC_STATE} step {step}: qpos")
             if not (type(qvel) is np.ndarray and qvel.dtype is _F64):
                 qvel = _f64(qvel, f"{TOPIC_STATE} step {step}: qvel")
-            cdr = physics_state(step, sim_time_ns, state_spec, state, qpos, qvel)
+            cdr = physics_state(step, record.sim_time_ns, record.state_spec, state, qpos, qvel)
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, sim_time_ns)
+        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, record.sim_time_ns)
 
-    def write_epoch(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        epoch: int,
-        reason: str,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None:
-        """Record a discontinuity after ``step`` (a reset): the state the run continues from.
-        Always written (``state_every`` does not apply)."""
-        where = f"{TOPIC_EPOCH} step {step}"
+    def write_epoch(self, epoch: Epoch) -> None:
+        """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
+        from. Always written (``state_every`` does not apply)."""
+        where = f"{TOPIC_EPOCH} step {epoch.step}"
         msg = self._types[TYPE_EPOCH](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            epoch=epoch,
-            reason=reason,
-            state_spec=state_spec,
-            state=_f64(state, f"{where}: state"),
-            qpos=_f64(qpos, f"{where}: qpos"),
-            qvel=_f64(qvel, f"{where}: qvel"),
+            step=epoch.step,
+            sim_time_ns=epoch.sim_time_ns,
+            epoch=epoch.epoch,
+            reason=epoch.reason,
+            state_spec=epoch.state_spec,
+            state=_f64(epoch.state, f"{where}: state"),
+            qpos=_f64(epoch.qpos, f"{where}: qpos"),
+            qvel=_f64(epoch.qvel, f"{where}: qvel"),
         )
-        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, sim_time_ns)
+        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, epoch.sim_time_ns)
 
     def write_collision_event(
         self,
@@ -643,11 +601,12 @@ class Recorder:
         start = time.perf_counter()
         try:
             if provisional:
-                tail = provisional_chunk(self._writer, self._compression)
+                self._writer.drain()  # the tail goes after every closed chunk
+                tail = self._writer.provisional()
                 if tail is not None:
                     self._stream.write_tail(tail)
             else:
-                self._writer.flush()  # type: ignore[no-untyped-call]
+                self._writer.flush()
         except OSError as exc:
             self._failure = exc
             raise RecordingWriteError(f"{self.path}: recording failed: {exc}") from exc
@@ -700,11 +659,12 @@ class Recorder:
             self._closed = True
             if not isinstance(self._failure, OSError):
                 try:
-                    self._writer.finish()  # type: ignore[no-untyped-call]
+                    self._writer.finish()
                     self._stream.close()
                 except OSError as exc:
                     self._failure = exc
             if isinstance(self._failure, OSError):  # disk full: keep what was flushed
+                self._writer.abandon()
                 raise RecordingWriteError(
                     # the committed bytes end at a record boundary: a failed write never
                     # advances them (a provisional tail after them is cut off)

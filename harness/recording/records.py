@@ -55,9 +55,9 @@ class BridgeFrame:
     seq: int
     op: str
     topic: str
-    binary: bool
-    text: str
-    data: bytes
+    binary: bool = False
+    text: str = ""
+    data: bytes = b""
 
     @property
     def payload(self) -> str | bytes:
