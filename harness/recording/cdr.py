@@ -18,7 +18,14 @@ import numpy as np
 import numpy.typing as npt
 from rosbags.typesys.store import Typestore
 
-__all__ = ["Encoder", "Unsupported", "bridge_frame", "compile_encoder", "physics_state"]
+__all__ = [
+    "Encoder",
+    "Unsupported",
+    "bridge_frame",
+    "compile_encoder",
+    "physics_state",
+    "physics_state_parts",
+]
 
 _HEADER = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation
 _PAD = b"\x00\x00\x00\x00\x00\x00\x00"
@@ -27,6 +34,10 @@ _PS_HEAD = struct.Struct("<QqII")
 # step, sim_time_ns, direction, (3 pad), connection, seq: offsets 0, 8, 16, 20, 24 -> 32
 _BF_HEAD = struct.Struct("<QqB3xIQ")
 _U32 = struct.Struct("<I")
+# CDR header, then the PhysicsState head (as _PS_HEAD)
+_PS_START = struct.Struct("<4sQqII")
+# a float64[] length and the padding to the 8-aligned data after it (non-empty arrays)
+_F64_LEN = struct.Struct("<I4x")
 
 
 def _f64_seq(out: list[bytes], pos: int, array: npt.NDArray[np.float64]) -> int:
@@ -69,6 +80,31 @@ def physics_state(
     pos = _f64_seq(out, pos, qpos)
     _f64_seq(out, pos, qvel)
     return b"".join(out)
+
+
+def physics_state_parts(
+    step: int,
+    sim_time_ns: int,
+    state_spec: int,
+    state: npt.NDArray[np.float64],
+    qpos: npt.NDArray[np.float64],
+    qvel: npt.NDArray[np.float64],
+) -> tuple[tuple[bytes | memoryview, ...], int]:
+    """:func:`physics_state` as buffers to write one after the other, and their total size:
+    views of the arrays themselves (float64, C-contiguous), not copies of their bytes."""
+    n, m, k = state.size, qpos.size, qvel.size
+    if not (m and k):
+        data = physics_state(step, sim_time_ns, state_spec, state, qpos, qvel)
+        return (data,), len(data)
+    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n)
+    return (
+        head,
+        state.data,
+        _F64_LEN.pack(m),
+        qpos.data,
+        _F64_LEN.pack(k),
+        qvel.data,
+    ), 44 + 8 * (n + m + k)
 
 
 _NAMES: dict[tuple[str, str], tuple[bytes, int]] = {}

@@ -37,7 +37,7 @@ from harness.recording.cdr import (
     Unsupported,
     bridge_frame,
     compile_encoder,
-    physics_state,
+    physics_state_parts,
 )
 from harness.recording.convert import from_rosbridge
 from harness.recording.errors import RecordingWriteError
@@ -70,7 +70,7 @@ from harness.recording.records import (
 )
 from harness.recording.salvage import finish_after_failure
 from harness.recording.tail import TailFile
-from harness.recording.writer import COMPRESSIONS, ChunkWriter
+from harness.recording.writer import COMPRESSIONS, Buffer, ChunkWriter
 
 __all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
 
@@ -216,6 +216,17 @@ def _u32(value: Sequence[int] | npt.ArrayLike, where: str) -> npt.NDArray[np.uin
         raise RecordingWriteError(f"{where}: expected non-negative integers") from None
 
 
+class _Channel:
+    """A recorded topic: its MCAP channel id, type and the next sequence number."""
+
+    __slots__ = ("id", "msgtype", "seq")
+
+    def __init__(self, channel_id: int, msgtype: str) -> None:
+        self.id = channel_id
+        self.msgtype = msgtype
+        self.seq = 0
+
+
 class Recorder:
     """Writes one run to ``path`` (a context manager; ``close()`` writes the summary).
 
@@ -267,9 +278,8 @@ class Recorder:
         self._on_flush = on_flush
         self._encoders: dict[str, Encoder | None] = {}
         self._lock = threading.Lock()
-        self._channels: dict[str, tuple[int, str]] = {}
+        self._channels: dict[str, _Channel] = {}
         self._schemas: dict[str, int] = {}
-        self._seq: dict[int, int] = {}
         self._last_time = -1
         self._messages = 0
         self._dirty = False
@@ -339,7 +349,7 @@ class Recorder:
                 except Unsupported:
                     pass  # the generic path below serialises it or says what is wrong
                 else:
-                    self._write_cdr(topic, msgtype, data, sim_time_ns)
+                    self._write_cdr(topic, msgtype, (data,), len(data), sim_time_ns)
                     return
             msg = from_rosbridge(self._store, msgtype, msg, where=f"{topic} ({msgtype})")
         elif getattr(msg, "__msgtype__", msgtype) != msgtype:
@@ -354,9 +364,7 @@ class Recorder:
                 "text: give exactly one of text= or data="
             )
         if frame.direction not in (0, 1):
-            raise RecordingWriteError(
-                f"{TOPIC_BRIDGE} seq {frame.seq}: direction must be 0 or 1"
-            )
+            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {frame.seq}: direction must be 0 or 1")
         try:
             binary = frame.binary
             cdr = bridge_frame(
@@ -367,7 +375,7 @@ class Recorder:
         except (struct.error, UnicodeEncodeError, AttributeError, TypeError) as exc:
             where = f"{TOPIC_BRIDGE} seq {frame.seq}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, cdr, frame.sim_time_ns)
+        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, (cdr,), len(cdr), frame.sim_time_ns)
 
     def write_applied_input(self, inp: AppliedInput) -> None:
         """Record the physics input applied before ``inp.step``."""
@@ -402,18 +410,20 @@ class Recorder:
             return
         state, qpos, qvel = record.state, record.qpos, record.qvel
         try:
-            # MuJoCo's own float64 arrays go as they are (tobytes copies any layout).
-            if not (type(state) is np.ndarray and state.dtype is _F64):
+            # MuJoCo's own float64 arrays go into the file as they are (no copy of their bytes).
+            if not (type(state) is np.ndarray and state.dtype is _F64 and state.flags.c_contiguous):
                 state = _f64(state, f"{TOPIC_STATE} step {step}: state")
-            if not (type(qpos) is np.ndarray and qpos.dtype is _F64):
+            if not (type(qpos) is np.ndarray and qpos.dtype is _F64 and qpos.flags.c_contiguous):
                 qpos = _f64(qpos, f"{TOPIC_STATE} step {step}: qpos")
-            if not (type(qvel) is np.ndarray and qvel.dtype is _F64):
+            if not (type(qvel) is np.ndarray and qvel.dtype is _F64 and qvel.flags.c_contiguous):
                 qvel = _f64(qvel, f"{TOPIC_STATE} step {step}: qvel")
-            cdr = physics_state(step, record.sim_time_ns, record.state_spec, state, qpos, qvel)
+            parts, size = physics_state_parts(
+                step, record.sim_time_ns, record.state_spec, state, qpos, qvel
+            )
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, record.sim_time_ns)
+        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, parts, size, record.sim_time_ns)
 
     def write_epoch(self, epoch: Epoch) -> None:
         """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
@@ -507,31 +517,30 @@ class Recorder:
             data = self._store.serialize_cdr(msg, msgtype)
         except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
             raise RecordingWriteError(f"{topic} ({msgtype}): cannot serialise: {exc}") from None
-        self._write_cdr(topic, msgtype, data, sim_time_ns)
+        self._write_cdr(topic, msgtype, (data,), len(data), sim_time_ns)
 
     def _write_cdr(
-        self, topic: str, msgtype: str, data: bytes | memoryview, sim_time_ns: int
+        self, topic: str, msgtype: str, parts: tuple[Buffer, ...], size: int, sim_time_ns: int
     ) -> None:
         with self._lock:
             if self._closed or self._failure is not None:
                 self._raise_closed()
-            known = self._channels.get(topic)
-            if known is None:
-                known = self._register(topic, msgtype)
-            elif known[1] != msgtype:
+            channel = self._channels.get(topic)
+            if channel is None:
+                channel = self._register(topic, msgtype)
+            elif channel.msgtype != msgtype:
                 raise RecordingWriteError(
-                    f"{topic}: already recorded as {known[1]}, cannot also record {msgtype}"
+                    f"{topic}: already recorded as {channel.msgtype}, cannot also record {msgtype}"
                 )
             if sim_time_ns < self._last_time or sim_time_ns < 0:
                 raise RecordingWriteError(
                     f"{topic}: sim_time_ns {sim_time_ns} is before the last recorded "
                     f"{self._last_time}: recorded time must not go backwards"
                 )
-            channel_id = known[0]
-            seq = self._seq[channel_id]
-            self._seq[channel_id] = seq + 1
+            seq = channel.seq
+            channel.seq = seq + 1
             try:
-                self._append(channel_id, sim_time_ns, data, seq)
+                self._append(channel.id, sim_time_ns, seq, parts, size)
             except OSError as exc:  # a full chunk was written out: disk full
                 self._failure = exc
                 self._raise_closed()
@@ -550,7 +559,7 @@ class Recorder:
             self._writer.add_metadata(name, values)
             self._dirty = True
 
-    def _register(self, topic: str, msgtype: str) -> tuple[int, str]:
+    def _register(self, topic: str, msgtype: str) -> _Channel:
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:
             schema_id = self._writer.register_schema(msgtype, "ros2msg", schema_text(msgtype))
@@ -558,9 +567,8 @@ class Recorder:
         channel_id = self._writer.register_channel(
             topic, "cdr", schema_id, channel_metadata(msgtype, is_latched(topic))
         )
-        self._channels[topic] = (channel_id, msgtype)
-        self._seq[channel_id] = 0
-        return channel_id, msgtype
+        channel = self._channels[topic] = _Channel(channel_id, msgtype)
+        return channel
 
     def _raise_closed(self) -> None:
         if self._failure is not None:

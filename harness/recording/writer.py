@@ -26,6 +26,7 @@ import zlib
 from collections import deque
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
+from typing import TypeAlias
 
 import numpy as np
 import zstandard
@@ -50,6 +51,9 @@ from harness.recording._crc import crc32
 from harness.recording.tail import TailFile
 
 __all__ = ["COMPRESSIONS", "MAX_PENDING", "ChunkWriter"]
+
+Buffer: TypeAlias = bytes | bytearray | memoryview
+"""What a message part may be (C-contiguous)."""
 
 MAGIC = b"\x89MCAP0\r\n"
 MAX_PENDING = 4
@@ -186,8 +190,17 @@ class ChunkWriter:
 
     # -- messages ----------------------------------------------------------------------------
 
-    def add(self, channel_id: int, time_ns: int, data: bytes | memoryview, sequence: int) -> None:
-        """A message (``log_time == publish_time == time_ns``; times must not go backwards)."""
+    def add(
+        self,
+        channel_id: int,
+        time_ns: int,
+        sequence: int,
+        parts: tuple[Buffer, ...],
+        size: int,
+    ) -> None:
+        """A message whose data is ``parts`` one after the other (``size`` bytes in all;
+        C-contiguous buffers), ``log_time == publish_time == time_ns`` (times must not go
+        backwards)."""
         chunk = self._open
         buffer = chunk.buffer
         offset = len(buffer)
@@ -199,9 +212,10 @@ class ChunkWriter:
         if index is None:
             index = chunk.indexes[channel_id] = []
         index += (time_ns, offset)
-        buffer += _MESSAGE.pack(5, 22 + len(data), channel_id, sequence, time_ns, time_ns)
-        buffer += data
-        if len(buffer) > self._chunk_size:
+        buffer += _MESSAGE.pack(5, 22 + size, channel_id, sequence, time_ns, time_ns)
+        for part in parts:
+            buffer += part
+        if offset + 31 + size > self._chunk_size:
             self._close_chunk()
 
     def _close_chunk(self) -> None:
