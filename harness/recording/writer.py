@@ -184,7 +184,6 @@ class ChunkWriter:
             schema_id=schema_id,
         )
         self._channels.append(channel)
-        self._counts[channel.id] = 0
         self._open.buffer += _record(channel)
         return channel.id
 
@@ -227,7 +226,7 @@ class ChunkWriter:
         self._end = chunk.end
         self._messages += chunk.messages
         for channel_id, index in chunk.indexes.items():
-            self._counts[channel_id] += len(index) // 2
+            self._counts[channel_id] = self._counts.get(channel_id, 0) + len(index) // 2
         self._open = _Open()
         pending = self._pending
         while pending and pending[0].done():
@@ -322,7 +321,7 @@ class ChunkWriter:
             chunk_count=len(self._chunk_indexes),
             message_start_time=self._start,
             message_end_time=self._end,
-            channel_message_counts={k: v for k, v in self._counts.items() if v},
+            channel_message_counts=dict(self._counts),
         )
         groups: list[
             tuple[
