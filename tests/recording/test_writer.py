@@ -94,7 +94,8 @@ def test_same_bytes_as_mcap_writer(tmp_path: Path, compression: str, chunk_size:
     assert records
     reader = make_reader(io.BytesIO(ours), validate_crcs=True)
     summary = reader.get_summary()
-    assert summary is not None and summary.statistics is not None
+    assert summary is not None
+    assert summary.statistics is not None
     assert summary.statistics.message_count == 3000
     assert len(list(reader.iter_messages())) == 3000
 
