@@ -121,8 +121,12 @@ def test_a_failed_chunk_write_is_raised(tmp_path: Path) -> None:
     schema = writer.register_schema("s", "ros2msg", b"uint8[] data")
     channel = writer.register_channel("/c", "cdr", schema, {})
     stream.close()  # the descriptor is gone: every later write fails
-    with pytest.raises(OSError):
+
+    def fill() -> None:
         for k in range(10 * MAX_PENDING):
             writer.add(channel, k, k, (bytes(100),), 100)
         writer.flush()
+
+    with pytest.raises(OSError, match="Bad file descriptor"):
+        fill()
     writer.abandon()
