@@ -89,22 +89,27 @@ def physics_state_parts(
     state: npt.NDArray[np.float64],
     qpos: npt.NDArray[np.float64],
     qvel: npt.NDArray[np.float64],
-) -> tuple[tuple[bytes | memoryview, ...], int]:
+) -> tuple[tuple[bytes | memoryview, ...], int] | None:
     """:func:`physics_state` as buffers to write one after the other, and their total size:
-    views of the arrays themselves (float64, C-contiguous), not copies of their bytes."""
-    n, m, k = state.size, qpos.size, qvel.size
+    views of the arrays themselves, not copies of their bytes (the per-step path). ``None``
+    when an array is not a C-contiguous native float64 array or ``qpos``/``qvel`` is empty
+    (then :func:`physics_state` serialises it)."""
+    try:
+        sv, qv, vv = state.data, qpos.data, qvel.data
+    except AttributeError:
+        return None
+    if not (
+        sv.c_contiguous
+        and qv.c_contiguous
+        and vv.c_contiguous
+        and sv.format == qv.format == vv.format == "d"
+    ):
+        return None
+    n, m, k = sv.nbytes, qv.nbytes, vv.nbytes
     if not (m and k):
-        data = physics_state(step, sim_time_ns, state_spec, state, qpos, qvel)
-        return (data,), len(data)
-    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n)
-    return (
-        head,
-        state.data,
-        _F64_LEN.pack(m),
-        qpos.data,
-        _F64_LEN.pack(k),
-        qvel.data,
-    ), 44 + 8 * (n + m + k)
+        return None
+    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n >> 3)
+    return (head, sv, _F64_LEN.pack(m >> 3), qv, _F64_LEN.pack(k >> 3), vv), 44 + n + m + k
 
 
 _NAMES: dict[tuple[str, str], tuple[bytes, int]] = {}

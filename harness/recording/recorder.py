@@ -37,6 +37,7 @@ from harness.recording.cdr import (
     Unsupported,
     bridge_frame,
     compile_encoder,
+    physics_state,
     physics_state_parts,
 )
 from harness.recording.convert import from_rosbridge
@@ -408,22 +409,27 @@ class Recorder:
         step = record.step
         if step % self._state_every:
             return
-        state, qpos, qvel = record.state, record.qpos, record.qvel
+        time_ns = record.sim_time_ns
         try:
             # MuJoCo's own float64 arrays go into the file as they are (no copy of their bytes).
-            if not (type(state) is np.ndarray and state.dtype is _F64 and state.flags.c_contiguous):
-                state = _f64(state, f"{TOPIC_STATE} step {step}: state")
-            if not (type(qpos) is np.ndarray and qpos.dtype is _F64 and qpos.flags.c_contiguous):
-                qpos = _f64(qpos, f"{TOPIC_STATE} step {step}: qpos")
-            if not (type(qvel) is np.ndarray and qvel.dtype is _F64 and qvel.flags.c_contiguous):
-                qvel = _f64(qvel, f"{TOPIC_STATE} step {step}: qvel")
-            parts, size = physics_state_parts(
-                step, record.sim_time_ns, record.state_spec, state, qpos, qvel
+            fast = physics_state_parts(
+                step, time_ns, record.state_spec, record.state, record.qpos, record.qvel
             )
+            if fast is None:
+                where = f"{TOPIC_STATE} step {step}"
+                data = physics_state(
+                    step,
+                    time_ns,
+                    record.state_spec,
+                    _f64(record.state, f"{where}: state"),
+                    _f64(record.qpos, f"{where}: qpos"),
+                    _f64(record.qvel, f"{where}: qvel"),
+                )
+                fast = (data,), len(data)
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, parts, size, record.sim_time_ns)
+        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, fast[0], fast[1], time_ns)
 
     def write_epoch(self, epoch: Epoch) -> None:
         """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
