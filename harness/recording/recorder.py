@@ -1,17 +1,21 @@
 """``Recorder``: writes one run to an MCAP file (profile ``ros2``, every channel CDR).
 
-Writes are synchronous and serialised under a lock (callers may be the simulation thread and
-the bridge's event loop): nothing is queued, so nothing can be dropped; the cost is visible
-in ``bench/bench_recording.py``.
+Writes take the record types of :mod:`harness.recording.records` (for example
+``write_physics_state(PhysicsState(...))``), are serialised under a lock (callers may be the
+simulation thread and the bridge's event loop) and append to the open chunk of the
+:class:`~harness.recording.writer.ChunkWriter`; a full chunk is compressed and written by the
+writer's own thread (a few may wait; beyond that the caller waits): nothing can be dropped.
+The cost is measured in ``bench/bench_recording.py``.
 
 Byte-reproducible: chunks close by size (``chunk_size`` of records), never by the wall clock,
 so two runs that record the same records give the same file (with a fixed ``library``).
 Crash safety: a daemon thread writes the open chunk every ``flush_interval_s`` as a
 provisional tail after the committed bytes (:mod:`harness.recording.tail`: a complete chunk
 with its CRC and message indexes, replaced by the chunk when it closes), so a killed process
-loses at most the last interval; the file then lacks only its summary and footer, and
-:class:`~harness.recording.Recording` opens it up to the last complete chunk (``harness
-repair`` completes it). A flush that fails (disk full) is raised by the next ``write_*`` call.
+loses at most the last interval (a flush first waits for the closed chunks to be written);
+the file then lacks only its summary and footer, and :class:`~harness.recording.Recording`
+opens it up to the last complete chunk (``harness repair`` completes it). A flush that fails
+(disk full) is raised by the next ``write_*`` call.
 """
 
 from __future__ import annotations
