@@ -127,6 +127,24 @@ def _names(op: str, topic: str) -> tuple[bytes, int]:
     return names
 
 
+_TEXT_PREFIXES: dict[tuple[str, str], tuple[bytes, int]] = {}
+"""(op, topic) -> the bytes of a text frame from offset 32 up to its text (names, ``binary``
+false, padding) and the offset of the text's length."""
+_TEXT_TAILS = tuple(b"\x00" + _PAD[:pad] + b"\x00\x00\x00\x00" for pad in range(4))
+"""A text's NUL, the padding before ``data``'s length (by its size), that length: 0."""
+_BF_START = struct.Struct("<4sQqB3xIQ")  # the CDR header, then _BF_HEAD
+
+
+def _text_prefix(op: str, topic: str) -> tuple[bytes, int]:
+    names, end = _NAMES.get((op, topic)) or _names(op, topic)
+    pad = -(end + 1) % 4
+    prefix = (names + b"\x00" + _PAD[:pad], end + 1 + pad)
+    if len(_TEXT_PREFIXES) >= 4096:
+        _TEXT_PREFIXES.clear()
+    _TEXT_PREFIXES[(op, topic)] = prefix
+    return prefix
+
+
 def bridge_frame(
     step: int,
     sim_time_ns: int,
@@ -139,6 +157,21 @@ def bridge_frame(
     data: bytes | None,
 ) -> bytes:
     """``harness_msgs/msg/BridgeFrame`` as CDR: exactly one of ``text`` and ``data``."""
+    if data is None and text is not None:  # a text frame (most are): one join of five parts
+        prefix = _TEXT_PREFIXES.get((op, topic))
+        if prefix is None:
+            prefix = _text_prefix(op, topic)
+        raw = text.encode()
+        size = len(raw) + 1
+        return b"".join(
+            (
+                _BF_START.pack(_HEADER, step, sim_time_ns, direction, connection, seq),
+                prefix[0],
+                _U32.pack(size),
+                raw,
+                _TEXT_TAILS[-(prefix[1] + 4 + size) % 4],
+            )
+        )
     names = _NAMES.get((op, topic))
     if names is None:
         names = _names(op, topic)
