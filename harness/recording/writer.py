@@ -90,12 +90,11 @@ class _Open:
     """The open chunk: its records, its message indexes (flat ``[time, offset, ...]`` per
     channel, in first-message order) and its time range."""
 
-    __slots__ = ("buffer", "end", "indexes", "messages", "start")
+    __slots__ = ("buffer", "end", "indexes", "start")
 
     def __init__(self) -> None:
         self.buffer = bytearray()
-        self.indexes: dict[int, list[int]] = {}
-        self.messages = 0
+        self.indexes: dict[int, list[int]] = {}  # empty: no message yet
         self.start = 0
         self.end = 0
 
@@ -203,14 +202,13 @@ class ChunkWriter:
         chunk = self._open
         buffer = chunk.buffer
         offset = len(buffer)
-        if not chunk.messages:
-            chunk.start = time_ns
-        chunk.end = time_ns
-        chunk.messages += 1
         index = chunk.indexes.get(channel_id)
         if index is None:
+            if not chunk.indexes:
+                chunk.start = time_ns
             index = chunk.indexes[channel_id] = []
         index += (time_ns, offset)
+        chunk.end = time_ns
         buffer += _MESSAGE.pack(5, 22 + size, channel_id, sequence, time_ns, time_ns)
         for part in parts:
             buffer += part
@@ -219,14 +217,14 @@ class ChunkWriter:
 
     def _close_chunk(self) -> None:
         chunk = self._open
-        if not chunk.messages:
+        if not chunk.indexes:
             return
         if not self._messages:
             self._start = chunk.start
         self._end = chunk.end
-        self._messages += chunk.messages
         for channel_id, index in chunk.indexes.items():
             self._counts[channel_id] = self._counts.get(channel_id, 0) + len(index) // 2
+            self._messages += len(index) // 2
         self._open = _Open()
         pending = self._pending
         while pending and pending[0].done():
@@ -297,7 +295,7 @@ class ChunkWriter:
     def provisional(self) -> bytes | None:
         """The open chunk as the chunk record and message indexes it would be written as if it
         closed now (``None``: no message in it); call after :meth:`drain`."""
-        if not self._open.messages:
+        if not self._open.indexes:
             return None
         data, _ = self._chunk_bytes(self._open, self._stream.tell())
         return data
