@@ -1,12 +1,14 @@
 """``ChunkWriter``: the recorder's MCAP container writer (chunked, indexed, CRCs on).
 
-It writes what ``mcap.writer.Writer`` writes for the recorder's use (header, attachments,
+It writes the bytes ``mcap.writer.Writer`` writes for the recorder's use (header, attachments,
 metadata, schema and channel records in the chunks, chunks with message indexes, the summary
-with statistics and every index, the footer with the summary CRC, the data-section CRC), with
-two differences that make recording cheap for the thread that steps the simulation:
+with statistics and every index, the footer with the summary CRC, the data-section CRC; with
+``enable_crcs`` and ``enable_data_crcs``: ``tests/recording/test_writer.py`` compares the two),
+with two differences that make recording cheap for the thread that steps the simulation:
 
-- a message is appended to the open chunk's ``bytearray`` with one ``struct`` call (no record
-  object per message);
+- a message is appended to the open chunk's ``bytearray`` with one ``struct`` call for its
+  record header, then its parts as they are (no record object per message, no copy of the
+  arrays' bytes before the chunk buffer);
 - a full chunk is compressed, CRC-checked and written by a thread of its own (one, so chunks
   land in order: the file's bytes do not depend on timing). Compression and CRCs release the
   GIL, so the stepping thread keeps going meanwhile. At most :data:`MAX_PENDING` chunks wait;
@@ -50,7 +52,7 @@ from mcap.records import (
 from harness.recording._crc import crc32
 from harness.recording.tail import TailFile
 
-__all__ = ["COMPRESSIONS", "MAX_PENDING", "ChunkWriter"]
+__all__ = ["COMPRESSIONS", "MAX_PENDING", "Buffer", "ChunkWriter"]
 
 Buffer: TypeAlias = bytes | bytearray | memoryview
 """What a message part may be (C-contiguous)."""
