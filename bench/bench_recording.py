@@ -170,16 +170,8 @@ def _loop(
             state = sim.get_state()
         else:
             mujoco.mj_getState(model, data, state, SPEC)
-        recorder.write_physics_state(
-            PhysicsState(
-                step=k + 1,
-                sim_time_ns=t,
-                state_spec=SPEC,
-                state=state,
-                qpos=data.qpos,
-                qvel=data.qvel,
-            )
-        )
+        # built as the session core builds it (positionally)
+        recorder.write_physics_state(PhysicsState(k + 1, t, SPEC, state, data.qpos, data.qvel))
         recorder.write_bridge_frame(BridgeFrame(
             step=k + 1, sim_time_ns=t, direction=0, connection=1, seq=k, op="call_service",
             topic="/harness/step", text='{"op":"call_service","service":"/harness/step"}',
