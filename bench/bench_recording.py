@@ -1,14 +1,18 @@
 """Recording cost: our writer vs the MCAP container alone, and a stepping loop with and
 without full recording.
 
-1. messages/s of ``Recorder.write_physics_state`` (rosbags CDR + mcap.Writer, zstd, chunk and
-   data CRCs) vs ``mcap.Writer`` fed the same messages pre-serialised (the container's limit).
+1. messages/s of ``Recorder.write_physics_state`` (hand-laid CDR + the recorder's ChunkWriter,
+   zstd on the writer's thread, chunk and data CRCs) vs ``mcap.Writer`` fed the same messages
+   pre-serialised (the pure-Python container's speed).
 2. steps/s of a raw ``mj_step`` loop on a 7-joint arm + gripper on a table with a box, with full
    recording (mj_getState + state every step, a bridge frame per step, /joint_states, /clock
    and a JSON bridge frame at 100 Hz) vs the same loop without recording: reported, to show
    where the time goes (issue 5's target, >= 0.5 for a lockstep session with recording vs
    without, is measured in bench_session.py).
    The breakdown row says where the time goes.
+3. the same loop stepping ``harness.sim.Simulation`` (issue 20's target, >= 0.6); its note also
+   gives the ratio with a recorder that writes nothing: the ceiling set by the loop's own
+   recording inputs (mj_getState, the records, the 100 Hz dicts and JSON text).
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ import numpy as np
 from common import Row, best_of
 from mcap.writer import CompressionType, Writer
 
-from harness.recording import Recorder
+from harness.recording import BridgeFrame, PhysicsState, Recorder
 from harness.recording.layout import TYPE_PHYSICS_STATE, channel_metadata, schema_text, typestore
 
 SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -74,10 +78,10 @@ def _writer_rows(quick: bool, tmp: Path) -> list[Row]:
     def ours() -> None:
         with Recorder(tmp / "ours.mcap", metadata=METADATA) as rec:
             for k in range(n):
-                rec.write_physics_state(
+                rec.write_physics_state(PhysicsState(
                     step=k, sim_time_ns=k * 1_000_000, state_spec=SPEC, state=state,
                     qpos=qpos, qvel=qvel,
-                )  # fmt: skip
+                ))  # fmt: skip
 
     store = typestore()
     cls = store.types[TYPE_PHYSICS_STATE]
@@ -122,8 +126,24 @@ def _writer_rows(quick: bool, tmp: Path) -> list[Row]:
     ]
 
 
+class _NullRecorder:
+    """Takes the loop's records and writes nothing (the ceiling of any recorder)."""
+
+    def write_physics_state(self, record: PhysicsState) -> None:
+        pass
+
+    def write_bridge_frame(self, frame: BridgeFrame) -> None:
+        pass
+
+    def write_message(self, topic: str, msgtype: str, msg: object, *, sim_time_ns: int) -> None:
+        pass
+
+
 def _loop(
-    model: mujoco.MjModel, steps: int, recorder: Recorder | None, use_sim: bool = False
+    model: mujoco.MjModel,
+    steps: int,
+    recorder: Recorder | _NullRecorder | None,
+    use_sim: bool = False,
 ) -> float:
     data = mujoco.MjData(model)
     state = np.zeros(mujoco.mj_stateSize(model, SPEC))
@@ -150,13 +170,12 @@ def _loop(
             state = sim.get_state()
         else:
             mujoco.mj_getState(model, data, state, SPEC)
-        recorder.write_physics_state(
-            step=k + 1, sim_time_ns=t, state_spec=SPEC, state=state, qpos=data.qpos, qvel=data.qvel
-        )
-        recorder.write_bridge_frame(
+        # built as the session core builds it (positionally)
+        recorder.write_physics_state(PhysicsState(k + 1, t, SPEC, state, data.qpos, data.qvel))
+        recorder.write_bridge_frame(BridgeFrame(
             step=k + 1, sim_time_ns=t, direction=0, connection=1, seq=k, op="call_service",
             topic="/harness/step", text='{"op":"call_service","service":"/harness/step"}',
-        )  # fmt: skip
+        ))  # fmt: skip
         if k % 10 == 0:
             sec, nanosec = divmod(t, 1_000_000_000)
             js = {
@@ -170,11 +189,11 @@ def _loop(
             recorder.write_message(
                 "/clock", "rosgraph_msgs/msg/Clock", {"clock": js["header"]["stamp"]}, sim_time_ns=t
             )
-            recorder.write_bridge_frame(
+            recorder.write_bridge_frame(BridgeFrame(
                 step=k + 1, sim_time_ns=t, direction=1, connection=1, seq=k, op="publish",
                 topic="/joint_states",
                 text=json.dumps({"op": "publish", "topic": "/joint_states", "msg": js}),
-            )  # fmt: skip
+            ))  # fmt: skip
     return time.perf_counter() - start
 
 
@@ -192,6 +211,7 @@ def _sim_row(quick: bool, tmp: Path) -> list[Row]:
         with Recorder(tmp / f"sim{i}.mcap", metadata=METADATA) as rec:
             recorded.append(_loop(model, steps, rec, True))
     full = min(recorded)
+    ceiling = min(_loop(model, steps, _NullRecorder(), True) for _ in range(3))
     return [
         Row(
             "recording: bare Simulation loop, full recording vs none",
@@ -200,7 +220,12 @@ def _sim_row(quick: bool, tmp: Path) -> list[Row]:
             "st/s",
             "ratio >= 0.6",
             bare / full >= 0.6,
-            note=f"Simulation.step {bare / steps * 1e6:.1f} us/step bare",
+            note=(
+                f"Simulation.step {bare / steps * 1e6:.1f} us/step bare; "
+                f"{(full - bare) / steps * 1e6:.1f} us/step recording, of which "
+                f"{(ceiling - bare) / steps * 1e6:.1f} us the loop's own record building "
+                f"(a recorder writing nothing: ratio {bare / ceiling:.2f})"
+            ),
         )
     ]
 
@@ -223,18 +248,18 @@ def _loop_rows(quick: bool, tmp: Path) -> list[Row]:
         t_get = best_of(lambda: [mujoco.mj_getState(model, data, state, SPEC) for _ in range(n)], 3)
         t_state = best_of(
             lambda: [
-                rec.write_physics_state(
+                rec.write_physics_state(PhysicsState(
                     step=0, sim_time_ns=0, state_spec=SPEC, state=state, qpos=data.qpos,
                     qvel=data.qvel,
-                ) for _ in range(n)
+                )) for _ in range(n)
             ], 3,
         )  # fmt: skip
         t_frame = best_of(
             lambda: [
-                rec.write_bridge_frame(
+                rec.write_bridge_frame(BridgeFrame(
                     step=0, sim_time_ns=0, direction=0, connection=1, seq=0, op="x",
                     topic="", text="{}",
-                ) for _ in range(n)
+                )) for _ in range(n)
             ], 3,
         )  # fmt: skip
     step_us = bare / steps * 1e6

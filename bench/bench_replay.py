@@ -31,7 +31,7 @@ import numpy.typing as npt
 from common import Row
 
 from harness.models import load_robot
-from harness.recording import Recorder, Recording, describe_run
+from harness.recording import AppliedInput, PhysicsState, Recorder, Recording, describe_run
 from harness.replay import verify
 from harness.sim import Simulation
 
@@ -44,10 +44,10 @@ def _record(path: Path, steps: int) -> None:
     sim.reset()
     d = describe_run(robot)
     with Recorder(path, metadata=d.metadata, attachments=d.attachments) as rec:
-        rec.write_physics_state(
+        rec.write_physics_state(PhysicsState(
             step=0, sim_time_ns=0, state_spec=sim.state_spec, state=sim.get_state(),
             qpos=sim.data.qpos, qvel=sim.data.qvel,
-        )  # fmt: skip
+        ))  # fmt: skip
         for k in range(steps):
             if k % 500 == 0:
                 sign = 1.0 if (k // 500) % 2 else -1.0
@@ -56,10 +56,12 @@ def _record(path: Path, steps: int) -> None:
             if sim.input_changed:
                 i = sim.last_input
                 assert i is not None
-                rec.write_applied_input(step=i.step, sim_time_ns=i.sim_time_ns, ctrl=i.ctrl)
-            rec.write_physics_state(step=sim.step_index, sim_time_ns=sim.sim_time_ns,
+                rec.write_applied_input(
+                    AppliedInput(step=i.step, sim_time_ns=i.sim_time_ns, ctrl=i.ctrl)
+                )
+            rec.write_physics_state(PhysicsState(step=sim.step_index, sim_time_ns=sim.sim_time_ns,
                                     state_spec=sim.state_spec, state=sim.get_state(),
-                                    qpos=sim.data.qpos, qvel=sim.data.qvel)  # fmt: skip
+                                    qpos=sim.data.qpos, qvel=sim.data.qvel))  # fmt: skip
 
 
 def _trajectory(path: Path) -> tuple[F64, int, list[tuple[int, F64]], F64]:

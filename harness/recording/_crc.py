@@ -11,12 +11,12 @@ from collections.abc import Callable
 __all__ = ["crc32"]
 
 
-def _pick() -> Callable[[bytes | memoryview], int]:
+def _pick() -> Callable[[bytes | bytearray | memoryview], int]:
     try:
         module = importlib.import_module("isal.isal_zlib")
     except ImportError:
         return zlib.crc32
-    fast: Callable[[bytes | memoryview], int] = module.crc32
+    fast: Callable[[bytes | bytearray | memoryview], int] = module.crc32
     return fast
 
 

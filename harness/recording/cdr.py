@@ -18,7 +18,14 @@ import numpy as np
 import numpy.typing as npt
 from rosbags.typesys.store import Typestore
 
-__all__ = ["Encoder", "Unsupported", "bridge_frame", "compile_encoder", "physics_state"]
+__all__ = [
+    "Encoder",
+    "Unsupported",
+    "bridge_frame",
+    "compile_encoder",
+    "physics_state",
+    "physics_state_parts",
+]
 
 _HEADER = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation
 _PAD = b"\x00\x00\x00\x00\x00\x00\x00"
@@ -27,6 +34,10 @@ _PS_HEAD = struct.Struct("<QqII")
 # step, sim_time_ns, direction, (3 pad), connection, seq: offsets 0, 8, 16, 20, 24 -> 32
 _BF_HEAD = struct.Struct("<QqB3xIQ")
 _U32 = struct.Struct("<I")
+# CDR header, then the PhysicsState head (as _PS_HEAD)
+_PS_START = struct.Struct("<4sQqII")
+# a float64[] length and the padding to the 8-aligned data after it (non-empty arrays)
+_F64_LEN = struct.Struct("<I4x")
 
 
 def _f64_seq(out: list[bytes], pos: int, array: npt.NDArray[np.float64]) -> int:
@@ -71,6 +82,36 @@ def physics_state(
     return b"".join(out)
 
 
+def physics_state_parts(
+    step: int,
+    sim_time_ns: int,
+    state_spec: int,
+    state: npt.NDArray[np.float64],
+    qpos: npt.NDArray[np.float64],
+    qvel: npt.NDArray[np.float64],
+) -> tuple[tuple[bytes | memoryview, ...], int] | None:
+    """:func:`physics_state` as buffers to write one after the other, and their total size:
+    views of the arrays themselves, not copies of their bytes (the per-step path). ``None``
+    when an array is not a C-contiguous native float64 array or ``qpos``/``qvel`` is empty
+    (then :func:`physics_state` serialises it)."""
+    try:
+        sv, qv, vv = state.data, qpos.data, qvel.data
+    except AttributeError:
+        return None
+    if not (
+        sv.c_contiguous
+        and qv.c_contiguous
+        and vv.c_contiguous
+        and sv.format == qv.format == vv.format == "d"
+    ):
+        return None
+    n, m, k = sv.nbytes, qv.nbytes, vv.nbytes
+    if not (m and k):
+        return None
+    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n >> 3)
+    return (head, sv, _F64_LEN.pack(m >> 3), qv, _F64_LEN.pack(k >> 3), vv), 44 + n + m + k
+
+
 _NAMES: dict[tuple[str, str], tuple[bytes, int]] = {}
 """(op, topic) -> their CDR bytes from offset 32 and the offset after them (few distinct)."""
 
@@ -86,6 +127,24 @@ def _names(op: str, topic: str) -> tuple[bytes, int]:
     return names
 
 
+_TEXT_PREFIXES: dict[tuple[str, str], tuple[bytes, int]] = {}
+"""(op, topic) -> the bytes of a text frame from offset 32 up to its text (names, ``binary``
+false, padding) and the offset of the text's length."""
+_TEXT_TAILS = tuple(b"\x00" + _PAD[:pad] + b"\x00\x00\x00\x00" for pad in range(4))
+"""A text's NUL, the padding before ``data``'s length (by its size), that length: 0."""
+_BF_START = struct.Struct("<4sQqB3xIQ")  # the CDR header, then _BF_HEAD
+
+
+def _text_prefix(op: str, topic: str) -> tuple[bytes, int]:
+    names, end = _NAMES.get((op, topic)) or _names(op, topic)
+    pad = -(end + 1) % 4
+    prefix = (names + b"\x00" + _PAD[:pad], end + 1 + pad)
+    if len(_TEXT_PREFIXES) >= 4096:
+        _TEXT_PREFIXES.clear()
+    _TEXT_PREFIXES[(op, topic)] = prefix
+    return prefix
+
+
 def bridge_frame(
     step: int,
     sim_time_ns: int,
@@ -98,6 +157,21 @@ def bridge_frame(
     data: bytes | None,
 ) -> bytes:
     """``harness_msgs/msg/BridgeFrame`` as CDR: exactly one of ``text`` and ``data``."""
+    if data is None and text is not None:  # a text frame (most are): one join of five parts
+        prefix = _TEXT_PREFIXES.get((op, topic))
+        if prefix is None:
+            prefix = _text_prefix(op, topic)
+        raw = text.encode()
+        size = len(raw) + 1
+        return b"".join(
+            (
+                _BF_START.pack(_HEADER, step, sim_time_ns, direction, connection, seq),
+                prefix[0],
+                _U32.pack(size),
+                raw,
+                _TEXT_TAILS[-(prefix[1] + 4 + size) % 4],
+            )
+        )
     names = _NAMES.get((op, topic))
     if names is None:
         names = _names(op, topic)
@@ -231,16 +305,27 @@ def _field_encoder(store: Typestore, node: tuple[Any, Any]) -> _Field:
     return encode
 
 
+_STRING_LISTS: dict[tuple[int, tuple[str, ...]], bytes] = {}
+"""(offset mod 4, strings) -> their CDR bytes: the joint names of a JointState repeat."""
+
+
 def _strings(value: Any, out: list[bytes], pos: int) -> int:
-    """A ``string[]`` (the names of a JointState): one loop, no call per item."""
+    """A ``string[]`` (the names of a JointState): one loop, no call per item; the bytes of a
+    list seen before come from :data:`_STRING_LISTS`."""
     if value is None:
         value = []
     elif type(value) is not list:
         raise Unsupported("list")
+    key = (pos & 3, tuple(value))
+    cached = _STRING_LISTS.get(key)
+    if cached is not None:
+        out.append(cached)
+        return pos + len(cached)
+    parts: list[bytes] = []
     pad = -pos % 4
     if pad:
-        out.append(_PAD[:pad])
-    out.append(_U32.pack(len(value)))
+        parts.append(_PAD[:pad])
+    parts.append(_U32.pack(len(value)))
     pos += pad + 4
     pack = _U32.pack
     for item in value:
@@ -248,22 +333,58 @@ def _strings(value: Any, out: list[bytes], pos: int) -> int:
             raise Unsupported("string")
         pad = -pos % 4
         if pad:
-            out.append(_PAD[:pad])
+            parts.append(_PAD[:pad])
         raw = item.encode()
-        out.append(pack(len(raw) + 1))
-        out.append(raw)
-        out.append(b"\x00")
+        parts.append(pack(len(raw) + 1))
+        parts.append(raw)
+        parts.append(b"\x00")
         pos += pad + 5 + len(raw)
+    encoded = b"".join(parts)
+    if len(_STRING_LISTS) >= 256:  # many distinct lists: start over
+        _STRING_LISTS.clear()
+    _STRING_LISTS[key] = encoded
+    out.append(encoded)
     return pos
+
+
+_F64_PACKERS: dict[int, struct.Struct] = {}
+"""Number of values -> the ``struct`` packing that many float64 (lists of any length)."""
+
+
+def _f64_packer(n: int) -> struct.Struct:
+    packer = _F64_PACKERS.get(n)
+    if packer is None:
+        if len(_F64_PACKERS) >= 256:
+            _F64_PACKERS.clear()
+        packer = _F64_PACKERS[n] = struct.Struct(f"<{n}d")
+    return packer
 
 
 def _numeric_array_encoder(basetype: str, length: int | None) -> _Field:
     dtype = np.dtype(_DTYPES[basetype])
     size = dtype.itemsize
+    # A list of float64 packs with one struct call (numpy's conversion costs about 1 us a list);
+    # anything struct refuses takes the numpy path below, which decides as before.
+    packs_lists = basetype == "float64"
 
     def encode(value: Any, out: list[bytes], pos: int) -> int:
         if value is None:
             value = ()
+        elif packs_lists and type(value) is list and (length is None or len(value) == length):
+            try:
+                raw = _f64_packer(len(value)).pack(*value)
+            except (struct.error, TypeError, OverflowError):
+                pass
+            else:
+                if length is None:
+                    pos = _align(out, pos, 4)
+                    out.append(_U32.pack(len(value)))
+                    pos += 4
+                if raw:
+                    pos = _align(out, pos, 8)
+                    out.append(raw)
+                    pos += len(raw)
+                return pos
         elif type(value) is not list and not isinstance(value, np.ndarray):
             raise Unsupported("list")
         array = np.ascontiguousarray(value, dtype=dtype).reshape(-1)

@@ -1,17 +1,21 @@
 """``Recorder``: writes one run to an MCAP file (profile ``ros2``, every channel CDR).
 
-Writes are synchronous and serialised under a lock (callers may be the simulation thread and
-the bridge's event loop): nothing is queued, so nothing can be dropped; the cost is visible
-in ``bench/bench_recording.py``.
+Writes take the record types of :mod:`harness.recording.records` (for example
+``write_physics_state(PhysicsState(...))``), are serialised under a lock (callers may be the
+simulation thread and the bridge's event loop) and append to the open chunk of the
+:class:`~harness.recording.writer.ChunkWriter`; a full chunk is compressed and written by the
+writer's own thread (a few may wait; beyond that the caller waits): nothing can be dropped.
+The cost is measured in ``bench/bench_recording.py``.
 
 Byte-reproducible: chunks close by size (``chunk_size`` of records), never by the wall clock,
 so two runs that record the same records give the same file (with a fixed ``library``).
 Crash safety: a daemon thread writes the open chunk every ``flush_interval_s`` as a
 provisional tail after the committed bytes (:mod:`harness.recording.tail`: a complete chunk
 with its CRC and message indexes, replaced by the chunk when it closes), so a killed process
-loses at most the last interval; the file then lacks only its summary and footer, and
-:class:`~harness.recording.Recording` opens it up to the last complete chunk (``harness
-repair`` completes it). A flush that fails (disk full) is raised by the next ``write_*`` call.
+loses at most the last interval (a flush first waits for the closed chunks to be written);
+the file then lacks only its summary and footer, and :class:`~harness.recording.Recording`
+opens it up to the last complete chunk (``harness repair`` completes it). A flush that fails
+(disk full) is raised by the next ``write_*`` call.
 """
 
 from __future__ import annotations
@@ -30,16 +34,15 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-from mcap.writer import CompressionType, Writer
 
 from harness._version import __version__
-from harness.recording.append import MessageAppender
 from harness.recording.cdr import (
     Encoder,
     Unsupported,
     bridge_frame,
     compile_encoder,
     physics_state,
+    physics_state_parts,
 )
 from harness.recording.convert import from_rosbridge
 from harness.recording.errors import RecordingWriteError
@@ -64,8 +67,15 @@ from harness.recording.layout import (
     schema_text,
     typestore,
 )
+from harness.recording.records import (
+    AppliedInput,
+    BridgeFrame,
+    Epoch,
+    PhysicsState,
+)
 from harness.recording.salvage import finish_after_failure
-from harness.recording.tail import TailFile, provisional_chunk
+from harness.recording.tail import TailFile
+from harness.recording.writer import COMPRESSIONS, Buffer, ChunkWriter
 
 __all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
 
@@ -73,11 +83,6 @@ MAX_RECORDING_BYTES = 16 * 2**30
 """Default size limit of one recording (16 GiB: hours of full-rate recording of a robot arm;
 a runaway run stops there instead of filling the disk)."""
 
-_COMPRESSION = {
-    "zstd": CompressionType.ZSTD,
-    "lz4": CompressionType.LZ4,
-    "none": CompressionType.NONE,
-}
 _MEDIA_TYPES = {
     ".xml": "application/xml",
     ".urdf": "application/xml",
@@ -216,6 +221,17 @@ def _u32(value: Sequence[int] | npt.ArrayLike, where: str) -> npt.NDArray[np.uin
         raise RecordingWriteError(f"{where}: expected non-negative integers") from None
 
 
+class _Channel:
+    """A recorded topic: its MCAP channel id, type and the next sequence number."""
+
+    __slots__ = ("id", "msgtype", "seq")
+
+    def __init__(self, channel_id: int, msgtype: str) -> None:
+        self.id = channel_id
+        self.msgtype = msgtype
+        self.seq = 0
+
+
 class Recorder:
     """Writes one run to ``path`` (a context manager; ``close()`` writes the summary).
 
@@ -245,9 +261,9 @@ class Recorder:
         on_flush: Callable[[FlushInfo], None] | None = None,
         max_bytes: int = MAX_RECORDING_BYTES,
     ) -> None:
-        if compression not in _COMPRESSION:
+        if compression not in COMPRESSIONS:
             raise RecordingWriteError(
-                f"compression must be one of {', '.join(_COMPRESSION)}, got {compression!r}"
+                f"compression must be one of {', '.join(COMPRESSIONS)}, got {compression!r}"
             )
         if not isinstance(state_every, int) or state_every < 1:
             raise RecordingWriteError(f"state_every must be an integer >= 1, got {state_every!r}")
@@ -267,9 +283,8 @@ class Recorder:
         self._on_flush = on_flush
         self._encoders: dict[str, Encoder | None] = {}
         self._lock = threading.Lock()
-        self._channels: dict[str, tuple[int, str]] = {}
+        self._channels: dict[str, _Channel] = {}
         self._schemas: dict[str, int] = {}
-        self._seq: dict[int, int] = {}
         self._last_time = -1
         self._messages = 0
         self._dirty = False
@@ -284,30 +299,24 @@ class Recorder:
             raise RecordingWriteError(
                 f"{self.path}: cannot create recording: {exc.strerror}"
             ) from None
-        self._compression = _COMPRESSION[compression]
-        self._writer = Writer(
-            self._stream,  # type: ignore[arg-type]
-            chunk_size=chunk_size,
-            compression=self._compression,
-            enable_crcs=True,
-            enable_data_crcs=True,
-        )
         try:
-            self._writer.start(
+            self._writer = ChunkWriter(
+                self._stream,
                 profile=PROFILE,
                 library=library or f"harness/{__version__} mcap-python/{_package_version('mcap')}",
+                chunk_size=chunk_size,
+                compression=compression,
             )
             self._writer.add_metadata(METADATA_NAME, self.metadata)
             if not attachments:
                 # An MCAP without attachments gets empty index groups that strict doctors flag.
                 attachments = {"harness_msgs.txt": _definitions_text()}
             for name, blob in attachments.items():
-                self._writer.add_attachment(0, 0, name, _media_type(name), bytes(blob))
-            self._writer.flush()  # type: ignore[no-untyped-call]
+                self._writer.add_attachment(name, _media_type(name), bytes(blob))
             # Header and attachments reach the file system now: a full disk (or a file size
             # limit) is reported here, before the run starts, not at the first flush.
             self._stream.flush()
-            self._append = MessageAppender(self._writer).append
+            self._append = self._writer.add
         except OSError as exc:
             with contextlib.suppress(OSError):
                 self._stream.close()
@@ -345,133 +354,102 @@ class Recorder:
                 except Unsupported:
                     pass  # the generic path below serialises it or says what is wrong
                 else:
-                    self._write_cdr(topic, msgtype, data, sim_time_ns)
+                    self._write_cdr(topic, msgtype, (data,), len(data), sim_time_ns)
                     return
             msg = from_rosbridge(self._store, msgtype, msg, where=f"{topic} ({msgtype})")
         elif getattr(msg, "__msgtype__", msgtype) != msgtype:
             raise RecordingWriteError(f"{topic}: message is a {msg.__msgtype__}, not a {msgtype}")
         self._write(topic, msgtype, msg, sim_time_ns)
 
-    def write_bridge_frame(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        direction: int,
-        connection: int,
-        seq: int,
-        op: str,
-        topic: str,
-        text: str | None = None,
-        data: bytes | None = None,
-    ) -> None:
-        """Record one rosbridge frame: exactly one of ``text`` (text frame) or ``data`` (binary)."""
-        if (text is None) == (data is None):
+    def write_bridge_frame(self, frame: BridgeFrame) -> None:
+        """Record one rosbridge frame: ``frame.data`` when ``frame.binary``, else ``frame.text``."""
+        if frame.text if frame.binary else frame.data:
             raise RecordingWriteError(
-                f"{TOPIC_BRIDGE} seq {seq}: give exactly one of text= or data="
+                f"{TOPIC_BRIDGE} seq {frame.seq}: a binary frame carries data, a text frame "
+                "text: give exactly one of text= or data="
             )
-        if direction not in (0, 1):
-            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {seq}: direction must be 0 or 1")
+        if frame.direction not in (0, 1):
+            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {frame.seq}: direction must be 0 or 1")
         try:
-            cdr = bridge_frame(step, sim_time_ns, direction, connection, seq, op, topic, text, data)
+            binary = frame.binary
+            cdr = bridge_frame(
+                frame.step, frame.sim_time_ns, frame.direction, frame.connection, frame.seq,
+                frame.op, frame.topic, None if binary else frame.text,
+                frame.data if binary else None,
+            )  # fmt: skip
         except (struct.error, UnicodeEncodeError, AttributeError, TypeError) as exc:
-            where = f"{TOPIC_BRIDGE} seq {seq}"
+            where = f"{TOPIC_BRIDGE} seq {frame.seq}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, cdr, sim_time_ns)
+        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, (cdr,), len(cdr), frame.sim_time_ns)
 
-    def write_applied_input(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        ctrl: npt.ArrayLike,
-        kinematic_joints: Sequence[str] = (),
-        qpos_index: npt.ArrayLike = (),
-        qpos_value: npt.ArrayLike = (),
-        qvel_index: npt.ArrayLike = (),
-        qvel_value: npt.ArrayLike = (),
-        mocap_pos: npt.ArrayLike = (),
-        mocap_quat: npt.ArrayLike = (),
-        qfrc_applied: npt.ArrayLike = (),
-        xfrc_applied: npt.ArrayLike = (),
-    ) -> None:
-        """Record the physics input applied before ``step`` (fields as in AppliedInput.msg)."""
+    def write_applied_input(self, inp: AppliedInput) -> None:
+        """Record the physics input applied before ``inp.step``."""
+        step = inp.step
         where = f"{TOPIC_INPUTS} step {step}"
-        qpos_i = _u32(qpos_index, f"{where}: qpos_index")
-        qpos_v = _f64(qpos_value, f"{where}: qpos_value")
-        qvel_i = _u32(qvel_index, f"{where}: qvel_index")
-        qvel_v = _f64(qvel_value, f"{where}: qvel_value")
+        qpos_i = _u32(inp.qpos_index, f"{where}: qpos_index")
+        qpos_v = _f64(inp.qpos_value, f"{where}: qpos_value")
+        qvel_i = _u32(inp.qvel_index, f"{where}: qvel_index")
+        qvel_v = _f64(inp.qvel_value, f"{where}: qvel_value")
         if qpos_i.shape != qpos_v.shape or qvel_i.shape != qvel_v.shape:
             raise RecordingWriteError(f"{where}: index and value arrays differ in length")
         msg = self._types[TYPE_APPLIED_INPUT](
             step=step,
-            sim_time_ns=sim_time_ns,
-            ctrl=_f64(ctrl, f"{where}: ctrl"),
-            kinematic_joints=list(kinematic_joints),
+            sim_time_ns=inp.sim_time_ns,
+            ctrl=_f64(inp.ctrl, f"{where}: ctrl"),
+            kinematic_joints=list(inp.kinematic_joints),
             qpos_index=qpos_i,
             qpos_value=qpos_v,
             qvel_index=qvel_i,
             qvel_value=qvel_v,
-            mocap_pos=_f64(mocap_pos, f"{where}: mocap_pos"),
-            mocap_quat=_f64(mocap_quat, f"{where}: mocap_quat"),
-            qfrc_applied=_f64(qfrc_applied, f"{where}: qfrc_applied"),
-            xfrc_applied=_f64(xfrc_applied, f"{where}: xfrc_applied"),
+            mocap_pos=_f64(inp.mocap_pos, f"{where}: mocap_pos"),
+            mocap_quat=_f64(inp.mocap_quat, f"{where}: mocap_quat"),
+            qfrc_applied=_f64(inp.qfrc_applied, f"{where}: qfrc_applied"),
+            xfrc_applied=_f64(inp.xfrc_applied, f"{where}: xfrc_applied"),
         )
-        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, sim_time_ns)
+        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, inp.sim_time_ns)
 
-    def write_physics_state(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None:
-        """Record the state after ``step`` if ``step`` is a multiple of ``state_every``."""
+    def write_physics_state(self, record: PhysicsState) -> None:
+        """Record the state after ``record.step`` if the step is a multiple of ``state_every``."""
+        step = record.step
         if step % self._state_every:
             return
+        time_ns = record.sim_time_ns
         try:
-            # MuJoCo's own float64 arrays go as they are (tobytes copies any layout).
-            if not (type(state) is np.ndarray and state.dtype is _F64):
-                state = _f64(state, f"{TOPIC_STATE} step {step}: state")
-            if not (type(qpos) is np.ndarray and qpos.dtype is _F64):
-                qpos = _f64(qpos, f"{TOPIC_STATE} step {step}: qpos")
-            if not (type(qvel) is np.ndarray and qvel.dtype is _F64):
-                qvel = _f64(qvel, f"{TOPIC_STATE} step {step}: qvel")
-            cdr = physics_state(step, sim_time_ns, state_spec, state, qpos, qvel)
+            # MuJoCo's own float64 arrays go into the file as they are (no copy of their bytes).
+            fast = physics_state_parts(
+                step, time_ns, record.state_spec, record.state, record.qpos, record.qvel
+            )
+            if fast is None:
+                where = f"{TOPIC_STATE} step {step}"
+                data = physics_state(
+                    step,
+                    time_ns,
+                    record.state_spec,
+                    _f64(record.state, f"{where}: state"),
+                    _f64(record.qpos, f"{where}: qpos"),
+                    _f64(record.qvel, f"{where}: qvel"),
+                )
+                fast = (data,), len(data)
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, cdr, sim_time_ns)
+        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, fast[0], fast[1], time_ns)
 
-    def write_epoch(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        epoch: int,
-        reason: str,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None:
-        """Record a discontinuity after ``step`` (a reset): the state the run continues from.
-        Always written (``state_every`` does not apply)."""
-        where = f"{TOPIC_EPOCH} step {step}"
+    def write_epoch(self, epoch: Epoch) -> None:
+        """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
+        from. Always written (``state_every`` does not apply)."""
+        where = f"{TOPIC_EPOCH} step {epoch.step}"
         msg = self._types[TYPE_EPOCH](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            epoch=epoch,
-            reason=reason,
-            state_spec=state_spec,
-            state=_f64(state, f"{where}: state"),
-            qpos=_f64(qpos, f"{where}: qpos"),
-            qvel=_f64(qvel, f"{where}: qvel"),
+            step=epoch.step,
+            sim_time_ns=epoch.sim_time_ns,
+            epoch=epoch.epoch,
+            reason=epoch.reason,
+            state_spec=epoch.state_spec,
+            state=_f64(epoch.state, f"{where}: state"),
+            qpos=_f64(epoch.qpos, f"{where}: qpos"),
+            qvel=_f64(epoch.qvel, f"{where}: qvel"),
         )
-        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, sim_time_ns)
+        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, epoch.sim_time_ns)
 
     def write_collision_event(
         self,
@@ -549,31 +527,30 @@ class Recorder:
             data = self._store.serialize_cdr(msg, msgtype)
         except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
             raise RecordingWriteError(f"{topic} ({msgtype}): cannot serialise: {exc}") from None
-        self._write_cdr(topic, msgtype, data, sim_time_ns)
+        self._write_cdr(topic, msgtype, (data,), len(data), sim_time_ns)
 
     def _write_cdr(
-        self, topic: str, msgtype: str, data: bytes | memoryview, sim_time_ns: int
+        self, topic: str, msgtype: str, parts: tuple[Buffer, ...], size: int, sim_time_ns: int
     ) -> None:
         with self._lock:
             if self._closed or self._failure is not None:
                 self._raise_closed()
-            known = self._channels.get(topic)
-            if known is None:
-                known = self._register(topic, msgtype)
-            elif known[1] != msgtype:
+            channel = self._channels.get(topic)
+            if channel is None:
+                channel = self._register(topic, msgtype)
+            elif channel.msgtype != msgtype:
                 raise RecordingWriteError(
-                    f"{topic}: already recorded as {known[1]}, cannot also record {msgtype}"
+                    f"{topic}: already recorded as {channel.msgtype}, cannot also record {msgtype}"
                 )
             if sim_time_ns < self._last_time or sim_time_ns < 0:
                 raise RecordingWriteError(
                     f"{topic}: sim_time_ns {sim_time_ns} is before the last recorded "
                     f"{self._last_time}: recorded time must not go backwards"
                 )
-            channel_id = known[0]
-            seq = self._seq[channel_id]
-            self._seq[channel_id] = seq + 1
+            seq = channel.seq
+            channel.seq = seq + 1
             try:
-                self._append(channel_id, sim_time_ns, data, seq)
+                self._append(channel.id, sim_time_ns, seq, parts, size)
             except OSError as exc:  # a full chunk was written out: disk full
                 self._failure = exc
                 self._raise_closed()
@@ -592,7 +569,7 @@ class Recorder:
             self._writer.add_metadata(name, values)
             self._dirty = True
 
-    def _register(self, topic: str, msgtype: str) -> tuple[int, str]:
+    def _register(self, topic: str, msgtype: str) -> _Channel:
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:
             schema_id = self._writer.register_schema(msgtype, "ros2msg", schema_text(msgtype))
@@ -600,9 +577,8 @@ class Recorder:
         channel_id = self._writer.register_channel(
             topic, "cdr", schema_id, channel_metadata(msgtype, is_latched(topic))
         )
-        self._channels[topic] = (channel_id, msgtype)
-        self._seq[channel_id] = 0
-        return channel_id, msgtype
+        channel = self._channels[topic] = _Channel(channel_id, msgtype)
+        return channel
 
     def _raise_closed(self) -> None:
         if self._failure is not None:
@@ -643,11 +619,12 @@ class Recorder:
         start = time.perf_counter()
         try:
             if provisional:
-                tail = provisional_chunk(self._writer, self._compression)
+                self._writer.drain()  # the tail goes after every closed chunk
+                tail = self._writer.provisional()
                 if tail is not None:
                     self._stream.write_tail(tail)
             else:
-                self._writer.flush()  # type: ignore[no-untyped-call]
+                self._writer.flush()
         except OSError as exc:
             self._failure = exc
             raise RecordingWriteError(f"{self.path}: recording failed: {exc}") from exc
@@ -700,11 +677,12 @@ class Recorder:
             self._closed = True
             if not isinstance(self._failure, OSError):
                 try:
-                    self._writer.finish()  # type: ignore[no-untyped-call]
+                    self._writer.finish()
                     self._stream.close()
                 except OSError as exc:
                     self._failure = exc
             if isinstance(self._failure, OSError):  # disk full: keep what was flushed
+                self._writer.abandon()
                 raise RecordingWriteError(
                     # the committed bytes end at a record boundary: a failed write never
                     # advances them (a provisional tail after them is cut off)

@@ -315,11 +315,6 @@ class Recording:
         return self._scan.message_count
 
     @property
-    def start_time_ns(self) -> int:
-        """Sim time of the first message (``-1`` when there are none)."""
-        return self._scan.start_time
-
-    @property
     def end_time_ns(self) -> int:
         """Sim time of the last message (``-1`` when there are none)."""
         return self._scan.end_time

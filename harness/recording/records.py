@@ -1,7 +1,10 @@
 """Typed records read back from a recording (one per ``harness_msgs`` message, plus any message).
 
-Arrays are numpy arrays exactly as recorded (float64 bit for bit). Records hold arrays, so they
-compare by identity; compare fields with numpy.
+Arrays are numpy arrays exactly as recorded (float64 bit for bit); compare them with
+:func:`harness.sim.bits.same_bits`, not ``==``. The records that cross the recorder seam every
+step (:class:`AppliedInput`, :class:`BridgeFrame`, :class:`PhysicsState`, :class:`Epoch`) are
+named tuples: immutable like the frozen dataclasses, and a third of the cost to build (about
+0.35 us against 1 us for six fields), which the per-step recording path pays every step.
 """
 
 from __future__ import annotations
@@ -44,8 +47,7 @@ class RecordedMessage:
     msg: Any = None
 
 
-@dataclass(frozen=True, slots=True, eq=False)
-class BridgeFrame:
+class BridgeFrame(NamedTuple):
     """A rosbridge frame in (``direction`` 0) or out (1), exactly as it crossed the socket."""
 
     step: int
@@ -55,9 +57,9 @@ class BridgeFrame:
     seq: int
     op: str
     topic: str
-    binary: bool
-    text: str
-    data: bytes
+    binary: bool = False
+    text: str = ""
+    data: bytes = b""
 
     @property
     def payload(self) -> str | bytes:
@@ -65,8 +67,7 @@ class BridgeFrame:
         return self.data if self.binary else self.text
 
 
-@dataclass(frozen=True, slots=True, eq=False)
-class PhysicsState:
+class PhysicsState(NamedTuple):
     """The physics state after ``step``: ``state`` is ``mj_getState(..., state_spec)``."""
 
     step: int
@@ -77,8 +78,7 @@ class PhysicsState:
     qvel: F64
 
 
-@dataclass(frozen=True, slots=True, eq=False)
-class Epoch:
+class Epoch(NamedTuple):
     """A discontinuity (``reason``, e.g. ``"reset"``) after ``step``: the run continues from
     ``state``, not from the state recorded for ``step`` (which ends the epoch before).
     ``epoch`` counts from 1 within a run."""

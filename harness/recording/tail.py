@@ -1,14 +1,14 @@
 """Crash safety without wall-clock chunk boundaries: a provisional tail.
 
 Chunk boundaries decide a recording's bytes (chunk records, message indexes, the summary), so
-they are decided by size alone (the mcap writer's ``chunk_size``), never by the wall clock:
+they are decided by size alone (the writer's ``chunk_size``), never by the wall clock:
 two identical runs give identical files. Crash safety still needs the open chunk on disk
 within about a second of wall time; so the recorder's flush thread writes the open chunk as a
 complete, CRC-checked chunk record plus its message indexes *after* the committed bytes
-(:func:`provisional_chunk`), without telling the writer. The next committed write (the chunk
-closing for real, which holds every message of the provisional one and more, or the summary)
-is written over it, and whatever the provisional tail had beyond the committed bytes is cut
-off: the finished file holds only what the writer wrote.
+(:meth:`harness.recording.writer.ChunkWriter.provisional`), without closing it. The next
+committed write (the chunk closing for real, which holds every message of the provisional one
+and more, or the summary) is written over it, and whatever the provisional tail had beyond the
+committed bytes is cut off: the finished file holds only what the writer wrote.
 
 A process killed at any moment leaves committed chunks, then the last provisional tail (or
 the committed chunk that superseded it): every message up to the last flush reads back.
@@ -17,15 +17,8 @@ the committed chunk that superseded it): every message up to the last flush read
 from __future__ import annotations
 
 import os
-import zlib
-from typing import Any
 
-import zstandard
-from mcap.data_stream import RecordBuilder
-from mcap.records import Chunk
-from mcap.writer import CompressionType, Writer
-
-__all__ = ["TailFile", "provisional_chunk"]
+__all__ = ["TailFile"]
 
 
 class TailFile:
@@ -88,34 +81,3 @@ class TailFile:
                 os.ftruncate(self._fd, self._end)
         finally:
             os.close(self._fd)
-
-
-def provisional_chunk(writer: Writer, compression: CompressionType) -> bytes | None:
-    """The chunk ``writer`` has open, as the chunk record and message index records it would
-    write if the chunk closed now (``None``: no message in it). Reads the writer's chunk
-    builder without changing it (mcap 1.6's private attribute: pinned in constraints.txt)."""
-    builder: Any = getattr(writer, "_Writer__chunk_builder", None)
-    if builder is None or builder.num_messages == 0:
-        return None
-    data = builder.record_writer._buffer.getvalue()
-    if compression == CompressionType.ZSTD:
-        name, packed = "zstd", zstandard.compress(data)
-    elif compression == CompressionType.LZ4:
-        import lz4.frame  # type: ignore[import-untyped]
-
-        name, packed = "lz4", lz4.frame.compress(data)
-    else:
-        name, packed = "", data
-    out = RecordBuilder()
-    Chunk(
-        compression=name,
-        data=packed,
-        message_start_time=builder.message_start_time,
-        message_end_time=builder.message_end_time,
-        uncompressed_crc=zlib.crc32(data),
-        uncompressed_size=len(data),
-    ).write(out)
-    for index in builder.message_indices.values():
-        index.write(out)
-    tail: bytes = out.end()  # type: ignore[no-untyped-call]
-    return tail

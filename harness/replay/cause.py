@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from harness.recording import AppliedInput, BridgeFrame, Recording
+from harness.sim.bits import differing, same_bits
 from harness.sim.inputs import ARRAY_FIELDS
 
 if TYPE_CHECKING:
@@ -115,13 +116,9 @@ def _input_cause(
             vb = np.asarray(getattr(y, name), dtype=dtype).reshape(-1)
             if va.shape != vb.shape:
                 return Cause("input", x.step, f"{name} size", str(va.size), str(vb.size))
-            if va.tobytes() == vb.tobytes():
+            if same_bits(va, vb):
                 continue
-            width = va.dtype.itemsize
-            differ = np.flatnonzero(
-                (va.view(np.uint8).reshape(-1, width) != vb.view(np.uint8).reshape(-1, width))
-                .any(axis=1)
-            )  # fmt: skip
+            differ = np.flatnonzero(differing(va, vb))
             if differ.size:
                 j = int(differ[0])
                 return Cause(

@@ -42,12 +42,13 @@ import numpy.typing as npt
 from harness.errors import HarnessError
 from harness.events import EventHub, Logger
 from harness.models import LoadedRobot, LoadedWorld
-from harness.recording import AppliedInput, BridgeFrame, Epoch, Recording
+from harness.recording import AppliedInput, BridgeFrame, Epoch, PhysicsState, Recording
 from harness.recording.layout import TOPIC_EPOCH
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.sensor_check import SensorCheck
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
 from harness.session.core import CoreOptions, SessionCore, is_marker
+from harness.sim.bits import differing, same_bits
 from harness.sim.inputs import ARRAY_FIELDS
 
 __all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
@@ -146,10 +147,6 @@ def _payload_text(frame: BridgeFrame) -> str:
     return frame.data.hex() if frame.binary else frame.text
 
 
-def _bits(values: npt.ArrayLike, dtype: type) -> bytes:
-    return np.ascontiguousarray(np.asarray(values, dtype=dtype)).tobytes()
-
-
 class _Checker:
     """A :class:`~harness.session.core.RecordSink` comparing what the core writes with the
     recording, as it is written; keeps the first mismatch and ignores everything after it."""
@@ -199,25 +196,10 @@ class _Checker:
                     )
                 )  # fmt: skip
 
-    def write_bridge_frame(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        direction: int,
-        connection: int,
-        seq: int,
-        op: str,
-        topic: str,
-        text: str | None = None,
-        data: bytes | None = None,
-    ) -> None:
+    def write_bridge_frame(self, frame: BridgeFrame) -> None:
         if self.mismatch is not None:
             return
-        actual = BridgeFrame(
-            step, sim_time_ns, direction, connection, seq, op, topic,
-            data is not None, text or "", data or b"",
-        )  # fmt: skip
+        actual = frame
         i = self.frame_at
         self.frame_at += 1
         if i >= len(self.frames):
@@ -225,14 +207,18 @@ class _Checker:
             return
         expected = self.frames[i]
         skip: tuple[str, ...] = ()
-        if self.sensors is not None and direction == 1 and self.sensors.skips_payload(topic):
+        if (
+            self.sensors is not None
+            and frame.direction == 1
+            and self.sensors.skips_payload(frame.topic)
+        ):
             skip = ("text", "data")  # an image from another renderer: compared on its own
         for name in ("direction", "connection", "op", "topic", "binary", "text", "data",
                      "step", "sim_time_ns", "seq"):  # fmt: skip
             if name not in skip and getattr(expected, name) != getattr(actual, name):
                 self._frame_mismatch(i, expected, actual, f"{name} differs")
                 return
-        if is_marker(direction, connection, op, topic):
+        if is_marker(frame.direction, frame.connection, frame.op, frame.topic):
             self.markers += 1
 
     def _frame_mismatch(
@@ -264,30 +250,10 @@ class _Checker:
             )
         )
 
-    def write_applied_input(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        ctrl: npt.ArrayLike,
-        kinematic_joints: Sequence[str] = (),
-        qpos_index: npt.ArrayLike = (),
-        qpos_value: npt.ArrayLike = (),
-        qvel_index: npt.ArrayLike = (),
-        qvel_value: npt.ArrayLike = (),
-        mocap_pos: npt.ArrayLike = (),
-        mocap_quat: npt.ArrayLike = (),
-        qfrc_applied: npt.ArrayLike = (),
-        xfrc_applied: npt.ArrayLike = (),
-    ) -> None:
+    def write_applied_input(self, inp: AppliedInput) -> None:
         if self.mismatch is not None:
             return
-        actual = {
-            "ctrl": ctrl, "qpos_index": qpos_index, "qpos_value": qpos_value,
-            "qvel_index": qvel_index, "qvel_value": qvel_value, "mocap_pos": mocap_pos,
-            "mocap_quat": mocap_quat, "qfrc_applied": qfrc_applied,
-            "xfrc_applied": xfrc_applied,
-        }  # fmt: skip
+        step = inp.step
         i = self.input_at
         self.input_at += 1
         if i >= len(self.inputs) or self.inputs[i].step > step:
@@ -297,25 +263,23 @@ class _Checker:
         if expected.step < step:
             self._fail(self._input_missing(i, expected.step, "the re-run applied no new input"))
             return
-        if tuple(expected.kinematic_joints) != tuple(kinematic_joints):
+        if tuple(expected.kinematic_joints) != tuple(inp.kinematic_joints):
             self._fail(
                 self._input(i, step, "kinematic_joints differ", expected.kinematic_joints,
-                            tuple(kinematic_joints))
+                            tuple(inp.kinematic_joints))
             )  # fmt: skip
             return
         for name in ARRAY_FIELDS:
             dtype = np.uint32 if name.endswith("_index") else np.float64
-            want = np.asarray(getattr(expected, name), dtype=dtype)
-            got = np.asarray(actual[name], dtype=dtype).reshape(-1)
-            if _bits(want, dtype) == _bits(got, dtype):
+            want = np.asarray(getattr(expected, name), dtype=dtype).reshape(-1)
+            got = np.asarray(getattr(inp, name), dtype=dtype).reshape(-1)
+            if same_bits(want, got):
                 continue
             if want.shape != got.shape:
                 self._fail(self._input(i, step, f"{name} has {got.size} values, not {want.size}",
                                        want.tolist(), got.tolist()))  # fmt: skip
                 return
-            want_bytes = np.ascontiguousarray(want).view(np.uint8).reshape(want.size, -1)
-            got_bytes = np.ascontiguousarray(got).view(np.uint8).reshape(got.size, -1)
-            j = int(np.flatnonzero((want_bytes != got_bytes).any(axis=1))[0])
+            j = int(np.flatnonzero(differing(want, got))[0])
             label = f"{name}[{j}]"
             if name == "ctrl":
                 actuator = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, j)
@@ -359,18 +323,10 @@ class _Checker:
                     )
                 )
 
-    def write_physics_state(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None:
+    def write_physics_state(self, record: PhysicsState) -> None:
         if self.mismatch is not None:
             return
+        step, sim_time_ns = record.step, record.sim_time_ns
         i = self.state_at
         self.state_at += 1
         if i >= len(self.state_steps) or int(self.state_steps[i]) != step:
@@ -384,10 +340,10 @@ class _Checker:
                 )
             )  # fmt: skip
             return
-        got = np.asarray(state, dtype=np.float64)
+        got = np.asarray(record.state, dtype=np.float64)
         want = self.states[i]
-        if got.tobytes() != want.tobytes():
-            j = int(np.flatnonzero(got.view(np.uint64) != want.view(np.uint64))[0])
+        if not same_bits(got, want):
+            j = int(np.flatnonzero(differing(got, want))[0])
             self._fail(
                 PipelineMismatch(
                     "state", step, sim_time_ns, None, "", "", "/harness/state",
@@ -395,38 +351,29 @@ class _Checker:
                 )
             )  # fmt: skip
 
-    def write_epoch(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        epoch: int,
-        reason: str,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None:
+    def write_epoch(self, epoch: Epoch) -> None:
         if self.mismatch is not None:
             return
+        step, reason, number = epoch.step, epoch.reason, epoch.epoch
         i = self.epoch_at
         self.epoch_at += 1
         expected = self.epochs[i] if i < len(self.epochs) else None
-        got = np.asarray(state, dtype=np.float64)
         what = ""
         if expected is None:
             what = "the re-run reset here; the recording has no epoch"
-        elif (expected.step, expected.epoch, expected.reason) != (step, epoch, reason):
-            what = f"epoch {epoch} ({reason}) after step {step} differs"
-        elif got.tobytes() != np.asarray(expected.state, dtype=np.float64).tobytes():
-            what = f"epoch {epoch}: the state it continues from differs"
+        elif (expected.step, expected.epoch, expected.reason) != (step, number, reason):
+            what = f"epoch {number} ({reason}) after step {step} differs"
+        elif not same_bits(
+            np.asarray(epoch.state, dtype=np.float64), np.asarray(expected.state, np.float64)
+        ):
+            what = f"epoch {number}: the state it continues from differs"
         if what:
             self._fail(
                 PipelineMismatch(
-                    "state", step, sim_time_ns, None, "", "", TOPIC_EPOCH, what,
+                    "state", step, epoch.sim_time_ns, None, "", "", TOPIC_EPOCH, what,
                     "none" if expected is None
                     else f"epoch {expected.epoch} ({expected.reason}) after step {expected.step}",
-                    f"epoch {epoch} ({reason}) after step {step}", i,
+                    f"epoch {number} ({reason}) after step {step}", i,
                 )
             )  # fmt: skip
 

@@ -43,6 +43,7 @@ from harness.replay.source import (
     resolve_model,
     state_blocks,
 )
+from harness.sim.bits import differing, same_bits
 from harness.sim.inputs import AppliedInput, write_input
 
 if TYPE_CHECKING:
@@ -177,16 +178,10 @@ class VerifyReport:
         return "\n".join(lines + pipeline)
 
 
-def _same_bits(actual: F64, expected: F64) -> bool:
-    """Are the two arrays equal bit for bit (``-0.0 != 0.0``, NaN payloads count)?"""
-    return bool(np.array_equal(actual.view(np.uint64), expected.view(np.uint64)))
-
-
 def _mismatch(actual: F64, expected: F64, atol: float, rtol: float) -> npt.NDArray[np.bool_]:
     """Elementwise: does ``actual`` fail to reproduce ``expected``?"""
     if atol == 0 and rtol == 0:
-        out: npt.NDArray[np.bool_] = actual.view(np.uint64) != expected.view(np.uint64)
-        return out
+        return differing(actual, expected).reshape(actual.shape)
     with np.errstate(invalid="ignore"):
         close = np.abs(actual - expected) <= atol + rtol * np.abs(expected)
     same_nan = np.isnan(actual) & np.isnan(expected)
@@ -570,9 +565,9 @@ def _compare(
     if (
         atol == 0
         and rtol == 0
-        and _same_bits(actual, expected)
-        and _same_bits(actual[:, qpos_slice], states.qpos[start:stop])
-        and _same_bits(actual[:, qvel_slice], states.qvel[start:stop])
+        and same_bits(actual, expected)
+        and same_bits(actual[:, qpos_slice], states.qpos[start:stop])
+        and same_bits(actual[:, qvel_slice], states.qvel[start:stop])
     ):
         return None  # the common case, decided in one pass; the rest finds what differs
     bad_state = _mismatch(actual, expected, atol, rtol)

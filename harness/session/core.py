@@ -62,6 +62,7 @@ from harness.events import (
 from harness.events.events import Event
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.names import NameKind, check_name
+from harness.recording.records import BridgeFrame, Epoch, PhysicsState
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
 from harness.sensors import TOPIC_TF_STATIC
 from harness.sensors.hook import record_metadata, session_sensors
@@ -105,6 +106,7 @@ from harness.session.topics import (
 )
 from harness.session.urdf_text import description_text
 from harness.sim import CommandField, Notice, RobotJoints, Simulation
+from harness.sim.inputs import AppliedInput
 from harness.vocabulary import CLOCK_MODES, ClockMode
 
 __all__ = [
@@ -169,60 +171,13 @@ class RecordSink(Protocol):
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None: ...
 
-    def write_bridge_frame(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        direction: int,
-        connection: int,
-        seq: int,
-        op: str,
-        topic: str,
-        text: str | None = None,
-        data: bytes | None = None,
-    ) -> None: ...
+    def write_bridge_frame(self, frame: BridgeFrame) -> None: ...
 
-    def write_applied_input(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        ctrl: npt.ArrayLike,
-        kinematic_joints: Sequence[str] = (),
-        qpos_index: npt.ArrayLike = (),
-        qpos_value: npt.ArrayLike = (),
-        qvel_index: npt.ArrayLike = (),
-        qvel_value: npt.ArrayLike = (),
-        mocap_pos: npt.ArrayLike = (),
-        mocap_quat: npt.ArrayLike = (),
-        qfrc_applied: npt.ArrayLike = (),
-        xfrc_applied: npt.ArrayLike = (),
-    ) -> None: ...
+    def write_applied_input(self, inp: AppliedInput) -> None: ...
 
-    def write_physics_state(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None: ...
+    def write_physics_state(self, record: PhysicsState) -> None: ...
 
-    def write_epoch(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        epoch: int,
-        reason: str,
-        state_spec: int,
-        state: npt.ArrayLike,
-        qpos: npt.ArrayLike,
-        qvel: npt.ArrayLike,
-    ) -> None: ...
+    def write_epoch(self, epoch: Epoch) -> None: ...
 
 
 MessageCallback = Callable[[Mapping[str, Any], int], None]
@@ -778,20 +733,7 @@ class SessionCore:
         if recorder is not None and sim.input_changed:
             applied = sim.last_input
             assert applied is not None
-            recorder.write_applied_input(
-                step=applied.step,
-                sim_time_ns=applied.sim_time_ns,
-                ctrl=applied.ctrl,
-                kinematic_joints=applied.kinematic_joints,
-                qpos_index=applied.qpos_index,
-                qpos_value=applied.qpos_value,
-                qvel_index=applied.qvel_index,
-                qvel_value=applied.qvel_value,
-                mocap_pos=applied.mocap_pos,
-                mocap_quat=applied.mocap_quat,
-                qfrc_applied=applied.qfrc_applied,
-                xfrc_applied=applied.xfrc_applied,
-            )
+            recorder.write_applied_input(applied)
         if self.hub.loggers:
             self.hub.observe(StepContext.of(sim, self.robot_name))
         self._after_state()
@@ -822,12 +764,9 @@ class SessionCore:
         if recorder is not None and record_state and k % self._state_every == 0:
             data = sim.data
             recorder.write_physics_state(
-                step=k,
-                sim_time_ns=sim.sim_time_ns,
-                state_spec=sim.state_spec,
-                state=sim.get_state(),
-                qpos=data.qpos,
-                qvel=data.qvel,
+                PhysicsState(
+                    k, sim.sim_time_ns, sim.state_spec, sim.get_state(), data.qpos, data.qvel
+                )
             )
         if self._js_every and k % self._js_every == 0:
             for channels in self.robots:
@@ -907,16 +846,21 @@ class SessionCore:
         k = self.sim.step_index
         data = record.data
         self._next_seq = record.seq + 1
+        binary = isinstance(data, bytes)
+        text, payload = ("", data) if isinstance(data, bytes) else (data, b"")
         self.recorder.write_bridge_frame(
-            step=k + 1 if record.direction == DIRECTION_IN else k,
-            sim_time_ns=k * self.dt_ns,
-            direction=record.direction,
-            connection=record.connection,
-            seq=record.seq,
-            op=record.op,
-            topic=record.name,
-            text=data if isinstance(data, str) else None,
-            data=data if isinstance(data, bytes) else None,
+            BridgeFrame(
+                step=k + 1 if record.direction == DIRECTION_IN else k,
+                sim_time_ns=k * self.dt_ns,
+                direction=record.direction,
+                connection=record.connection,
+                seq=record.seq,
+                op=record.op,
+                topic=record.name,
+                binary=binary,
+                text=text,
+                data=payload,
+            )
         )
 
     def _marker(self, topic: str, args: Mapping[str, Any]) -> None:
@@ -924,14 +868,18 @@ class SessionCore:
             return
         k = self.sim.step_index
         self.recorder.write_bridge_frame(
-            step=k + 1,
-            sim_time_ns=k * self.dt_ns,
-            direction=DIRECTION_IN,
-            connection=0,
-            seq=self._next_seq,
-            op="",
-            topic=topic,
-            text=json.dumps(args, sort_keys=True),
+            BridgeFrame(
+                step=k + 1,
+                sim_time_ns=k * self.dt_ns,
+                direction=DIRECTION_IN,
+                connection=0,
+                seq=self._next_seq,
+                op="",
+                topic=topic,
+                binary=False,
+                text=json.dumps(args, sort_keys=True),
+                data=b"",
+            )
         )
 
     def replay_frame(self, connection: int, op: str, topic: str, payload: str | bytes) -> None:
@@ -1183,14 +1131,16 @@ class SessionCore:
         if recorder is not None:
             # The state recorded for step k ends the epoch before; this one starts the next.
             recorder.write_epoch(
-                step=k,
-                sim_time_ns=sim.sim_time_ns,
-                epoch=self._epoch,
-                reason="reset",
-                state_spec=sim.state_spec,
-                state=sim.get_state(),
-                qpos=sim.data.qpos,
-                qvel=sim.data.qvel,
+                Epoch(
+                    step=k,
+                    sim_time_ns=sim.sim_time_ns,
+                    epoch=self._epoch,
+                    reason="reset",
+                    state_spec=sim.state_spec,
+                    state=sim.get_state(),
+                    qpos=sim.data.qpos,
+                    qvel=sim.data.qvel,
+                )
             )
         self.log(Level.WARNING, text)
         self._after_state(record_state=False)

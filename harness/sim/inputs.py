@@ -18,12 +18,17 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.sim.bits import same_bits
 from harness.sim.errors import StateError
 
 __all__ = ["ARRAY_FIELDS", "AppliedInput", "advance", "replay", "write_input"]
 
 F64 = npt.NDArray[np.float64]
 U32 = npt.NDArray[np.uint32]
+_EMPTY_F64: F64 = np.zeros(0, np.float64)
+_EMPTY_U32: U32 = np.zeros(0, np.uint32)
+_EMPTY_F64.flags.writeable = False
+_EMPTY_U32.flags.writeable = False
 
 
 ARRAY_FIELDS = (
@@ -53,27 +58,23 @@ class AppliedInput(NamedTuple):
     step: int
     sim_time_ns: int
     ctrl: F64
-    kinematic_joints: tuple[str, ...]
-    qpos_index: U32
-    qpos_value: F64
-    qvel_index: U32
-    qvel_value: F64
-    mocap_pos: F64
-    mocap_quat: F64
-    qfrc_applied: F64
-    xfrc_applied: F64
+    kinematic_joints: tuple[str, ...] = ()
+    qpos_index: U32 = _EMPTY_U32
+    qpos_value: F64 = _EMPTY_F64
+    qvel_index: U32 = _EMPTY_U32
+    qvel_value: F64 = _EMPTY_F64
+    mocap_pos: F64 = _EMPTY_F64
+    mocap_quat: F64 = _EMPTY_F64
+    qfrc_applied: F64 = _EMPTY_F64
+    xfrc_applied: F64 = _EMPTY_F64
 
     def same_physics(self, other: AppliedInput) -> bool:
         """True when both write exactly the same values, bit for bit (``step`` and time are
         ignored; ``-0.0`` differs from ``0.0``: MuJoCo keeps the sign in the state)."""
         arrays = ARRAY_FIELDS
         return self.kinematic_joints == other.kinematic_joints and all(
-            _same_bits(getattr(self, f), getattr(other, f)) for f in arrays
+            same_bits(getattr(self, f), getattr(other, f)) for f in arrays
         )
-
-
-def _same_bits(a: npt.NDArray[np.generic], b: npt.NDArray[np.generic]) -> bool:
-    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
 def write_input(model: mujoco.MjModel, data: mujoco.MjData, inp: AppliedInput) -> None:

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 CHILD = """
 import resource, signal, sys
 import numpy as np
-from harness.recording import Recorder
+from harness.recording import PhysicsState, Recorder
 from harness.recording.errors import RecordingWriteError
 
 path, limit = sys.argv[1], int(sys.argv[2])
@@ -35,8 +35,8 @@ state = np.random.default_rng(0).random(2000)  # incompressible: 16 kB a message
 written = 0
 try:
     for k in range(100_000):
-        rec.write_physics_state(step=k, sim_time_ns=k * 2_000_000, state_spec=1, state=state,
-                                qpos=state[:3], qvel=state[:3])
+        rec.write_physics_state(PhysicsState(step=k, sim_time_ns=k * 2_000_000, state_spec=1,
+                                             state=state, qpos=state[:3], qvel=state[:3]))
         written += 1
         if k % 4 == 3:
             rec.flush()

@@ -20,7 +20,7 @@ import numpy as np
 from harness.errors import ConfigError, ModelError, RecordingError
 from harness.models import load_robot
 from harness.models.sdf import build_spec, read_sdf
-from harness.recording import Recorder, Recording
+from harness.recording import AppliedInput, BridgeFrame, PhysicsState, Recorder, Recording
 from harness.rosbridge import Bridge, TypeRegistry
 from harness.scenario import Scenario
 
@@ -136,16 +136,18 @@ def _recording_seed() -> bytes:
     with Recorder(path, metadata=meta, attachments={"a.txt": b"attachment"},
                   chunk_size=2048) as rec:  # fmt: skip
         for k in range(40):
-            rec.write_physics_state(
+            rec.write_physics_state(PhysicsState(
                 step=k, sim_time_ns=k * 2_000_000, state_spec=1, state=state + k,
                 qpos=state[:7], qvel=state[:6],
-            )  # fmt: skip
+            ))  # fmt: skip
             if k % 5 == 0:
-                rec.write_applied_input(step=k, sim_time_ns=k * 2_000_000, ctrl=state[:3])
-                rec.write_bridge_frame(
+                rec.write_applied_input(
+                    AppliedInput(step=k, sim_time_ns=k * 2_000_000, ctrl=state[:3])
+                )
+                rec.write_bridge_frame(BridgeFrame(
                     step=k, sim_time_ns=k * 2_000_000, direction=0, connection=1, seq=k,
                     op="publish", topic="/t", text='{"op":"publish","topic":"/t"}',
-                )  # fmt: skip
+                ))  # fmt: skip
                 rec.write_rosout(sim_time_ns=k * 2_000_000, level=20, name="fuzz", msg=f"step {k}")
     return path.read_bytes()
 

@@ -17,7 +17,7 @@ import cbor2
 import mujoco
 import numpy as np
 
-from harness.recording import FlushInfo, Recorder
+from harness.recording import AppliedInput, BridgeFrame, FlushInfo, PhysicsState, Recorder
 from harness.sim.contacts import extract_contacts
 
 MODEL = Path(__file__).resolve().parents[1] / "data" / "recording" / "arm.xml"
@@ -80,7 +80,9 @@ def record(
         recorder.write_rosout(sim_time_ns=0, level=20, name="harness", msg="recording started")
         mujoco.mj_getState(model, data, state, SPEC)
         recorder.write_physics_state(
-            step=0, sim_time_ns=0, state_spec=SPEC, state=state, qpos=data.qpos, qvel=data.qvel
+            PhysicsState(
+                step=0, sim_time_ns=0, state_spec=SPEC, state=state, qpos=data.qpos, qvel=data.qvel
+            )
         )
         seq = 0
         active: dict[tuple[int, int], tuple[int, float, float, np.ndarray, np.ndarray]] = {}
@@ -92,10 +94,10 @@ def record(
                 frame = json.dumps(
                     {"op": "publish", "topic": "/joint_command", "msg": {"position": target}}
                 )
-                recorder.write_bridge_frame(
+                recorder.write_bridge_frame(BridgeFrame(
                     step=step, sim_time_ns=now, direction=0, connection=1, seq=seq,
                     op="publish", topic="/joint_command", text=frame,
-                )  # fmt: skip
+                ))  # fmt: skip
                 seq += 1
                 data.ctrl[:] = target
                 kinematic = step == 100
@@ -103,23 +105,25 @@ def record(
                     data.qpos[0] = 0.25
                     data.qvel[0] = 0.0
                 recorder.write_applied_input(
-                    step=step,
-                    sim_time_ns=now,
-                    ctrl=data.ctrl,
-                    kinematic_joints=["joint1"] if kinematic else [],
-                    qpos_index=[0] if kinematic else [],
-                    qpos_value=[0.25] if kinematic else [],
-                    qvel_index=[0] if kinematic else [],
-                    qvel_value=[0.0] if kinematic else [],
+                    AppliedInput(
+                        step=step,
+                        sim_time_ns=now,
+                        ctrl=data.ctrl,
+                        kinematic_joints=["joint1"] if kinematic else [],
+                        qpos_index=[0] if kinematic else [],
+                        qpos_value=[0.25] if kinematic else [],
+                        qvel_index=[0] if kinematic else [],
+                        qvel_value=[0.0] if kinematic else [],
+                    )
                 )
             mujoco.mj_step(model, data)
             step += 1
             now = step * dt_ns
             mujoco.mj_getState(model, data, state, SPEC)
-            recorder.write_physics_state(
+            recorder.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=now, state_spec=SPEC, state=state,
                 qpos=data.qpos, qvel=data.qvel,
-            )  # fmt: skip
+            ))  # fmt: skip
             contacts = extract_contacts(model, data)
             seen = set()
             for i in range(contacts.size):
@@ -177,19 +181,19 @@ def record(
                     "/tf", "tf2_msgs/msg/TFMessage", {"transforms": transforms}, sim_time_ns=now
                 )
                 frame = json.dumps({"op": "publish", "topic": "/joint_states", "msg": joint_states})
-                recorder.write_bridge_frame(
+                recorder.write_bridge_frame(BridgeFrame(
                     step=step, sim_time_ns=now, direction=1, connection=1, seq=seq,
                     op="publish", topic="/joint_states", text=frame,
-                )  # fmt: skip
+                ))  # fmt: skip
                 seq += 1
             if step % 100 == 0:
                 blob = cbor2.dumps(
                     {"op": "publish", "topic": "/clock", "msg": {"clock": _stamp(now)}}
                 )
-                recorder.write_bridge_frame(
+                recorder.write_bridge_frame(BridgeFrame(
                     step=step, sim_time_ns=now, direction=1, connection=2, seq=seq,
-                    op="publish", topic="/clock", data=blob,
-                )  # fmt: skip
+                    op="publish", topic="/clock", binary=True, data=blob,
+                ))  # fmt: skip
                 seq += 1
 
 

@@ -173,10 +173,10 @@ def test_irregularly_interleaved_records(tmp_path: Path) -> None:
             for _ in range(int(rng.integers(0, 3))):
                 text = "x" * int(rng.integers(0, 200))
                 rec.write_rosout(sim_time_ns=now, level=20, name="noise", msg=text)
-            rec.write_physics_state(
+            rec.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=now, state_spec=int(mujoco.mjtState.mjSTATE_FULLPHYSICS),
                 state=rng.normal(size=13), qpos=rng.normal(size=4), qvel=rng.normal(size=3),
-            )  # fmt: skip
+            ))  # fmt: skip
     with Recording(path) as r:
         assert r.scan.indexed
         _assert_same(r.physics_state_arrays(), _one_by_one(r))
@@ -188,10 +188,10 @@ def test_states_that_change_layout_are_refused_by_step(tmp_path: Path) -> None:
     with Recorder(path, metadata=METADATA, chunk_size=4096) as rec:
         for step in range(120):
             size = 10 if step < 77 else 11
-            rec.write_physics_state(
+            rec.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=step * 1_000_000, state_spec=1,
                 state=[float(step)] * size, qpos=[0.5], qvel=[0.25],
-            )  # fmt: skip
+            ))  # fmt: skip
     with Recording(path) as r:
         with pytest.raises(RecordingFormatError, match=r"step 77 has 11 state.*change layout"):
             r.physics_state_arrays()
@@ -312,10 +312,10 @@ def test_check_chunks_checks_what_reading_skipped(tmp_path: Path) -> None:
     path = tmp_path / "logs-at-the-end.mcap"
     with Recorder(path, metadata=METADATA, chunk_size=4096) as rec:
         for step in range(100):
-            rec.write_physics_state(
+            rec.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=step * 1_000_000, state_spec=1,
                 state=[float(step)] * 10, qpos=[0.5], qvel=[0.25],
-            )  # fmt: skip
+            ))  # fmt: skip
         for i in range(200):
             rec.write_rosout(sim_time_ns=99_000_000, level=20, name="tail", msg=f"line {i}" * 9)
     with Recording(path) as r:

@@ -15,6 +15,7 @@ from mcap.writer import Writer
 
 from harness.cli import main
 from harness.recording import (
+    PhysicsState,
     Recorder,
     Recording,
     RecordingDamagedWarning,
@@ -34,10 +35,10 @@ METADATA = {
 def _many_chunks(path: Path, steps: int = 400) -> None:
     with Recorder(path, metadata=METADATA, chunk_size=2048) as rec:
         for step in range(steps):
-            rec.write_physics_state(
+            rec.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=step * 1_000_000, state_spec=1,
                 state=[float(step)] * 20, qpos=[0.5], qvel=[0.25],
-            )  # fmt: skip
+            ))  # fmt: skip
 
 
 def _inspect(path: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, dict, str]:

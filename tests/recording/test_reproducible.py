@@ -14,7 +14,7 @@ from types import ModuleType
 
 import numpy as np
 
-from harness.recording import Recorder, Recording, describe_run
+from harness.recording import PhysicsState, Recorder, Recording, describe_run
 from harness.session import Session
 from harness.sim import Simulation
 
@@ -60,12 +60,14 @@ def _recorder_run(path: Path, checkpoints: set[int], copies: dict[int, bytes]) -
             if k:
                 sim.step()
             rec.write_physics_state(
-                step=sim.step_index,
-                sim_time_ns=sim.sim_time_ns,
-                state_spec=sim.state_spec,
-                state=sim.get_state(),
-                qpos=sim.data.qpos,
-                qvel=sim.data.qvel,
+                PhysicsState(
+                    step=sim.step_index,
+                    sim_time_ns=sim.sim_time_ns,
+                    state_spec=sim.state_spec,
+                    state=sim.get_state(),
+                    qpos=sim.data.qpos,
+                    qvel=sim.data.qvel,
+                )
             )
             if k in checkpoints:
                 rec.checkpoint()

@@ -11,7 +11,14 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from harness.errors import RecordingError
-from harness.recording import Recorder, Recording, RecordingWriteError
+from harness.recording import (
+    AppliedInput,
+    BridgeFrame,
+    PhysicsState,
+    Recorder,
+    Recording,
+    RecordingWriteError,
+)
 from harness.recording.layout import typestore
 
 METADATA = {
@@ -37,30 +44,32 @@ def test_every_write_reads_back_exactly(tmp_path: Path) -> None:
     blob = bytes(range(256))
     with Recorder(path, metadata=METADATA, attachments={"model.mjcf.xml": b"<mujoco/>"}) as rec:
         rec.write_physics_state(
-            step=0, sim_time_ns=0, state_spec=8191, state=state, qpos=SPECIAL, qvel=[]
+            PhysicsState(step=0, sim_time_ns=0, state_spec=8191, state=state, qpos=SPECIAL, qvel=[])
         )
         rec.write_applied_input(
-            step=1,
-            sim_time_ns=2_000_000,
-            ctrl=SPECIAL,
-            kinematic_joints=["j1", "ä-joint"],
-            qpos_index=[0, 4_000_000_000],
-            qpos_value=[np.nan, -0.0],
-            qvel_index=[2],
-            qvel_value=[1e-300],
-            mocap_pos=[1.0, 2.0, 3.0],
-            mocap_quat=[1.0, 0.0, 0.0, 0.0],
-            qfrc_applied=[0.5] * 3,
-            xfrc_applied=np.arange(12.0),
+            AppliedInput(
+                step=1,
+                sim_time_ns=2_000_000,
+                ctrl=SPECIAL,
+                kinematic_joints=["j1", "ä-joint"],
+                qpos_index=[0, 4_000_000_000],
+                qpos_value=[np.nan, -0.0],
+                qvel_index=[2],
+                qvel_value=[1e-300],
+                mocap_pos=[1.0, 2.0, 3.0],
+                mocap_quat=[1.0, 0.0, 0.0, 0.0],
+                qfrc_applied=[0.5] * 3,
+                xfrc_applied=np.arange(12.0),
+            )
         )
-        rec.write_bridge_frame(
+        rec.write_bridge_frame(BridgeFrame(
             step=2, sim_time_ns=4_000_000, direction=0, connection=3, seq=0, op="publish",
             topic="/cmd", text='{"op":"publish","msg":"\\u00e9 ✓"}',
-        )  # fmt: skip
-        rec.write_bridge_frame(
+        ))  # fmt: skip
+        rec.write_bridge_frame(BridgeFrame(
             step=2, sim_time_ns=4_000_000, direction=1, connection=3, seq=2**64 - 1, op="",
-            topic="", data=blob,
-        )  # fmt: skip
+            topic="", binary=True, data=blob,
+        ))  # fmt: skip
         rec.write_collision_event(
             step=3, sim_time_ns=6_000_000, kind=2, robot="arm", body1="a", body2="b",
             geom1="ga", geom2="gb", penetration=0.1, normal_force=-0.0,
@@ -139,10 +148,10 @@ def test_physics_states_round_trip_bit_exact(tmp_path_factory, arrays) -> None:
     path = tmp_path_factory.mktemp("h") / "r.mcap"
     with Recorder(path, metadata=METADATA) as rec:
         for step, array in enumerate(arrays):
-            rec.write_physics_state(
+            rec.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=step * 2_000_000, state_spec=1, state=array,
                 qpos=array[::-1], qvel=array[:1],
-            )  # fmt: skip
+            ))  # fmt: skip
     with Recording(path) as r:
         back = list(r.physics_states())
     assert [s.step for s in back] == list(range(len(arrays)))
@@ -158,9 +167,9 @@ def test_state_every_and_step_ranges(tmp_path: Path) -> None:
         for step in range(100):
             t = step * 2_000_000
             rec.write_physics_state(
-                step=step, sim_time_ns=t, state_spec=1, state=[step], qpos=[], qvel=[]
+                PhysicsState(step=step, sim_time_ns=t, state_spec=1, state=[step], qpos=[], qvel=[])
             )
-            rec.write_applied_input(step=step, sim_time_ns=t, ctrl=[float(step)])
+            rec.write_applied_input(AppliedInput(step=step, sim_time_ns=t, ctrl=[float(step)]))
     with Recording(path) as r:
         assert len(r.scan.chunks) > 3
         assert [s.step for s in r.physics_states()] == list(range(0, 100, 5))
@@ -204,8 +213,11 @@ def test_bad_writes_are_refused(tmp_path: Path) -> None:
             rec.write_message("/y", "nope_msgs/msg/Nope", {}, sim_time_ns=10)
         with pytest.raises(RecordingWriteError, match="exactly one of text= or data="):
             rec.write_bridge_frame(
-                step=0, sim_time_ns=10, direction=0, connection=1, seq=0, op="", topic=""
-            )
+                BridgeFrame(
+                    step=0, sim_time_ns=10, direction=0, connection=1, seq=0, op="", topic="",
+                    text="{}", data=b"{}",
+                )
+            )  # fmt: skip
     with pytest.raises(RecordingError, match="recorder is closed"):
         rec.write_rosout(sim_time_ns=20, level=20, name="a", msg="b")
     with pytest.raises(RecordingWriteError, match="cannot create recording"):

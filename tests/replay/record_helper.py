@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.models import LoadedRobot, load_robot
-from harness.recording import Recorder, describe_run
+from harness.recording import AppliedInput, BridgeFrame, PhysicsState, Recorder, describe_run
 from harness.sim import Simulation
 from harness.sim.collisions import CollisionTracker
 from harness.vocabulary import LimitPolicy
@@ -77,10 +77,10 @@ def record(
     )
     with recorder as rec:
         state = sim.get_state()
-        rec.write_physics_state(
+        rec.write_physics_state(PhysicsState(
             step=0, sim_time_ns=0, state_spec=sim.state_spec, state=state,
             qpos=sim.data.qpos, qvel=sim.data.qvel,
-        )  # fmt: skip
+        ))  # fmt: skip
         for k in range(steps):
             if k in commands:
                 sim.set_positions(dict(commands[k]))
@@ -89,18 +89,18 @@ def record(
             if sim.input_changed:
                 inp = sim.last_input
                 assert inp is not None
-                rec.write_applied_input(
+                rec.write_applied_input(AppliedInput(
                     step=inp.step, sim_time_ns=inp.sim_time_ns, ctrl=inp.ctrl,
                     kinematic_joints=inp.kinematic_joints, qpos_index=inp.qpos_index,
                     qpos_value=inp.qpos_value, qvel_index=inp.qvel_index,
                     qvel_value=inp.qvel_value, mocap_pos=inp.mocap_pos,
                     mocap_quat=inp.mocap_quat, qfrc_applied=inp.qfrc_applied,
                     xfrc_applied=inp.xfrc_applied,
-                )  # fmt: skip
-            rec.write_physics_state(
+                ))  # fmt: skip
+            rec.write_physics_state(PhysicsState(
                 step=sim.step_index, sim_time_ns=now, state_spec=sim.state_spec,
                 state=sim.get_state(), qpos=sim.data.qpos, qvel=sim.data.qvel,
-            )  # fmt: skip
+            ))  # fmt: skip
             for t in tracker.update(sim.step_index, now, sim.contacts()):
                 rec.write_collision_event(
                     step=t.step, sim_time_ns=t.sim_time_ns, kind=0 if t.kind == "begin" else 1,
@@ -121,9 +121,9 @@ def record(
                     "/joint_states", "sensor_msgs/msg/JointState", msg, sim_time_ns=now
                 )
                 frame = json.dumps({"op": "publish", "topic": "/joint_states", "msg": msg})
-                rec.write_bridge_frame(
+                rec.write_bridge_frame(BridgeFrame(
                     step=sim.step_index, sim_time_ns=now, direction=1, connection=1, seq=seq,
                     op="publish", topic="/joint_states", text=frame,
-                )  # fmt: skip
+                ))  # fmt: skip
                 seq += 1
     return path

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from harness.models import load_robot
-from harness.recording import Recorder, Recording, describe_run
+from harness.recording import PhysicsState, Recorder, Recording, describe_run
 from harness.replay.source import rebuild_robot
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "models" / "pkg_demo"
@@ -34,7 +34,7 @@ def test_meshes_are_attached_and_a_rebuild_elsewhere_finds_them(
     path = tmp_path / "meshy.mcap"
     with Recorder(path, metadata=description.metadata, attachments=description.attachments) as rec:
         rec.write_physics_state(
-            step=0, sim_time_ns=0, state_spec=1, state=[0.0], qpos=[0.0], qvel=[0.0]
+            PhysicsState(step=0, sim_time_ns=0, state_spec=1, state=[0.0], qpos=[0.0], qvel=[0.0])
         )
     shutil.rmtree(tmp_path / "ws")  # the package is gone, as on another machine
     with Recording(path) as rec:

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import zstandard
 
-from harness.recording import Recorder, Recording
+from harness.recording import PhysicsState, Recorder, Recording
 from harness.recording.inflate import InflateError, InflateLimits, decompress
 from harness.recording.scan import scan
 
@@ -43,7 +43,9 @@ def _valid(path: Path, states: int = 1, chunk_size: int = 1024 * 1024) -> bytes:
     state = np.random.default_rng(0).random(500)
     for k in range(states):
         rec.write_physics_state(
-            step=k, sim_time_ns=k, state_spec=1, state=state, qpos=state[:3], qvel=state[:3]
+            PhysicsState(
+                step=k, sim_time_ns=k, state_spec=1, state=state, qpos=state[:3], qvel=state[:3]
+            )
         )
     rec.close()
     return path.read_bytes()

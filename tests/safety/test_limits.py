@@ -15,7 +15,7 @@ import pytest
 from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
-from harness.recording import Recorder, Recording
+from harness.recording import PhysicsState, Recorder, Recording
 from harness.recording.errors import RecordingWriteError
 from harness.rosbridge import Bridge, BridgeServer
 from harness.scenario import Scenario, ScenarioError, load_run_file
@@ -83,7 +83,9 @@ def test_recording_stops_at_its_size_limit(tmp_path: Path) -> None:
     for k in range(10_000):
         try:
             rec.write_physics_state(
-                step=k, sim_time_ns=k, state_spec=1, state=state, qpos=state[:7], qvel=state[:6]
+                PhysicsState(
+                    step=k, sim_time_ns=k, state_spec=1, state=state, qpos=state[:7], qvel=state[:6]
+                )
             )
             written += 1
             if k % 10 == 0:
@@ -95,10 +97,10 @@ def test_recording_stops_at_its_size_limit(tmp_path: Path) -> None:
     assert "MiB limit (max_bytes)" in str(error)
     assert 0 < written < 10_000
     with pytest.raises(RecordingWriteError, match="limit"):
-        rec.write_physics_state(
+        rec.write_physics_state(PhysicsState(
             step=10**6, sim_time_ns=10**6, state_spec=1, state=state, qpos=state[:7],
             qvel=state[:6],
-        )  # fmt: skip
+        ))  # fmt: skip
     with pytest.raises(RecordingWriteError, match="limit"):
         rec.close()  # reports why, after finishing the file
     assert path.stat().st_size < 200_000 + 32 * 1024 * 12
