@@ -1,8 +1,8 @@
 """The session: one run of a simulated robot on the rosbridge bridge (:class:`Session`, a thin
 shell around the sans-I/O :class:`SessionCore`), its command topics
-(:mod:`harness.session.commands`) and ``harness serve``."""
+(:mod:`harness.controllers.command_topics`) and ``harness serve``."""
 
-from harness.session.commands import FORWARD_TOPICS, Trajectory
+from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory
 from harness.session.core import (
     DEFAULT_MAX_STEP_REQUEST,
     MARKERS,

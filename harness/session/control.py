@@ -401,7 +401,7 @@ class ControlHost:
                 self.core.graph.status(connection, "error", text)
             self.core.log(Level.ERROR, text)
             return
-        robot.channels.drop_from_trajectory([c.joint for c in commands])
+        robot.channels.commands.drop_from_trajectory([c.joint for c in commands])
         for notice in notices:
             key = (where, notice.joint, notice.kind)
             if not connection and key in robot.warned:

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 from harness.rosbridge import BridgeServer
-from harness.session.core import Graph, MessageCallback, ServiceHandler, SessionBridge
+from harness.session.bridge import Graph, MessageCallback, ServiceHandler, SessionBridge
 
 __all__ = ["Graph", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
 

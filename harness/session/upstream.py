@@ -2,7 +2,7 @@
 framework's topology: ROS 2 nodes on DDS, a rosbridge server relaying, the simulator connected
 to it as a client).
 
-The session keeps its own :class:`~harness.session.core.SessionBridge`, exactly as in server
+The session keeps its own :class:`~harness.session.bridge.SessionBridge`, exactly as in server
 mode, and the link to the external server is one connection of it (the *upstream* connection).
 So every frame is recorded, and replayed at ``--level full``, as a server-mode client's frames
 are: what the external server sends (``publish`` of a command topic, ``call_service`` of a
@@ -37,7 +37,7 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 
 from harness.rosbridge import Output
 from harness.rosbridge.offer import Offer, offer_of
-from harness.session.core import SessionBridge
+from harness.session.bridge import SessionBridge
 from harness.session.errors import SessionError
 
 __all__ = ["UpstreamError", "UpstreamPort", "UpstreamStats", "redact"]

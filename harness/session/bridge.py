@@ -1,0 +1,232 @@
+"""The session's side of the rosbridge graph: :class:`SessionBridge` (the rosbridge protocol
+core of a session, at simulation time, reporting the inputs that are not client frames as
+markers: :mod:`harness.session.markers`), the :class:`Graph` the core publishes on (an
+in-process bridge, :class:`BridgePort`, or a client of an external server) and
+:class:`RosoutSink` (log events on ``/rosout``)."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Mapping
+from typing import Any, ClassVar, Protocol
+
+from harness.events import JointSample, LogMessage, SinkReport
+from harness.events.events import Event
+from harness.rosbridge import ActionGoal, Bridge, Output
+from harness.session.markers import (
+    MARKER_CALL_TIMEOUT,
+    MARKER_DISCONNECT,
+    MARKER_TRANSPORT_STATUS,
+)
+from harness.session.topics import HARNESS_NODE, TYPE_LOG, log_msg
+
+__all__ = [
+    "BridgePort",
+    "Graph",
+    "MessageCallback",
+    "Publisher",
+    "RosoutSink",
+    "ServiceHandler",
+    "SessionBridge",
+]
+
+ROSOUT = "/rosout"
+
+MessageCallback = Callable[[Mapping[str, Any], int], None]
+ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
+
+
+class Graph(Protocol):
+    """The core's view of the ROS graph it publishes on (an in-process bridge or a client of
+    an external server): synchronous, called only between steps."""
+
+    def has_subscribers(self, topic: str) -> bool: ...
+
+    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
+        """Put ``topic`` on the graph with its type before anything is published, as a
+        publisher belonging to ``node`` (``latch``: transient local)."""
+        ...
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None: ...
+
+    def subscribe(
+        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
+    ) -> None:
+        """Call ``callback`` with each message on ``topic``, as a subscriber of ``node``."""
+        ...
+
+    def serve(
+        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
+    ) -> None:
+        """Answer ``service`` with ``handler``, as a service of ``node``."""
+        ...
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        """Tell one client something (a ``status`` frame), where the transport can."""
+        ...
+
+
+class SessionBridge(Bridge):
+    """The session's rosbridge protocol core: every frame is processed at the simulation's
+    current time, and inputs that are not client frames (a socket closing, a wall-clock call
+    timeout, a status the transport sends by itself) are reported to ``on_marker`` before they
+    take effect, so that a recording can hold them."""
+
+    def __init__(self, clock: Callable[[], int]) -> None:
+        super().__init__()
+        self._clock = clock
+        self._inside = 0
+        self.on_marker: Callable[[str, dict[str, Any]], None] | None = None
+        self.on_connect: Callable[[int], None] | None = None
+        """Called with the id of every connection opened (the shell counts clients)."""
+        self.on_disconnect: Callable[[int], None] | None = None
+        """Called with the id of every connection closed."""
+        self.on_peer_status: Callable[[int, str, str], None] | None = None
+        """Called with ``(connection, level, msg)`` of every ``status`` frame a connection
+        sends (an external rosbridge server's answers in client mode, the ROS 2 gateway's
+        warnings): the core turns them into events, live and in a replay alike."""
+
+    @contextlib.contextmanager
+    def _core(self) -> Any:
+        self._inside += 1
+        try:
+            yield
+        finally:
+            self._inside -= 1
+
+    def _marker(self, topic: str, args: dict[str, Any]) -> None:
+        if self.on_marker is not None:
+            self.on_marker(topic, args)
+
+    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
+        """Process one frame at the simulation's time (``now_ns`` is ignored: a step request
+        earlier in the same batch may have moved time)."""
+        with self._core():
+            return super().receive(connection, data, self._clock())
+
+    def connect(self, peer: str = "") -> int:
+        cid = super().connect(peer)
+        if self.on_connect is not None:
+            self.on_connect(cid)
+        return cid
+
+    def disconnect(self, connection: int) -> list[Output]:
+        was_open = connection in self.connections
+        if was_open:
+            self._marker(MARKER_DISCONNECT, {"connection": connection})
+        with self._core():
+            outputs = super().disconnect(connection)
+        if was_open and self.on_disconnect is not None:
+            self.on_disconnect(connection)
+        return outputs
+
+    def time_out_call(self, key: int) -> list[Output]:
+        self._marker(MARKER_CALL_TIMEOUT, {"call": key})
+        with self._core():
+            return super().time_out_call(key)
+
+    def status(self, connection: int, level: str, msg: str, id: Any = None) -> None:
+        if not self._inside:
+            self._marker(
+                MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg}
+            )
+        super().status(connection, level, msg, id)
+
+    def core_status(self, connection: int, level: str, msg: str) -> None:
+        """A status the session itself sends (not a transport's)."""
+        with self._core():
+            super().status(connection, level, msg)
+
+    def _op_peer_status(self, c: int, obj: Mapping[str, Any]) -> None:
+        Bridge._OPS["status"](self, c, obj)  # validates level and msg
+        if self.on_peer_status is not None:
+            self.on_peer_status(c, str(obj.get("level", "info")), str(obj.get("msg", "")))
+
+    _OPS: ClassVar[dict[str, Callable[[Bridge, int, Mapping[str, Any]], None]]] = {
+        **Bridge._OPS,
+        "status": _op_peer_status,  # type: ignore[dict-item]
+    }
+
+
+class BridgePort:
+    """The in-process graph of a :class:`SessionBridge` (the embedded server's side)."""
+
+    def __init__(self, bridge: SessionBridge) -> None:
+        self.bridge = bridge
+
+    def has_subscribers(self, topic: str) -> bool:
+        return bool(self.bridge.subscribers_of(topic))
+
+    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
+        self.bridge.advertise(topic, type, latch=latch, node=node)
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None:
+        self.bridge.publish(topic, type, msg, now_ns, latch=latch)
+
+    def subscribe(
+        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
+    ) -> None:
+        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type, node=node)
+
+    def serve(
+        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
+    ) -> None:
+        self.bridge.advertise_service(service, type, lambda call: handler(call.args), node=node)
+
+    def serve_action(
+        self,
+        action: str,
+        type: str,
+        handler: Callable[[ActionGoal], None],
+        *,
+        node: str = HARNESS_NODE,
+    ) -> None:
+        """Serve an action in-process as ``node`` (the controllers' actions)."""
+        self.bridge.advertise_action(action, type, handler, node=node)
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        self.bridge.core_status(connection, level, text)
+
+
+class Publisher(Protocol):
+    """What :class:`RosoutSink` publishes through (the session core)."""
+
+    def publish(
+        self,
+        topic: str,
+        type: str,
+        build: Callable[[], Mapping[str, Any]],
+        *,
+        latch: bool = False,
+        record: bool = True,
+    ) -> None: ...
+
+
+class RosoutSink:
+    """Publishes every event except joint samples on ``/rosout`` over the graph (not
+    recorded as a message: the frames sent are)."""
+
+    name = "bridge-rosout"
+
+    def __init__(self, publisher: Publisher) -> None:
+        self._publisher = publisher
+        self._delivered = 0
+
+    def emit(self, event: Event) -> None:
+        if isinstance(event, JointSample):
+            return
+        name = event.name if isinstance(event, LogMessage) else f"harness.{event.kind}"
+        self._publisher.publish(
+            ROSOUT,
+            TYPE_LOG,
+            lambda: log_msg(event.sim_time_ns, int(event.level), name, event.message()),
+            record=False,
+        )
+        self._delivered += 1
+
+    def close(self) -> SinkReport:
+        return SinkReport(self.name, self._delivered, 0)
