@@ -195,6 +195,11 @@ class Bridge(ServiceOps, ActionOps, Graph):
         """Ids of the open connections."""
         return list(self._conns)
 
+    @property
+    def opened(self) -> int:
+        """How many connections were ever opened (ids are given in order from 1)."""
+        return self._next_conn - 1
+
     def disconnect(self, connection: int) -> list[Output]:
         """Close a connection: its publishers, subscriptions, services and actions go; calls
         routed to its services fail; returns the outputs this produced."""
@@ -281,6 +286,11 @@ class Bridge(ServiceOps, ActionOps, Graph):
         if id is not None:
             frame["id"] = id
         self._emit(connection, dumps(frame), "status", "")
+
+    def transport_status(self, connection: int, level: str, msg: str) -> None:
+        """A ``status`` the transport sends by itself (not an answer to a frame: frames
+        dropped for a slow reader, a client-mode link lost), subject to ``set_level``."""
+        self.status(connection, level, msg)
 
     # -- incoming -----------------------------------------------------------------------
 
@@ -709,10 +719,6 @@ class Bridge(ServiceOps, ActionOps, Graph):
                 self._gc_topic(t)
 
         return remove
-
-    def set_now(self, now_ns: int) -> None:
-        """Set the sim time used by in-process answers (deferred responses, feedback)."""
-        self._now_ns = now_ns
 
     @property
     def now_ns(self) -> int:

@@ -276,6 +276,8 @@ class BridgeServer:
         peer = _Peer(cid, ws)
         self._peers[cid] = peer
         self.metrics[cid] = peer.metrics
+        if self.queued:
+            self.pending_event.set()  # the owner sees the connection at its next boundary
         peer.writer = asyncio.create_task(self._write(peer))
         try:
             async for message in ws:
@@ -453,7 +455,7 @@ class BridgeServer:
             if not peer.queue:
                 if peer.unreported:
                     for key, n in sorted(peer.unreported.items()):
-                        self.bridge.status(
+                        self.bridge.transport_status(
                             peer.cid,
                             "warning",
                             f"dropped {n} messages on {key}: the client reads slower than "

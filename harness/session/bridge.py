@@ -6,7 +6,6 @@ in-process bridge, :class:`BridgePort`, or a client of an external server) and
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, Protocol
 
@@ -71,30 +70,27 @@ class Graph(Protocol):
 class SessionBridge(Bridge):
     """The session's rosbridge protocol core: every frame is processed at the simulation's
     current time, and inputs that are not client frames (a socket closing, a wall-clock call
-    timeout, a status the transport sends by itself) are reported to ``on_marker`` before they
-    take effect, so that a recording can hold them."""
+    timeout, a status the transport sends by itself: :meth:`transport_status`) are reported
+    to ``on_marker`` before they take effect, so that a recording can hold them."""
 
     def __init__(self, clock: Callable[[], int]) -> None:
         super().__init__()
         self._clock = clock
-        self._inside = 0
         self.on_marker: Callable[[str, dict[str, Any]], None] | None = None
-        self.on_connect: Callable[[int], None] | None = None
-        """Called with the id of every connection opened (the shell counts clients)."""
-        self.on_disconnect: Callable[[int], None] | None = None
-        """Called with the id of every connection closed."""
         self.on_peer_status: Callable[[int, str, str], None] | None = None
         """Called with ``(connection, level, msg)`` of every ``status`` frame a connection
         sends (an external rosbridge server's answers in client mode, the ROS 2 gateway's
         warnings): the core turns them into events, live and in a replay alike."""
 
-    @contextlib.contextmanager
-    def _core(self) -> Any:
-        self._inside += 1
-        try:
-            yield
-        finally:
-            self._inside -= 1
+    @property
+    def _now_ns(self) -> int:
+        """The session bridge's time is always the simulation's (deferred answers, feedback
+        and in-process publishes are stamped with it)."""
+        return self._clock()
+
+    @_now_ns.setter
+    def _now_ns(self, value: int) -> None:
+        pass  # the time given with an input is the simulation's already
 
     def _marker(self, topic: str, args: dict[str, Any]) -> None:
         if self.on_marker is not None:
@@ -103,41 +99,23 @@ class SessionBridge(Bridge):
     def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
         """Process one frame at the simulation's time (``now_ns`` is ignored: a step request
         earlier in the same batch may have moved time)."""
-        with self._core():
-            return super().receive(connection, data, self._clock())
-
-    def connect(self, peer: str = "") -> int:
-        cid = super().connect(peer)
-        if self.on_connect is not None:
-            self.on_connect(cid)
-        return cid
+        return super().receive(connection, data, self._clock())
 
     def disconnect(self, connection: int) -> list[Output]:
-        was_open = connection in self.connections
-        if was_open:
+        if connection in self.connections:
             self._marker(MARKER_DISCONNECT, {"connection": connection})
-        with self._core():
-            outputs = super().disconnect(connection)
-        if was_open and self.on_disconnect is not None:
-            self.on_disconnect(connection)
-        return outputs
+        return super().disconnect(connection)
 
     def time_out_call(self, key: int) -> list[Output]:
         self._marker(MARKER_CALL_TIMEOUT, {"call": key})
-        with self._core():
-            return super().time_out_call(key)
+        return super().time_out_call(key)
 
-    def status(self, connection: int, level: str, msg: str, id: Any = None) -> None:
-        if not self._inside:
-            self._marker(
-                MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg}
-            )
-        super().status(connection, level, msg, id)
-
-    def core_status(self, connection: int, level: str, msg: str) -> None:
-        """A status the session itself sends (not a transport's)."""
-        with self._core():
-            super().status(connection, level, msg)
+    def transport_status(self, connection: int, level: str, msg: str) -> None:
+        """A status the transport sends by itself, recorded as a marker first."""
+        self._marker(
+            MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg}
+        )
+        super().transport_status(connection, level, msg)
 
     def _op_peer_status(self, c: int, obj: Mapping[str, Any]) -> None:
         Bridge._OPS["status"](self, c, obj)  # validates level and msg
@@ -189,7 +167,7 @@ class BridgePort:
         self.bridge.advertise_action(action, type, handler, node=node)
 
     def status(self, connection: int, level: str, text: str) -> None:
-        self.bridge.core_status(connection, level, text)
+        self.bridge.status(connection, level, text)
 
 
 class Publisher(Protocol):

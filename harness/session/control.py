@@ -340,10 +340,7 @@ class ControlHost:
                 lambda msg=pub.msg: msg,  # type: ignore[misc]
                 record=False,
             )
-        if out.feedback or out.results:
-            bridge = core.bridge
-            if bridge is not None:
-                bridge.set_now(core.sim.sim_time_ns)
+        if out.feedback or out.results:  # stamped at sim time by the session bridge
             for fb in out.feedback:
                 goal = robot.goals.get(fb.goal)
                 if goal is not None:

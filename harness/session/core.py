@@ -99,6 +99,8 @@ from harness.sim import KinematicLimits, Notice, Simulation
 __all__ = [
     "CLOCK_MODES",
     "DEFAULT_MAX_STEP_REQUEST",
+    "FAILURE_PREFIX",
+    "LOG_NAME",
     "MARKERS",
     "MARKER_CALL_TIMEOUT",
     "MARKER_CLOSE",
@@ -132,6 +134,10 @@ SERVICE_RESET = "/harness/reset"
 SERVICE_PAUSE = "/harness/pause"
 SERVICE_GET_STATE = "/harness/get_state"
 _LOG_NAME = "harness.session"
+LOG_NAME = _LOG_NAME
+"""The ``name`` of the session's own log events (``/rosout``)."""
+FAILURE_PREFIX = "the run failed: "
+"""How the FATAL log event of a failed run (:meth:`SessionCore.fail`) begins."""
 
 
 class RecordSink(Protocol):
@@ -480,11 +486,11 @@ class SessionCore:
         self.publish_counts = PublishCounter()  # what /harness/step's until_topic counts
         self.paused = options.start != "now"
         self.failure: BaseException | None = None
-        """Why the simulation stopped (an unstable step, a recording error), else None."""
-        self.after_step: list[Callable[[], None]] = []
-        """Called after every step (the shell's ``run_until`` watchers)."""
-        self.on_clock_change: Callable[[], None] | None = None
-        """Called when a reset or pause changes how time should move (the shell re-paces)."""
+        """Why the simulation stopped (an unstable step, a logger or recording error...),
+        else None."""
+        self.failure_step: int | None = None
+        """The step at which :attr:`failure` happened (the step being taken when it was)."""
+        self._clock_changed = False  # drained by clock_changed()
         self.control = ControlHost(self, options.controllers)
         """Every robot's ros2_control controllers and controller manager."""
         self.peer_statuses: dict[str, int] = {}
@@ -591,8 +597,16 @@ class SessionCore:
         """Stop the run: ``exc`` becomes :attr:`failure` (logged once)."""
         if self.failure is None:
             self.failure = exc
+            self.failure_step = self.sim.step_index
             with contextlib.suppress(Exception):
-                self.log(Level.FATAL, f"the run failed: {exc}")
+                self.log(Level.FATAL, FAILURE_PREFIX + str(exc))
+
+    def clock_changed(self) -> bool:
+        """Whether a reset or a pause changed how time moves since the last call (the
+        shell re-anchors its pacing and wakes its clock); drained: the next call says False
+        until it changes again."""
+        changed, self._clock_changed = self._clock_changed, False
+        return changed
 
     def check_running(self) -> None:
         """Raise :class:`SessionClosedError` when the simulation has failed."""
@@ -602,17 +616,24 @@ class SessionCore:
             )
 
     def advance(self) -> None:
-        """One step: trajectory setpoints, the step, then recording, loggers, publishing."""
+        """One step: trajectory setpoints, the step, then recording, loggers, publishing.
+
+        Any exception on the way (the step, a controller, a logger, the recorder, a sensor)
+        stops the run where it happened: it becomes :attr:`failure` (logged once) and is
+        raised. Live stepping and a replay call this same method, so they fail alike."""
+        try:
+            self._advance()
+        except Exception as exc:
+            self.fail(exc)
+            raise
+
+    def _advance(self) -> None:
         sim = self.sim
         self.control.before_step()
         t_next = sim.sim_time_ns + self.dt_ns
         for channels in self.robots:
             channels.commands.setpoint(t_next)
-        try:
-            sim.step()
-        except Exception as exc:
-            self.fail(exc)
-            raise
+        sim.step()
         recorder = self.recorder
         if recorder is not None and sim.input_changed:
             applied = sim.last_input
@@ -634,8 +655,6 @@ class SessionCore:
         if self.hub.loggers:
             self.hub.observe(StepContext.of(sim, self.robot_name))
         self._after_state()
-        for watcher in tuple(self.after_step):
-            watcher()
 
     def _after_state(self, *, record_state: bool = True) -> None:
         """Record the state and publish what is due at the current step."""
@@ -880,8 +899,8 @@ class SessionCore:
             channels.commands.trajectory = None
         self.control.reset()
         self.failure = None
-        if self.on_clock_change is not None:
-            self.on_clock_change()
+        self.failure_step = None
+        self._clock_changed = True
         text = f"reset to the initial state at step {k} (step numbering continues)"
         self._epoch += 1
         recorder = self.recorder
@@ -909,8 +928,7 @@ class SessionCore:
 
     def _set_paused(self, paused: bool) -> str:
         self.paused = paused
-        if self.on_clock_change is not None:
-            self.on_clock_change()
+        self._clock_changed = True
         k = self.sim.step_index
         if self.clock == "lockstep":
             return f"lockstep clock: time moves only on {SERVICE_STEP} (step {k})"

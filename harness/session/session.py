@@ -324,6 +324,8 @@ class Session:
         self._clients_seen = 0
         self._clients_open = 0
         self._pause_at: int | None = None
+        self._watchers: list[Callable[[], None]] = []  # run_until checks (free-running clock)
+        self._watched_step = -1
         self.rate = float(rate)
         self.namespace = options.namespace
         self._closed = False
@@ -377,14 +379,11 @@ class Session:
                 hub.add_sink(RecordingSink(self._recorder))
             self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
             """The sans-I/O core (touch it only from the session's thread)."""
-            self.core.on_clock_change = self._on_clock_change
             self.sim: Simulation = self.core.sim
             """The simulation. Touch it only from the session's thread (loggers, predicates) or
             while nothing else can step it; prefer the session's methods."""
             self.topics: SessionTopics = self.core.topics
             assert self.core.bridge is not None
-            self.core.bridge.on_connect = self._on_connect
-            self.core.bridge.on_disconnect = self._on_disconnect
             self.upstream: UpstreamStats | None = None
             """Client mode: what the link to the external server counted (else None)."""
             if connect_to is not None:
@@ -440,22 +439,33 @@ class Session:
         offer = self._call(lambda: offer_of(bridge))
         self._ros2 = Ros2Gateway.start(self.url, offer, self.ros_domain_id)
 
-    def _on_connect(self, connection: int) -> None:
-        with self._clients:
-            self._clients_seen += 1
-            self._clients_open += 1
-            self._clients.notify_all()
-        if self._start_on_client and self._port is not None:
-            self._port.wake.set()  # the clock starts at the next boundary
+    def _settle(self, *, failed: bool = False) -> None:
+        """Take what the core reports after a call into it (drained, as a sans-I/O protocol's
+        output is): a reset or pause (re-anchor the pacing, wake the clock), clients opened
+        and closed, steps taken (or the run failed: the ``run_until`` watchers look)."""
+        core = self.core
+        if core.clock_changed():
+            self._anchor = None
+            if self._port is not None:
+                self._port.wake.set()
+        bridge = core.bridge
+        if bridge is not None:
+            seen, now_open = bridge.opened, len(bridge.connections)
+            if seen != self._clients_seen or now_open != self._clients_open:
+                with self._clients:
+                    self._clients_seen, self._clients_open = seen, now_open
+                    self._clients.notify_all()
+        if self._watchers and (failed or self.sim.step_index != self._watched_step):
+            self._watched_step = self.sim.step_index
+            for watcher in tuple(self._watchers):
+                watcher()
 
-    def _on_disconnect(self, connection: int) -> None:
-        with self._clients:
-            self._clients_open -= 1
-
-    def _on_clock_change(self) -> None:
-        self._anchor = None
-        if self._port is not None:
-            self._port.wake.set()
+    def _settled(self, fn: Callable[[], T]) -> T:
+        """``fn()`` (a call into the core), then :meth:`_settle`."""
+        try:
+            return fn()
+        finally:
+            self._settle()
 
     # ----------------------------------------------------------------------------- threads
 
@@ -512,6 +522,7 @@ class Session:
                 if core.paused or core.failure is not None:
                     continue
                 core.advance()
+                self._settle()
                 if self.clock == "realtime":
                     await self._pace()
                 else:
@@ -520,8 +531,7 @@ class Session:
                 raise
             except Exception as exc:
                 core.fail(exc)
-                for watcher in tuple(core.after_step):
-                    watcher()  # a run_until waiting for a step that will not come
+                self._settle(failed=True)  # a run_until waiting for a step that will not come
 
     async def _pace(self) -> None:
         now = time.monotonic()
@@ -539,10 +549,12 @@ class Session:
 
     def _boundary(self) -> None:
         assert self._port is not None
+        self._settle()
         if self._start_on_client and self._clients_seen:
             self._start_on_client = False
             self.core.set_paused(False)  # before the client's first frame
         self._port.process_pending(self.sim.sim_time_ns)
+        self._settle()
 
     # ----------------------------------------------------------------------------- public API
 
@@ -626,11 +638,11 @@ class Session:
             except Exception as exc:
                 done.set_exception(exc)
 
-        self.core.after_step.append(check)
+        self._watchers.append(check)
         try:
             return await done
         finally:
-            self.core.after_step.remove(check)
+            self._watchers.remove(check)
 
     def command(
         self,
@@ -653,15 +665,15 @@ class Session:
 
     def reset(self) -> None:
         """Back to the initial state (step numbering continues), as ``/harness/reset``."""
-        self._call(self.core.reset)
+        self._call(lambda: self._settled(self.core.reset))
 
     def pause(self) -> None:
         """Stop a fast or realtime clock (frames are still applied), as ``/harness/pause``."""
-        self._call(lambda: self.core.set_paused(True))
+        self._call(lambda: self._settled(lambda: self.core.set_paused(True)))
 
     def resume(self) -> None:
         """Restart a paused fast or realtime clock."""
-        self._call(lambda: self.core.set_paused(False))
+        self._call(lambda: self._settled(lambda: self.core.set_paused(False)))
 
     def pause_at(self, step: int | None) -> None:
         """Pause a fast or realtime clock when it reaches ``step`` (exactly: at that step

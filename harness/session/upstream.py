@@ -192,7 +192,7 @@ class UpstreamPort:
             if self.connection not in self.bridge.connections:
                 break
             if kind == "link":
-                self.bridge.status(self.connection, "warning", text)
+                self.bridge.transport_status(self.connection, "warning", text)
             else:
                 for output in self.bridge.receive(self.connection, text, now_ns):
                     self._forward(output)
