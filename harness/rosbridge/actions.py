@@ -144,8 +144,8 @@ class ActionOps(BridgeHost):
                 self._goal_result(
                     key, f"Action {act.name} handler raised {type(exc).__name__}: {exc}", 0, False
                 )
-            if key in self._goals and self.on_call_started is not None:
-                self.on_call_started(key, timeout)
+            if key in self._goals:
+                self._call_started(key, timeout)
             return
         act.count += 1
         gid = f"action_goal:{act.spelled}:{act.count}"
@@ -160,14 +160,12 @@ class ActionOps(BridgeHost):
             "feedback": True,
         }
         self._send(act.provider, dumps(frame), "send_action_goal", act.name, gid)
-        if self.on_call_started is not None:
-            self.on_call_started(key, timeout)
+        self._call_started(key, timeout)
 
     def _drop_goal(self, key: int) -> _PendingGoal | None:
         pending = self._goals.pop(key, None)
         if pending is not None:
-            if self.on_call_ended is not None:
-                self.on_call_ended(key)
+            self._call_ended(key)
             self._goal_by_caller.pop((pending.caller, pending.caller_id, pending.action.name), None)
             if pending.provider_id is not None:
                 self._goal_by_provider.pop((pending.action.provider, pending.provider_id), None)

@@ -7,15 +7,24 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Final
+from typing import TYPE_CHECKING, Any, Final, NamedTuple
 
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
 from harness.rosbridge.graph import ActionEntry, ServiceEntry
 from harness.rosbridge.types import TypeRegistry
 
-__all__ = ["BAD_INPUT", "LEVELS", "BridgeHost", "Connection", "field_of", "kind_of", "name_field"]
+__all__ = [
+    "BAD_INPUT",
+    "LEVELS",
+    "BridgeHost",
+    "Connection",
+    "Deadline",
+    "field_of",
+    "kind_of",
+    "name_field",
+]
 
 LEVELS: Final = {"info": 0, "warning": 1, "error": 2, "none": 3}
 BAD_INPUT = (FrameError, ConversionError, TypeNameError, UnknownTypeError)
@@ -79,6 +88,15 @@ class Connection:
     fragment_count: int = 0
 
 
+class Deadline(NamedTuple):
+    """A service call or action goal whose answer has a deadline: started (``timeout_s``
+    from now, on the owner's clock: it calls :meth:`~harness.rosbridge.Bridge.time_out_call`
+    with ``key`` then) or ended (``timeout_s`` None: answered or gone)."""
+
+    key: int
+    timeout_s: float | None
+
+
 class BridgeHost:
     """What the bridge's rooms (services, actions) use of the :class:`~harness.rosbridge.Bridge`
     they are mixed into: declared here for the type checker, defined by the bridge."""
@@ -86,13 +104,28 @@ class BridgeHost:
     registry: TypeRegistry
     call_timeout_s: float
     goal_timeout_s: float
-    on_call_started: Callable[[int, float], None] | None
-    on_call_ended: Callable[[int], None] | None
+    _deadline_log: list[Deadline] | None
     _conns: dict[int, Connection]
     _services: dict[str, ServiceEntry]
     _actions: dict[str, ActionEntry]
     _next_key: int
     _now_ns: int
+
+    def deadlines(self) -> list[Deadline]:
+        """The deadlines started and ended since the last call, in order (drained, as
+        :meth:`~harness.rosbridge.Bridge.drain` drains frames). Kept from the first call on:
+        an owner that enforces deadlines calls it once before any call can start."""
+        log = self._deadline_log
+        self._deadline_log = []
+        return [] if log is None else log
+
+    def _call_started(self, key: int, timeout_s: float) -> None:
+        if self._deadline_log is not None:
+            self._deadline_log.append(Deadline(key, timeout_s))
+
+    def _call_ended(self, key: int) -> None:
+        if self._deadline_log is not None:
+            self._deadline_log.append(Deadline(key, None))
 
     if TYPE_CHECKING:
 

@@ -13,8 +13,9 @@ actions (:mod:`harness.rosbridge.actions`), frame fields and connection state
 through a protocol of its own and imports none of them.
 
 Outputs produced outside ``receive`` (a deferred service answer, an in-process publish)
-collect in an outbox; :meth:`Bridge.drain` returns them and ``on_pending`` (if set) is called
-when the outbox becomes non-empty. Every frame in and out passes the ``tap`` with a sequence
+collect in an outbox: its owner takes them with :meth:`Bridge.drain` after its own calls
+(as a sans-I/O protocol's ``data_to_send``), and the deadlines of calls and goals with
+:meth:`Bridge.deadlines`. Every frame in and out passes the ``tap`` with a sequence
 number. The same inputs in the same order produce the same frames, byte for byte.
 """
 
@@ -36,6 +37,7 @@ from harness.rosbridge.frames import (
     BAD_INPUT,
     LEVELS,
     Connection,
+    Deadline,
     field_of,
     kind_of,
     name_field,
@@ -134,10 +136,10 @@ class Bridge(ServiceOps, ActionOps, Graph):
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
     ``tap`` sees every frame in and out; ``call_timeout_s`` is the default service-call
-    timeout the owner enforces through ``on_call_started``/:meth:`time_out_call` (action goals
-    too, ``goal_timeout_s`` by default; a client's ``timeout`` is bounded by
-    :func:`harness.rosbridge.deadlines.bounded_timeout`; ``on_call_ended`` says when a call or
-    goal is gone, answered or not);
+    timeout the owner enforces: :meth:`deadlines` reports each call it starts and ends, and
+    the owner calls :meth:`time_out_call` when one runs out (action goals too,
+    ``goal_timeout_s`` by default; a client's ``timeout`` is bounded by
+    :func:`harness.rosbridge.deadlines.bounded_timeout`);
     ``default_queue_length`` bounds a subscription's unsent frames when the client asks for
     ``queue_length`` 0.
     """
@@ -163,9 +165,7 @@ class Bridge(ServiceOps, ActionOps, Graph):
         self.max_fragmented_messages = max_fragmented_messages
         self.distro = distro
         self.params: dict[str, str] = {}
-        self.on_pending: Callable[[], None] | None = None
-        self.on_call_started: Callable[[int, float], None] | None = None
-        self.on_call_ended: Callable[[int], None] | None = None
+        self._deadline_log: list[Deadline] | None = None
         self.goal_timeout_s = MAX_TIMEOUT_S
         self._seq = 0
         self._next_conn = 1
@@ -245,10 +245,7 @@ class Bridge(ServiceOps, ActionOps, Graph):
         if connection not in self._conns:
             return
         self._tap(connection, DIRECTION_OUT, data, op, name)
-        was_empty = not self._outbox
         self._outbox.append(Output(connection, data, op, name, queue_limit))
-        if was_empty and self.on_pending is not None:
-            self.on_pending()
 
     def _send(
         self,

@@ -140,8 +140,8 @@ class ServiceOps(BridgeHost):
                 )
                 return
             if result is DEFERRED:
-                if not call.done and self.on_call_started is not None:
-                    self.on_call_started(key, self.call_timeout_s if timeout is None else timeout)
+                if not call.done:
+                    self._call_started(key, self.call_timeout_s if timeout is None else timeout)
                 return
             if not call.done:
                 if isinstance(result, Mapping):
@@ -158,13 +158,12 @@ class ServiceOps(BridgeHost):
         self._call_by_provider[(svc.provider, rid)] = key
         frame = {"op": "call_service", "id": rid, "service": svc.spelled, "args": request}
         self._send(svc.provider, dumps(frame), "call_service", svc.name, rid)
-        if self.on_call_started is not None:
-            self.on_call_started(key, self.call_timeout_s if timeout is None else timeout)
+        self._call_started(key, self.call_timeout_s if timeout is None else timeout)
 
     def _drop_call(self, key: int) -> _PendingCall | None:
         pending = self._calls.pop(key, None)
-        if pending is not None and self.on_call_ended is not None:
-            self.on_call_ended(key)
+        if pending is not None:
+            self._call_ended(key)
         if pending is not None and pending.provider_id is not None:
             self._call_by_provider.pop((pending.service.provider, pending.provider_id), None)
         if pending is not None and pending.call is not None:

@@ -40,6 +40,11 @@ class Port(Protocol):
         """Apply waiting input in arrival order at ``now_ns``; returns the frame count."""
         ...
 
+    def flush(self) -> None:
+        """Send what the core's bridge produced outside :meth:`process_pending` (the owner
+        calls it after its own calls into the core)."""
+        ...
+
 
 class ServerPort:
     """The embedded rosbridge server around the core's :class:`SessionBridge`, in queued mode:
@@ -74,3 +79,6 @@ class ServerPort:
 
     def process_pending(self, now_ns: int) -> int:
         return self.server.process_pending(now_ns)
+
+    def flush(self) -> None:
+        self.server.flush()

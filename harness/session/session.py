@@ -420,6 +420,7 @@ class Session:
         self.core.start()
         await port.settle()
         self.core.publish_initial()
+        port.flush()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         return url
 
@@ -442,7 +443,8 @@ class Session:
     def _settle(self, *, failed: bool = False) -> None:
         """Take what the core reports after a call into it (drained, as a sans-I/O protocol's
         output is): a reset or pause (re-anchor the pacing, wake the clock), clients opened
-        and closed, steps taken (or the run failed: the ``run_until`` watchers look)."""
+        and closed, steps taken (or the run failed: the ``run_until`` watchers look), and
+        the frames it produced (sent)."""
         core = self.core
         if core.clock_changed():
             self._anchor = None
@@ -459,6 +461,8 @@ class Session:
             self._watched_step = self.sim.step_index
             for watcher in tuple(self._watchers):
                 watcher()
+        if self._port is not None:
+            self._port.flush()  # what the core produced for the clients
 
     def _settled(self, fn: Callable[[], T]) -> T:
         """``fn()`` (a call into the core), then :meth:`_settle`."""
@@ -497,6 +501,9 @@ class Session:
                 future.set_result(fn())
             except BaseException as exc:
                 future.set_exception(exc)
+            finally:
+                if self._port is not None:
+                    self._port.flush()  # what fn made the core produce
 
         self._loop.call_soon_threadsafe(run)
         return future.result()
@@ -519,6 +526,7 @@ class Session:
                 if self._pause_at is not None and self.sim.step_index >= self._pause_at:
                     self._pause_at = None
                     core.set_paused(True)
+                    self._settle()
                 if core.paused or core.failure is not None:
                     continue
                 core.advance()
@@ -570,7 +578,7 @@ class Session:
         for i in range(n):
             self._boundary()
             self.core.check_running()
-            self.core.advance()
+            self._settled(self.core.advance)
             if i + 1 < n:
                 await asyncio.sleep(0)
         return self.sim.step_index
@@ -613,7 +621,7 @@ class Session:
                 break
             self._boundary()
             self.core.check_running()
-            self.core.advance()
+            self._settled(self.core.advance)
             await asyncio.sleep(0)
         raise self._timeout(sim_timeout)
 

@@ -140,7 +140,6 @@ class UpstreamPort:
         self._sync_count = 0
         self._setting_up = False
         self._closing = False
-        self._flush_scheduled = False
         self._lost = 0  # frames not sent since the current outage was reported
 
     # -- Port ------------------------------------------------------------------------
@@ -151,7 +150,6 @@ class UpstreamPort:
 
     async def start(self) -> str:
         """Connect (retrying until ``connect_timeout``) and start receiving."""
-        self.bridge.on_pending = self._schedule_flush
         self._task = asyncio.ensure_future(self._run())
         self._sender = asyncio.ensure_future(self._send_loop())
         try:
@@ -208,14 +206,14 @@ class UpstreamPort:
                 for output in self.bridge.receive(self.connection, text, now_ns):
                     self._forward(output)
                 count += 1
-        self._flush()
+        self.flush()
         return count
 
     async def stop(self, on_input: Callable[[], object] | None = None) -> None:
         """Apply what already arrived, then close the link."""
         if on_input is not None and self._pending:
             on_input()
-        self._flush()
+        self.flush()
         with contextlib.suppress(asyncio.TimeoutError):
             await asyncio.wait_for(self._outgoing.join(), 2.0)
         self._closing = True
@@ -351,13 +349,8 @@ class UpstreamPort:
 
     # -- outputs ---------------------------------------------------------------------
 
-    def _schedule_flush(self) -> None:
-        if not self._flush_scheduled:
-            self._flush_scheduled = True
-            asyncio.get_running_loop().call_soon(self._flush)
-
-    def _flush(self) -> None:
-        self._flush_scheduled = False
+    def flush(self) -> None:
+        """Forward what the bridge produced for the external server since the last call."""
         for output in self.bridge.drain():
             self._forward(output)
 
