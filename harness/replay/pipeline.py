@@ -568,6 +568,7 @@ def replay_pipeline(
             # advance() keeps any failure as core.failure (as live): compared below
             with contextlib.suppress(Exception):
                 core.advance()
+            core.record_frames()
             bridge.drain()
             checker.after_step(sim.step_index)
             if recorded_failure is not None and sim.step_index >= recorded_failure[0]:
@@ -580,6 +581,7 @@ def replay_pipeline(
 
     core.start()
     core.publish_initial()
+    core.record_frames()
     bridge.drain()
     for frame in frames:
         if checker.mismatch is not None:
@@ -603,6 +605,7 @@ def replay_pipeline(
             )  # fmt: skip
             break
         core.replay_frame(frame.connection, frame.op, frame.topic, frame.payload)
+        core.record_frames()
         bridge.drain()
         checker.after_step(sim.step_index)  # a /harness/step call steps inside the frame
     advance_to(final)

@@ -14,9 +14,9 @@ through a protocol of its own and imports none of them.
 
 Outputs produced outside ``receive`` (a deferred service answer, an in-process publish)
 collect in an outbox: its owner takes them with :meth:`Bridge.drain` after its own calls
-(as a sans-I/O protocol's ``data_to_send``), and the deadlines of calls and goals with
-:meth:`Bridge.deadlines`. Every frame in and out passes the ``tap`` with a sequence
-number. The same inputs in the same order produce the same frames, byte for byte.
+(as a sans-I/O protocol's ``data_to_send``), the deadlines of calls and goals with
+:meth:`Bridge.deadlines` and every frame in and out, numbered, with :meth:`Bridge.frames`
+(``keep_frames``). The same inputs in the same order produce the same frames, byte for byte.
 """
 
 from __future__ import annotations
@@ -64,7 +64,6 @@ __all__ = [
     "LEVELS",
     "ActionGoal",
     "Bridge",
-    "FrameTap",
     "Message",
     "Output",
     "ServiceCall",
@@ -74,8 +73,6 @@ __all__ = [
 DIRECTION_IN: Final = 0
 DIRECTION_OUT: Final = 1
 _DECODER = json.JSONDecoder()
-
-
 
 
 class Output(NamedTuple):
@@ -90,8 +87,9 @@ class Output(NamedTuple):
 
 
 class TapRecord(NamedTuple):
-    """A frame seen by the tap: ``direction`` is :data:`DIRECTION_IN` or
-    :data:`DIRECTION_OUT`; ``seq`` counts every frame of the bridge from 0."""
+    """A frame that crossed the bridge (:meth:`Bridge.frames`): ``direction`` is
+    :data:`DIRECTION_IN` or :data:`DIRECTION_OUT`; ``seq`` counts every frame of the bridge
+    from 0; ``now_ns``: the bridge's time when it crossed."""
 
     seq: int
     connection: int
@@ -99,9 +97,7 @@ class TapRecord(NamedTuple):
     data: str | bytes
     op: str
     name: str
-
-
-FrameTap = Callable[[TapRecord], None]
+    now_ns: int = 0
 
 
 def _png(text: str) -> str:
@@ -125,19 +121,13 @@ def _png(text: str) -> str:
     return base64.b64encode(png).decode("ascii")
 
 
-
-
-
-
-
-
-
 class Bridge(ServiceOps, ActionOps, Graph):
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
-    ``tap`` sees every frame in and out; ``call_timeout_s`` is the default service-call
-    timeout the owner enforces: :meth:`deadlines` reports each call it starts and ends, and
-    the owner calls :meth:`time_out_call` when one runs out (action goals too,
+    ``keep_frames``: keep every frame in and out for :meth:`frames`; ``call_timeout_s`` is
+    the default service-call timeout the owner enforces: :meth:`deadlines` reports each call
+    it starts and ends, and the owner calls :meth:`time_out_call` when one runs out (action
+    goals too,
     ``goal_timeout_s`` by default; a client's ``timeout`` is bounded by
     :func:`harness.rosbridge.deadlines.bounded_timeout`);
     ``default_queue_length`` bounds a subscription's unsent frames when the client asks for
@@ -148,7 +138,7 @@ class Bridge(ServiceOps, ActionOps, Graph):
         self,
         registry: TypeRegistry | None = None,
         *,
-        tap: FrameTap | None = None,
+        keep_frames: bool = False,
         call_timeout_s: float = 30.0,
         default_queue_length: int = 1000,
         max_fragment_bytes: int = 16 * 2**20,
@@ -158,7 +148,7 @@ class Bridge(ServiceOps, ActionOps, Graph):
     ) -> None:
         super().__init__()
         self.registry = registry if registry is not None else TypeRegistry()
-        self.tap = tap
+        self._frames: list[TapRecord] | None = [] if keep_frames else None
         self.call_timeout_s = call_timeout_s
         self.default_queue_length = default_queue_length
         self.max_fragment_bytes = max_fragment_bytes
@@ -234,9 +224,22 @@ class Bridge(ServiceOps, ActionOps, Graph):
         out, self._outbox = self._outbox, []
         return out
 
+    def frames(self) -> list[TapRecord]:
+        """Every frame in and out since the last call, in order (drained; kept only with
+        ``keep_frames``): what a recording of the bridge holds."""
+        out, self._frames = self._frames, None if self._frames is None else []
+        return [] if out is None else out
+
+    @property
+    def seq(self) -> int:
+        """The sequence number the next frame gets."""
+        return self._seq
+
     def _tap(self, connection: int, direction: int, data: str | bytes, op: str, name: str) -> None:
-        if self.tap is not None:
-            self.tap(TapRecord(self._seq, connection, direction, data, op, name))
+        if self._frames is not None:
+            self._frames.append(
+                TapRecord(self._seq, connection, direction, data, op, name, self._now_ns)
+            )
         self._seq += 1
 
     def _emit(

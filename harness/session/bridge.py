@@ -6,12 +6,13 @@ in-process bridge, :class:`BridgePort`, or a client of an external server) and
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, Protocol
 
 from harness.events import JointSample, LogMessage, SinkReport
 from harness.events.events import Event
-from harness.rosbridge import ActionGoal, Bridge, Output
+from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
 from harness.session.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_DISCONNECT,
@@ -69,14 +70,14 @@ class Graph(Protocol):
 
 class SessionBridge(Bridge):
     """The session's rosbridge protocol core: every frame is processed at the simulation's
-    current time, and inputs that are not client frames (a socket closing, a wall-clock call
-    timeout, a status the transport sends by itself: :meth:`transport_status`) are reported
-    to ``on_marker`` before they take effect, so that a recording can hold them."""
+    current time (``clock``), and inputs that are not client frames (a socket closing, a
+    wall-clock call timeout, a status the transport sends by itself: :meth:`transport_status`)
+    are kept as markers (:mod:`harness.session.markers`) among its :meth:`frames`, before
+    what they cause, so that a recording can hold them (``keep_frames``)."""
 
-    def __init__(self, clock: Callable[[], int]) -> None:
-        super().__init__()
+    def __init__(self, clock: Callable[[], int], *, keep_frames: bool = False) -> None:
+        super().__init__(keep_frames=keep_frames)
         self._clock = clock
-        self.on_marker: Callable[[str, dict[str, Any]], None] | None = None
         self.on_peer_status: Callable[[int, str, str], None] | None = None
         """Called with ``(connection, level, msg)`` of every ``status`` frame a connection
         sends (an external rosbridge server's answers in client mode, the ROS 2 gateway's
@@ -92,9 +93,12 @@ class SessionBridge(Bridge):
     def _now_ns(self, value: int) -> None:
         pass  # the time given with an input is the simulation's already
 
-    def _marker(self, topic: str, args: dict[str, Any]) -> None:
-        if self.on_marker is not None:
-            self.on_marker(topic, args)
+    def mark(self, topic: str, args: Mapping[str, Any]) -> None:
+        """Keep a marker (``topic``, JSON ``args``) among the frames: at the next frame's
+        ``seq``, which it does not consume."""
+        if self._frames is not None:
+            text = json.dumps(args, sort_keys=True)
+            self._frames.append(TapRecord(self.seq, 0, DIRECTION_IN, text, "", topic, self._now_ns))
 
     def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
         """Process one frame at the simulation's time (``now_ns`` is ignored: a step request
@@ -103,18 +107,16 @@ class SessionBridge(Bridge):
 
     def disconnect(self, connection: int) -> list[Output]:
         if connection in self.connections:
-            self._marker(MARKER_DISCONNECT, {"connection": connection})
+            self.mark(MARKER_DISCONNECT, {"connection": connection})
         return super().disconnect(connection)
 
     def time_out_call(self, key: int) -> list[Output]:
-        self._marker(MARKER_CALL_TIMEOUT, {"call": key})
+        self.mark(MARKER_CALL_TIMEOUT, {"call": key})
         return super().time_out_call(key)
 
     def transport_status(self, connection: int, level: str, msg: str) -> None:
         """A status the transport sends by itself, recorded as a marker first."""
-        self._marker(
-            MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg}
-        )
+        self.mark(MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg})
         super().transport_status(connection, level, msg)
 
     def _op_peer_status(self, c: int, obj: Mapping[str, Any]) -> None:

@@ -442,11 +442,9 @@ class SessionCore:
         self.hub.add_sink(RosoutSink(self))
         self.bridge: SessionBridge | None = None
         if graph is None:
-            self.bridge = SessionBridge(lambda: self.sim.sim_time_ns)
+            keep_frames = recorder is not None and options.record_bridge_frames
+            self.bridge = SessionBridge(lambda: self.sim.sim_time_ns, keep_frames=keep_frames)
             graph = BridgePort(self.bridge)
-            if recorder is not None and options.record_bridge_frames:
-                self.bridge.tap = self._tap
-                self.bridge.on_marker = self._marker
             self.bridge.on_peer_status = self._peer_status
         self.graph: Graph = graph
         self.robots = robot_channels(
@@ -634,6 +632,7 @@ class SessionCore:
         for channels in self.robots:
             channels.commands.setpoint(t_next)
         sim.step()
+        self.record_frames()
         recorder = self.recorder
         if recorder is not None and sim.input_changed:
             applied = sim.last_input
@@ -658,6 +657,7 @@ class SessionCore:
 
     def _after_state(self, *, record_state: bool = True) -> None:
         """Record the state and publish what is due at the current step."""
+        self.record_frames()
         sim = self.sim
         k = sim.step_index
         recorder = self.recorder
@@ -717,6 +717,7 @@ class SessionCore:
     ) -> None:
         """Publish on the graph (when someone listens or ``latch``) and record (``record``);
         ``build`` makes the message only when needed."""
+        self.record_frames()
         self.publish_counts.note(topic)
         recorder = self.recorder if record else None
         send = latch or self.graph.has_subscribers(topic)
@@ -731,9 +732,20 @@ class SessionCore:
 
     # ----------------------------------------------------------------------------- frames
 
+    def record_frames(self) -> None:
+        """Write the frames and markers the bridge kept since the last call to the
+        recording, each at the step it crossed at (drained: the shells call it after their
+        calls into the bridge, the core before each of its own writes, so the recording
+        keeps the order in which things happened)."""
+        bridge = self.bridge
+        if bridge is None or self.recorder is None:
+            return
+        for record in bridge.frames():
+            self._tap(record)
+
     def _tap(self, record: TapRecord) -> None:
         assert self.recorder is not None
-        k = self.sim.step_index
+        k = record.now_ns // self.dt_ns  # the step it crossed at
         data = record.data
         self._next_seq = record.seq + 1
         self.recorder.write_bridge_frame(
@@ -751,6 +763,8 @@ class SessionCore:
     def _marker(self, topic: str, args: Mapping[str, Any]) -> None:
         if self.recorder is None or self.bridge is None or not self.options.record_bridge_frames:
             return
+        self.record_frames()
+        self._next_seq = self.bridge.seq
         k = self.sim.step_index
         self.recorder.write_bridge_frame(
             step=k + 1,
@@ -779,6 +793,7 @@ class SessionCore:
 
     def log(self, level: Level, text: str) -> None:
         """Emit a session log event (``/rosout``, sinks)."""
+        self.record_frames()
         sim = self.sim
         self.hub.emit(
             [
@@ -903,6 +918,7 @@ class SessionCore:
         self._clock_changed = True
         text = f"reset to the initial state at step {k} (step numbering continues)"
         self._epoch += 1
+        self.record_frames()
         recorder = self.recorder
         if recorder is not None:
             # The state recorded for step k ends the epoch before; this one starts the next.
@@ -940,9 +956,11 @@ class SessionCore:
 
     def finish(self) -> list[SinkReport]:
         """End of run: loggers finish, sinks close; returns the sink reports."""
+        self.record_frames()
         try:
             if self.hub.loggers:
                 self.hub.finish(StepContext.of(self.sim, self.robot_name))
+            self.record_frames()
         finally:
             reports = self.hub.close()
             if self.sensors is not None:

@@ -92,9 +92,7 @@ def replay_marker(core: SessionCore, topic: str, payload: str | bytes) -> None:
         elif topic == MARKER_CALL_TIMEOUT:
             bridge.time_out_call(int(args["call"]))
         elif topic == MARKER_TRANSPORT_STATUS:
-            bridge.transport_status(
-                int(args["connection"]), str(args["level"]), str(args["msg"])
-            )
+            bridge.transport_status(int(args["connection"]), str(args["level"]), str(args["msg"]))
         elif topic == MARKER_CLOSE:
             core.record_close()
         else:

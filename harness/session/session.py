@@ -446,6 +446,7 @@ class Session:
         and closed, steps taken (or the run failed: the ``run_until`` watchers look), and
         the frames it produced (sent)."""
         core = self.core
+        core.record_frames()
         if core.clock_changed():
             self._anchor = None
             if self._port is not None:

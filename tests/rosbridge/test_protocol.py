@@ -25,9 +25,15 @@ class Wire:
     """A bridge with helpers: send a frame (dict or text), get parsed (connection, frame)."""
 
     def __init__(self, **kwargs: Any) -> None:
-        self.taps: list[TapRecord] = []
-        self.bridge = Bridge(REGISTRY, tap=self.taps.append, **kwargs)
+        self._taps: list[TapRecord] = []
+        self.bridge = Bridge(REGISTRY, keep_frames=True, **kwargs)
         install_test_graph(self.bridge)
+
+    @property
+    def taps(self) -> list[TapRecord]:
+        """Every frame the bridge kept so far (drained from it into one list)."""
+        self._taps += self.bridge.frames()
+        return self._taps
 
     def connect(self) -> int:
         return self.bridge.connect()
