@@ -73,15 +73,24 @@ class SessionBridge(Bridge):
     current time (``clock``), and inputs that are not client frames (a socket closing, a
     wall-clock call timeout, a status the transport sends by itself: :meth:`transport_status`)
     are kept as markers (:mod:`harness.session.markers`) among its :meth:`frames`, before
-    what they cause, so that a recording can hold them (``keep_frames``)."""
+    what they cause, so that a recording can hold them (``keep_frames``).
 
-    def __init__(self, clock: Callable[[], int], *, keep_frames: bool = False) -> None:
+    ``peer_status(connection, level, msg)`` gets every ``status`` frame a connection sends
+    (an external rosbridge server's answers in client mode, the ROS 2 gateway's warnings)
+    while it is processed: the core turns them into events, live and in a replay alike (what
+    such an event publishes must come out where the status came in, so it is not drained
+    later as the frames are)."""
+
+    def __init__(
+        self,
+        clock: Callable[[], int],
+        *,
+        keep_frames: bool = False,
+        peer_status: Callable[[int, str, str], None] | None = None,
+    ) -> None:
         super().__init__(keep_frames=keep_frames)
         self._clock = clock
-        self.on_peer_status: Callable[[int, str, str], None] | None = None
-        """Called with ``(connection, level, msg)`` of every ``status`` frame a connection
-        sends (an external rosbridge server's answers in client mode, the ROS 2 gateway's
-        warnings): the core turns them into events, live and in a replay alike."""
+        self._peer_status = peer_status
 
     @property
     def _now_ns(self) -> int:
@@ -121,8 +130,8 @@ class SessionBridge(Bridge):
 
     def _op_peer_status(self, c: int, obj: Mapping[str, Any]) -> None:
         Bridge._OPS["status"](self, c, obj)  # validates level and msg
-        if self.on_peer_status is not None:
-            self.on_peer_status(c, str(obj.get("level", "info")), str(obj.get("msg", "")))
+        if self._peer_status is not None:
+            self._peer_status(c, str(obj.get("level", "info")), str(obj.get("msg", "")))
 
     _OPS: ClassVar[dict[str, Callable[[Bridge, int, Mapping[str, Any]], None]]] = {
         **Bridge._OPS,

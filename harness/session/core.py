@@ -412,9 +412,13 @@ class SessionCore:
     mode) instead of the core's own :class:`SessionBridge` (:attr:`bridge`, None in client
     mode).
 
-    Call only from one thread. Driving it: :meth:`start` once, then at each step boundary
-    hand waiting frames to :attr:`bridge` (``receive``, ``disconnect``, ``time_out_call``) and
-    take its outputs (``drain``), and call :meth:`advance` for each step.
+    Call only from one thread. Driving it (sans-I/O: nothing calls back into the shell):
+    :meth:`start` once, then at each step boundary hand waiting frames to :attr:`bridge`
+    (``receive``, ``disconnect``, ``time_out_call``, ``transport_status``), call
+    :meth:`advance` for each step, and after each of these calls take what they produced:
+    the bridge's outputs (``drain``) and deadlines (``deadlines``), the frames to record
+    (:meth:`record_frames`), whether the clock was reset or paused (:meth:`clock_changed`),
+    and :attr:`failure` (an exception in :meth:`advance` is also raised).
     """
 
     def __init__(
@@ -443,9 +447,10 @@ class SessionCore:
         self.bridge: SessionBridge | None = None
         if graph is None:
             keep_frames = recorder is not None and options.record_bridge_frames
-            self.bridge = SessionBridge(lambda: self.sim.sim_time_ns, keep_frames=keep_frames)
+            self.bridge = SessionBridge(
+                lambda: self.sim.sim_time_ns, keep_frames=keep_frames, peer_status=self._peer_status
+            )
             graph = BridgePort(self.bridge)
-            self.bridge.on_peer_status = self._peer_status
         self.graph: Graph = graph
         self.robots = robot_channels(
             self.sim, robot, self.namespace, options.command_topic, self, _check_name
@@ -492,7 +497,7 @@ class SessionCore:
         self.control = ControlHost(self, options.controllers)
         """Every robot's ros2_control controllers and controller manager."""
         self.peer_statuses: dict[str, int] = {}
-        """Status frames received from connections, by level (see ``on_peer_status``)."""
+        """Status frames received from connections, by level (see :class:`SessionBridge`)."""
 
     # ----------------------------------------------------------------------------- set-up
 

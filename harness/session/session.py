@@ -51,7 +51,7 @@ the description's joints; a floating or mocap root's in ``world``), ``tf_static`
 ``tf2_msgs/msg/TFMessage``, once: fixed joints, sensor mounts, a base fixed to ``world``;
 :mod:`harness.session.tf`), ``robot_description`` (latched ``std_msgs/msg/String``: the
 source URDF/SDF/MJCF text), ``/rosout`` (log events); commands on ``joint_command``,
-``joint_trajectory`` and the forward controller topics (:mod:`harness.session.commands`).
+``joint_trajectory`` and the forward controller topics (:mod:`harness.controllers.command_topics`).
 Every published topic is on the graph with its type from the start (a client that advertises
 or subscribes to one with another type gets a status error), under the node a real robot
 shows: ``robot_state_publisher`` (``tf``, ``tf_static``, ``robot_description``) and
