@@ -8,7 +8,8 @@ in-process (:meth:`Bridge.advertise`, :meth:`Bridge.publish`, :meth:`Bridge.subs
 :meth:`Bridge.advertise_service`, :meth:`Bridge.advertise_action`), each registration under a
 ROS node name (``node=``, default ``/harness``) that rosapi shows (see
 :mod:`harness.rosbridge.graph`). Its rooms: services (:mod:`harness.rosbridge.services`),
-actions (:mod:`harness.rosbridge.actions`), frame fields and connection state
+actions (:mod:`harness.rosbridge.actions`), fragmented messages
+(:mod:`harness.rosbridge.fragments`), frame fields and connection state
 (:mod:`harness.rosbridge.frames`); rosapi (:mod:`harness.rosbridge.rosapi`) reads the graph
 through a protocol of its own and imports none of them.
 
@@ -33,6 +34,7 @@ from harness.rosbridge.actions import ActionGoal, ActionOps, _PendingGoal
 from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
 from harness.rosbridge.deadlines import MAX_TIMEOUT_S
 from harness.rosbridge.errors import FrameError
+from harness.rosbridge.fragments import FragmentOps
 from harness.rosbridge.frames import (
     BAD_INPUT,
     LEVELS,
@@ -121,7 +123,7 @@ def _png(text: str) -> str:
     return base64.b64encode(png).decode("ascii")
 
 
-class Bridge(ServiceOps, ActionOps, Graph):
+class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
     ``keep_frames``: keep every frame in and out for :meth:`frames`; ``call_timeout_s`` is
@@ -556,58 +558,7 @@ class Bridge(ServiceOps, ActionOps, Graph):
             self._cancel_orphaned_goal(goal)
         return self.drain()
 
-    # -- fragments, status, set_level ---------------------------------------------------
-
-    def _op_fragment(self, c: int, obj: Mapping[str, Any]) -> None:
-        conn = self._conns[c]
-        fid = obj.get("id")
-        if fid is None:
-            raise FrameError("fragment: Expected a id field but none was found.")
-        data = field_of(obj, "fragment", "data", str)
-        num = field_of(obj, "fragment", "num", int)
-        total = field_of(obj, "fragment", "total", int)
-        if total < 1 or not 0 <= num < total:
-            self._forget_fragments(conn, fid)
-            raise FrameError(
-                f"fragment: num {num} is outside 0..total-1 (total {total}) for id {fid}"
-            )
-        entry = conn.fragments.get(fid)
-        if entry is None:
-            if len(conn.fragments) >= self.max_fragmented_messages:
-                raise FrameError(
-                    f"fragment: more than {self.max_fragmented_messages} "
-                    "incomplete fragmented messages"
-                )
-            entry = conn.fragments[fid] = (total, {})
-        if entry[0] != total:
-            self._forget_fragments(conn, fid)
-            raise FrameError(
-                f"fragment: total {total} differs from {entry[0]} for id {fid}; message dropped"
-            )
-        if conn.fragment_bytes + len(data) > self.max_fragment_bytes:
-            self._forget_fragments(conn, fid)
-            raise FrameError(
-                f"fragment: fragmented messages exceed {self.max_fragment_bytes} bytes; "
-                f"id {fid} dropped"
-            )
-        old = entry[1].get(num)
-        conn.fragment_bytes += len(data) - (len(old) if old is not None else 0)
-        entry[1][num] = data
-        if len(entry[1]) < total:
-            return
-        self._forget_fragments(conn, fid)
-        text = "".join(entry[1][i] for i in range(total))
-        objects, error = self._split(text)
-        for inner in objects:
-            self._process(c, inner)
-        if error is not None:
-            raise FrameError(f"fragment: reassembled message {fid} is not valid: {error}")
-
-    @staticmethod
-    def _forget_fragments(conn: Connection, fid: Any) -> None:
-        entry = conn.fragments.pop(fid, None)
-        if entry is not None:
-            conn.fragment_bytes -= sum(len(d) for d in entry[1].values())
+    # -- status, set_level --------------------------------------------------------------
 
     def _op_status(self, c: int, obj: Mapping[str, Any]) -> None:
         field_of(obj, "status", "level", str, "info")
@@ -637,7 +588,7 @@ class Bridge(ServiceOps, ActionOps, Graph):
         "action_result": ActionOps._op_action_result,
         "advertise_action": ActionOps._op_advertise_action,
         "unadvertise_action": ActionOps._op_unadvertise_action,
-        "fragment": _op_fragment,
+        "fragment": FragmentOps._op_fragment,
         "status": _op_status,
         "set_level": _op_set_level,
     }
