@@ -440,11 +440,11 @@ class Session:
         offer = self._call(lambda: offer_of(bridge))
         self._ros2 = Ros2Gateway.start(self.url, offer, self.ros_domain_id)
 
-    def _settle(self, *, failed: bool = False) -> None:
+    def _settle(self) -> None:
         """Take what the core reports after a call into it (drained, as a sans-I/O protocol's
         output is): a reset or pause (re-anchor the pacing, wake the clock), clients opened
-        and closed, steps taken (or the run failed: the ``run_until`` watchers look), and
-        the frames it produced (sent)."""
+        and closed, steps taken (the ``run_until`` watchers look), and the frames it
+        produced (recorded and sent)."""
         core = self.core
         core.record_frames()
         if core.clock_changed():
@@ -458,7 +458,7 @@ class Session:
                 with self._clients:
                     self._clients_seen, self._clients_open = seen, now_open
                     self._clients.notify_all()
-        if self._watchers and (failed or self.sim.step_index != self._watched_step):
+        if self._watchers and self.sim.step_index != self._watched_step:
             self._watched_step = self.sim.step_index
             for watcher in tuple(self._watchers):
                 watcher()
@@ -540,7 +540,10 @@ class Session:
                 raise
             except Exception as exc:
                 core.fail(exc)
-                self._settle(failed=True)  # a run_until waiting for a step that will not come
+                with contextlib.suppress(Exception):  # a recorder error is the failure already
+                    self._settle()
+                for watcher in tuple(self._watchers):
+                    watcher()  # a run_until waiting for a step that will not come
 
     async def _pace(self) -> None:
         now = time.monotonic()
