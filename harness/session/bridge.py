@@ -12,7 +12,7 @@ from typing import Any, ClassVar, Protocol
 
 from harness.events import JointSample, LogMessage, SinkReport
 from harness.events.events import Event
-from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
+from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Message, Output, TapRecord
 from harness.session.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_DISCONNECT,
@@ -140,10 +140,17 @@ class SessionBridge(Bridge):
 
 
 class BridgePort:
-    """The in-process graph of a :class:`SessionBridge` (the embedded server's side)."""
+    """The in-process graph of a :class:`SessionBridge` (the embedded server's side).
 
-    def __init__(self, bridge: SessionBridge) -> None:
+    A subscriber callback that raises (a bug: refused commands are reported, not raised)
+    does not escape into the transport: ``fail(exc)`` stops the run (the core's
+    :meth:`~harness.session.core.SessionCore.fail`), live and in a replay alike."""
+
+    def __init__(
+        self, bridge: SessionBridge, fail: Callable[[BaseException], None] | None = None
+    ) -> None:
         self.bridge = bridge
+        self._fail = fail
 
     def has_subscribers(self, topic: str) -> bool:
         return bool(self.bridge.subscribers_of(topic))
@@ -159,7 +166,17 @@ class BridgePort:
     def subscribe(
         self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
     ) -> None:
-        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type, node=node)
+        fail = self._fail
+
+        def deliver(message: Message) -> None:
+            try:
+                callback(message.msg, message.connection)
+            except Exception as exc:
+                if fail is None:
+                    raise
+                fail(exc)
+
+        self.bridge.subscribe(topic, deliver, type, node=node)
 
     def serve(
         self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE

@@ -450,7 +450,7 @@ class SessionCore:
             self.bridge = SessionBridge(
                 lambda: self.sim.sim_time_ns, keep_frames=keep_frames, peer_status=self._peer_status
             )
-            graph = BridgePort(self.bridge)
+            graph = BridgePort(self.bridge, self.fail)
         self.graph: Graph = graph
         self.robots = robot_channels(
             self.sim, robot, self.namespace, options.command_topic, self, _check_name
