@@ -13,6 +13,11 @@ the order they are produced, bit for bit: every ``/harness/bridge`` frame (step,
 direction, connection, seq, op, topic, exact text or bytes), every applied input and every
 physics state. The first difference ends the replay and is reported.
 
+A run that failed (any exception while stepping, e.g. a logger that raised; the session's
+FATAL ``/rosout`` event records where) fails the re-run the same way: it stops at that step
+and :attr:`PipelineReport.failure` says why. A re-run that fails where the run did not, runs
+on where it failed, or fails with another message diverges (kind ``failure``).
+
 Replayable clock modes: all three. ``lockstep`` steps only on recorded requests; ``fast`` and
 ``realtime`` steps by themselves, but the step at which each frame took effect is recorded,
 which is all the core needs (wall-clock pacing never reaches the core). Inputs that are not
