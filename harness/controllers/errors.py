@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from harness.errors import ConfigError, HarnessError
 
-__all__ = ["ControllerError", "ControllersConfigError"]
+__all__ = ["CommandRefused", "ControllerError", "ControllersConfigError"]
 
 
 class ControllerError(HarnessError):
@@ -13,3 +13,7 @@ class ControllerError(HarnessError):
 
 class ControllersConfigError(ControllerError, ConfigError):
     """An invalid controllers YAML (or a controller that does not fit the robot)."""
+
+
+class CommandRefused(ControllerError):
+    """A command message was refused; the message is the status text sent to its client."""

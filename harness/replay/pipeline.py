@@ -13,6 +13,11 @@ the order they are produced, bit for bit: every ``/harness/bridge`` frame (step,
 direction, connection, seq, op, topic, exact text or bytes), every applied input and every
 physics state. The first difference ends the replay and is reported.
 
+A run that failed (any exception while stepping, e.g. a logger that raised; the session's
+FATAL ``/rosout`` event records where) fails the re-run the same way: it stops at that step
+and :attr:`PipelineReport.failure` says why. A re-run that fails where the run did not, runs
+on where it failed, or fails with another message diverges (kind ``failure``).
+
 Replayable clock modes: all three. ``lockstep`` steps only on recorded requests; ``fast`` and
 ``realtime`` steps by themselves, but the step at which each frame took effect is recorded,
 which is all the core needs (wall-clock pacing never reaches the core). Inputs that are not
@@ -40,28 +45,36 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import HarnessError
-from harness.events import EventHub, Logger
+from harness.events import EventHub, Level, Logger
 from harness.models import LoadedRobot, LoadedWorld
 from harness.recording import AppliedInput, BridgeFrame, Epoch, PhysicsState, Recording
 from harness.recording.layout import TOPIC_EPOCH
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.sensor_check import SensorCheck
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
-from harness.session.core import CoreOptions, SessionCore, is_marker
+from harness.session.core import (
+    FAILURE_PREFIX,
+    LOG_NAME,
+    CoreOptions,
+    SessionCore,
+    is_marker,
+)
 from harness.sim.bits import differing, same_bits
 from harness.sim.inputs import ARRAY_FIELDS
 
 __all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
 
-MismatchKind = Literal["frame", "input", "state", "schedule", "sensor"]
+MismatchKind = Literal["frame", "input", "state", "schedule", "sensor", "failure"]
 _EXCERPT = 160
 
 
 @dataclass(frozen=True)
 class PipelineMismatch:
     """The first thing the re-run pipeline did not reproduce. ``kind``: an outgoing or
-    incoming ``frame``, an applied ``input``, a physics ``state``, or the ``schedule`` (a
-    frame recorded at a step the re-run had already passed). ``what`` says which field
+    incoming ``frame``, an applied ``input``, a physics ``state``, the ``schedule`` (a
+    frame recorded at a step the re-run had already passed), a ``sensor`` message or the
+    run's ``failure`` (the recorded run stopped with an error the re-run did not raise at
+    the same step, or the other way round). ``what`` says which field
     differs; ``expected``/``actual`` are excerpts around the first difference ("" when
     there is no such record)."""
 
@@ -110,6 +123,8 @@ class PipelineReport:
     mismatch: PipelineMismatch | None
     wall_seconds: float = dataclasses.field(compare=False)
     notes: tuple[str, ...] = ()
+    failure: str = ""
+    """Why the re-run stopped (``"step N: text"``), as the live run did; "" when it ran on."""
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict."""
@@ -118,6 +133,8 @@ class PipelineReport:
     def format(self) -> str:
         """A human-readable summary."""
         lines = [f"note: {n}" for n in self.notes]
+        if self.failure:
+            lines.append(f"the run failed at {self.failure}")
         counts = (
             f"{self.frames_compared} bridge frames ({self.markers} markers), "
             f"{self.inputs_compared} applied inputs, {self.states_compared} states"
@@ -378,6 +395,46 @@ class _Checker:
             )  # fmt: skip
 
 
+def _recorded_failure(rec: Recording, stop: int | None) -> tuple[int, str] | None:
+    """The step and text of the recorded run's failure (the session's FATAL ``/rosout``
+    event, :meth:`SessionCore.fail`), None when it ran on."""
+    for message in rec.messages("/rosout", stop_step=stop, decode=True):
+        log = message.msg
+        text = str(log.msg)
+        fatal = int(log.level) >= int(Level.FATAL) and log.name == LOG_NAME
+        if fatal and text.startswith(FAILURE_PREFIX):
+            return message.sim_time_ns // rec.timestep_ns, text.removeprefix(FAILURE_PREFIX)
+    return None
+
+
+def _failure_mismatch(
+    recorded: tuple[int, str] | None, core: SessionCore, dt_ns: int
+) -> PipelineMismatch | None:
+    """The re-run's failure against the recorded one (None when they agree)."""
+    actual = None
+    if core.failure is not None and core.failure_step is not None:
+        actual = (core.failure_step, str(core.failure))
+    if actual == recorded:
+        return None
+    ref = recorded if recorded is not None else actual
+    assert ref is not None
+    what = (
+        "the re-run did not fail (a failing Python logger? pass the same loggers)"
+        if actual is None
+        else "the recorded run did not fail here"
+        if recorded is None
+        else "the re-run failed differently"
+    )
+
+    def text(failure: tuple[int, str] | None) -> str:
+        return "ran on" if failure is None else f"step {failure[0]}: {failure[1]}"
+
+    return PipelineMismatch(
+        "failure", ref[0], ref[0] * dt_ns, None, "", "", "/rosout", what,
+        text(recorded), text(actual), 0,
+    )  # fmt: skip
+
+
 def _session_robot(rec: Recording) -> LoadedRobot | LoadedWorld:
     robot = rebuild_run(rec)
     expected = rec.metadata.get("model_sha256", "")
@@ -432,6 +489,7 @@ def replay_pipeline(
         inputs = list(rec.applied_inputs(None, stop))
         states = read_states(rec, None, stop)
         epochs = rec.epochs(None, stop)
+        recorded_failure = _recorded_failure(rec, stop)
         dt_ns = rec.timestep_ns
         notes = [
             "damaged recording, re-ran up to the first damage: "
@@ -451,7 +509,6 @@ def replay_pipeline(
     bridge = core.bridge
     assert bridge is not None
     sim = core.sim
-    core.after_step.append(lambda: checker.after_step(sim.step_index))
     final = max(
         [int(states.steps[-1])]
         + [f.step if f.direction == 1 else f.step - 1 for f in frames]
@@ -460,14 +517,23 @@ def replay_pipeline(
 
     def advance_to(target: int) -> None:
         while sim.step_index < target and checker.mismatch is None and core.failure is None:
-            with contextlib.suppress(Exception):  # the core keeps it as its failure, as live
+            # advance() keeps any failure as core.failure (as live): compared below
+            with contextlib.suppress(Exception):
                 core.advance()
+            core.record_frames()
             bridge.drain()
+            checker.after_step(sim.step_index)
+            if recorded_failure is not None and sim.step_index >= recorded_failure[0]:
+                failed = _failure_mismatch(recorded_failure, core, dt_ns)
+                first = checker.mismatch
+                if failed is not None and (first is None or first.step >= failed.step):
+                    checker.mismatch = failed  # the cause of what differs at this step
             if progress is not None:
                 progress(sim.step_index, final)
 
     core.start()
     core.publish_initial()
+    core.record_frames()
     bridge.drain()
     for frame in frames:
         if checker.mismatch is not None:
@@ -491,11 +557,17 @@ def replay_pipeline(
             )  # fmt: skip
             break
         core.replay_frame(frame.connection, frame.op, frame.topic, frame.payload)
+        core.record_frames()
         bridge.drain()
+        checker.after_step(sim.step_index)  # a /harness/step call steps inside the frame
     advance_to(final)
     if checker.mismatch is None:
         core.finish()
         bridge.drain()
+    if checker.mismatch is None:
+        failed = _failure_mismatch(recorded_failure, core, dt_ns)
+        if failed is not None:
+            checker._fail(failed)
     if checker.mismatch is None and checker.frame_at < len(frames):
         checker._frame_mismatch(
             checker.frame_at, frames[checker.frame_at], None, "the re-run did not produce it"
@@ -539,4 +611,7 @@ def replay_pipeline(
         mismatch=checker.mismatch,
         wall_seconds=time.perf_counter() - started,
         notes=tuple(notes),
+        failure=""
+        if core.failure is None
+        else f"step {core.failure_step}: {type(core.failure).__name__}: {core.failure}",
     )

@@ -3,7 +3,9 @@ ROS 2 message validation and a client for external rosbridge servers. Knows noth
 
 - :class:`Bridge` (``protocol.py``): the shared graph and per-connection state;
   ``receive(connection, frame, now_ns) -> list[Output]``; in-process publishers,
-  subscribers, service and action servers; the frame tap.
+  subscribers, service and action servers; the frames it saw (``frames()``).
+- its rooms: ``services.py``, ``actions.py``, ``fragments.py`` (ops of those concerns,
+  mixed into :class:`Bridge`), ``frames.py`` (frame fields, connection state);
 - ``graph.py``: the graph's records (topics, services, actions) and its queries;
   ``rosapi.py``: the ``/rosapi`` services over them (neither imports ``protocol.py``).
 - :class:`BridgeServer` (``server.py``): WebSocket I/O, immediate or queued ingestion.
@@ -19,7 +21,6 @@ from harness.rosbridge.protocol import (
     DIRECTION_OUT,
     ActionGoal,
     Bridge,
-    FrameTap,
     Message,
     Output,
     ServiceCall,
@@ -38,7 +39,6 @@ __all__ = [
     "BridgeServer",
     "ConnectionMetrics",
     "ExposedServerWarning",
-    "FrameTap",
     "Message",
     "Output",
     "ServiceCall",

@@ -4,6 +4,9 @@ the framework we succeed: the simulation connects out to a robot's rosbridge).
 :class:`BridgeClient` keeps one WebSocket open, reconnects after a drop (``reconnect_delay``)
 and re-sends its advertise, subscribe and advertise_service frames on every reconnect, as
 roslibpy and roslibjs do. It speaks the same ops as the server; messages are plain dicts.
+A call of the API whose frame cannot be sent raises; an answer to a call of a service it
+provides that cannot be sent (the link dropped meanwhile) is counted in
+:attr:`BridgeClient.send_failures` and logged (``harness.rosbridge.client``).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ import asyncio
 import contextlib
 import itertools
 import json
+import logging
 from collections.abc import Awaitable, Callable, Mapping
 from typing import Any
 
@@ -21,6 +25,8 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 from harness.rosbridge.errors import ClientError
 
 __all__ = ["BridgeClient", "ServiceHandler"]
+
+_log = logging.getLogger(__name__)
 
 ServiceHandler = Callable[[dict[str, Any]], Mapping[str, Any] | Awaitable[Mapping[str, Any]]]
 
@@ -40,6 +46,8 @@ class BridgeClient:
         self.max_size = max_size
         self.connected = asyncio.Event()
         self.reconnects = 0
+        self.send_failures = 0
+        """Service answers that could not be sent (the link dropped while serving)."""
         self.statuses: list[dict[str, Any]] = []
         self._ws: ClientConnection | None = None
         self._ids = itertools.count(1)
@@ -142,9 +150,16 @@ class BridgeClient:
             reply = {"values": dict(values), "result": True}  # type: ignore[arg-type]
         except Exception as exc:
             reply = {"values": f"{type(exc).__name__}: {exc}", "result": False}
-        await self._send(
-            {"op": "service_response", "service": frame["service"], "id": frame["id"], **reply}
-        )
+        try:
+            await self._send(
+                {"op": "service_response", "service": frame["service"], "id": frame["id"], **reply}
+            )
+        except (ConnectionClosed, OSError) as exc:
+            self.send_failures += 1
+            _log.warning(
+                "%s: could not answer %s (%s): %s",
+                self.url, frame["service"], frame["id"], f"{type(exc).__name__}: {exc}",
+            )  # fmt: skip
 
     # -- API ----------------------------------------------------------------------------
 

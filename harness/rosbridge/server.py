@@ -10,7 +10,8 @@ oldest first, counted in :attr:`BridgeServer.metrics` and reported to the client
 While a connection's queue is empty and its socket keeps up (write buffer below the
 high-water mark), frames skip the queue: those produced in one loop iteration are framed
 and written together at its end, one write per connection instead of one per frame.
-Everything runs on one event loop; call the bridge's in-process API from that loop.
+Everything runs on one event loop; call the bridge's in-process API from that loop, then
+:meth:`BridgeServer.flush` to send what it produced.
 """
 
 from __future__ import annotations
@@ -181,21 +182,20 @@ class BridgeServer:
         self._room.set()
         self._peers: dict[int, _Peer] = {}
         self._server: Server | None = None
-        self._flush_scheduled = False
         self._deadlines = Deadlines()
         self._deadline_timer: asyncio.TimerHandle | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._closers: set[asyncio.Future[None]] = set()
         self._batched: list[_Peer] = []
+        self._stopped = False
 
     # -- lifecycle ----------------------------------------------------------------------
 
     async def start(self) -> str:
         """Bind and start serving; returns :attr:`url`."""
         self._loop = asyncio.get_running_loop()
-        self.bridge.on_pending = self._schedule_flush
-        self.bridge.on_call_started = self._start_timer
-        self.bridge.on_call_ended = self._deadlines.cancel
+        self.bridge.deadlines()  # from now on the bridge keeps the deadlines it starts
+        self._stopped = False
         if not is_loopback(self.host):
             warnings.warn(
                 f"rosbridge server on {self.host!r}: reachable from other machines "
@@ -250,7 +250,7 @@ class BridgeServer:
             self._deadline_timer.cancel()
             self._deadline_timer = None
         self._deadlines = Deadlines()
-        self.bridge.on_call_ended = None
+        self._stopped = True  # deadlines the bridge still reports are not enforced
         if self._server is not None:
             self._server.close()
             await self._server.wait_closed()
@@ -276,6 +276,8 @@ class BridgeServer:
         peer = _Peer(cid, ws)
         self._peers[cid] = peer
         self.metrics[cid] = peer.metrics
+        if self.queued:
+            self.pending_event.set()  # the owner sees the connection at its next boundary
         peer.writer = asyncio.create_task(self._write(peer))
         try:
             async for message in ws:
@@ -288,6 +290,7 @@ class BridgeServer:
                         await self._room.wait()
                 else:
                     self._dispatch(self.bridge.receive(cid, message, self.clock()))
+                    self._take_deadlines()
         except ConnectionClosed:
             pass
         finally:
@@ -304,6 +307,7 @@ class BridgeServer:
     def _close(self, cid: int) -> None:
         self._peers.pop(cid, None)
         self._dispatch(self.bridge.disconnect(cid))
+        self._take_deadlines()
 
     def process_pending(self, now_ns: int) -> int:
         """Queued mode: process every waiting frame (and disconnects, call timeouts) in
@@ -319,12 +323,23 @@ class BridgeServer:
             elif cid in self._peers:
                 count += 1
                 self._dispatch(self.bridge.receive(cid, item, now_ns))
+        self._take_deadlines()
         self._room.set()
         return count
 
     def pending(self) -> list[tuple[int, str | bytes]]:
         """Queued mode: the frames waiting for :meth:`process_pending`, in arrival order."""
         return [(cid, item) for cid, item in self._pending if isinstance(item, (str, bytes))]
+
+    def _take_deadlines(self) -> None:
+        """Start and cancel the timers of the deadlines the bridge reports (drained)."""
+        for key, timeout_s in self.bridge.deadlines():
+            if self._stopped or self._loop is None:
+                continue
+            if timeout_s is None:
+                self._deadlines.cancel(key)
+            else:
+                self._start_timer(key, timeout_s)
 
     def _start_timer(self, key: int, timeout_s: float) -> None:
         # One loop timer, for the earliest deadline (see harness.rosbridge.deadlines).
@@ -350,19 +365,17 @@ class BridgeServer:
                 self.pending_event.set()
             else:
                 self._dispatch(self.bridge.time_out_call(key))
+                self._take_deadlines()
 
     # -- output -------------------------------------------------------------------------
 
-    def _schedule_flush(self) -> None:
-        if not self._flush_scheduled and self._loop is not None:
-            self._flush_scheduled = True
-            self._loop.call_soon(self.flush)
-
     def flush(self) -> None:
-        """Send whatever the bridge produced outside :meth:`process_pending` (in-process
-        publishes, deferred answers); called automatically on the server's loop."""
-        self._flush_scheduled = False
+        """Send whatever the bridge produced outside the server's own calls (in-process
+        publishes, deferred answers): whoever calls the bridge's in-process API on the
+        server's loop calls this after it (the bridge is sans-I/O: nothing wakes the
+        server)."""
         self._dispatch(self.bridge.drain())
+        self._take_deadlines()
 
     def _dispatch(self, outputs: list[Output]) -> None:
         for out in outputs:
@@ -453,7 +466,7 @@ class BridgeServer:
             if not peer.queue:
                 if peer.unreported:
                     for key, n in sorted(peer.unreported.items()):
-                        self.bridge.status(
+                        self.bridge.transport_status(
                             peer.cid,
                             "warning",
                             f"dropped {n} messages on {key}: the client reads slower than "

@@ -287,18 +287,6 @@ class TypeRegistry:
         except KeyError:
             raise UnknownTypeError(f"Unknown action type {name}") from None
 
-    def message_names(self) -> list[str]:
-        """Every message name (services' and actions' parts included), sorted."""
-        return sorted(self.store.fielddefs)
-
-    def service_names(self) -> list[str]:
-        """Every service name, sorted."""
-        return sorted(self._services)
-
-    def action_names(self) -> list[str]:
-        """Every action name, sorted."""
-        return sorted(self._actions)
-
     def dependencies(self, name: str) -> list[str]:
         """``name`` and every message type it contains, depth first, each once."""
         seen: list[str] = []

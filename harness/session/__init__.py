@@ -1,8 +1,10 @@
 """The session: one run of a simulated robot on the rosbridge bridge (:class:`Session`, a thin
-shell around the sans-I/O :class:`SessionCore`), its command topics
-(:mod:`harness.session.commands`) and ``harness serve``."""
+shell around the sans-I/O :class:`SessionCore`) and ``harness serve``. Its rooms: the robots'
+topics (``channels.py``), the bridge and graph (``bridge.py``), markers (``markers.py``),
+controllers (``control.py``); the command topics it serves live in
+:mod:`harness.controllers.command_topics`."""
 
-from harness.session.commands import FORWARD_TOPICS, Trajectory
+from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory
 from harness.session.core import (
     DEFAULT_MAX_STEP_REQUEST,
     MARKERS,

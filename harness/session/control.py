@@ -340,10 +340,7 @@ class ControlHost:
                 lambda msg=pub.msg: msg,  # type: ignore[misc]
                 record=False,
             )
-        if out.feedback or out.results:
-            bridge = core.bridge
-            if bridge is not None:
-                bridge.set_now(core.sim.sim_time_ns)
+        if out.feedback or out.results:  # stamped at sim time by the session bridge
             for fb in out.feedback:
                 goal = robot.goals.get(fb.goal)
                 if goal is not None:
@@ -401,7 +398,7 @@ class ControlHost:
                 self.core.graph.status(connection, "error", text)
             self.core.log(Level.ERROR, text)
             return
-        robot.channels.drop_from_trajectory([c.joint for c in commands])
+        robot.channels.commands.drop_from_trajectory([c.joint for c in commands])
         for notice in notices:
             key = (where, notice.joint, notice.kind)
             if not connection and key in robot.warned:

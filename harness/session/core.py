@@ -1,91 +1,78 @@
 """The session's per-step logic without sockets, threads or wall clocks (sans-I/O, h11-style).
 
 :class:`SessionCore` is everything a session does between two step boundaries: the rosbridge
-protocol core (:class:`SessionBridge`), the command topics, the publishing schedule, the
-``/harness/*`` services, loggers and what goes to the recorder. Input arrives as rosbridge
-frames at a step boundary (``bridge.receive``, called by the live server's queue or by replay);
-output is outgoing frames (the bridge's outbox and tap), applied inputs, physics states and
-published messages (a :class:`RecordSink`). The live :class:`~harness.session.Session` is a
-thin asyncio/thread shell around one core; ``harness replay --level full``
-(:mod:`harness.replay.pipeline`) drives a fresh core with the recorded frames, so both run
-the same code.
+protocol core (:class:`~harness.session.bridge.SessionBridge`), the command topics
+(:mod:`harness.controllers.command_topics`), the publishing schedule, the ``/harness/*``
+services, loggers and what goes to the recorder. Input arrives as rosbridge frames at a step
+boundary (``bridge.receive``, called by the live server's queue or by replay); output is
+outgoing frames (the bridge's outbox), applied inputs, physics states and published messages
+(a :class:`RecordSink`). The live :class:`~harness.session.Session` is a thin asyncio/thread
+shell around one core; ``harness replay --level full`` (:mod:`harness.replay.pipeline`)
+drives a fresh core with the recorded frames, so both run the same code.
 
-Markers
--------
-A few inputs are not frames a client sent, yet change what the core does. They are recorded
-as ``/harness/bridge`` frames with ``direction`` 0 (in), ``connection`` 0 (real connections
-count from 1), ``op`` ``""``, ``topic`` one of :data:`MARKERS` and a JSON ``text``; ``seq``
-is the sequence number the next real frame gets (markers do not consume one), ``step`` and
-``sim_time_ns`` as for incoming frames (the step before which it took effect):
-
-- ``harness/disconnect`` ``{"connection": c}``: a client's socket closed;
-- ``harness/call_timeout`` ``{"call": key}``: a service call routed to a client timed out on
-  the wall clock (the transport's timer);
-- ``harness/transport_status`` ``{"connection": c, "level": l, "msg": m}``: a ``status``
-  frame the transport sent by itself (subscription frames dropped for a slow reader);
-- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause", ...}``:
-  a call of the session's Python API that changes the run (stepping from Python needs no
-  marker: replay steps to the recorded steps); a free-running clock started by its first
-  client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
-- ``harness/close`` ``{"step": k}``: the session closed after step ``k``, once every frame
-  it received was processed; only ``harness/disconnect`` markers of connections still open
-  follow it. It changes nothing (replay re-records it).
-
-A connection opening needs no marker: a connection has no effect until its first frame, and
-ids are given in order, so replay opens connection ``c`` when its first frame (or marker)
-appears. Python loggers are not replayable from a file: what they publish on ``/rosout``
-needs the same loggers (``loggers=`` of :func:`harness.replay.pipeline.replay_pipeline`).
+Rooms: the robots' topics and joints (:mod:`harness.session.channels`), the bridge, graph
+and ``/rosout`` sink (:mod:`harness.session.bridge`), markers, the recorded inputs that are
+not client frames (:mod:`harness.session.markers`), the controllers
+(:mod:`harness.session.control`). Python loggers are not replayable from a file: what they
+publish on ``/rosout`` needs the same loggers (``loggers=`` of
+:func:`harness.replay.pipeline.replay_pipeline`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import json
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
-from types import MappingProxyType
-from typing import Any, ClassVar, Literal, Protocol
+from typing import Any, Literal, Protocol
 
-import mujoco
-import numpy as np
-import numpy.typing as npt
-
-from harness.events import (
-    EventHub,
-    JointSample,
-    Level,
-    LogMessage,
-    SinkReport,
-    StepContext,
-)
-from harness.events.events import Event
-from harness.models import LoadedRobot, LoadedWorld, RobotModel
+from harness.controllers.command_topics import FORWARD_TOPICS
+from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
+from harness.models import LoadedRobot, LoadedWorld
 from harness.names import NameKind, check_name
 from harness.recording.records import BridgeFrame, Epoch, PhysicsState
-from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Output, TapRecord
+from harness.rosbridge import DIRECTION_IN, TapRecord
 from harness.sensors import TOPIC_TF_STATIC
 from harness.sensors.hook import record_metadata, session_sensors
-from harness.session.commands import (
-    FORWARD_TOPICS,
-    Trajectory,
-    apply_forward,
-    apply_joint_state,
-    parse_trajectory,
+from harness.session.bridge import (
+    BridgePort,
+    Graph,
+    MessageCallback,
+    RosoutSink,
+    ServiceHandler,
+    SessionBridge,
+)
+from harness.session.channels import (
+    CLOCK,
+    ROSOUT,
+    RobotChannels,
+    SessionTopics,
+    joint_state_of,
+    robot_channels,
+    robot_frames,
 )
 from harness.session.control import (
     ControlHost,
 )
 from harness.session.errors import (
-    CommandRefused,
     SessionClosedError,
     SessionConfigError,
     SessionError,
 )
-from harness.session.listed import ListedJoints
+from harness.session.markers import (
+    MARKER_CALL_TIMEOUT,
+    MARKER_CLOSE,
+    MARKER_DISCONNECT,
+    MARKER_PYTHON,
+    MARKER_TRANSPORT_STATUS,
+    MARKERS,
+    is_marker,
+    open_connection,
+    replay_marker,
+)
 from harness.session.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
 from harness.session.stepping import PublishCounter, parse_step_request, run_step
-from harness.session.tf import RobotFrames, TfTree
+from harness.session.tf import TfTree
 from harness.session.topics import (
     HARNESS_NODE,
     TYPE_CLOCK,
@@ -97,21 +84,20 @@ from harness.session.topics import (
     TYPE_TRAJECTORY,
     TopicDef,
     clock_msg,
-    joint_state_msg,
-    log_msg,
     node_name,
     period_steps,
     robot_topic_defs,
     stamp,
 )
-from harness.session.urdf_text import description_text
-from harness.sim import CommandField, Notice, RobotJoints, Simulation
+from harness.sim import Notice, Simulation
 from harness.sim.inputs import AppliedInput
 from harness.vocabulary import CLOCK_MODES, ClockMode
 
 __all__ = [
     "CLOCK_MODES",
     "DEFAULT_MAX_STEP_REQUEST",
+    "FAILURE_PREFIX",
+    "LOG_NAME",
     "MARKERS",
     "MARKER_CALL_TIMEOUT",
     "MARKER_CLOSE",
@@ -122,8 +108,10 @@ __all__ = [
     "ClockMode",
     "CoreOptions",
     "Graph",
+    "MessageCallback",
     "RecordSink",
     "RobotChannels",
+    "ServiceHandler",
     "SessionBridge",
     "SessionCore",
     "SessionTopics",
@@ -131,39 +119,18 @@ __all__ = [
     "is_marker",
 ]
 
-F64 = npt.NDArray[np.float64]
-
 StartMode = Literal["now", "paused", "on_client"]
 START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
-
-MARKER_DISCONNECT = "harness/disconnect"
-MARKER_CALL_TIMEOUT = "harness/call_timeout"
-MARKER_TRANSPORT_STATUS = "harness/transport_status"
-MARKER_PYTHON = "harness/python"
-MARKER_CLOSE = "harness/close"
-MARKERS = (
-    MARKER_DISCONNECT,
-    MARKER_CALL_TIMEOUT,
-    MARKER_TRANSPORT_STATUS,
-    MARKER_PYTHON,
-    MARKER_CLOSE,
-)
-"""The ``topic`` of every marker frame (see the module docstring)."""
 
 SERVICE_STEP = "/harness/step"
 SERVICE_RESET = "/harness/reset"
 SERVICE_PAUSE = "/harness/pause"
 SERVICE_GET_STATE = "/harness/get_state"
-_ROSOUT = "/rosout"
-_CLOCK = "/clock"
-_TF = "/tf"
-_TF_STATIC = "/tf_static"
 _LOG_NAME = "harness.session"
-
-
-def is_marker(direction: int, connection: int, op: str, topic: str) -> bool:
-    """Whether a recorded ``/harness/bridge`` frame is a marker, not a frame a client sent."""
-    return direction == DIRECTION_IN and connection == 0 and op == "" and topic in MARKERS
+LOG_NAME = _LOG_NAME
+"""The ``name`` of the session's own log events (``/rosout``)."""
+FAILURE_PREFIX = "the run failed: "
+"""How the FATAL log event of a failed run (:meth:`SessionCore.fail`) begins."""
 
 
 class RecordSink(Protocol):
@@ -180,275 +147,8 @@ class RecordSink(Protocol):
     def write_epoch(self, epoch: Epoch) -> None: ...
 
 
-MessageCallback = Callable[[Mapping[str, Any], int], None]
-ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
-
-
-class Graph(Protocol):
-    """The core's view of the ROS graph it publishes on (an in-process bridge or a client of
-    an external server): synchronous, called only between steps."""
-
-    def has_subscribers(self, topic: str) -> bool: ...
-
-    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
-        """Put ``topic`` on the graph with its type before anything is published, as a
-        publisher belonging to ``node`` (``latch``: transient local)."""
-        ...
-
-    def publish(
-        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
-    ) -> None: ...
-
-    def subscribe(
-        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
-    ) -> None:
-        """Call ``callback`` with each message on ``topic``, as a subscriber of ``node``."""
-        ...
-
-    def serve(
-        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
-    ) -> None:
-        """Answer ``service`` with ``handler``, as a service of ``node``."""
-        ...
-
-    def status(self, connection: int, level: str, text: str) -> None:
-        """Tell one client something (a ``status`` frame), where the transport can."""
-        ...
-
-
 def _check_name(value: str, what: str, kind: NameKind = "topic") -> str:
     return check_name(value, what, kind, SessionConfigError)
-
-
-@dataclass(frozen=True)
-class SessionTopics:
-    """The resolved names of the robot's topics."""
-
-    joint_states: str
-    joint_command: str
-    joint_trajectory: str
-    tf: str
-    robot_description: str
-    forward: Mapping[CommandField, str] = field(default_factory=dict)
-    tf_static: str = _TF_STATIC
-    clock: str = _CLOCK
-    rosout: str = _ROSOUT
-
-
-class SessionBridge(Bridge):
-    """The session's rosbridge protocol core: every frame is processed at the simulation's
-    current time, and inputs that are not client frames (a socket closing, a wall-clock call
-    timeout, a status the transport sends by itself) are reported to ``on_marker`` before they
-    take effect, so that a recording can hold them."""
-
-    def __init__(self, clock: Callable[[], int]) -> None:
-        super().__init__()
-        self._clock = clock
-        self._inside = 0
-        self.on_marker: Callable[[str, dict[str, Any]], None] | None = None
-        self.on_connect: Callable[[int], None] | None = None
-        """Called with the id of every connection opened (the shell counts clients)."""
-        self.on_disconnect: Callable[[int], None] | None = None
-        """Called with the id of every connection closed."""
-        self.on_peer_status: Callable[[int, str, str], None] | None = None
-        """Called with ``(connection, level, msg)`` of every ``status`` frame a connection
-        sends (an external rosbridge server's answers in client mode, the ROS 2 gateway's
-        warnings): the core turns them into events, live and in a replay alike."""
-
-    @contextlib.contextmanager
-    def _core(self) -> Any:
-        self._inside += 1
-        try:
-            yield
-        finally:
-            self._inside -= 1
-
-    def _marker(self, topic: str, args: dict[str, Any]) -> None:
-        if self.on_marker is not None:
-            self.on_marker(topic, args)
-
-    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
-        """Process one frame at the simulation's time (``now_ns`` is ignored: a step request
-        earlier in the same batch may have moved time)."""
-        with self._core():
-            return super().receive(connection, data, self._clock())
-
-    def connect(self, peer: str = "") -> int:
-        cid = super().connect(peer)
-        if self.on_connect is not None:
-            self.on_connect(cid)
-        return cid
-
-    def disconnect(self, connection: int) -> list[Output]:
-        was_open = connection in self.connections
-        if was_open:
-            self._marker(MARKER_DISCONNECT, {"connection": connection})
-        with self._core():
-            outputs = super().disconnect(connection)
-        if was_open and self.on_disconnect is not None:
-            self.on_disconnect(connection)
-        return outputs
-
-    def time_out_call(self, key: int) -> list[Output]:
-        self._marker(MARKER_CALL_TIMEOUT, {"call": key})
-        with self._core():
-            return super().time_out_call(key)
-
-    def status(self, connection: int, level: str, msg: str, id: Any = None) -> None:
-        if not self._inside:
-            self._marker(
-                MARKER_TRANSPORT_STATUS, {"connection": connection, "level": level, "msg": msg}
-            )
-        super().status(connection, level, msg, id)
-
-    def core_status(self, connection: int, level: str, msg: str) -> None:
-        """A status the session itself sends (not a transport's)."""
-        with self._core():
-            super().status(connection, level, msg)
-
-    def _op_peer_status(self, c: int, obj: Mapping[str, Any]) -> None:
-        Bridge._OPS["status"](self, c, obj)  # validates level and msg
-        if self.on_peer_status is not None:
-            self.on_peer_status(c, str(obj.get("level", "info")), str(obj.get("msg", "")))
-
-    _OPS: ClassVar[dict[str, Callable[[Bridge, int, Mapping[str, Any]], None]]] = {
-        **Bridge._OPS,
-        "status": _op_peer_status,  # type: ignore[dict-item]
-    }
-
-
-class BridgePort:
-    """The in-process graph of a :class:`SessionBridge` (the embedded server's side)."""
-
-    def __init__(self, bridge: SessionBridge) -> None:
-        self.bridge = bridge
-
-    def has_subscribers(self, topic: str) -> bool:
-        return bool(self.bridge.subscribers_of(topic))
-
-    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
-        self.bridge.advertise(topic, type, latch=latch, node=node)
-
-    def publish(
-        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
-    ) -> None:
-        self.bridge.publish(topic, type, msg, now_ns, latch=latch)
-
-    def subscribe(
-        self, topic: str, type: str, callback: MessageCallback, *, node: str = HARNESS_NODE
-    ) -> None:
-        self.bridge.subscribe(topic, lambda m: callback(m.msg, m.connection), type, node=node)
-
-    def serve(
-        self, service: str, type: str, handler: ServiceHandler, *, node: str = HARNESS_NODE
-    ) -> None:
-        self.bridge.advertise_service(service, type, lambda call: handler(call.args), node=node)
-
-    def serve_action(
-        self,
-        action: str,
-        type: str,
-        handler: Callable[[ActionGoal], None],
-        *,
-        node: str = HARNESS_NODE,
-    ) -> None:
-        """Serve an action in-process as ``node`` (the controllers' actions)."""
-        self.bridge.advertise_action(action, type, handler, node=node)
-
-    def status(self, connection: int, level: str, text: str) -> None:
-        self.bridge.core_status(connection, level, text)
-
-
-class _BridgeLogSink:
-    """Publishes every event except joint samples on ``/rosout`` over the bridge."""
-
-    name = "bridge-rosout"
-
-    def __init__(self, core: SessionCore) -> None:
-        self._core = core
-        self._delivered = 0
-
-    def emit(self, event: Event) -> None:
-        if isinstance(event, JointSample):
-            return
-        name = event.name if isinstance(event, LogMessage) else f"harness.{event.kind}"
-        self._core.publish(
-            _ROSOUT,
-            TYPE_LOG,
-            lambda: log_msg(event.sim_time_ns, int(event.level), name, event.message()),
-            record=False,
-        )
-        self._delivered += 1
-
-    def close(self) -> SinkReport:
-        return SinkReport(self.name, self._delivered, 0)
-
-
-class RobotChannels:
-    """One robot of a session, as its topics see it: ``namespace`` (ROS), ``prefix`` (of its
-    MuJoCo names), its own ``description`` (unprefixed names), its controllable ``joints``
-    (:class:`~harness.sim.RobotJoints`), resolved ``topics``, ``links`` (MuJoCo body names of
-    its links: the ``/tf`` child frames are ``<namespace>/<link>``) and the latched
-    ``robot_description`` text. Holds the robot's trajectory in progress."""
-
-    def __init__(
-        self,
-        sim: Simulation,
-        namespace: str,
-        prefix: str,
-        description: RobotModel,
-        control: Iterable[str],
-        topics: SessionTopics,
-        description_text: str,
-    ) -> None:
-        self.namespace = namespace
-        self.prefix = prefix
-        self.description = description
-        self.joints = RobotJoints(sim, control, prefix)
-        self.topics = topics
-        self.description_text = description_text
-        model = sim.model
-        self.links = tuple(
-            prefix + link.name
-            for link in description.links
-            if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, prefix + link.name) >= 0
-        )
-        frame_prefix = f"{namespace}/" if namespace else ""
-        self.frames = tuple(frame_prefix + link.removeprefix(prefix) for link in self.links)
-        kinematic = set(sim.kinematic_joints)
-        names: list[str] = []
-        qadr: list[int] = []
-        dadr: list[int] = []
-        kin: list[bool] = []
-        slide_hinge = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-        for joint in description.joints:
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, prefix + joint.name)
-            if jid < 0 or int(model.jnt_type[jid]) not in slide_hinge:
-                continue
-            names.append(joint.name)
-            qadr.append(int(model.jnt_qposadr[jid]))
-            dadr.append(int(model.jnt_dofadr[jid]))
-            kin.append(prefix + joint.name in kinematic)
-        self.js_names = tuple(names)
-        """The joints in its ``joint_states`` (every hinge and slide joint, unprefixed)."""
-        self.js_qadr = np.array(qadr, dtype=np.intp)
-        self.js_dadr = np.array(dadr, dtype=np.intp)
-        self.js_kin = np.array(kin, dtype=bool)
-        self.listed = ListedJoints(description, self.js_names, self.joints.joint_names)
-        """Listed on ``joint_states`` but not controllable: dropped from ``joint_command``."""
-        self.trajectory: Trajectory | None = None
-        self.trajectory_topic = ""
-        self.trajectory_warned: set[str] = set()
-
-    def drop_from_trajectory(self, joints: Iterable[str]) -> None:
-        """Stop the trajectory driving ``joints`` (the robot's own names)."""
-        if self.trajectory is not None:
-            self.trajectory = self.trajectory.without(set(joints))
-
-
-def _frames(channels: RobotChannels) -> RobotFrames:
-    prefix = f"{channels.namespace}/" if channels.namespace else ""
-    return RobotFrames(channels.description, channels.prefix, prefix)
 
 
 class SessionCore:
@@ -461,9 +161,13 @@ class SessionCore:
     mode) instead of the core's own :class:`SessionBridge` (:attr:`bridge`, None in client
     mode).
 
-    Call only from one thread. Driving it: :meth:`start` once, then at each step boundary
-    hand waiting frames to :attr:`bridge` (``receive``, ``disconnect``, ``time_out_call``) and
-    take its outputs (``drain``), and call :meth:`advance` for each step.
+    Call only from one thread. Driving it (sans-I/O: nothing calls back into the shell):
+    :meth:`start` once, then at each step boundary hand waiting frames to :attr:`bridge`
+    (``receive``, ``disconnect``, ``time_out_call``, ``transport_status``), call
+    :meth:`advance` for each step, and after each of these calls take what they produced:
+    the bridge's outputs (``drain``) and deadlines (``deadlines``), the frames to record
+    (:meth:`record_frames`), whether the clock was reset or paused (:meth:`clock_changed`),
+    and :attr:`failure` (an exception in :meth:`advance` is also raised).
     """
 
     def __init__(
@@ -488,17 +192,18 @@ class SessionCore:
         self.robot_name = robot.name
         self.recorder = recorder
         self.hub = hub if hub is not None else EventHub()
-        self.hub.add_sink(_BridgeLogSink(self))
+        self.hub.add_sink(RosoutSink(self))
         self.bridge: SessionBridge | None = None
         if graph is None:
-            self.bridge = SessionBridge(lambda: self.sim.sim_time_ns)
-            graph = BridgePort(self.bridge)
-            if recorder is not None and options.record_bridge_frames:
-                self.bridge.tap = self._tap
-                self.bridge.on_marker = self._marker
-            self.bridge.on_peer_status = self._peer_status
+            keep_frames = recorder is not None and options.record_bridge_frames
+            self.bridge = SessionBridge(
+                lambda: self.sim.sim_time_ns, keep_frames=keep_frames, peer_status=self._peer_status
+            )
+            graph = BridgePort(self.bridge, self.fail)
         self.graph: Graph = graph
-        self.robots = self._robot_channels(robot)
+        self.robots = robot_channels(
+            self.sim, robot, self.namespace, options.command_topic, self, _check_name
+        )
         """Every robot's topics, joints and links, in the world's order."""
         self.topics = self.robots[0].topics
         self.links = tuple(link for r in self.robots for link in r.links)
@@ -524,7 +229,7 @@ class SessionCore:
             key = (channels.topics.tf, channels.topics.tf_static)
             tf_topics.setdefault(key, []).append(channels)
         self._tf_trees = tuple(
-            (tf, tf_static, TfTree(self.sim.model, (_frames(r) for r in rs)))
+            (tf, tf_static, TfTree(self.sim.model, (robot_frames(r) for r in rs)))
             for (tf, tf_static), rs in tf_topics.items()
         )
         self.published = self._published_topics()
@@ -533,38 +238,17 @@ class SessionCore:
         self.publish_counts = PublishCounter()  # what /harness/step's until_topic counts
         self.paused = options.start != "now"
         self.failure: BaseException | None = None
-        """Why the simulation stopped (an unstable step, a recording error), else None."""
-        self.after_step: list[Callable[[], None]] = []
-        """Called after every step (the shell's ``run_until`` watchers)."""
-        self.on_clock_change: Callable[[], None] | None = None
-        """Called when a reset or pause changes how time should move (the shell re-paces)."""
+        """Why the simulation stopped (an unstable step, a logger or recording error...),
+        else None."""
+        self.failure_step: int | None = None
+        """The step at which :attr:`failure` happened (the step being taken when it was)."""
+        self._clock_changed = False  # drained by clock_changed()
         self.control = ControlHost(self, options.controllers)
         """Every robot's ros2_control controllers and controller manager."""
         self.peer_statuses: dict[str, int] = {}
-        """Status frames received from connections, by level (see ``on_peer_status``)."""
+        """Status frames received from connections, by level (see :class:`SessionBridge`)."""
 
     # ----------------------------------------------------------------------------- set-up
-
-    @staticmethod
-    def _resolve(name: str, namespace: str) -> str:
-        _check_name(name, "topic")
-        if name.startswith("/"):
-            return name
-        return f"/{namespace}/{name}" if namespace else f"/{name}"
-
-    def _topics(self, namespace: str, tf: str | None) -> SessionTopics:
-        def resolve(name: str) -> str:
-            return self._resolve(name, namespace)
-
-        return SessionTopics(
-            joint_states=resolve("joint_states"),
-            joint_command=resolve(self.options.command_topic(namespace)),
-            joint_trajectory=resolve("joint_trajectory"),
-            tf=resolve("tf") if tf is None else tf,
-            robot_description=resolve("robot_description"),
-            forward=MappingProxyType({f: resolve(t) for f, t in FORWARD_TOPICS.items()}),
-            tf_static=resolve("tf_static") if tf is None else _TF_STATIC,
-        )
 
     def _published_topics(self) -> tuple[TopicDef, ...]:
         defs: list[TopicDef] = []
@@ -578,54 +262,9 @@ class SessionCore:
                 robot_description=topics.robot_description,
             )
         if self._clock_every:
-            defs.append(TopicDef(_CLOCK, TYPE_CLOCK, HARNESS_NODE))
-        defs.append(TopicDef(_ROSOUT, TYPE_LOG, HARNESS_NODE))
+            defs.append(TopicDef(CLOCK, TYPE_CLOCK, HARNESS_NODE))
+        defs.append(TopicDef(ROSOUT, TYPE_LOG, HARNESS_NODE))
         return tuple(defs)
-
-    def _robot_channels(self, robot: LoadedRobot | LoadedWorld) -> tuple[RobotChannels, ...]:
-        sim = self.sim
-        if isinstance(robot, LoadedRobot):
-            return (
-                RobotChannels(
-                    sim,
-                    self.namespace,
-                    "",
-                    robot.description,
-                    robot.control,
-                    self._topics(self.namespace, None),
-                    description_text(robot.description, robot.sources, robot.mjcf),
-                ),
-            )
-        out = tuple(
-            RobotChannels(
-                sim,
-                view.namespace,
-                view.prefix,
-                view.description,
-                view.control,
-                self._topics(view.namespace, _TF),
-                description_text(view.description, view.sources, robot.mjcf),
-            )
-            for view in robot.robots
-        )
-        owner: dict[str, str] = {}
-        for channels in out:
-            topics = channels.topics
-            for topic in (
-                topics.joint_states,
-                topics.joint_command,
-                topics.joint_trajectory,
-                topics.robot_description,
-                *topics.forward.values(),
-            ):
-                if topic in owner:
-                    raise SessionConfigError(
-                        f"topic {topic} is robot {channels.namespace or '(no namespace)'!r}'s and "
-                        f"robot {owner[topic] or '(no namespace)'!r}'s: give each robot its own "
-                        "(a relative joint_command_topic lives under each namespace)"
-                    )
-                owner[topic] = channels.namespace
-        return out
 
     def robot_channels(self, namespace: str) -> RobotChannels:
         """The robot with ``namespace`` (:class:`SessionError` naming the namespaces if none)."""
@@ -647,11 +286,14 @@ class SessionCore:
             )
         for channels in self.robots:
             topics = channels.topics
+            commands = channels.commands
+            graph.subscribe(topics.joint_command, TYPE_JOINT_STATE, commands.on_joint_command)
             graph.subscribe(
-                topics.joint_command, TYPE_JOINT_STATE, self._joint_command_handler(channels)
-            )
-            graph.subscribe(
-                topics.joint_trajectory, TYPE_TRAJECTORY, self._trajectory_handler(channels)
+                topics.joint_trajectory,
+                TYPE_TRAJECTORY,
+                lambda msg, c, commands=commands: commands.on_trajectory(  # type: ignore[misc]
+                    msg, c, self.sim.sim_time_ns
+                ),
             )
             for command_field, topic in topics.forward.items():
                 if self.control.claims(topic):
@@ -660,7 +302,7 @@ class SessionCore:
                 graph.subscribe(
                     topic,
                     TYPE_FORWARD,
-                    self._forward_handler(channels, command_field, topic),
+                    commands.forward_handler(command_field, topic),
                     node=node_name(channels.namespace, controller),
                 )
         graph.serve(SERVICE_STEP, "harness_msgs/srv/Step", self._srv_step)
@@ -707,8 +349,16 @@ class SessionCore:
         """Stop the run: ``exc`` becomes :attr:`failure` (logged once)."""
         if self.failure is None:
             self.failure = exc
+            self.failure_step = self.sim.step_index
             with contextlib.suppress(Exception):
-                self.log(Level.FATAL, f"the run failed: {exc}")
+                self.log(Level.FATAL, FAILURE_PREFIX + str(exc))
+
+    def clock_changed(self) -> bool:
+        """Whether a reset or a pause changed how time moves since the last call (the
+        shell re-anchors its pacing and wakes its clock); drained: the next call says False
+        until it changes again."""
+        changed, self._clock_changed = self._clock_changed, False
+        return changed
 
     def check_running(self) -> None:
         """Raise :class:`SessionClosedError` when the simulation has failed."""
@@ -718,17 +368,25 @@ class SessionCore:
             )
 
     def advance(self) -> None:
-        """One step: trajectory setpoints, the step, then recording, loggers, publishing."""
-        sim = self.sim
-        self.control.before_step()
-        for channels in self.robots:
-            if channels.trajectory is not None:
-                self._trajectory_setpoint(channels)
+        """One step: trajectory setpoints, the step, then recording, loggers, publishing.
+
+        Any exception on the way (the step, a controller, a logger, the recorder, a sensor)
+        stops the run where it happened: it becomes :attr:`failure` (logged once) and is
+        raised. Live stepping and a replay call this same method, so they fail alike."""
         try:
-            sim.step()
+            self._advance()
         except Exception as exc:
             self.fail(exc)
             raise
+
+    def _advance(self) -> None:
+        sim = self.sim
+        self.control.before_step()
+        t_next = sim.sim_time_ns + self.dt_ns
+        for channels in self.robots:
+            channels.commands.setpoint(t_next)
+        sim.step()
+        self.record_frames()
         recorder = self.recorder
         if recorder is not None and sim.input_changed:
             applied = sim.last_input
@@ -737,27 +395,10 @@ class SessionCore:
         if self.hub.loggers:
             self.hub.observe(StepContext.of(sim, self.robot_name))
         self._after_state()
-        for watcher in tuple(self.after_step):
-            watcher()
-
-    def _trajectory_setpoint(self, channels: RobotChannels) -> None:
-        trajectory = channels.trajectory
-        assert trajectory is not None
-        t_next = self.sim.sim_time_ns + self.dt_ns
-        positions, velocities = trajectory.commands(t_next)
-        joints = channels.joints
-        notices = joints.set_positions(positions) if positions else []
-        if velocities:
-            notices += joints.set_velocities(velocities)
-        fresh = [n for n in notices if n.joint not in channels.trajectory_warned]
-        if fresh:
-            channels.trajectory_warned.update(n.joint for n in fresh)
-            self._report_notices(channels.trajectory_topic, 0, fresh)
-        if t_next >= trajectory.end_ns:
-            channels.trajectory = None
 
     def _after_state(self, *, record_state: bool = True) -> None:
         """Record the state and publish what is due at the current step."""
+        self.record_frames()
         sim = self.sim
         k = sim.step_index
         recorder = self.recorder
@@ -776,7 +417,7 @@ class SessionCore:
                     lambda channels=channels: self._joint_state_of(channels),  # type: ignore[misc]
                 )
         if self._clock_every and k % self._clock_every == 0:
-            self.publish(_CLOCK, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
+            self.publish(CLOCK, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
                 self.publish(topic, TYPE_TF, partial(self._moving_tf, tree))
@@ -789,20 +430,7 @@ class SessionCore:
         return tree.message(tree.moving, self.sim.link_poses(), self.sim.sim_time_ns)
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
-        data = self.sim.data
-        effort: F64 = np.where(
-            channels.js_kin,
-            data.qfrc_applied[channels.js_dadr],
-            data.qfrc_actuator[channels.js_dadr],
-        )
-        names = channels.js_names if not prefix else [prefix + n for n in channels.js_names]
-        return joint_state_msg(
-            self.sim.sim_time_ns,
-            names,
-            data.qpos[channels.js_qadr],
-            data.qvel[channels.js_dadr],
-            effort,
-        )
+        return joint_state_of(self.sim, channels, prefix)
 
     def joint_state(self) -> dict[str, Any]:
         """The ``sensor_msgs/msg/JointState`` of the current step: the robot's, or with
@@ -827,6 +455,7 @@ class SessionCore:
     ) -> None:
         """Publish on the graph (when someone listens or ``latch``) and record (``record``);
         ``build`` makes the message only when needed."""
+        self.record_frames()
         self.publish_counts.note(topic)
         recorder = self.recorder if record else None
         send = latch or self.graph.has_subscribers(topic)
@@ -841,9 +470,20 @@ class SessionCore:
 
     # ----------------------------------------------------------------------------- frames
 
+    def record_frames(self) -> None:
+        """Write the frames and markers the bridge kept since the last call to the
+        recording, each at the step it crossed at (drained: the shells call it after their
+        calls into the bridge, the core before each of its own writes, so the recording
+        keeps the order in which things happened)."""
+        bridge = self.bridge
+        if bridge is None or self.recorder is None:
+            return
+        for record in bridge.frames():
+            self._tap(record)
+
     def _tap(self, record: TapRecord) -> None:
         assert self.recorder is not None
-        k = self.sim.step_index
+        k = record.now_ns // self.dt_ns  # the step it crossed at
         data = record.data
         self._next_seq = record.seq + 1
         binary = isinstance(data, bytes)
@@ -866,6 +506,8 @@ class SessionCore:
     def _marker(self, topic: str, args: Mapping[str, Any]) -> None:
         if self.recorder is None or self.bridge is None or not self.options.record_bridge_frames:
             return
+        self.record_frames()
+        self._next_seq = self.bridge.seq
         k = self.sim.step_index
         self.recorder.write_bridge_frame(
             BridgeFrame(
@@ -889,57 +531,16 @@ class SessionCore:
         if bridge is None:
             raise SessionError("replay needs the session's own bridge (not client mode)")
         if is_marker(DIRECTION_IN, connection, op, topic):
-            self._replay_marker(bridge, topic, payload)
+            replay_marker(self, topic, payload)
             return
-        self._open(bridge, connection)
+        open_connection(bridge, connection)
         bridge.receive(connection, payload, self.sim.sim_time_ns)
-
-    @staticmethod
-    def _open(bridge: SessionBridge, connection: int) -> None:
-        while connection not in bridge.connections and bridge.connect() < connection:
-            pass
-
-    def _replay_marker(self, bridge: SessionBridge, topic: str, payload: str | bytes) -> None:
-        try:
-            args = json.loads(payload)
-            if not isinstance(args, dict):
-                raise TypeError("not an object")
-            if topic == MARKER_DISCONNECT:
-                self._open(bridge, int(args["connection"]))
-                bridge.disconnect(int(args["connection"]))
-            elif topic == MARKER_CALL_TIMEOUT:
-                bridge.time_out_call(int(args["call"]))
-            elif topic == MARKER_TRANSPORT_STATUS:
-                bridge.status(int(args["connection"]), str(args["level"]), str(args["msg"]))
-            elif topic == MARKER_CLOSE:
-                self.record_close()
-            else:
-                self._replay_python(args)
-        except (ValueError, TypeError, KeyError) as exc:
-            raise SessionError(f"marker {topic} {payload!r} is malformed: {exc}") from None
-
-    def _replay_python(self, args: Mapping[str, Any]) -> None:
-        call = args["call"]
-        if call == "command":
-            self.command(
-                str(args["joint"]),
-                position=args.get("position"),
-                velocity=args.get("velocity"),
-                effort=args.get("effort"),
-            )
-        elif call == "set_positions":
-            self.set_positions({str(k): float(v) for k, v in args["positions"].items()})
-        elif call == "reset":
-            self.reset()
-        elif call == "pause":
-            self.set_paused(bool(args["paused"]))
-        else:
-            raise ValueError(f"unknown call {call!r}")
 
     # ----------------------------------------------------------------------------- events
 
     def log(self, level: Level, text: str) -> None:
         """Emit a session log event (``/rosout``, sinks)."""
+        self.record_frames()
         sim = self.sim
         self.hub.emit(
             [
@@ -959,87 +560,24 @@ class SessionCore:
         severity = {"info": Level.INFO, "warning": Level.WARNING}.get(level, Level.ERROR)
         self.log(severity, f"connection {connection} status {level}: {text}")
 
-    def _report_notices(self, topic: str, connection: int, notices: Sequence[Notice]) -> None:
+    def notices(self, topic: str, connection: int, notices: Sequence[Notice]) -> None:
+        """Report a command's notices: a ``warning`` status to its client (``connection``
+        not 0) and a warning event."""
         for notice in notices:
             text = f"{topic}: {notice.message}"
             if connection:
                 self.graph.status(connection, "warning", text)
             self.log(Level.WARNING, text)
 
-    def _refuse(self, topic: str, connection: int, reason: str) -> None:
+    def refuse(self, topic: str, connection: int, reason: str) -> None:
+        """Report a refused command: an ``error`` status to its client (``connection`` not
+        0) and an error event."""
         text = f"{topic}: command refused: {reason}"
         if connection:
             self.graph.status(connection, "error", text)
         self.log(Level.ERROR, text)
 
     # ----------------------------------------------------------------------------- commands
-
-    def _command(
-        self,
-        channels: RobotChannels,
-        topic: str,
-        connection: int,
-        apply: Callable[[], list[Notice]],
-        joints: Iterable[str],
-    ) -> list[Notice]:
-        try:
-            notices = apply()
-        except CommandRefused as exc:
-            self._refuse(topic, connection, str(exc))
-            raise
-        channels.drop_from_trajectory(joints)
-        self._report_notices(topic, connection, notices)
-        return notices
-
-    def _joint_command_handler(
-        self, channels: RobotChannels
-    ) -> Callable[[Mapping[str, Any], int], None]:
-        def handle(msg: Mapping[str, Any], connection: int) -> None:
-            with contextlib.suppress(CommandRefused):
-                self._command(
-                    channels,
-                    channels.topics.joint_command,
-                    connection,
-                    lambda: self._joint_state_command(channels, msg),
-                    msg["name"],
-                )
-
-        return handle
-
-    def _joint_state_command(self, channels: RobotChannels, msg: Mapping[str, Any]) -> list[Notice]:
-        stripped, notices = channels.listed.strip(msg, self.sim.data.qpos[channels.js_qadr])
-        return notices + apply_joint_state(channels.joints, stripped)
-
-    def _forward_handler(
-        self, channels: RobotChannels, command_field: CommandField, topic: str
-    ) -> Callable[[Mapping[str, Any], int], None]:
-        def handle(msg: Mapping[str, Any], connection: int) -> None:
-            with contextlib.suppress(CommandRefused):
-                self._command(
-                    channels,
-                    topic,
-                    connection,
-                    lambda: apply_forward(channels.joints, command_field, msg),
-                    channels.joints.joint_names,
-                )
-
-        return handle
-
-    def _trajectory_handler(
-        self, channels: RobotChannels
-    ) -> Callable[[Mapping[str, Any], int], None]:
-        def handle(msg: Mapping[str, Any], connection: int) -> None:
-            topic = channels.topics.joint_trajectory
-            try:
-                trajectory = parse_trajectory(channels.joints, msg, self.sim.sim_time_ns)
-            except CommandRefused as exc:
-                self._refuse(topic, connection, str(exc))
-                return
-            channels.trajectory = trajectory
-            channels.trajectory_topic = topic
-            channels.trajectory_warned = set()
-
-        return handle
 
     def command(
         self,
@@ -1080,7 +618,7 @@ class SessionCore:
             own = [j.removeprefix(channels.prefix) for j in joints if channels.joints.owns(j)]
             if own:
                 channels.drop_from_trajectory(own)
-        self._report_notices("python", 0, notices)
+        self.notices("python", 0, notices)
         return notices
 
     # ----------------------------------------------------------------------------- services
@@ -1120,13 +658,14 @@ class SessionCore:
         state[0] = k * self.dt_ns / 1e9  # mjSTATE_TIME first: step numbering continues
         sim.set_state(state, k)
         for channels in self.robots:
-            channels.trajectory = None
+            channels.commands.trajectory = None
         self.control.reset()
         self.failure = None
-        if self.on_clock_change is not None:
-            self.on_clock_change()
+        self.failure_step = None
+        self._clock_changed = True
         text = f"reset to the initial state at step {k} (step numbering continues)"
         self._epoch += 1
+        self.record_frames()
         recorder = self.recorder
         if recorder is not None:
             # The state recorded for step k ends the epoch before; this one starts the next.
@@ -1154,8 +693,7 @@ class SessionCore:
 
     def _set_paused(self, paused: bool) -> str:
         self.paused = paused
-        if self.on_clock_change is not None:
-            self.on_clock_change()
+        self._clock_changed = True
         k = self.sim.step_index
         if self.clock == "lockstep":
             return f"lockstep clock: time moves only on {SERVICE_STEP} (step {k})"
@@ -1167,9 +705,11 @@ class SessionCore:
 
     def finish(self) -> list[SinkReport]:
         """End of run: loggers finish, sinks close; returns the sink reports."""
+        self.record_frames()
         try:
             if self.hub.loggers:
                 self.hub.finish(StepContext.of(self.sim, self.robot_name))
+            self.record_frames()
         finally:
             reports = self.hub.close()
             if self.sensors is not None:

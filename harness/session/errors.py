@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from harness.controllers.errors import CommandRefused
 from harness.errors import ConfigError, HarnessError
 
 __all__ = [
@@ -28,10 +29,6 @@ class SessionClosedError(SessionError):
 
 class SimTimeoutError(SessionError):
     """A condition did not hold within its simulation-time budget."""
-
-
-class CommandRefused(SessionError):
-    """A command message was refused; the message is the status text sent to its client."""
 
 
 class ClientTimeoutError(SessionError):

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 from harness.rosbridge import BridgeServer
-from harness.session.core import Graph, MessageCallback, ServiceHandler, SessionBridge
+from harness.session.bridge import Graph, MessageCallback, ServiceHandler, SessionBridge
 
 __all__ = ["Graph", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
 
@@ -38,6 +38,11 @@ class Port(Protocol):
 
     def process_pending(self, now_ns: int) -> int:
         """Apply waiting input in arrival order at ``now_ns``; returns the frame count."""
+        ...
+
+    def flush(self) -> None:
+        """Send what the core's bridge produced outside :meth:`process_pending` (the owner
+        calls it after its own calls into the core)."""
         ...
 
 
@@ -74,3 +79,6 @@ class ServerPort:
 
     def process_pending(self, now_ns: int) -> int:
         return self.server.process_pending(now_ns)
+
+    def flush(self) -> None:
+        self.server.flush()

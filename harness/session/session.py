@@ -51,7 +51,7 @@ the description's joints; a floating or mocap root's in ``world``), ``tf_static`
 ``tf2_msgs/msg/TFMessage``, once: fixed joints, sensor mounts, a base fixed to ``world``;
 :mod:`harness.session.tf`), ``robot_description`` (latched ``std_msgs/msg/String``: the
 source URDF/SDF/MJCF text), ``/rosout`` (log events); commands on ``joint_command``,
-``joint_trajectory`` and the forward controller topics (:mod:`harness.session.commands`).
+``joint_trajectory`` and the forward controller topics (:mod:`harness.controllers.command_topics`).
 Every published topic is on the graph with its type from the start (a client that advertises
 or subscribes to one with another type gets a status error), under the node a real robot
 shows: ``robot_state_publisher`` (``tf``, ``tf_static``, ``robot_description``) and
@@ -300,6 +300,8 @@ class Session:
         self._clients_seen = 0
         self._clients_open = 0
         self._pause_at: int | None = None
+        self._watchers: list[Callable[[], None]] = []  # run_until checks (free-running clock)
+        self._watched_step = -1
         self.rate = options.rate
         self.namespace = options.namespace
         self._closed = False
@@ -364,14 +366,11 @@ class Session:
                 hub.add_sink(RecordingSink(self._recorder))
             self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
             """The sans-I/O core (touch it only from the session's thread)."""
-            self.core.on_clock_change = self._on_clock_change
             self.sim: Simulation = self.core.sim
             """The simulation. Touch it only from the session's thread (loggers, predicates) or
             while nothing else can step it; prefer the session's methods."""
             self.topics: SessionTopics = self.core.topics
             assert self.core.bridge is not None
-            self.core.bridge.on_connect = self._on_connect
-            self.core.bridge.on_disconnect = self._on_disconnect
             self.upstream: UpstreamStats | None = None
             """Client mode: what the link to the external server counted (else None)."""
             if connect_to is not None:
@@ -413,6 +412,7 @@ class Session:
         self.core.start()
         await port.settle()
         self.core.publish_initial()
+        port.flush()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         return url
 
@@ -432,22 +432,37 @@ class Session:
         offer = self._call(lambda: offer_of(bridge))
         self._ros2 = Ros2Gateway.start(self.url, offer, self.ros_domain_id)
 
-    def _on_connect(self, connection: int) -> None:
-        with self._clients:
-            self._clients_seen += 1
-            self._clients_open += 1
-            self._clients.notify_all()
-        if self._start_on_client and self._port is not None:
-            self._port.wake.set()  # the clock starts at the next boundary
-
-    def _on_disconnect(self, connection: int) -> None:
-        with self._clients:
-            self._clients_open -= 1
-
-    def _on_clock_change(self) -> None:
-        self._anchor = None
+    def _settle(self) -> None:
+        """Take what the core reports after a call into it (drained, as a sans-I/O protocol's
+        output is): a reset or pause (re-anchor the pacing, wake the clock), clients opened
+        and closed, steps taken (the ``run_until`` watchers look), and the frames it
+        produced (recorded and sent)."""
+        core = self.core
+        core.record_frames()
+        if core.clock_changed():
+            self._anchor = None
+            if self._port is not None:
+                self._port.wake.set()
+        bridge = core.bridge
+        if bridge is not None:
+            seen, now_open = bridge.opened, len(bridge.connections)
+            if seen != self._clients_seen or now_open != self._clients_open:
+                with self._clients:
+                    self._clients_seen, self._clients_open = seen, now_open
+                    self._clients.notify_all()
+        if self._watchers and self.sim.step_index != self._watched_step:
+            self._watched_step = self.sim.step_index
+            for watcher in tuple(self._watchers):
+                watcher()
         if self._port is not None:
-            self._port.wake.set()
+            self._port.flush()  # what the core produced for the clients
+
+    def _settled(self, fn: Callable[[], T]) -> T:
+        """``fn()`` (a call into the core), then :meth:`_settle`."""
+        try:
+            return fn()
+        finally:
+            self._settle()
 
     # ----------------------------------------------------------------------------- threads
 
@@ -479,6 +494,9 @@ class Session:
                 future.set_result(fn())
             except BaseException as exc:
                 future.set_exception(exc)
+            finally:
+                if self._port is not None:
+                    self._port.flush()  # what fn made the core produce
 
         self._loop.call_soon_threadsafe(run)
         return future.result()
@@ -501,9 +519,11 @@ class Session:
                 if self._pause_at is not None and self.sim.step_index >= self._pause_at:
                     self._pause_at = None
                     core.set_paused(True)
+                    self._settle()
                 if core.paused or core.failure is not None:
                     continue
                 core.advance()
+                self._settle()
                 if self.clock == "realtime":
                     await self._pace()
                 else:
@@ -512,7 +532,9 @@ class Session:
                 raise
             except Exception as exc:
                 core.fail(exc)
-                for watcher in tuple(core.after_step):
+                with contextlib.suppress(Exception):  # a recorder error is the failure already
+                    self._settle()
+                for watcher in tuple(self._watchers):
                     watcher()  # a run_until waiting for a step that will not come
 
     async def _pace(self) -> None:
@@ -531,10 +553,12 @@ class Session:
 
     def _boundary(self) -> None:
         assert self._port is not None
+        self._settle()
         if self._start_on_client and self._clients_seen:
             self._start_on_client = False
             self.core.set_paused(False)  # before the client's first frame
         self._port.process_pending(self.sim.sim_time_ns)
+        self._settle()
 
     # ----------------------------------------------------------------------------- public API
 
@@ -550,7 +574,7 @@ class Session:
         for i in range(n):
             self._boundary()
             self.core.check_running()
-            self.core.advance()
+            self._settled(self.core.advance)
             if i + 1 < n:
                 await asyncio.sleep(0)
         return self.sim.step_index
@@ -593,7 +617,7 @@ class Session:
                 break
             self._boundary()
             self.core.check_running()
-            self.core.advance()
+            self._settled(self.core.advance)
             await asyncio.sleep(0)
         raise self._timeout(sim_timeout)
 
@@ -618,11 +642,11 @@ class Session:
             except Exception as exc:
                 done.set_exception(exc)
 
-        self.core.after_step.append(check)
+        self._watchers.append(check)
         try:
             return await done
         finally:
-            self.core.after_step.remove(check)
+            self._watchers.remove(check)
 
     def command(
         self,
@@ -645,15 +669,15 @@ class Session:
 
     def reset(self) -> None:
         """Back to the initial state (step numbering continues), as ``/harness/reset``."""
-        self._call(self.core.reset)
+        self._call(lambda: self._settled(self.core.reset))
 
     def pause(self) -> None:
         """Stop a fast or realtime clock (frames are still applied), as ``/harness/pause``."""
-        self._call(lambda: self.core.set_paused(True))
+        self._call(lambda: self._settled(lambda: self.core.set_paused(True)))
 
     def resume(self) -> None:
         """Restart a paused fast or realtime clock."""
-        self._call(lambda: self.core.set_paused(False))
+        self._call(lambda: self._settled(lambda: self.core.set_paused(False)))
 
     def pause_at(self, step: int | None) -> None:
         """Pause a fast or realtime clock when it reaches ``step`` (exactly: at that step

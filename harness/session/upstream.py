@@ -2,7 +2,7 @@
 framework's topology: ROS 2 nodes on DDS, a rosbridge server relaying, the simulator connected
 to it as a client).
 
-The session keeps its own :class:`~harness.session.core.SessionBridge`, exactly as in server
+The session keeps its own :class:`~harness.session.bridge.SessionBridge`, exactly as in server
 mode, and the link to the external server is one connection of it (the *upstream* connection).
 So every frame is recorded, and replayed at ``--level full``, as a server-mode client's frames
 are: what the external server sends (``publish`` of a command topic, ``call_service`` of a
@@ -21,6 +21,12 @@ an ``error`` status naming one of those frames fails the start with one line nam
 type and the server's reason (``allow_refused``: go on without what was refused). After the
 server restarts the port reconnects, re-sends its set-up and latched messages, and records
 the gap as transport status markers.
+
+A frame the port cannot send (the link is down, or the send failed) is lost, as on any
+rosbridge link; it is counted (:attr:`UpstreamStats.send_failures`), logged (``logging``
+logger ``harness.session.upstream``) and reported: the first of each outage as a transport
+status of the upstream connection (recorded as a ``harness/transport_status`` marker, so a
+replay shows it where it happened), and how many were lost when the link is back.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -37,7 +44,7 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 
 from harness.rosbridge import Output
 from harness.rosbridge.offer import Offer, offer_of
-from harness.session.core import SessionBridge
+from harness.session.bridge import SessionBridge
 from harness.session.errors import SessionError
 
 __all__ = ["UpstreamError", "UpstreamPort", "UpstreamStats", "redact"]
@@ -47,6 +54,7 @@ _FORWARD = frozenset(
 )
 """Ops of the upstream connection's outputs that go to the external server (a ``status`` the
 core sends its clients stays home: the server would call it an unknown op)."""
+_log = logging.getLogger(__name__)
 _SYNC = "harness:sync"
 _WINDOW = 100
 """Frames sent before waiting for the server to have processed them (see ``_send_loop``)."""
@@ -60,11 +68,13 @@ class UpstreamError(SessionError):
 @dataclass
 class UpstreamStats:
     """What client mode counts: ``statuses`` the server sent by level, frames that could not
-    be sent (``send_failures``: the link was down or the send failed), ``reconnects`` and
-    what the server ``refused`` at the start (with ``allow_refused``)."""
+    be sent (``send_failures``: the link was down or the send failed; the last one's
+    description in ``last_send_failure``), ``reconnects`` and what the server ``refused`` at
+    the start (with ``allow_refused``)."""
 
     statuses: dict[str, int]
     send_failures: int = 0
+    last_send_failure: str = ""
     reconnects: int = 0
     refused: tuple[str, ...] = ()
 
@@ -130,7 +140,7 @@ class UpstreamPort:
         self._sync_count = 0
         self._setting_up = False
         self._closing = False
-        self._flush_scheduled = False
+        self._lost = 0  # frames not sent since the current outage was reported
 
     # -- Port ------------------------------------------------------------------------
 
@@ -140,7 +150,6 @@ class UpstreamPort:
 
     async def start(self) -> str:
         """Connect (retrying until ``connect_timeout``) and start receiving."""
-        self.bridge.on_pending = self._schedule_flush
         self._task = asyncio.ensure_future(self._run())
         self._sender = asyncio.ensure_future(self._send_loop())
         try:
@@ -192,19 +201,19 @@ class UpstreamPort:
             if self.connection not in self.bridge.connections:
                 break
             if kind == "link":
-                self.bridge.status(self.connection, "warning", text)
+                self.bridge.transport_status(self.connection, "warning", text)
             else:
                 for output in self.bridge.receive(self.connection, text, now_ns):
                     self._forward(output)
                 count += 1
-        self._flush()
+        self.flush()
         return count
 
     async def stop(self, on_input: Callable[[], object] | None = None) -> None:
         """Apply what already arrived, then close the link."""
         if on_input is not None and self._pending:
             on_input()
-        self._flush()
+        self.flush()
         with contextlib.suppress(asyncio.TimeoutError):
             await asyncio.wait_for(self._outgoing.join(), 2.0)
         self._closing = True
@@ -290,7 +299,12 @@ class UpstreamPort:
                     if not first:
                         self.stats.reconnects += 1
                         await self._send_setup()
-                        self._link(f"upstream {redact(self.url)} reconnected")
+                        lost, self._lost = self._lost, 0
+                        self._link(
+                            f"upstream {redact(self.url)} reconnected"
+                            + (f" ({lost} frames could not be sent while it was away)"
+                               if lost else "")
+                        )  # fmt: skip
                     first = False
                     self._connected.set()
                     async for message in ws:
@@ -335,13 +349,8 @@ class UpstreamPort:
 
     # -- outputs ---------------------------------------------------------------------
 
-    def _schedule_flush(self) -> None:
-        if not self._flush_scheduled:
-            self._flush_scheduled = True
-            asyncio.get_running_loop().call_soon(self._flush)
-
-    def _flush(self) -> None:
-        self._flush_scheduled = False
+    def flush(self) -> None:
+        """Forward what the bridge produced for the external server since the last call."""
         for output in self.bridge.drain():
             self._forward(output)
 
@@ -352,9 +361,21 @@ class UpstreamPort:
         if output.op == "publish" and output.name in self._latched_topics:
             self._latched[output.name] = text
         if self._ws is None:
-            self.stats.send_failures += 1
+            self._send_failed(f"{output.op} {output.name}".strip(), "the link is down")
             return
         self._outgoing.put_nowait(text)
+
+    def _send_failed(self, what: str, reason: str) -> None:
+        """Count a frame that could not be sent; log it, and report the first of an outage
+        as a transport status (recorded as a marker at the next step boundary)."""
+        self.stats.send_failures += 1
+        text = f"upstream {redact(self.url)}: could not send {what}: {reason}"
+        self.stats.last_send_failure = text
+        self._lost += 1
+        if self._lost == 1:
+            _log.warning("%s (frames are lost until the link is back)", text)
+            if not self._closing:
+                self._link(f"{text} (frames are lost until the link is back)")
 
     async def _send_loop(self) -> None:
         """Send in order; after every :data:`_WINDOW` frames wait for a round trip, so the
@@ -366,14 +387,26 @@ class UpstreamPort:
             try:
                 ws = self._ws
                 if ws is None:
-                    self.stats.send_failures += 1
+                    self._send_failed(_what(text), "the link is down")
                 else:
                     await ws.send(text)
                     unconfirmed += 1
                     if unconfirmed >= _WINDOW:
                         unconfirmed = 0
                         await self._round_trip()
-            except (ConnectionClosed, OSError):
-                self.stats.send_failures += 1
+            except (ConnectionClosed, OSError) as exc:
+                self._send_failed(_what(text), f"{type(exc).__name__}: {exc}")
             finally:
                 self._outgoing.task_done()
+
+
+def _what(text: str) -> str:
+    """``op name`` of a frame's text (for a report of a frame that could not be sent)."""
+    try:
+        frame = json.loads(text)
+    except ValueError:
+        return "a frame"
+    if not isinstance(frame, dict):
+        return "a frame"
+    name = next((frame[k] for k in ("topic", "service", "action") if k in frame), "")
+    return f"{frame.get('op', '')} {name}".strip()

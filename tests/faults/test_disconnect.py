@@ -70,6 +70,7 @@ def test_caller_disconnects_mid_service_call() -> None:
             await send(other, {"op": "call_service", "service": "/slow", "id": "2"})
             await wait_until(lambda: len(calls) == 2)
             calls[1].respond({"success": True, "message": "ok"})
+            server.flush()  # in-process answers leave when their owner flushes
             answer = await recv(other, "service_response")
             assert answer["id"] == "2"
             assert answer["values"]["message"] == "ok"
@@ -147,6 +148,7 @@ def test_caller_disconnects_mid_action() -> None:
             )  # fmt: skip
             await wait_until(lambda: len(goals) == 1)
             goals[0].feedback({"partial_sequence": [0, 1]})
+            server.flush()
             assert (await recv(caller, "action_feedback"))["id"] == "g"
             n = len(server.bridge.connections)
             await caller.close()

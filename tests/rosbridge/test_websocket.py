@@ -216,6 +216,7 @@ def test_too_large_frame_closes_only_that_client() -> None:
             )
             await wait_for(lambda: len(server.connection_ids()) == 1)
             server.bridge.publish("/t", STRING, {"data": "still here"}, 0)
+            server.flush()
             assert (await recv_json(ok))["msg"]["data"] == "still here"
 
     run(main())

@@ -18,45 +18,47 @@ def _frames(outputs: list[Any]) -> list[tuple[int, dict[str, Any]]]:
     return [(o.connection, json.loads(o.data)) for o in outputs]
 
 
-def _service_bridge() -> tuple[Bridge, int, int, list[tuple[int, float]]]:
+def _service_bridge() -> tuple[Bridge, int, int]:
     bridge = Bridge()
-    started: list[tuple[int, float]] = []
-    bridge.on_call_started = lambda key, t: started.append((key, t))
+    bridge.deadlines()  # kept from now on
     provider, caller = bridge.connect(), bridge.connect()
     bridge.receive(
         provider,
         json.dumps({"op": "advertise_service", "service": "/s", "type": "std_srvs/Trigger"}),
         0,
     )
-    return bridge, provider, caller, started
+    return bridge, provider, caller
+
+
+def _started(bridge: Bridge) -> list[tuple[int, float]]:
+    return [(key, t) for key, t in bridge.deadlines() if t is not None]
 
 
 def test_unbounded_service_timeouts_are_clamped_and_nan_refused() -> None:
-    bridge, _, caller, started = _service_bridge()
+    bridge, _, caller = _service_bridge()
     for i, timeout in enumerate(["Infinity", "1e300", "2.5"]):
         text = f'{{"op": "call_service", "service": "/s", "id": {i}, "timeout": {timeout}}}'
         bridge.receive(caller, text, 0)
+    started = _started(bridge)
     assert [t for _, t in started] == [MAX_TIMEOUT_S, MAX_TIMEOUT_S, 2.5]
     for bad in ["NaN", "-1"]:
         text = f'{{"op": "call_service", "service": "/s", "id": "bad", "timeout": {bad}}}'
         out = _frames(bridge.receive(caller, text, 0))
         assert [(c, f["op"], f["level"]) for c, f in out] == [(caller, "status", "error")]
         assert "timeout must be a number of seconds >= 0" in out[0][1]["msg"]
-    assert len(started) == 3  # the refused calls started nothing
+    assert _started(bridge) == []  # the refused calls started nothing
 
 
 def test_action_goals_time_out_and_are_canceled_at_the_server() -> None:
     bridge = Bridge()
-    started: list[tuple[int, float]] = []
-    ended: list[int] = []
-    bridge.on_call_started = lambda key, t: started.append((key, t))
-    bridge.on_call_ended = ended.append
+    bridge.deadlines()  # kept from now on
     server, client = bridge.connect(), bridge.connect()
     fib = "example_interfaces/action/Fibonacci"
     bridge.receive(server, json.dumps({"op": "advertise_action", "action": "/f", "type": fib}), 0)
     goal = {"op": "send_action_goal", "action": "/f", "id": "g1", "args": {"order": 3}}
     bridge.receive(client, json.dumps(goal), 0)
     bridge.receive(client, json.dumps({**goal, "id": "g2", "timeout": 0.25}), 0)
+    started = _started(bridge)
     assert [t for _, t in started] == [bridge.goal_timeout_s, 0.25]
     assert bridge.goal_timeout_s <= MAX_TIMEOUT_S
     out = _frames(bridge.time_out_call(started[1][0]))
@@ -64,9 +66,9 @@ def test_action_goals_time_out_and_are_canceled_at_the_server() -> None:
         (c, f["op"], f.get("result"), f.get("values")) for c, f in out
     ]
     assert (server, "cancel_action_goal") in [(c, f["op"]) for c, f in out]
-    assert ended == [started[1][0]]
+    assert bridge.deadlines() == [(started[1][0], None)]
     bridge.disconnect(client)  # the other goal's deadline goes with its client
-    assert ended == [started[1][0], started[0][0]]
+    assert bridge.deadlines() == [(started[0][0], None)]
 
 
 def test_deadlines_heap_handles_equal_deadlines_and_stays_small() -> None:

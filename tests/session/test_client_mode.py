@@ -4,6 +4,7 @@ own BridgeServer in a thread) and is driven through it by another client."""
 from __future__ import annotations
 
 import asyncio
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -144,6 +145,33 @@ def test_client_mode_records_every_frame_and_replays_at_full_level(
     report = replay_pipeline(path)
     assert report.reproduced, report.mismatch
     assert report.steps == 210
+
+
+def test_a_send_to_a_dropped_link_is_counted_logged_and_recorded(
+    demo_position: LoadedRobot,
+    restartable: _External,
+    tmp_path: Path,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    url = restartable.start()
+    path = tmp_path / "dropped.mcap"
+    with (
+        caplog.at_level(logging.WARNING, logger="harness.session.upstream"),
+        Session(demo_position, connect_to=url, record_to=path) as session,
+    ):
+        stats = session.upstream
+        assert stats is not None
+        assert stats.send_failures == 0
+        restartable.stop()  # the link drops; the session keeps stepping
+        session.step(10)  # what it publishes for the server cannot be sent
+        assert stats.send_failures >= 1
+        assert "could not send publish /" in stats.last_send_failure
+        session.step(1)  # the report is applied (and recorded) at a step boundary
+    logged = [r.getMessage() for r in caplog.records if r.name == "harness.session.upstream"]
+    assert any("could not send publish /" in m for m in logged), logged
+    with Recording(path) as rec:
+        reports = [f for f in rec.bridge_frames() if f.topic == "harness/transport_status"]
+    assert any("could not send publish /" in f.text for f in reports), [f.text for f in reports]
 
 
 def test_a_refused_advertisement_fails_the_start_with_one_line(

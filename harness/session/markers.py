@@ -1,0 +1,120 @@
+"""Markers: inputs that are not frames a client sent, yet change what the session core does.
+
+They are recorded as ``/harness/bridge`` frames with ``direction`` 0 (in), ``connection`` 0
+(real connections count from 1), ``op`` ``""``, ``topic`` one of :data:`MARKERS` and a JSON
+``text``; ``seq`` is the sequence number the next real frame gets (markers do not consume
+one), ``step`` and ``sim_time_ns`` as for incoming frames (the step before which it took
+effect):
+
+- ``harness/disconnect`` ``{"connection": c}``: a client's socket closed;
+- ``harness/call_timeout`` ``{"call": key}``: a service call routed to a client timed out on
+  the wall clock (the transport's timer);
+- ``harness/transport_status`` ``{"connection": c, "level": l, "msg": m}``: a ``status``
+  frame the transport sent by itself (subscription frames dropped for a slow reader, a
+  client-mode link lost or back);
+- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause", ...}``:
+  a call of the session's Python API that changes the run (stepping from Python needs no
+  marker: replay steps to the recorded steps); a free-running clock started by its first
+  client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
+- ``harness/close`` ``{"step": k}``: the session closed after step ``k``, once every frame
+  it received was processed; only ``harness/disconnect`` markers of connections still open
+  follow it. It changes nothing (replay re-records it).
+
+A connection opening needs no marker: a connection has no effect until its first frame, and
+ids are given in order, so replay opens connection ``c`` when its first frame (or marker)
+appears. :func:`replay_marker` applies a recorded marker to a core as the live session did.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from harness.rosbridge import DIRECTION_IN
+from harness.session.errors import SessionError
+
+if TYPE_CHECKING:
+    from harness.session.bridge import SessionBridge
+    from harness.session.core import SessionCore
+
+__all__ = [
+    "MARKERS",
+    "MARKER_CALL_TIMEOUT",
+    "MARKER_CLOSE",
+    "MARKER_DISCONNECT",
+    "MARKER_PYTHON",
+    "MARKER_TRANSPORT_STATUS",
+    "is_marker",
+    "open_connection",
+    "replay_marker",
+]
+
+MARKER_DISCONNECT = "harness/disconnect"
+MARKER_CALL_TIMEOUT = "harness/call_timeout"
+MARKER_TRANSPORT_STATUS = "harness/transport_status"
+MARKER_PYTHON = "harness/python"
+MARKER_CLOSE = "harness/close"
+MARKERS = (
+    MARKER_DISCONNECT,
+    MARKER_CALL_TIMEOUT,
+    MARKER_TRANSPORT_STATUS,
+    MARKER_PYTHON,
+    MARKER_CLOSE,
+)
+"""The ``topic`` of every marker frame (see the module docstring)."""
+
+
+def is_marker(direction: int, connection: int, op: str, topic: str) -> bool:
+    """Whether a recorded ``/harness/bridge`` frame is a marker, not a frame a client sent."""
+    return direction == DIRECTION_IN and connection == 0 and op == "" and topic in MARKERS
+
+
+def open_connection(bridge: SessionBridge, connection: int) -> None:
+    """Open ``connection`` (and any lower id not yet opened) as the live bridge did."""
+    while connection not in bridge.connections and bridge.connect() < connection:
+        pass
+
+
+def replay_marker(core: SessionCore, topic: str, payload: str | bytes) -> None:
+    """Apply one recorded marker to ``core`` at the current step boundary (its bridge: the
+    core's own); a malformed marker raises :class:`SessionError` naming it."""
+    bridge = core.bridge
+    if bridge is None:
+        raise SessionError("replay needs the session's own bridge (not client mode)")
+    try:
+        args = json.loads(payload)
+        if not isinstance(args, dict):
+            raise TypeError("not an object")
+        if topic == MARKER_DISCONNECT:
+            open_connection(bridge, int(args["connection"]))
+            bridge.disconnect(int(args["connection"]))
+        elif topic == MARKER_CALL_TIMEOUT:
+            bridge.time_out_call(int(args["call"]))
+        elif topic == MARKER_TRANSPORT_STATUS:
+            bridge.transport_status(int(args["connection"]), str(args["level"]), str(args["msg"]))
+        elif topic == MARKER_CLOSE:
+            core.record_close()
+        else:
+            _replay_python(core, args)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise SessionError(f"marker {topic} {payload!r} is malformed: {exc}") from None
+
+
+def _replay_python(core: SessionCore, args: Mapping[str, Any]) -> None:
+    call = args["call"]
+    if call == "command":
+        core.command(
+            str(args["joint"]),
+            position=args.get("position"),
+            velocity=args.get("velocity"),
+            effort=args.get("effort"),
+        )
+    elif call == "set_positions":
+        core.set_positions({str(k): float(v) for k, v in args["positions"].items()})
+    elif call == "reset":
+        core.reset()
+    elif call == "pause":
+        core.set_paused(bool(args["paused"]))
+    else:
+        raise ValueError(f"unknown call {call!r}")
