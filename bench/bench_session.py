@@ -4,8 +4,11 @@ Lockstep at a 1 kHz sim rate (the demo arm with ``timestep = 0.001``): a client 
 process (like robot software) publishes one forward position command per step and then calls
 ``/harness/step`` for that one step, waiting for the answer; it also subscribes to
 ``/joint_states`` (100 Hz). Measured: steps/s as the client sees them, without and with
-recording, against the bare loop (``sim.set_positions(...)``, ``sim.step()``) in the same run.
-A cProfile of the session's thread during the recorded run says where the time goes (printed).
+recording, against the bare loop (``sim.set_positions(...)``, ``sim.step()``) in the same run,
+and against a bare ``websockets`` server answering the same client (the ratio issue 20 asks
+for). The same client sending its command and its step request in one WebSocket message
+(two JSON objects, which rosbridge v2 allows) is measured too. A cProfile of the session's
+thread during a run without recording says where the time goes, by area (printed).
 
 Start-up + teardown (``Session(...)`` then ``close()``, demo robot, recording on): fresh (the
 session loads the robot) and warm (a loaded robot passed in); the limit is the original
@@ -23,6 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from areas import format_areas
 from common import Row
 
 from harness.models import LoadedRobot, load_robot
@@ -32,7 +36,7 @@ from harness.sim import Simulation
 _CLIENT = r"""
 import json, sys, time
 from websockets.sync.client import connect
-url, steps = sys.argv[1], int(sys.argv[2])
+url, steps, carry = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
 with connect(url, compression=None) as ws:
     ws.send(json.dumps({"op": "subscribe", "topic": "/joint_states",
                         "type": "sensor_msgs/msg/JointState"}))
@@ -42,8 +46,11 @@ with connect(url, compression=None) as ws:
     def run(n):
         for k in range(n):
             cmd["msg"]["data"] = [0.1 * (k % 10) / 10, -0.78, 0.0, -2.35, 0.0, 1.57, 0.78, 0.02]
-            ws.send(json.dumps(cmd))
-            ws.send(json.dumps(call))
+            if carry:  # the step request carries the command: one frame, two JSON objects
+                ws.send(json.dumps(cmd) + json.dumps(call))
+            else:
+                ws.send(json.dumps(cmd))
+                ws.send(json.dumps(call))
             while json.loads(ws.recv())["op"] != "service_response":
                 pass
     run(200)  # warm-up
@@ -113,13 +120,17 @@ def _bare(robot: LoadedRobot, steps: int) -> float:
 
 
 def _lockstep(
-    robot: LoadedRobot, steps: int, record: Path | None, profile: cProfile.Profile | None
+    robot: LoadedRobot,
+    steps: int,
+    record: Path | None,
+    profile: cProfile.Profile | None,
+    carry: bool = False,
 ) -> float:
     with Session(robot, record_to=record) as session:
         if profile is not None:
             session.call(profile.enable)
         out = subprocess.run(
-            [sys.executable, "-c", _CLIENT, session.url, str(steps)],
+            [sys.executable, "-c", _CLIENT, session.url, str(steps), "1" if carry else "0"],
             capture_output=True,
             text=True,
             check=True,
@@ -129,7 +140,7 @@ def _lockstep(
     return steps / float(out.stdout.strip())
 
 
-def _raw_server_loop(steps: int) -> float:
+def _raw_server_loop(steps: int, carry: bool = False) -> float:
     """The limit: the same client against a bare ``websockets`` asyncio server (the library
     the session serves with) on a thread of this process, answering each ``call_service``
     with a ``service_response`` (the frames parsed as JSON, nothing else done)."""
@@ -139,9 +150,14 @@ def _raw_server_loop(steps: int) -> float:
 
     from websockets.asyncio.server import ServerConnection, serve
 
+    decoder = json.JSONDecoder()
+
     async def handler(ws: ServerConnection) -> None:
         async for frame in ws:
-            request = json.loads(frame)
+            assert isinstance(frame, str)
+            pos = 0
+            while pos < len(frame):  # one JSON object per frame, or several (carry)
+                request, pos = decoder.raw_decode(frame, pos)
             if request.get("op") == "call_service":
                 await ws.send(
                     json.dumps(
@@ -167,7 +183,14 @@ def _raw_server_loop(steps: int) -> float:
     ready.wait()
     try:
         out = subprocess.run(
-            [sys.executable, "-c", _CLIENT, f"ws://127.0.0.1:{box['port']}", str(steps)],
+            [
+                sys.executable,
+                "-c",
+                _CLIENT,
+                f"ws://127.0.0.1:{box['port']}",
+                str(steps),
+                "1" if carry else "0",
+            ],
             capture_output=True,
             text=True,
             check=True,
@@ -225,8 +248,12 @@ def run(quick: bool) -> list[Row]:
             plain = max(plain, _lockstep(robot, steps, None, None))
             recorded = max(recorded, _lockstep(robot, steps, folder / f"bench{i}.mcap", None))
         raw = max(_raw_server_loop(steps) for _ in range(2))
+        carried = raw_carried = 0.0
+        for _ in range(2):
+            carried = max(carried, _lockstep(robot, steps, None, None, carry=True))
+            raw_carried = max(raw_carried, _raw_server_loop(steps, carry=True))
         profile = cProfile.Profile()
-        _lockstep(robot, steps // 2, folder / "profiled.mcap", profile)
+        _lockstep(robot, steps // 2, None, profile)
         bare_again = max(_bare(robot, steps) for _ in range(3))
         bare = max(bare, bare_again)
         note = "client in its own process: publish + /harness/step per step"
@@ -251,6 +278,18 @@ def run(quick: bool) -> list[Row]:
                 "ratio >= 0.7",
                 plain / raw >= 0.7,
                 note="same client; limit: a bare websockets server answering each call",
+            )
+        )
+        rows.append(
+            Row(
+                "lockstep: step request carrying its command (one frame) vs raw websockets",
+                carried,
+                raw_carried,
+                "st/s",
+                "report",
+                True,
+                note="publish + call_service in one WebSocket message; "
+                f"{carried / plain:.2f}x the two-frame client's rate",
             )
         )
         n_states = 50 if quick else 200
@@ -297,6 +336,8 @@ def run(quick: bool) -> list[Row]:
     text = io.StringIO()
     stats = pstats.Stats(profile, stream=text).sort_stats("tottime")
     stats.print_stats(18)
-    print("where the session thread's time goes (recorded lockstep run, by own time):")
+    print("where the session thread's time goes (lockstep run without recording, own time):")
     print("\n".join(text.getvalue().splitlines()[:40]))
+    print("by area (profiled, so slower than the figures above; shares are what counts):")
+    print(format_areas(profile, steps // 2 + 200, "step"))
     return rows

@@ -373,13 +373,18 @@ class BridgeServer:
         self._peers.pop(cid, None)
         self._dispatch(self.bridge.disconnect(cid))
 
-    def process_pending(self, now_ns: int) -> int:
+    def process_pending(self, now_ns: int, until: float | None = None) -> int:
         """Queued mode: process every waiting frame (and disconnects, call timeouts) in
-        arrival order at sim time ``now_ns``; returns how many frames were processed."""
+        arrival order at sim time ``now_ns``; returns how many frames were processed.
+
+        ``until`` (a :func:`time.monotonic` time) stops early once it has passed, after at
+        least one frame: the rest wait, in order, for the next call (a realtime clock keeps
+        its step schedule under a flood of frames; the frames wait instead)."""
         count = 0
         self.pending_event.clear()
-        while self._pending:
-            cid, item = self._pending.popleft()
+        pending = self._pending
+        while pending:
+            cid, item = pending.popleft()
             if item is _CLOSE:
                 self._close(cid)
             elif item is _TIMEOUT:
@@ -387,7 +392,11 @@ class BridgeServer:
             elif cid in self._peers:
                 count += 1
                 self._dispatch(self.bridge.receive(cid, item, now_ns))
-        self._resume_reading()
+            if until is not None and pending and time.monotonic() >= until:
+                self.pending_event.set()  # more to do at the next boundary
+                break
+        if len(pending) < self.max_pending:
+            self._resume_reading()
         self._write_batches()  # the answers leave now, not one loop iteration later
         return count
 
