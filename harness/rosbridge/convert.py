@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import binascii
+import functools
 import json
 import math
 from collections.abc import Mapping
@@ -26,6 +27,7 @@ __all__ = [
     "default_message",
     "dumps",
     "from_json",
+    "publish_prefix",
     "to_cbor",
     "to_cdr",
 ]
@@ -269,6 +271,14 @@ def dumps(value: Any) -> str:
         return _ENCODER.encode(value)
     except ValueError:
         return _ENCODER.encode(_finite(value))
+
+
+@functools.lru_cache(maxsize=4096)
+def publish_prefix(topic: str) -> str:
+    """``{"op":"publish","topic":TOPIC,"msg":`` for a topic as a subscriber spelled it: the
+    start of every JSON publish frame to it, built once per topic (the message follows,
+    then ``}``)."""
+    return '{"op":"publish","topic":' + dumps(topic) + ',"msg":'
 
 
 # -- CBOR and CDR out -----------------------------------------------------------------------

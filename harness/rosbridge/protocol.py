@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Final, NamedTuple
 
-from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
+from harness.rosbridge.convert import dumps, from_json, publish_prefix, to_cbor, to_cdr
 from harness.rosbridge.deadlines import MAX_TIMEOUT_S, bounded_timeout
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
 from harness.rosbridge.graph import (
@@ -622,7 +622,7 @@ class Bridge(Graph):
             return
         frame = frames.get(sub.spelled) if frames is not None else None
         if frame is None:
-            frame = '{"op":"publish","topic":' + dumps(sub.spelled) + ',"msg":' + dumps(msg) + "}"
+            frame = publish_prefix(sub.spelled) + dumps(msg) + "}"
             if frames is not None:
                 frames[sub.spelled] = frame
         if sub.compression == "png":

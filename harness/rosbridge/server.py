@@ -132,6 +132,7 @@ class _Peer:
         self.high_water = self.transport.get_write_buffer_limits()[1]
         self.batch: list[str | bytes] = []
         self.batch_bytes = 0
+        self.batch_room = 0
         self.paused = False
 
 
@@ -452,28 +453,35 @@ class BridgeServer:
         self._write_batches()
 
     def _dispatch(self, outputs: list[Output]) -> None:
+        peers = self._peers
         for out in outputs:
-            peer = self._peers.get(out.connection)
+            peer = peers.get(out.connection)
             if peer is not None:
                 self._enqueue(peer, out)
 
     def _enqueue(self, peer: _Peer, out: Output) -> None:
-        if (
-            not peer.queue
-            and peer.ws.state is State.OPEN
-            and peer.batch_bytes + peer.transport.get_write_buffer_size() <= peer.high_water
-        ):
-            # Nothing waits before this frame and the socket keeps up: it goes to the
-            # socket as ``send`` would put it there, without the writer task. Frames for
-            # one peer produced in one loop iteration are written together (one syscall).
-            if not peer.batch:
+        data = out.data
+        if peer.batch:
+            # A batch is open (its socket was open and keeping up when it opened; nothing
+            # written since): frames join it while it stays within the room it had.
+            if peer.batch_bytes <= peer.batch_room:
+                peer.batch.append(data)
+                peer.batch_bytes += len(data)
+                return
+        elif not peer.queue and peer.ws.state is State.OPEN:
+            room = peer.high_water - peer.transport.get_write_buffer_size()
+            if room >= 0:
+                # Nothing waits before this frame and the socket keeps up: it goes to the
+                # socket as ``send`` would put it there, without the writer task. Frames
+                # for one peer produced together are written together (one syscall).
                 if not self._batched:
                     assert self._loop is not None  # peers exist only once started
                     self._loop.call_soon(self._write_batches)
                 self._batched.append(peer)
-            peer.batch.append(out.data)
-            peer.batch_bytes += len(out.data)
-            return
+                peer.batch_room = room
+                peer.batch.append(data)
+                peer.batch_bytes += len(data)
+                return
         entry = _Entry(out.data, out.name if out.queue_limit else None)
         if out.queue_limit:
             same = peer.by_key.setdefault(out.name, collections.deque())
