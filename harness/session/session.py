@@ -539,17 +539,17 @@ class Session:
 
     def _frames_until(self) -> float:
         """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time).
-        Until the next step is due, less a quarter step for the step itself, and at least
-        three quarters of a step (frames keep most of the time while the clock catches up): a
-        flood of frames makes frames wait (for the next boundaries, in arrival order; each
-        recorded at the step it took effect) rather than the clock."""
+        Until the next step is due, less a quarter step for the step itself, and at least one
+        step period when the clock is behind (frames and clock then share the time about
+        evenly): a flood of frames makes frames wait (for the next boundaries, in arrival
+        order; each recorded at the step it took effect) rather than stopping the clock."""
         now = time.monotonic()
         period = self.dt_ns / 1e9 / self.rate
         due = now + period
         if self._anchor is not None:
             wall0, k0 = self._anchor
             due = wall0 + (self.sim.step_index + 1 - k0) * period
-        return now + max(0.75 * period, due - now - period / 4)
+        return now + max(period, due - now - period / 4)
 
     def _boundary(self, until: float | None = None) -> None:
         assert self._port is not None
