@@ -29,6 +29,8 @@ __all__ = [
 LEVELS: Final = {"info": 0, "warning": 1, "error": 2, "none": 3}
 BAD_INPUT = (FrameError, ConversionError, TypeNameError, UnknownTypeError)
 """What a malformed frame raises (answered with a ``status`` error, never fatal)."""
+
+
 def kind_of(value: object) -> str:
     """How rosbridge names a JSON value's type in its error texts ("an int", "null"...)."""
     if isinstance(value, bool):
