@@ -152,6 +152,16 @@ def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:
     return None
 
 
+def _selector(index: npt.NDArray[np.integer]) -> slice | npt.NDArray[np.intp]:
+    """``index`` as a slice when it is a run of consecutive addresses (a slice assignment costs
+    less than a fancy-indexed one and selects the same elements), else as an index array."""
+    size = int(index.size)
+    first = int(index[0]) if size else 0
+    if np.array_equal(index, np.arange(first, first + size)):
+        return slice(first, first + size)
+    return np.asarray(index, dtype=np.intp)
+
+
 def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
     return mujoco.mj_id2name(model, obj, index) or ""
 
@@ -336,6 +346,11 @@ class Simulation:
         self._dyn_act = np.array([act_of[r] for r in self._dyn_rows], dtype=np.intp)
         self._kin_rows = np.flatnonzero(self._is_kin)
         self._has_kin = bool(self._kin_rows.size)
+        # Per-row facts as plain Python values: commands read them for every joint they name.
+        self._wanted = tuple(_FIELD_OF_MODE[m] for m in modes)
+        self._row_is_kin = tuple(m == "kinematic" for m in modes)
+        self._lo_list = tuple(lows)
+        self._hi_list = tuple(highs)
 
         # Kinematic writes: the kinematic joints, then the mimic followers of those joints.
         leader_row = {int(self._qadr[r]): i for i, r in enumerate(self._kin_rows)}
@@ -355,6 +370,11 @@ class Simulation:
                     )
                 )
         self._followers = tuple(followers)
+        # (row of the leader's command, leader_ref, follower_ref, c0..c4) per follower
+        self._follow = tuple(
+            (int(self._kin_rows[f.leader_row]), f.leader_ref, f.follower_ref, *f.coef)
+            for f in followers
+        )
         self._kin_names = tuple(self._names[r] for r in self._kin_rows) + tuple(
             f.name for f in followers
         )
@@ -364,6 +384,14 @@ class Simulation:
         self._kin_dadr = np.array(
             [*self._dadr[self._kin_rows], *(f.dof_adr for f in followers)], dtype=np.uint32
         )
+        # The kinematic writes as slices where the addresses are consecutive (the usual
+        # case: one arm's joints), else as index arrays; the same elements either way.
+        self._kin_cmd_sel = _selector(self._kin_rows)
+        self._kin_qsel = _selector(self._kin_qadr)
+        self._kin_dsel = _selector(self._kin_dadr)
+        # Live views of the simulation's own (never reallocated) MjData buffers.
+        self._qpos = self.data.qpos
+        self._qvel = self.data.qvel
         self._bodies = tuple(
             (b, n)
             for b in range(1, model.nbody)
@@ -479,7 +507,9 @@ class Simulation:
         self._kin_vel = np.zeros(self._kin_qadr.size, dtype=np.float64)
         self._kin_moving = False
         self._dirty = True
+        self._kin_dirty = False
         self._fast = False
+        self._kin_fast = False
         self._changed = False
         self._applied: AppliedInput | None = None
         # Derived quantities (contacts, poses) for observers at this step; mj_forward reads
@@ -511,7 +541,7 @@ class Simulation:
     def add_observer(self, fn: Observer) -> Callable[[], None]:
         """Call ``fn(sim)`` after every step, in registration order; returns its remover."""
         self._observers.append(fn)
-        self._fast = False
+        self._fast = self._kin_fast = False
 
         def remove() -> None:
             if fn in self._observers:
@@ -535,6 +565,11 @@ class Simulation:
             ):
                 self._fail(step)
             return
+        if self._kin_fast and n >= 0:
+            # Kinematic joints, no observer, nothing new but kinematic commands.
+            for _ in range(n):
+                self._step_kinematic()
+            return
         if n < 0:
             raise SimulationError(f"step count must be >= 0, not {n}")
         if self._failed is not None:
@@ -549,13 +584,65 @@ class Simulation:
                     fn(self)
 
     def _update_fast(self) -> None:
-        self._fast = not (
-            self._dirty or self._has_kin or self._observers or self._failed or self._planar
-        )
+        blocked = bool(self._dirty or self._observers or self._failed or self._planar)
+        self._fast = not (blocked or self._has_kin)
+        self._kin_fast = self._has_kin and not blocked
+
+    def _step_kinematic(self) -> None:
+        """One step when the only input that may have changed since the last step is the
+        kinematic joints' (what :meth:`_step_one` does then, without its general bookkeeping):
+        ctrl, applied forces and mocap poses are the last applied input's, so that input with
+        the new kinematic writes is this step's, and it changed exactly when those writes did.
+        """
+        if self._kin_dirty or self._kin_moving:
+            pos = self._kinematic_targets() if self._kin_dirty else self._kin_pos
+            self._kin_dirty = False
+            vel: F64 = (pos - self._kin_prev) / self._dt
+            self._kin_prev = self._kin_pos = pos
+            self._kin_vel = vel
+            self._kin_moving = bool(np.count_nonzero(vel))  # vel.any(), for less
+            last = self._applied
+            assert last is not None  # the step after a restart takes the general path
+            if (
+                pos.tobytes() == last.qpos_value.tobytes()
+                and vel.tobytes() == last.qvel_value.tobytes()
+            ):
+                self._changed = False
+            else:
+                self._changed = True
+                self._applied = AppliedInput(
+                    last.step,
+                    last.sim_time_ns,
+                    last.ctrl,
+                    last.kinematic_joints,
+                    last.qpos_index,
+                    pos,
+                    last.qvel_index,
+                    vel,
+                    last.mocap_pos,
+                    last.mocap_quat,
+                    last.qfrc_applied,
+                    last.xfrc_applied,
+                )
+        else:
+            pos, vel = self._kin_pos, self._kin_vel
+            self._changed = False
+        qpos, qvel, qsel, dsel = self._qpos, self._qvel, self._kin_qsel, self._kin_dsel
+        qpos[qsel] = pos
+        qvel[dsel] = vel
+        _mj_step(self.model, self.data)
+        qpos[qsel] = pos
+        qvel[dsel] = vel
+        step = self._step = self._step + 1
+        if (
+            self._warnings.tobytes() != self._no_warnings
+            or abs(self.data.time - step * self._dt) > self._half_dt
+        ):
+            self._fail(step)
 
     def _step_one(self) -> None:
         data = self.data
-        if self._dirty or self._kin_moving or self._planar is not None:
+        if self._dirty or self._kin_dirty or self._kin_moving or self._planar is not None:
             self._prepare_input()
         else:
             self._changed = False
@@ -609,13 +696,13 @@ class Simulation:
         if self._dirty:
             data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
             data.xfrc_applied[:] = self._xfrc
-            if self._has_kin:
-                self._kin_pos = self._kinematic_targets()
+        if (self._dirty or self._kin_dirty) and self._has_kin:
+            self._kin_pos = self._kinematic_targets()
         if self._has_kin:
             self._kin_vel = (self._kin_pos - self._kin_prev) / self._dt
             self._kin_prev = self._kin_pos
             self._kin_moving = bool(self._kin_vel.any())
-        self._dirty = False
+        self._dirty = self._kin_dirty = False
         self._update_fast()
         nmocap = self.model.nmocap
         qfrc = data.qfrc_applied
@@ -651,17 +738,17 @@ class Simulation:
         self._applied = applied
 
     def _kinematic_targets(self) -> F64:
-        leaders: F64 = self._cmd[self._kin_rows]  # fancy indexing: already a copy
-        if not self._followers:
-            return leaders
+        """A new array of the kinematic writes' positions: the commands, then the mimic
+        followers' (never changed in place afterwards: applied inputs share it)."""
+        cmd = self._cmd
+        if not self._follow:
+            return np.array(cmd[self._kin_cmd_sel], dtype=np.float64)
+        n = self._kin_rows.size
         out = np.empty(self._kin_qadr.size, dtype=np.float64)
-        out[: leaders.size] = leaders
-        for i, f in enumerate(self._followers):
-            x = float(leaders[f.leader_row]) - f.leader_ref
-            c = f.coef
-            out[leaders.size + i] = (
-                f.follower_ref + c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * c[4])))
-            )
+        out[:n] = cmd[self._kin_cmd_sel]
+        for i, (row, leader_ref, follower_ref, c0, c1, c2, c3, c4) in enumerate(self._follow):
+            x = cmd.item(row) - leader_ref
+            out[n + i] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
         return out
 
     def _fail(self, step: int) -> None:
@@ -689,7 +776,7 @@ class Simulation:
                 f"step * dt = {step * self.dt_ns / 1e9!r} s (time jumped: did MuJoCo reset?)"
             )
         self._failed = f"the simulation failed at {message}; reset() or set_state() first"
-        self._fast = False
+        self._fast = self._kin_fast = False
         raise InstabilityError(message, step=step, warning=warning)
 
     @property
@@ -736,15 +823,15 @@ class Simulation:
 
     def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
         """Position commands for several joints (all validated before any applies)."""
-        return self._apply(self._validate([(j, "position", v) for j, v in positions.items()]))
+        return self._apply_field("position", positions)
 
     def set_velocities(self, velocities: Mapping[str, float]) -> list[Notice]:
         """Velocity commands for several joints (all validated before any applies)."""
-        return self._apply(self._validate([(j, "velocity", v) for j, v in velocities.items()]))
+        return self._apply_field("velocity", velocities)
 
     def set_efforts(self, efforts: Mapping[str, float]) -> list[Notice]:
         """Effort commands for several joints (all validated before any applies)."""
-        return self._apply(self._validate([(j, "effort", v) for j, v in efforts.items()]))
+        return self._apply_field("effort", efforts)
 
     def command_joint_state(
         self,
@@ -781,7 +868,7 @@ class Simulation:
             self._planar = PlanarBase(self.model, joint)
         self._planar.command(linear_x, linear_y, angular_z)
         self._dirty = True
-        self._fast = False
+        self._fast = self._kin_fast = False
 
     def apply_wrench(
         self, body: str, force: Sequence[float], torque: Sequence[float] = (0.0, 0.0, 0.0)
@@ -796,7 +883,7 @@ class Simulation:
             raise CommandError(f"body {body!r}: force and torque must be 3 finite values each")
         self._xfrc[bid] = wrench
         self._dirty = True
-        self._fast = False
+        self._fast = self._kin_fast = False
 
     def joint_commands(self) -> F64:
         """The current command per joint, in the unit of its mode's field."""
@@ -819,47 +906,104 @@ class Simulation:
             out.append((row, field, value))
         return out
 
+    def _apply_field(self, field: CommandField, values: Mapping[str, float]) -> list[Notice]:
+        """Commands of one field, one per joint (a mapping names each joint once): what
+        ``_apply(_validate(...))`` does for them, in one pass (a client may send these every
+        step)."""
+        index = self._index
+        checked: list[tuple[int, float]] = []
+        for joint, raw in values.items():
+            row = index.get(joint)
+            if row is None:
+                known = ", ".join(self._names) or "none"
+                raise CommandError(f"unknown joint {joint!r} (controllable joints: {known})")
+            try:
+                value = float(raw)
+            except (TypeError, ValueError):
+                raise CommandError(f"joint {joint!r}: {field} {raw!r} is not a number") from None
+            if not math.isfinite(value):
+                raise CommandError(f"joint {joint!r}: {field} {value!r} is not finite")
+            checked.append((row, value))
+        notices: list[Notice] = []
+        wanted, lows, highs, cmd = self._wanted, self._lo_list, self._hi_list, self._cmd
+        kin = dyn = False
+        for row, value in checked:
+            if wanted[row] != field:
+                notices.append(self._ignored(row, field, value))
+                continue
+            # min(max(value, low), high), for less
+            applied = value
+            if applied < lows[row]:
+                applied = lows[row]
+            if applied > highs[row]:
+                applied = highs[row]
+            if applied != value:
+                notices.append(self._clamped(row, value, applied))
+            cmd[row] = applied
+            if self._row_is_kin[row]:
+                kin = True
+            else:
+                dyn = True
+        self._mark_dirty(kin, dyn)
+        return notices
+
     def _apply(self, entries: list[tuple[int, str, float]]) -> list[Notice]:
         notices: list[Notice] = []
         by_row: dict[int, dict[str, float]] = {}
         for row, field, value in entries:
             by_row.setdefault(row, {})[field] = value
+        kin = dyn = False
         for row, fields in by_row.items():
-            name = self._names[row]
-            mode = self._modes[row]
-            wanted = _FIELD_OF_MODE[mode]
+            wanted = self._wanted[row]
             if wanted not in fields:
                 for field, value in fields.items():
-                    notices.append(
-                        Notice(
-                            name,
-                            "ignored",
-                            field,  # type: ignore[arg-type]
-                            value,
-                            math.nan,
-                            f"joint {name!r} is {mode}-controlled: {field} command ignored",
-                        )
-                    )
+                    notices.append(self._ignored(row, field, value))
                 continue
             value = fields[wanted]
-            lo, hi = float(self._lo[row]), float(self._hi[row])
-            applied = min(max(value, lo), hi)
+            applied = min(max(value, self._lo_list[row]), self._hi_list[row])
             if applied != value:
-                notices.append(
-                    Notice(
-                        name,
-                        "clamped",
-                        wanted,
-                        value,
-                        applied,
-                        f"joint {name!r}: {wanted} {value:g} is beyond its limits "
-                        f"[{lo:g}, {hi:g}]: clamped to {applied:g}",
-                    )
-                )
+                notices.append(self._clamped(row, value, applied))
             self._cmd[row] = applied
-            self._dirty = True
-            self._fast = False
+            if self._row_is_kin[row]:
+                kin = True
+            else:
+                dyn = True
+        self._mark_dirty(kin, dyn)
         return notices
+
+    def _mark_dirty(self, kin: bool, dyn: bool) -> None:
+        """New commands for kinematic joints (``kin``) or dynamic ones (``dyn``) take effect at
+        the next step; kinematic ones alone keep the kinematic fast path."""
+        if kin:
+            self._kin_dirty = True
+            self._fast = False
+        if dyn:
+            self._dirty = True
+            self._fast = self._kin_fast = False
+
+    def _ignored(self, row: int, field: str, value: float) -> Notice:
+        name, mode = self._names[row], self._modes[row]
+        return Notice(
+            name,
+            "ignored",
+            field,  # type: ignore[arg-type]
+            value,
+            math.nan,
+            f"joint {name!r} is {mode}-controlled: {field} command ignored",
+        )
+
+    def _clamped(self, row: int, value: float, applied: float) -> Notice:
+        name, wanted = self._names[row], self._wanted[row]
+        lo, hi = self._lo_list[row], self._hi_list[row]
+        return Notice(
+            name,
+            "clamped",
+            wanted,
+            value,
+            applied,
+            f"joint {name!r}: {wanted} {value:g} is beyond its limits "
+            f"[{lo:g}, {hi:g}]: clamped to {applied:g}",
+        )
 
     # ----------------------------------------------------------------------------- reads
 
