@@ -370,10 +370,15 @@ class Simulation:
                     )
                 )
         self._followers = tuple(followers)
-        # (row of the leader's command, leader_ref, follower_ref, c0..c4) per follower
+        # The kinematic writes' positions gather the commands of the kinematic rows, then each
+        # follower's leader's (turned into the follower's by the mimic law: _follow holds the
+        # slot, leader_ref, follower_ref, c0..c4).
+        self._kin_gather = np.array(
+            [*self._kin_rows, *(self._kin_rows[f.leader_row] for f in followers)], dtype=np.intp
+        )
         self._follow = tuple(
-            (int(self._kin_rows[f.leader_row]), f.leader_ref, f.follower_ref, *f.coef)
-            for f in followers
+            (self._kin_rows.size + i, f.leader_ref, f.follower_ref, *f.coef)
+            for i, f in enumerate(followers)
         )
         self._kin_names = tuple(self._names[r] for r in self._kin_rows) + tuple(
             f.name for f in followers
@@ -385,8 +390,7 @@ class Simulation:
             [*self._dadr[self._kin_rows], *(f.dof_adr for f in followers)], dtype=np.uint32
         )
         # The kinematic writes as slices where the addresses are consecutive (the usual
-        # case: one arm's joints), else as index arrays; the same elements either way.
-        self._kin_cmd_sel = _selector(self._kin_rows)
+        # case: one arm's joints), else as index arrays: the same elements either way.
         self._kin_qsel = _selector(self._kin_qadr)
         self._kin_dsel = _selector(self._kin_dadr)
         # Live views of the simulation's own (never reallocated) MjData buffers.
@@ -567,6 +571,9 @@ class Simulation:
             return
         if self._kin_fast and n >= 0:
             # Kinematic joints, no observer, nothing new but kinematic commands.
+            if n == 1:
+                self._step_kinematic()
+                return
             for _ in range(n):
                 self._step_kinematic()
             return
@@ -597,13 +604,16 @@ class Simulation:
         if self._kin_dirty or self._kin_moving:
             pos = self._kinematic_targets() if self._kin_dirty else self._kin_pos
             self._kin_dirty = False
-            vel: F64 = (pos - self._kin_prev) / self._dt
+            vel: F64 = pos - self._kin_prev
+            vel /= self._dt
             self._kin_prev = self._kin_pos = pos
             self._kin_vel = vel
-            self._kin_moving = bool(np.count_nonzero(vel))  # vel.any(), for less
+            moving = self._kin_moving = bool(np.count_nonzero(vel))  # vel.any(), for less
             last = self._applied
             assert last is not None  # the step after a restart takes the general path
-            if (
+            # last.qpos_value holds the positions written at the last step, bit for bit (the
+            # old _kin_prev): a nonzero velocity means new positions, so a changed input.
+            if not moving and (
                 pos.tobytes() == last.qpos_value.tobytes()
                 and vel.tobytes() == last.qvel_value.tobytes()
             ):
@@ -740,15 +750,10 @@ class Simulation:
     def _kinematic_targets(self) -> F64:
         """A new array of the kinematic writes' positions: the commands, then the mimic
         followers' (never changed in place afterwards: applied inputs share it)."""
-        cmd = self._cmd
-        if not self._follow:
-            return np.array(cmd[self._kin_cmd_sel], dtype=np.float64)
-        n = self._kin_rows.size
-        out = np.empty(self._kin_qadr.size, dtype=np.float64)
-        out[:n] = cmd[self._kin_cmd_sel]
-        for i, (row, leader_ref, follower_ref, c0, c1, c2, c3, c4) in enumerate(self._follow):
-            x = cmd.item(row) - leader_ref
-            out[n + i] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
+        out: F64 = self._cmd[self._kin_gather]  # fancy indexing: a new array
+        for slot, leader_ref, follower_ref, c0, c1, c2, c3, c4 in self._follow:
+            x = out.item(slot) - leader_ref
+            out[slot] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
         return out
 
     def _fail(self, step: int) -> None:
@@ -783,9 +788,16 @@ class Simulation:
     def last_input(self) -> AppliedInput | None:
         """The physics input applied at the last step (None before the first step after a
         reset or restore). It holds until changed: its ``step`` is the last step taken."""
-        if self._applied is None or self._step == 0:
+        applied = self._applied
+        if applied is None or self._step == 0:
             return None
-        return self._applied._replace(step=self._step, sim_time_ns=self.sim_time_ns)
+        # Copies of the kinematic writes: the simulation keeps writing its own arrays.
+        return applied._replace(
+            step=self._step,
+            sim_time_ns=self.sim_time_ns,
+            qpos_value=applied.qpos_value.copy(),
+            qvel_value=applied.qvel_value.copy(),
+        )
 
     @property
     def input_changed(self) -> bool:
@@ -909,9 +921,10 @@ class Simulation:
     def _apply_field(self, field: CommandField, values: Mapping[str, float]) -> list[Notice]:
         """Commands of one field, one per joint (a mapping names each joint once): what
         ``_apply(_validate(...))`` does for them, in one pass (a client may send these every
-        step)."""
-        index = self._index
-        checked: list[tuple[int, float]] = []
+        step). Every value is checked before any applies."""
+        index, wanted, lows, highs = self._index, self._wanted, self._lo_list, self._hi_list
+        notices: list[Notice] = []
+        writes: list[tuple[int, float]] = []
         for joint, raw in values.items():
             row = index.get(joint)
             if row is None:
@@ -923,11 +936,6 @@ class Simulation:
                 raise CommandError(f"joint {joint!r}: {field} {raw!r} is not a number") from None
             if not math.isfinite(value):
                 raise CommandError(f"joint {joint!r}: {field} {value!r} is not finite")
-            checked.append((row, value))
-        notices: list[Notice] = []
-        wanted, lows, highs, cmd = self._wanted, self._lo_list, self._hi_list, self._cmd
-        kin = dyn = False
-        for row, value in checked:
             if wanted[row] != field:
                 notices.append(self._ignored(row, field, value))
                 continue
@@ -939,8 +947,12 @@ class Simulation:
                 applied = highs[row]
             if applied != value:
                 notices.append(self._clamped(row, value, applied))
+            writes.append((row, applied))
+        cmd, row_is_kin = self._cmd, self._row_is_kin
+        kin = dyn = False
+        for row, applied in writes:
             cmd[row] = applied
-            if self._row_is_kin[row]:
+            if row_is_kin[row]:
                 kin = True
             else:
                 dyn = True
