@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from types import MappingProxyType
+from types import EllipsisType, MappingProxyType
 from typing import Literal, NamedTuple, Protocol
 
 import mujoco
@@ -61,6 +61,7 @@ __all__ = [
 ]
 
 F64 = npt.NDArray[np.float64]
+_Key = EllipsisType | npt.NDArray[np.intp]
 
 STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 """The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
@@ -152,14 +153,15 @@ def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:
     return None
 
 
-def _selector(index: npt.NDArray[np.integer]) -> slice | npt.NDArray[np.intp]:
-    """``index`` as a slice when it is a run of consecutive addresses (a slice assignment costs
-    less than a fancy-indexed one and selects the same elements), else as an index array."""
+def _write_target(array: F64, index: npt.NDArray[np.integer]) -> tuple[F64, _Key]:
+    """Where ``array[index] = values`` writes, as ``(target, key)`` for ``target[key] =
+    values``: a view and ``...`` when ``index`` is a run of consecutive addresses (the same
+    elements, written for much less per step), else ``array`` and ``index``."""
     size = int(index.size)
     first = int(index[0]) if size else 0
     if np.array_equal(index, np.arange(first, first + size)):
-        return slice(first, first + size)
-    return np.asarray(index, dtype=np.intp)
+        return array[first : first + size], ...
+    return array, np.asarray(index, dtype=np.intp)
 
 
 def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
@@ -263,6 +265,7 @@ class Simulation:
         self.state_spec = STATE_SPEC
         self._dt = dt
         self._half_dt = dt / 2
+        self._dt_array = np.array(dt)  # the same division as by dt, for less per call
         self._state_size = int(mujoco.mj_stateSize(model, STATE_SPEC))
         self._warnings = self.data.warning.number  # a live view of the counters
         self._no_warnings = bytes(self._warnings.nbytes)
@@ -389,13 +392,10 @@ class Simulation:
         self._kin_dadr = np.array(
             [*self._dadr[self._kin_rows], *(f.dof_adr for f in followers)], dtype=np.uint32
         )
-        # The kinematic writes as slices where the addresses are consecutive (the usual
-        # case: one arm's joints), else as index arrays: the same elements either way.
-        self._kin_qsel = _selector(self._kin_qadr)
-        self._kin_dsel = _selector(self._kin_dadr)
-        # Live views of the simulation's own (never reallocated) MjData buffers.
-        self._qpos = self.data.qpos
-        self._qvel = self.data.qvel
+        # The kinematic writes' targets in the simulation's own MjData (its buffers are never
+        # reallocated, so views of them stay valid).
+        self._kin_qpos, self._kin_qkey = _write_target(self.data.qpos, self._kin_qadr)
+        self._kin_qvel, self._kin_dkey = _write_target(self.data.qvel, self._kin_dadr)
         self._bodies = tuple(
             (b, n)
             for b in range(1, model.nbody)
@@ -605,10 +605,10 @@ class Simulation:
             pos = self._kinematic_targets() if self._kin_dirty else self._kin_pos
             self._kin_dirty = False
             vel: F64 = pos - self._kin_prev
-            vel /= self._dt
+            vel /= self._dt_array
             self._kin_prev = self._kin_pos = pos
             self._kin_vel = vel
-            moving = self._kin_moving = bool(np.count_nonzero(vel))  # vel.any(), for less
+            moving = self._kin_moving = any(vel.tolist())  # vel.any(), for less
             last = self._applied
             assert last is not None  # the step after a restart takes the general path
             # last.qpos_value holds the positions written at the last step, bit for bit (the
@@ -637,12 +637,12 @@ class Simulation:
         else:
             pos, vel = self._kin_pos, self._kin_vel
             self._changed = False
-        qpos, qvel, qsel, dsel = self._qpos, self._qvel, self._kin_qsel, self._kin_dsel
-        qpos[qsel] = pos
-        qvel[dsel] = vel
+        qpos, qkey, qvel, dkey = self._kin_qpos, self._kin_qkey, self._kin_qvel, self._kin_dkey
+        qpos[qkey] = pos
+        qvel[dkey] = vel
         _mj_step(self.model, self.data)
-        qpos[qsel] = pos
-        qvel[dsel] = vel
+        qpos[qkey] = pos
+        qvel[dkey] = vel
         step = self._step = self._step + 1
         if (
             self._warnings.tobytes() != self._no_warnings
