@@ -157,8 +157,9 @@ def run(quick: bool) -> list[Row]:
             q_prev = q
         previous[0] = q_prev
 
-    t_moving, t_raw, t_raw_kin = _best_of_interleaved([moving, raw_kin, raw_kinematic], rounds)
-    t_holding, _ = _interleaved(holding, lambda: None, rounds)
+    t_moving, t_raw, t_raw_kin, t_holding = _best_of_interleaved(
+        [moving, raw_kin, raw_kinematic, holding], rounds
+    )
     rows.append(
         Row(
             "sim kinematic, set_positions+step vs raw mj_step",
