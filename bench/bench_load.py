@@ -6,28 +6,131 @@ clock at its 2 ms step, recording on) in this one. The limit is the offered load
 the last frame arrived. Also: publish -> delivery latency, drops (every one counted: received +
 reported drops must equal what was sent), the session process's RSS growth, the simulation's
 step rate under load against real time, and whether the recording holds every frame.
+
+A second, shorter run (same load) measures CPU instead of wall time, which the other
+engineers' jobs on a shared machine disturb far less: the session thread's CPU per relayed
+frame against one core's budget at the offered rate, and the cores the load needs (session
+plus load generator) against the machine's. A third, profiled, says where the session
+thread's time goes, by area (printed).
 """
 
 from __future__ import annotations
 
+import cProfile
+import json
+import os
+import resource
+import subprocess
+import sys
 import tempfile
+import time
 from pathlib import Path
+from typing import Any
 
+from areas import format_areas
 from common import Row
 
-from tests.load.loadrun import load_run
+from harness.session import Session
+from tests.load.loadrun import LOADGEN, load_run
 
 CLIENTS, RATE = 20, 1000.0
 
 
+def _cpu_run(seconds: float, profile: cProfile.Profile | None) -> dict[str, Any]:
+    """The load against a recording realtime session; CPU seconds of the session's thread
+    (where all of its work happens) and of the load generator, and the generator's report."""
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        Session("demo", clock="realtime", record_to=Path(tmp) / "cpu.mcap") as session,
+    ):
+        children = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if profile is not None:
+            session.call(profile.enable)
+        start = session.call(time.thread_time)
+        out = subprocess.run(
+            [sys.executable, str(LOADGEN), session.url, "--clients", str(CLIENTS),
+             "--rate", str(RATE), "--seconds", str(seconds)],
+            capture_output=True, text=True, check=True,
+        ).stdout  # fmt: skip
+        session_cpu = session.call(time.thread_time) - start
+        if profile is not None:
+            session.call(profile.disable)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    report = json.loads(out)
+    return {
+        "session_cpu": session_cpu,
+        "loadgen_cpu": after.ru_utime + after.ru_stime - children.ru_utime - children.ru_stime,
+        "frames": report["sent"] + report["received"],
+        "relayed": report["received"],
+        "report": report,
+    }
+
+
+def _cpu_rows(cpu: dict[str, Any], offered: float) -> list[Row]:
+    """The CPU figures of a :func:`_cpu_run` as rows."""
+    relayed = max(cpu["relayed"], 1)
+    per_frame = cpu["session_cpu"] / relayed * 1e6
+    budget = 1e6 / offered
+    session_cores = per_frame * offered / 1e6
+    loadgen_cores = cpu["loadgen_cpu"] / relayed * offered
+    need = session_cores + loadgen_cores
+    cores = float(os.cpu_count() or 1)
+    print(
+        f"  CPU run: session {cpu['session_cpu']:.2f} s, load generator "
+        f"{cpu['loadgen_cpu']:.2f} s for {cpu['relayed']} frames relayed; latency p99 "
+        f"{cpu['report']['latency_us']['p99'] / 1e3:.1f} ms"
+    )
+    return [
+        Row(
+            "load: session thread CPU per relayed frame vs one core at 20 kHz",
+            per_frame,
+            budget,
+            "us",
+            "(info: ratio >= 1: one core serves the load)",
+            True,
+            higher_is_better=False,
+            note=f"{cpu['session_cpu']:.2f} s CPU for {cpu['relayed']} frames relayed "
+            "(parse, apply, record in and out, encode, send)",
+        ),
+        Row(
+            "load: CPU the load needs (session + load generator), of the cores",
+            need,
+            cores,
+            "cores",
+            "(info: ratio >= 1: the machine can run it)",
+            True,
+            higher_is_better=False,
+            note=f"session {session_cores:.2f} + load generator {loadgen_cores:.2f} cores "
+            f"at the offered {offered:g} frames/s; other jobs on the machine not counted",
+        ),
+    ]
+
+
 def run(quick: bool) -> list[Row]:
     seconds = 5.0 if quick else 30.0
-    with tempfile.TemporaryDirectory() as tmp:
-        r = load_run(
-            Path(tmp) / "load.mcap", clients=CLIENTS, rate=RATE, seconds=seconds, timeout=600
-        )
-    c = r.clients
     offered = CLIENTS * RATE
+    failed = ""
+    try:  # first, so that its RSS figures start from a fresh process
+        with tempfile.TemporaryDirectory() as tmp:
+            r = load_run(
+                Path(tmp) / "load.mcap", clients=CLIENTS, rate=RATE, seconds=seconds, timeout=600
+            )
+    except RuntimeError as exc:  # the load generator gave up (a backlog past its timeouts)
+        failed = str(exc).strip().splitlines()[-1][:200]
+        print(f"  load run failed: {exc}")
+    cpu = _cpu_run(min(seconds, 5.0), None)
+    profile = cProfile.Profile()
+    profiled = _cpu_run(2.0, profile)
+    cpu_rows = _cpu_rows(cpu, offered)
+    print("where the session thread's time goes under load (profiled run, own time by area):")
+    print(format_areas(profile, max(profiled["relayed"], 1), "frame"))
+    if failed:
+        return [
+            Row("load: the 20 x 1 kHz run ends", 0.0, 1.0, "", "runs to the end", False,
+                note=f"load generator: {failed}"),
+            *cpu_rows,
+        ]  # fmt: skip
+    c = r.clients
     delivered = c["received"] / c["delivery_seconds"] if c["delivery_seconds"] else 0.0
     wall = c["delivery_seconds"]
     realtime_steps = 500.0  # the demo's 2 ms step
@@ -52,10 +155,10 @@ def run(quick: bool) -> list[Row]:
         Row(
             "load: publish -> delivery latency p99",
             c["latency_us"]["p99"] / 1e3,
-            1.0,
+            10.0,
             "ms",
-            "report (limit: 1 period)",
-            True,
+            "p99 <= 10 ms",
+            c["latency_us"]["p99"] <= 10_000,
             higher_is_better=False,
             note=f"p50 {c['latency_us']['p50'] / 1e3:.1f} ms",
         ),
@@ -92,8 +195,9 @@ def run(quick: bool) -> list[Row]:
             r.steps / r.session_seconds,
             realtime_steps,
             "st/s",
-            "report",
-            True,
+            "ratio >= 0.95",
+            r.steps / r.session_seconds >= 0.95 * realtime_steps,
             note=f"realtime clock (2 ms step); {r.steps} steps in {r.session_seconds:.1f} s",
         ),
+        *cpu_rows,
     ]

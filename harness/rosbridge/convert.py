@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import binascii
+import functools
 import json
 import math
 from collections.abc import Mapping
@@ -20,12 +21,13 @@ import cbor2
 import numpy as np
 
 from harness.rosbridge.errors import ConversionError
-from harness.rosbridge.types import FLOAT_TYPES, INT_RANGES, Field, TypeRegistry
+from harness.rosbridge.types import FLOAT_TYPES, INT_RANGES, Field, MessageDef, TypeRegistry
 
 __all__ = [
     "default_message",
     "dumps",
     "from_json",
+    "publish_prefix",
     "to_cbor",
     "to_cdr",
 ]
@@ -121,7 +123,7 @@ def from_json(
     if msg_type in _TIME_TYPES:
         return _time_from_json(msg_type, value, path)
     definition = registry.message(msg_type)
-    known = {f.name for f in definition.fields}
+    known = _field_names(definition)
     for key in value:
         if key not in known and not (key == _EMPTY_PLACEHOLDER and not known):
             raise ConversionError(f"Message type {msg_type} does not have a field {path}{key}")
@@ -140,6 +142,20 @@ def from_json(
         else:
             out[f.name] = _array(registry, msg_type, f, v, fpath, now_ns)
     return out
+
+
+_FIELD_NAMES: dict[int, tuple[MessageDef, frozenset[str]]] = {}
+
+
+def _field_names(definition: MessageDef) -> frozenset[str]:
+    """The field names of a definition (built once per definition: every message checks its
+    keys against them)."""
+    cached = _FIELD_NAMES.get(id(definition))
+    if cached is not None and cached[0] is definition:
+        return cached[1]
+    names = frozenset(f.name for f in definition.fields)
+    _FIELD_NAMES[id(definition)] = (definition, names)
+    return names
 
 
 def _time_from_json(msg_type: str, value: Mapping[str, Any], path: str) -> dict[str, Any]:
@@ -205,6 +221,8 @@ def _array(
             raise _fail(msg_type, "a base64 string or a list of ints", path, v)
     elif not isinstance(v, list):
         raise _fail(msg_type, f"a list ({f.type}[])", path, v)
+    elif f.type in FLOAT_TYPES and all(type(x) is float for x in v):
+        items = list(v)  # the common case, every element already a float: nothing to convert
     else:
         scalar = f._replace(length=None, default=None)
         items = [
@@ -254,6 +272,14 @@ def dumps(value: Any) -> str:
         return _ENCODER.encode(value)
     except ValueError:
         return _ENCODER.encode(_finite(value))
+
+
+@functools.lru_cache(maxsize=4096)
+def publish_prefix(topic: str) -> str:
+    """``{"op":"publish","topic":TOPIC,"msg":`` for a topic as a subscriber spelled it: the
+    start of every JSON publish frame to it, built once per topic (the message follows,
+    then ``}``)."""
+    return '{"op":"publish","topic":' + dumps(topic) + ',"msg":'
 
 
 # -- CBOR and CDR out -----------------------------------------------------------------------

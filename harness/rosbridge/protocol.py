@@ -31,7 +31,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, Final, NamedTuple
 
 from harness.rosbridge.actions import ActionGoal, ActionOps, _PendingGoal
-from harness.rosbridge.convert import dumps, from_json, to_cbor, to_cdr
+from harness.rosbridge.convert import dumps, from_json, publish_prefix, to_cbor, to_cdr
 from harness.rosbridge.deadlines import MAX_TIMEOUT_S
 from harness.rosbridge.errors import FrameError
 from harness.rosbridge.fragments import FragmentOps
@@ -481,7 +481,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             return
         frame = frames.get(sub.spelled) if frames is not None else None
         if frame is None:
-            frame = '{"op":"publish","topic":' + dumps(sub.spelled) + ',"msg":' + dumps(msg) + "}"
+            frame = publish_prefix(sub.spelled) + dumps(msg) + "}"
             if frames is not None:
                 frames[sub.spelled] = frame
         if sub.compression == "png":

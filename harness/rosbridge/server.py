@@ -8,10 +8,17 @@ queue: subscription frames beyond their ``queue_length`` (or the bridge default)
 oldest first, counted in :attr:`BridgeServer.metrics` and reported to the client as a
 ``warning`` status; a client whose unsendable backlog exceeds ``send_queue_bytes`` is closed.
 While a connection's queue is empty and its socket keeps up (write buffer below the
-high-water mark), frames skip the queue: those produced in one loop iteration are framed
-and written together at its end, one write per connection instead of one per frame.
+high-water mark), frames skip the queue: those produced together (one
+:meth:`BridgeServer.process_pending`, one loop iteration) are framed and written together,
+one write per connection instead of one per frame.
 Everything runs on one event loop; call the bridge's in-process API from that loop, then
 :meth:`BridgeServer.flush` to send what it produced.
+
+Incoming messages reach the server from the connection's ``data_received`` callback (see
+:class:`_Connection`), not through a reader task per connection: a frame is queued (or, in
+immediate mode, processed) in the same loop iteration that read it from the socket, and the
+answers of a :meth:`BridgeServer.process_pending` leave before it returns. A lockstep client's
+request and its answer so cost one loop iteration less each way.
 """
 
 from __future__ import annotations
@@ -32,8 +39,9 @@ from typing import Any
 
 from websockets.asyncio.server import Server, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
+from websockets.frames import DATA_OPCODES, CloseCode, Frame, Opcode
 from websockets.http11 import Request, Response
-from websockets.protocol import State
+from websockets.protocol import Event, State
 
 from harness.errors import ConfigError
 from harness.rosbridge.deadlines import Deadlines
@@ -53,6 +61,49 @@ class ConnectionMetrics:
     received: int = 0
     sent: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
+
+
+class _Connection(ServerConnection):
+    """A ``websockets`` server connection that hands each complete data message to
+    :attr:`on_message` from ``data_received``, instead of queueing it for ``recv()``
+    (``serve(create_connection=...)``; everything else, handshake, pings, closing, size
+    limits, is the library's). Messages that arrive before the server attaches wait in
+    :attr:`early`. Fragmented messages are joined here (the library bounds their total size
+    by ``max_size``); a text message that is not UTF-8 fails the connection with 1007, as
+    ``recv()`` would."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.on_message: Callable[[str | bytes], None] | None = None
+        self.early: list[str | bytes] = []
+        self._parts = bytearray()
+        self._text = False
+
+    def process_event(self, event: Event) -> None:
+        if not isinstance(event, Frame) or event.opcode not in DATA_OPCODES:
+            super().process_event(event)  # the handshake request, pings, pongs, close
+            return
+        if event.opcode is not Opcode.CONT:
+            self._text = event.opcode is Opcode.TEXT
+        if not event.fin:
+            self._parts += event.data
+            return
+        data = bytes(event.data)
+        if self._parts:
+            data, self._parts = bytes(self._parts + data), bytearray()
+        message: str | bytes = data
+        if self._text:
+            try:
+                message = data.decode()
+            except UnicodeDecodeError as exc:
+                self.set_connection_exc(exc)
+                self.protocol.fail(CloseCode.INVALID_DATA, f"{exc.reason} at position {exc.start}")
+                self.send_data()
+                return
+        if self.on_message is None:
+            self.early.append(message)
+        else:
+            self.on_message(message)
 
 
 class _Entry:
@@ -82,6 +133,8 @@ class _Peer:
         self.high_water = self.transport.get_write_buffer_limits()[1]
         self.batch: list[str | bytes] = []
         self.batch_bytes = 0
+        self.batch_room = 0
+        self.paused = False
 
 
 def _write_frames(peer: _Peer, frames: list[str | bytes]) -> None:
@@ -178,8 +231,7 @@ class BridgeServer:
         self.pending_event = asyncio.Event()
         """Set when queued input waits for :meth:`process_pending`."""
         self._pending: collections.deque[tuple[int, Any]] = collections.deque()
-        self._room = asyncio.Event()
-        self._room.set()
+        self._paused: list[_Peer] = []
         self._peers: dict[int, _Peer] = {}
         self._server: Server | None = None
         self._deadlines = Deadlines()
@@ -212,6 +264,7 @@ class BridgeServer:
             ping_timeout=self.ping_timeout,
             compression=None,
             process_request=self._check_token if self.token is not None else None,
+            create_connection=_Connection,
         )
         self.port = self._server.sockets[0].getsockname()[1]
         return self.url
@@ -271,6 +324,7 @@ class BridgeServer:
     # -- input --------------------------------------------------------------------------
 
     async def _handle(self, ws: ServerConnection) -> None:
+        assert isinstance(ws, _Connection)
         peer_name = "{}:{}".format(*ws.remote_address[:2]) if ws.remote_address else ""
         cid = self.bridge.connect(peer_name)
         peer = _Peer(cid, ws)
@@ -280,20 +334,14 @@ class BridgeServer:
             self.pending_event.set()  # the owner sees the connection at its next boundary
         peer.writer = asyncio.create_task(self._write(peer))
         try:
-            async for message in ws:
-                peer.metrics.received += 1
-                if self.queued:
-                    self._pending.append((cid, message))
-                    self.pending_event.set()
-                    if len(self._pending) >= self.max_pending:
-                        self._room.clear()
-                        await self._room.wait()
-                else:
-                    self._dispatch(self.bridge.receive(cid, message, self.clock()))
-                    self._take_deadlines()
-        except ConnectionClosed:
-            pass
+            receive = self._receiver(peer)
+            early, ws.early = ws.early, []
+            for message in early:
+                receive(message)
+            ws.on_message = receive
+            await ws.wait_closed()
         finally:
+            ws.on_message = None
             if self.queued:
                 self._pending.append((cid, _CLOSE))
                 self.pending_event.set()
@@ -304,18 +352,44 @@ class BridgeServer:
                 await peer.writer
             self._forget_queue(peer)
 
+    def _receiver(self, peer: _Peer) -> Callable[[str | bytes], None]:
+        """What the connection calls with each message it reads (from ``data_received``)."""
+        cid, metrics, pending = peer.cid, peer.metrics, self._pending
+
+        def receive_queued(message: str | bytes) -> None:
+            metrics.received += 1
+            pending.append((cid, message))
+            self.pending_event.set()
+            if len(pending) >= self.max_pending and not peer.paused:
+                peer.paused = True  # read no more from it until process_pending drains
+                self._paused.append(peer)
+                peer.transport.pause_reading()
+
+        def receive_now(message: str | bytes) -> None:
+            metrics.received += 1
+            self._dispatch(self.bridge.receive(cid, message, self.clock()))
+            self._take_deadlines()
+            self._write_batches()
+
+        return receive_queued if self.queued else receive_now
+
     def _close(self, cid: int) -> None:
         self._peers.pop(cid, None)
         self._dispatch(self.bridge.disconnect(cid))
         self._take_deadlines()
 
-    def process_pending(self, now_ns: int) -> int:
+    def process_pending(self, now_ns: int, until: float | None = None) -> int:
         """Queued mode: process every waiting frame (and disconnects, call timeouts) in
-        arrival order at sim time ``now_ns``; returns how many frames were processed."""
+        arrival order at sim time ``now_ns``; returns how many frames were processed.
+
+        ``until`` (a :func:`time.monotonic` time) stops early once it has passed, after at
+        least one frame: the rest wait, in order, for the next call (a realtime clock keeps
+        its step schedule under a flood of frames; the frames wait instead)."""
         count = 0
         self.pending_event.clear()
-        while self._pending:
-            cid, item = self._pending.popleft()
+        pending = self._pending
+        while pending:
+            cid, item = pending.popleft()
             if item is _CLOSE:
                 self._close(cid)
             elif item is _TIMEOUT:
@@ -323,9 +397,21 @@ class BridgeServer:
             elif cid in self._peers:
                 count += 1
                 self._dispatch(self.bridge.receive(cid, item, now_ns))
+            if until is not None and pending and time.monotonic() >= until:
+                self.pending_event.set()  # more to do at the next boundary
+                break
         self._take_deadlines()
-        self._room.set()
+        if len(pending) < self.max_pending:
+            self._resume_reading()
+        self._write_batches()  # the answers leave now, not one loop iteration later
         return count
+
+    def _resume_reading(self) -> None:
+        paused, self._paused = self._paused, []
+        for peer in paused:
+            peer.paused = False
+            if peer.ws.state is State.OPEN:
+                peer.transport.resume_reading()
 
     def pending(self) -> list[tuple[int, str | bytes]]:
         """Queued mode: the frames waiting for :meth:`process_pending`, in arrival order."""
@@ -366,6 +452,7 @@ class BridgeServer:
             else:
                 self._dispatch(self.bridge.time_out_call(key))
                 self._take_deadlines()
+                self._write_batches()
 
     # -- output -------------------------------------------------------------------------
 
@@ -376,30 +463,38 @@ class BridgeServer:
         server)."""
         self._dispatch(self.bridge.drain())
         self._take_deadlines()
+        self._write_batches()
 
     def _dispatch(self, outputs: list[Output]) -> None:
+        peers = self._peers
         for out in outputs:
-            peer = self._peers.get(out.connection)
+            peer = peers.get(out.connection)
             if peer is not None:
                 self._enqueue(peer, out)
 
     def _enqueue(self, peer: _Peer, out: Output) -> None:
-        if (
-            not peer.queue
-            and peer.ws.state is State.OPEN
-            and peer.batch_bytes + peer.transport.get_write_buffer_size() <= peer.high_water
-        ):
-            # Nothing waits before this frame and the socket keeps up: it goes to the
-            # socket as ``send`` would put it there, without the writer task. Frames for
-            # one peer produced in one loop iteration are written together (one syscall).
-            if not peer.batch:
+        data = out.data
+        if peer.batch:
+            # A batch is open (its socket was open and keeping up when it opened; nothing
+            # written since): frames join it while it stays within the room it had.
+            if peer.batch_bytes <= peer.batch_room:
+                peer.batch.append(data)
+                peer.batch_bytes += len(data)
+                return
+        elif not peer.queue and peer.ws.state is State.OPEN:
+            room = peer.high_water - peer.transport.get_write_buffer_size()
+            if room >= 0:
+                # Nothing waits before this frame and the socket keeps up: it goes to the
+                # socket as ``send`` would put it there, without the writer task. Frames
+                # for one peer produced together are written together (one syscall).
                 if not self._batched:
                     assert self._loop is not None  # peers exist only once started
                     self._loop.call_soon(self._write_batches)
                 self._batched.append(peer)
-            peer.batch.append(out.data)
-            peer.batch_bytes += len(out.data)
-            return
+                peer.batch_room = room
+                peer.batch.append(data)
+                peer.batch_bytes += len(data)
+                return
         entry = _Entry(out.data, out.name if out.queue_limit else None)
         if out.queue_limit:
             same = peer.by_key.setdefault(out.name, collections.deque())

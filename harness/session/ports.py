@@ -36,8 +36,10 @@ class Port(Protocol):
         """Wait until subscriptions and services are registered."""
         ...
 
-    def process_pending(self, now_ns: int) -> int:
-        """Apply waiting input in arrival order at ``now_ns``; returns the frame count."""
+    def process_pending(self, now_ns: int, until: float | None = None) -> int:
+        """Apply waiting input in arrival order at ``now_ns``; returns the frame count.
+        ``until`` (:func:`time.monotonic`): a transport may stop early once it has passed and
+        keep the rest, in order, for the next call."""
         ...
 
     def flush(self) -> None:
@@ -77,8 +79,8 @@ class ServerPort:
     async def settle(self) -> None:
         """Registration is immediate in-process."""
 
-    def process_pending(self, now_ns: int) -> int:
-        return self.server.process_pending(now_ns)
+    def process_pending(self, now_ns: int, until: float | None = None) -> int:
+        return self.server.process_pending(now_ns, until)
 
     def flush(self) -> None:
         self.server.flush()

@@ -515,7 +515,7 @@ class Session:
                     await wake.wait()
                     self._boundary()
                     continue
-                self._boundary()
+                self._boundary(self._frames_until() if self.clock == "realtime" else None)
                 if self._pause_at is not None and self.sim.step_index >= self._pause_at:
                     self._pause_at = None
                     core.set_paused(True)
@@ -551,13 +551,27 @@ class Session:
                 self._anchor = (now, k)
             await asyncio.sleep(0)
 
-    def _boundary(self) -> None:
+    def _frames_until(self) -> float:
+        """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time).
+        Until the next step is due, less a quarter step for the step itself, and at least one
+        step period when the clock is behind (frames and clock then share the time about
+        evenly): a flood of frames makes frames wait (for the next boundaries, in arrival
+        order; each recorded at the step it took effect) rather than stopping the clock."""
+        now = time.monotonic()
+        period = self.dt_ns / 1e9 / self.rate
+        due = now + period
+        if self._anchor is not None:
+            wall0, k0 = self._anchor
+            due = wall0 + (self.sim.step_index + 1 - k0) * period
+        return now + max(period, due - now - period / 4)
+
+    def _boundary(self, until: float | None = None) -> None:
         assert self._port is not None
         self._settle()
         if self._start_on_client and self._clients_seen:
             self._start_on_client = False
             self.core.set_paused(False)  # before the client's first frame
-        self._port.process_pending(self.sim.sim_time_ns)
+        self._port.process_pending(self.sim.sim_time_ns, until)
         self._settle()
 
     # ----------------------------------------------------------------------------- public API

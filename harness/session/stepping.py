@@ -7,6 +7,12 @@ the session steps until ``/joint_states`` has been published once more, at most 
 and answers with the simulation time it stopped at. ``{"steps": n}`` alone is the old form
 (the answer is unchanged: the response type gained no field, so old clients see no change).
 
+A step request can also carry the command it steps with: rosbridge v2 lets one WebSocket
+message hold several JSON objects, processed in order, so
+``{"op": "publish", ...}{"op": "call_service", "service": "/harness/step", ...}`` in one
+message applies the command and then steps, exactly as the two messages sent one after the
+other would (recorded as one incoming frame), for one message per step instead of two.
+
 Counted are the messages the session publishes on its own topics (joint states, clock, tf,
 sensors) whether or not anyone subscribes; a topic only clients publish never counts during a
 call (client frames are handled between calls), so such a request takes ``steps`` steps.

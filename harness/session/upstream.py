@@ -190,8 +190,9 @@ class UpstreamPort:
         self._pending[:0] = [("frame", f) for f in frames]
         self._wake.set()
 
-    def process_pending(self, now_ns: int) -> int:
-        """Apply what the server sent (and link events) at this step boundary, in order."""
+    def process_pending(self, now_ns: int, until: float | None = None) -> int:
+        """Apply what the server sent (and link events) at this step boundary, in order
+        (all of it: ``until`` is not used)."""
         self._wake.clear()
         if self.connection is None or not self._pending:
             return 0

@@ -107,7 +107,9 @@ class RobotJoints:
             return notices
         return [n._replace(joint=n.joint.removeprefix(self.prefix)) for n in notices]
 
-    def _mapped(self, values: Mapping[str, float]) -> dict[str, float]:
+    def _mapped(self, values: Mapping[str, float]) -> Mapping[str, float]:
+        if self._whole:
+            return values  # the simulation's own names (a command per step: no copy)
         return {self._name(j): v for j, v in values.items()}
 
     def command(

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from types import MappingProxyType
+from types import EllipsisType, MappingProxyType
 from typing import Literal, NamedTuple, Protocol
 
 import mujoco
@@ -61,6 +61,7 @@ __all__ = [
 ]
 
 F64 = npt.NDArray[np.float64]
+_Key = EllipsisType | npt.NDArray[np.intp]
 
 STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 """The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
@@ -149,6 +150,17 @@ def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:
         if bias[1] == 0.0 and bias[2] == -gain:
             return ControlMode.VELOCITY
     return None
+
+
+def _write_target(array: F64, index: npt.NDArray[np.integer]) -> tuple[F64, _Key]:
+    """Where ``array[index] = values`` writes, as ``(target, key)`` for ``target[key] =
+    values``: a view and ``...`` when ``index`` is a run of consecutive addresses (the same
+    elements, written for much less per step), else ``array`` and ``index``."""
+    size = int(index.size)
+    first = int(index[0]) if size else 0
+    if np.array_equal(index, np.arange(first, first + size)):
+        return array[first : first + size], ...
+    return array, np.asarray(index, dtype=np.intp)
 
 
 def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
@@ -252,6 +264,7 @@ class Simulation:
         self.state_spec = STATE_SPEC
         self._dt = dt
         self._half_dt = dt / 2
+        self._dt_array = np.array(dt)  # the same division as by dt, for less per call
         self._state_size = int(mujoco.mj_stateSize(model, STATE_SPEC))
         self._warnings = self.data.warning.number  # a live view of the counters
         self._no_warnings = bytes(self._warnings.nbytes)
@@ -335,6 +348,11 @@ class Simulation:
         self._dyn_act = np.array([act_of[r] for r in self._dyn_rows], dtype=np.intp)
         self._kin_rows = np.flatnonzero(self._is_kin)
         self._has_kin = bool(self._kin_rows.size)
+        # Per-row facts as plain Python values: commands read them for every joint they name.
+        self._wanted = tuple(_FIELD_OF_MODE[m] for m in modes)
+        self._row_is_kin = tuple(m == "kinematic" for m in modes)
+        self._lo_list = tuple(lows)
+        self._hi_list = tuple(highs)
 
         # Kinematic writes: the kinematic joints, then the mimic followers of those joints.
         leader_row = {int(self._qadr[r]): i for i, r in enumerate(self._kin_rows)}
@@ -354,6 +372,16 @@ class Simulation:
                     )
                 )
         self._followers = tuple(followers)
+        # The kinematic writes' positions gather the commands of the kinematic rows, then each
+        # follower's leader's (turned into the follower's by the mimic law: _follow holds the
+        # slot, leader_ref, follower_ref, c0..c4).
+        self._kin_gather = np.array(
+            [*self._kin_rows, *(self._kin_rows[f.leader_row] for f in followers)], dtype=np.intp
+        )
+        self._follow = tuple(
+            (self._kin_rows.size + i, f.leader_ref, f.follower_ref, *f.coef)
+            for i, f in enumerate(followers)
+        )
         self._kin_names = tuple(self._names[r] for r in self._kin_rows) + tuple(
             f.name for f in followers
         )
@@ -363,6 +391,10 @@ class Simulation:
         self._kin_dadr = np.array(
             [*self._dadr[self._kin_rows], *(f.dof_adr for f in followers)], dtype=np.uint32
         )
+        # The kinematic writes' targets in the simulation's own MjData (its buffers are never
+        # reallocated, so views of them stay valid).
+        self._kin_qpos, self._kin_qkey = _write_target(self.data.qpos, self._kin_qadr)
+        self._kin_qvel, self._kin_dkey = _write_target(self.data.qvel, self._kin_dadr)
         self._bodies = tuple(
             (b, n)
             for b in range(1, model.nbody)
@@ -478,7 +510,9 @@ class Simulation:
         self._kin_vel = np.zeros(self._kin_qadr.size, dtype=np.float64)
         self._kin_moving = False
         self._dirty = True
+        self._kin_dirty = False
         self._fast = False
+        self._kin_fast = False
         self._changed = False
         self._applied: AppliedInput | None = None
         # Derived quantities (contacts, poses) for observers at this step; mj_forward reads
@@ -510,7 +544,7 @@ class Simulation:
     def add_observer(self, fn: Observer) -> Callable[[], None]:
         """Call ``fn(sim)`` after every step, in registration order; returns its remover."""
         self._observers.append(fn)
-        self._fast = False
+        self._fast = self._kin_fast = False
 
         def remove() -> None:
             if fn in self._observers:
@@ -534,6 +568,14 @@ class Simulation:
             ):
                 self._fail(step)
             return
+        if self._kin_fast and n >= 0:
+            # Kinematic joints, no observer, nothing new but kinematic commands.
+            if n == 1:
+                self._step_kinematic()
+                return
+            for _ in range(n):
+                self._step_kinematic()
+            return
         if n < 0:
             raise SimulationError(f"step count must be >= 0, not {n}")
         if self._failed is not None:
@@ -548,13 +590,68 @@ class Simulation:
                     fn(self)
 
     def _update_fast(self) -> None:
-        self._fast = not (
-            self._dirty or self._has_kin or self._observers or self._failed or self._planar
-        )
+        blocked = bool(self._dirty or self._observers or self._failed or self._planar)
+        self._fast = not (blocked or self._has_kin)
+        self._kin_fast = self._has_kin and not blocked
+
+    def _step_kinematic(self) -> None:
+        """One step when the only input that may have changed since the last step is the
+        kinematic joints' (what :meth:`_step_one` does then, without its general bookkeeping):
+        ctrl, applied forces and mocap poses are the last applied input's, so that input with
+        the new kinematic writes is this step's, and it changed exactly when those writes did.
+        """
+        if self._kin_dirty or self._kin_moving:
+            pos = self._kinematic_targets() if self._kin_dirty else self._kin_pos
+            self._kin_dirty = False
+            vel: F64 = pos - self._kin_prev
+            vel /= self._dt_array
+            self._kin_prev = self._kin_pos = pos
+            self._kin_vel = vel
+            moving = self._kin_moving = any(vel.tolist())  # vel.any(), for less
+            last = self._applied
+            assert last is not None  # the step after a restart takes the general path
+            # last.qpos_value holds the positions written at the last step, bit for bit (the
+            # old _kin_prev): a nonzero velocity means new positions, so a changed input.
+            if not moving and (
+                pos.tobytes() == last.qpos_value.tobytes()
+                and vel.tobytes() == last.qvel_value.tobytes()
+            ):
+                self._changed = False
+            else:
+                self._changed = True
+                self._applied = AppliedInput(
+                    last.step,
+                    last.sim_time_ns,
+                    last.ctrl,
+                    last.kinematic_joints,
+                    last.qpos_index,
+                    pos,
+                    last.qvel_index,
+                    vel,
+                    last.mocap_pos,
+                    last.mocap_quat,
+                    last.qfrc_applied,
+                    last.xfrc_applied,
+                )
+        else:
+            pos, vel = self._kin_pos, self._kin_vel
+            self._changed = False
+        qpos, qkey, qvel, dkey = self._kin_qpos, self._kin_qkey, self._kin_qvel, self._kin_dkey
+        qpos[qkey] = pos
+        qvel[dkey] = vel
+        _mj_step(self.model, self.data)
+        qpos[qkey] = pos
+        qvel[dkey] = vel
+        step = self._step = self._step + 1
+        if (
+            self._warnings.tobytes() != self._no_warnings
+            or abs(self.data.time - step * self._dt) > self._half_dt
+        ):
+            self._fail(step)
 
     def _step_one(self) -> None:
         data = self.data
-        if self._dirty or self._kin_moving or self._planar is not None:
+        if self._dirty or self._kin_dirty or self._kin_moving or self._planar is not None:
             self._prepare_input()
         else:
             self._changed = False
@@ -608,13 +705,13 @@ class Simulation:
         if self._dirty:
             data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
             data.xfrc_applied[:] = self._xfrc
-            if self._has_kin:
-                self._kin_pos = self._kinematic_targets()
+        if (self._dirty or self._kin_dirty) and self._has_kin:
+            self._kin_pos = self._kinematic_targets()
         if self._has_kin:
             self._kin_vel = (self._kin_pos - self._kin_prev) / self._dt
             self._kin_prev = self._kin_pos
             self._kin_moving = bool(self._kin_vel.any())
-        self._dirty = False
+        self._dirty = self._kin_dirty = False
         self._update_fast()
         nmocap = self.model.nmocap
         qfrc = data.qfrc_applied
@@ -650,17 +747,12 @@ class Simulation:
         self._applied = applied
 
     def _kinematic_targets(self) -> F64:
-        leaders: F64 = self._cmd[self._kin_rows]  # fancy indexing: already a copy
-        if not self._followers:
-            return leaders
-        out = np.empty(self._kin_qadr.size, dtype=np.float64)
-        out[: leaders.size] = leaders
-        for i, f in enumerate(self._followers):
-            x = float(leaders[f.leader_row]) - f.leader_ref
-            c = f.coef
-            out[leaders.size + i] = (
-                f.follower_ref + c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * c[4])))
-            )
+        """A new array of the kinematic writes' positions: the commands, then the mimic
+        followers' (never changed in place afterwards: applied inputs share it)."""
+        out: F64 = self._cmd[self._kin_gather]  # fancy indexing: a new array
+        for slot, leader_ref, follower_ref, c0, c1, c2, c3, c4 in self._follow:
+            x = out.item(slot) - leader_ref
+            out[slot] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
         return out
 
     def _fail(self, step: int) -> None:
@@ -688,16 +780,23 @@ class Simulation:
                 f"step * dt = {step * self.dt_ns / 1e9!r} s (time jumped: did MuJoCo reset?)"
             )
         self._failed = f"the simulation failed at {message}; reset() or set_state() first"
-        self._fast = False
+        self._fast = self._kin_fast = False
         raise InstabilityError(message, step=step, warning=warning)
 
     @property
     def last_input(self) -> AppliedInput | None:
         """The physics input applied at the last step (None before the first step after a
         reset or restore). It holds until changed: its ``step`` is the last step taken."""
-        if self._applied is None or self._step == 0:
+        applied = self._applied
+        if applied is None or self._step == 0:
             return None
-        return self._applied._replace(step=self._step, sim_time_ns=self.sim_time_ns)
+        # Copies of the kinematic writes: the simulation keeps writing its own arrays.
+        return applied._replace(
+            step=self._step,
+            sim_time_ns=self.sim_time_ns,
+            qpos_value=applied.qpos_value.copy(),
+            qvel_value=applied.qvel_value.copy(),
+        )
 
     @property
     def input_changed(self) -> bool:
@@ -735,15 +834,15 @@ class Simulation:
 
     def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
         """Position commands for several joints (all validated before any applies)."""
-        return self._apply(self._validate([(j, "position", v) for j, v in positions.items()]))
+        return self._apply_field("position", positions)
 
     def set_velocities(self, velocities: Mapping[str, float]) -> list[Notice]:
         """Velocity commands for several joints (all validated before any applies)."""
-        return self._apply(self._validate([(j, "velocity", v) for j, v in velocities.items()]))
+        return self._apply_field("velocity", velocities)
 
     def set_efforts(self, efforts: Mapping[str, float]) -> list[Notice]:
         """Effort commands for several joints (all validated before any applies)."""
-        return self._apply(self._validate([(j, "effort", v) for j, v in efforts.items()]))
+        return self._apply_field("effort", efforts)
 
     def command_joint_state(
         self,
@@ -780,7 +879,7 @@ class Simulation:
             self._planar = PlanarBase(self.model, joint)
         self._planar.command(linear_x, linear_y, angular_z)
         self._dirty = True
-        self._fast = False
+        self._fast = self._kin_fast = False
 
     def apply_wrench(
         self, body: str, force: Sequence[float], torque: Sequence[float] = (0.0, 0.0, 0.0)
@@ -795,7 +894,7 @@ class Simulation:
             raise CommandError(f"body {body!r}: force and torque must be 3 finite values each")
         self._xfrc[bid] = wrench
         self._dirty = True
-        self._fast = False
+        self._fast = self._kin_fast = False
 
     def joint_commands(self) -> F64:
         """The current command per joint, in the unit of its mode's field."""
@@ -818,47 +917,104 @@ class Simulation:
             out.append((row, field, value))
         return out
 
+    def _apply_field(self, field: CommandField, values: Mapping[str, float]) -> list[Notice]:
+        """Commands of one field, one per joint (a mapping names each joint once): what
+        ``_apply(_validate(...))`` does for them, in one pass (a client may send these every
+        step). Every value is checked before any applies."""
+        index, wanted, lows, highs = self._index, self._wanted, self._lo_list, self._hi_list
+        notices: list[Notice] = []
+        writes: list[tuple[int, float]] = []
+        for joint, raw in values.items():
+            row = index.get(joint)
+            if row is None:
+                known = ", ".join(self._names) or "none"
+                raise CommandError(f"unknown joint {joint!r} (controllable joints: {known})")
+            try:
+                value = float(raw)
+            except (TypeError, ValueError):
+                raise CommandError(f"joint {joint!r}: {field} {raw!r} is not a number") from None
+            if not math.isfinite(value):
+                raise CommandError(f"joint {joint!r}: {field} {value!r} is not finite")
+            if wanted[row] != field:
+                notices.append(self._ignored(row, field, value))
+                continue
+            # min(max(value, low), high), for less
+            applied = value
+            if applied < lows[row]:
+                applied = lows[row]
+            if applied > highs[row]:
+                applied = highs[row]
+            if applied != value:
+                notices.append(self._clamped(row, value, applied))
+            writes.append((row, applied))
+        cmd, row_is_kin = self._cmd, self._row_is_kin
+        kin = dyn = False
+        for row, applied in writes:
+            cmd[row] = applied
+            if row_is_kin[row]:
+                kin = True
+            else:
+                dyn = True
+        self._mark_dirty(kin, dyn)
+        return notices
+
     def _apply(self, entries: list[tuple[int, str, float]]) -> list[Notice]:
         notices: list[Notice] = []
         by_row: dict[int, dict[str, float]] = {}
         for row, field, value in entries:
             by_row.setdefault(row, {})[field] = value
+        kin = dyn = False
         for row, fields in by_row.items():
-            name = self._names[row]
-            mode = self._modes[row]
-            wanted = _FIELD_OF_MODE[mode]
+            wanted = self._wanted[row]
             if wanted not in fields:
                 for field, value in fields.items():
-                    notices.append(
-                        Notice(
-                            name,
-                            "ignored",
-                            field,  # type: ignore[arg-type]
-                            value,
-                            math.nan,
-                            f"joint {name!r} is {mode}-controlled: {field} command ignored",
-                        )
-                    )
+                    notices.append(self._ignored(row, field, value))
                 continue
             value = fields[wanted]
-            lo, hi = float(self._lo[row]), float(self._hi[row])
-            applied = min(max(value, lo), hi)
+            applied = min(max(value, self._lo_list[row]), self._hi_list[row])
             if applied != value:
-                notices.append(
-                    Notice(
-                        name,
-                        "clamped",
-                        wanted,
-                        value,
-                        applied,
-                        f"joint {name!r}: {wanted} {value:g} is beyond its limits "
-                        f"[{lo:g}, {hi:g}]: clamped to {applied:g}",
-                    )
-                )
+                notices.append(self._clamped(row, value, applied))
             self._cmd[row] = applied
-            self._dirty = True
-            self._fast = False
+            if self._row_is_kin[row]:
+                kin = True
+            else:
+                dyn = True
+        self._mark_dirty(kin, dyn)
         return notices
+
+    def _mark_dirty(self, kin: bool, dyn: bool) -> None:
+        """New commands for kinematic joints (``kin``) or dynamic ones (``dyn``) take effect at
+        the next step; kinematic ones alone keep the kinematic fast path."""
+        if kin:
+            self._kin_dirty = True
+            self._fast = False
+        if dyn:
+            self._dirty = True
+            self._fast = self._kin_fast = False
+
+    def _ignored(self, row: int, field: str, value: float) -> Notice:
+        name, mode = self._names[row], self._modes[row]
+        return Notice(
+            name,
+            "ignored",
+            field,  # type: ignore[arg-type]
+            value,
+            math.nan,
+            f"joint {name!r} is {mode}-controlled: {field} command ignored",
+        )
+
+    def _clamped(self, row: int, value: float, applied: float) -> Notice:
+        name, wanted = self._names[row], self._wanted[row]
+        lo, hi = self._lo_list[row], self._hi_list[row]
+        return Notice(
+            name,
+            "clamped",
+            wanted,
+            value,
+            applied,
+            f"joint {name!r}: {wanted} {value:g} is beyond its limits "
+            f"[{lo:g}, {hi:g}]: clamped to {applied:g}",
+        )
 
     # ----------------------------------------------------------------------------- reads
 
