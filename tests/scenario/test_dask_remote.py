@@ -129,7 +129,13 @@ def _sha256(path: Path) -> str:
 
 
 def _same(result):
-    return (result.simulation, result.iteration, result.verdicts, result.steps, result.state_digest)
+    # The client verdict's detail says which came first, the client's exit or the sim-time
+    # limit: a wall-clock race on any backend, so only its outcome is compared.
+    verdicts = tuple(
+        (v.name, v.passed) if v.name == "client" else (v.name, v.passed, v.detail)
+        for v in result.verdicts
+    )
+    return (result.simulation, result.iteration, verdicts, result.steps, result.state_digest)
 
 
 @pytest.fixture
