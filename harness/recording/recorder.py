@@ -36,6 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness._version import __version__
+from harness.events.records import CollisionRecord, RosoutRecord
 from harness.recording.cdr import (
     Encoder,
     Unsupported,
@@ -451,76 +452,48 @@ class Recorder:
         )
         self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, epoch.sim_time_ns)
 
-    def write_collision_event(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        kind: int,
-        robot: str,
-        body1: str,
-        body2: str,
-        geom1: str,
-        geom2: str,
-        penetration: float,
-        normal_force: float,
-        position: Sequence[float],
-        normal: Sequence[float],
-        duration_ns: int = 0,
-        distance: float = 0.0,
-        begin_step: int = 0,
-        end_step: int = 0,
-    ) -> None:
+    def write_collision_event(self, record: CollisionRecord) -> None:
         """Record a collision begin (0), end (1) or near miss (2) (fields as in the .msg)."""
+        position, normal = record.position, record.normal
         if len(position) != 3 or len(normal) != 3:
             raise RecordingWriteError(
-                f"{TOPIC_COLLISIONS} step {step}: position and normal need 3 components"
+                f"{TOPIC_COLLISIONS} step {record.step}: position and normal need 3 components"
             )
         point = self._types["geometry_msgs/msg/Point"]
         vector = self._types["geometry_msgs/msg/Vector3"]
         msg = self._types[TYPE_COLLISION_EVENT](
-            step=step,
-            sim_time_ns=sim_time_ns,
-            kind=kind,
-            robot=robot,
-            body1=body1,
-            body2=body2,
-            geom1=geom1,
-            geom2=geom2,
-            penetration=float(penetration),
-            normal_force=float(normal_force),
+            step=record.step,
+            sim_time_ns=record.sim_time_ns,
+            kind=record.kind,
+            robot=record.robot,
+            body1=record.body1,
+            body2=record.body2,
+            geom1=record.geom1,
+            geom2=record.geom2,
+            penetration=float(record.penetration),
+            normal_force=float(record.normal_force),
             position=point(x=float(position[0]), y=float(position[1]), z=float(position[2])),
             normal=vector(x=float(normal[0]), y=float(normal[1]), z=float(normal[2])),
-            duration_ns=duration_ns,
-            distance=float(distance),
-            begin_step=begin_step,
-            end_step=end_step,
+            duration_ns=record.duration_ns,
+            distance=float(record.distance),
+            begin_step=record.begin_step,
+            end_step=record.end_step,
         )
-        self._write(TOPIC_COLLISIONS, TYPE_COLLISION_EVENT, msg, sim_time_ns)
+        self._write(TOPIC_COLLISIONS, TYPE_COLLISION_EVENT, msg, record.sim_time_ns)
 
-    def write_rosout(
-        self,
-        *,
-        sim_time_ns: int,
-        level: int,
-        name: str,
-        msg: str,
-        file: str = "",
-        function: str = "",
-        line: int = 0,
-    ) -> None:
+    def write_rosout(self, record: RosoutRecord) -> None:
         """Record a ``rcl_interfaces/msg/Log`` on ``/rosout`` (levels 10/20/30/40/50)."""
-        sec, nanosec = divmod(sim_time_ns, 1_000_000_000)
+        sec, nanosec = divmod(record.sim_time_ns, 1_000_000_000)
         log = self._types["rcl_interfaces/msg/Log"](
             stamp=self._types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
-            level=level,
-            name=name,
-            msg=msg,
-            file=file,
-            function=function,
-            line=line,
+            level=record.level,
+            name=record.name,
+            msg=record.msg,
+            file=record.file,
+            function=record.function,
+            line=record.line,
         )
-        self._write(TOPIC_ROSOUT, "rcl_interfaces/msg/Log", log, sim_time_ns)
+        self._write(TOPIC_ROSOUT, "rcl_interfaces/msg/Log", log, record.sim_time_ns)
 
     def _write(self, topic: str, msgtype: str, msg: Any, sim_time_ns: int) -> None:
         try:

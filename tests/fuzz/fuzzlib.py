@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import ConfigError, ModelError, RecordingError
+from harness.events.records import RosoutRecord
 from harness.models import load_robot
 from harness.models.sdf import build_spec, read_sdf
 from harness.recording import AppliedInput, BridgeFrame, PhysicsState, Recorder, Recording
@@ -148,7 +149,9 @@ def _recording_seed() -> bytes:
                     step=k, sim_time_ns=k * 2_000_000, direction=0, connection=1, seq=k,
                     op="publish", topic="/t", text='{"op":"publish","topic":"/t"}',
                 ))  # fmt: skip
-                rec.write_rosout(sim_time_ns=k * 2_000_000, level=20, name="fuzz", msg=f"step {k}")
+                rec.write_rosout(
+                    RosoutRecord(sim_time_ns=k * 2_000_000, level=20, name="fuzz", msg=f"step {k}")
+                )
     return path.read_bytes()
 
 

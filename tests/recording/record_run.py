@@ -17,6 +17,7 @@ import cbor2
 import mujoco
 import numpy as np
 
+from harness.events.records import CollisionRecord, RosoutRecord
 from harness.recording import AppliedInput, BridgeFrame, FlushInfo, PhysicsState, Recorder
 from harness.sim.contacts import extract_contacts
 
@@ -77,7 +78,9 @@ def record(
         recorder.write_message(
             "/robot_description", "std_msgs/msg/String", {"data": text}, sim_time_ns=0
         )
-        recorder.write_rosout(sim_time_ns=0, level=20, name="harness", msg="recording started")
+        recorder.write_rosout(
+            RosoutRecord(sim_time_ns=0, level=20, name="harness", msg="recording started")
+        )
         mujoco.mj_getState(model, data, state, SPEC)
         recorder.write_physics_state(
             PhysicsState(
@@ -133,25 +136,25 @@ def record(
                 if pair not in active:
                     active[pair] = (step, depth, force, contacts.position[i], contacts.normal[i])
                     g1, g2 = int(contacts.geom1[i]), int(contacts.geom2[i])
-                    recorder.write_collision_event(
+                    recorder.write_collision_event(CollisionRecord(
                         step=step, sim_time_ns=now, kind=0, robot="test_arm",
                         body1=names[pair[0]], body2=names[pair[1]], geom1=geoms[g1],
                         geom2=geoms[g2], penetration=max(depth, 0.0), normal_force=force,
                         position=contacts.position[i], normal=contacts.normal[i],
-                    )  # fmt: skip
-                    recorder.write_rosout(
+                    ))  # fmt: skip
+                    recorder.write_rosout(RosoutRecord(
                         sim_time_ns=now, level=30, name="collisions",
                         msg=f"contact {names[pair[0]]} - {names[pair[1]]}",
                         file="record_run.py", function="record", line=1,
-                    )  # fmt: skip
+                    ))  # fmt: skip
             for pair in [p for p in active if p not in seen]:
                 began, depth, force, position, normal = active.pop(pair)
-                recorder.write_collision_event(
+                recorder.write_collision_event(CollisionRecord(
                     step=step, sim_time_ns=now, kind=1, robot="test_arm",
                     body1=names[pair[0]], body2=names[pair[1]], geom1="", geom2="",
                     penetration=max(depth, 0.0), normal_force=force, position=position,
                     normal=normal, duration_ns=(step - began) * dt_ns,
-                )  # fmt: skip
+                ))  # fmt: skip
             if step % 10 == 0:
                 joint_states = {
                     "header": {"stamp": _stamp(now), "frame_id": ""},

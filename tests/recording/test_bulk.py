@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
+from harness.events.records import RosoutRecord
 from harness.recording import (
     PhysicsState,
     PhysicsStateArrays,
@@ -172,7 +173,7 @@ def test_irregularly_interleaved_records(tmp_path: Path) -> None:
             now = step * 1_000_000
             for _ in range(int(rng.integers(0, 3))):
                 text = "x" * int(rng.integers(0, 200))
-                rec.write_rosout(sim_time_ns=now, level=20, name="noise", msg=text)
+                rec.write_rosout(RosoutRecord(sim_time_ns=now, level=20, name="noise", msg=text))
             rec.write_physics_state(PhysicsState(
                 step=step, sim_time_ns=now, state_spec=int(mujoco.mjtState.mjSTATE_FULLPHYSICS),
                 state=rng.normal(size=13), qpos=rng.normal(size=4), qvel=rng.normal(size=3),
@@ -202,7 +203,7 @@ def test_states_that_change_layout_are_refused_by_step(tmp_path: Path) -> None:
 def test_no_states_gives_empty_arrays(tmp_path: Path) -> None:
     path = tmp_path / "nostates.mcap"
     with Recorder(path, metadata=METADATA) as rec:
-        rec.write_rosout(sim_time_ns=0, level=20, name="only", msg="a log line")
+        rec.write_rosout(RosoutRecord(sim_time_ns=0, level=20, name="only", msg="a log line"))
     with Recording(path) as r:
         arrays = r.physics_state_arrays()
         assert arrays.steps.size == 0
@@ -317,7 +318,9 @@ def test_check_chunks_checks_what_reading_skipped(tmp_path: Path) -> None:
                 state=[float(step)] * 10, qpos=[0.5], qvel=[0.25],
             ))  # fmt: skip
         for i in range(200):
-            rec.write_rosout(sim_time_ns=99_000_000, level=20, name="tail", msg=f"line {i}" * 9)
+            rec.write_rosout(
+                RosoutRecord(sim_time_ns=99_000_000, level=20, name="tail", msg=f"line {i}" * 9)
+            )
     with Recording(path) as r:
         logs_only = [c for c in r.scan.chunks if len(c.channels) == 1 and c.messages > 1]
         states = {cid for cid, c in r.scan.channels.items() if c.topic == "/harness/state"}

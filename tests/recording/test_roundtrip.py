@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from harness.errors import RecordingError
+from harness.events.records import CollisionRecord, RosoutRecord
 from harness.recording import (
     AppliedInput,
     BridgeFrame,
@@ -70,13 +71,21 @@ def test_every_write_reads_back_exactly(tmp_path: Path) -> None:
             step=2, sim_time_ns=4_000_000, direction=1, connection=3, seq=2**64 - 1, op="",
             topic="", binary=True, data=blob,
         ))  # fmt: skip
-        rec.write_collision_event(
+        rec.write_collision_event(CollisionRecord(
             step=3, sim_time_ns=6_000_000, kind=2, robot="arm", body1="a", body2="b",
             geom1="ga", geom2="gb", penetration=0.1, normal_force=-0.0,
             position=(np.nan, 1.0, 2.0), normal=(0.0, 0.0, 1.0), duration_ns=-5, distance=1e-9,
-        )  # fmt: skip
+        ))  # fmt: skip
         rec.write_rosout(
-            sim_time_ns=6_000_000, level=40, name="n", msg="m", file="f.py", function="g", line=9
+            RosoutRecord(
+                sim_time_ns=6_000_000,
+                level=40,
+                name="n",
+                msg="m",
+                file="f.py",
+                function="g",
+                line=9,
+            )
         )
         rec.write_message(
             "/joint_states",
@@ -196,9 +205,9 @@ def test_bad_metadata_is_refused(tmp_path: Path, metadata, needle) -> None:
 
 def test_bad_writes_are_refused(tmp_path: Path) -> None:
     with Recorder(tmp_path / "r.mcap", metadata=METADATA) as rec:
-        rec.write_rosout(sim_time_ns=10, level=20, name="a", msg="b")
+        rec.write_rosout(RosoutRecord(sim_time_ns=10, level=20, name="a", msg="b"))
         with pytest.raises(RecordingWriteError, match="before the last recorded 10"):
-            rec.write_rosout(sim_time_ns=5, level=20, name="a", msg="b")
+            rec.write_rosout(RosoutRecord(sim_time_ns=5, level=20, name="a", msg="b"))
         with pytest.raises(RecordingWriteError, match="already recorded as rcl_interfaces"):
             rec.write_message("/rosout", "std_msgs/msg/String", {"data": "x"}, sim_time_ns=10)
         with pytest.raises(
@@ -219,7 +228,7 @@ def test_bad_writes_are_refused(tmp_path: Path) -> None:
                 )
             )  # fmt: skip
     with pytest.raises(RecordingError, match="recorder is closed"):
-        rec.write_rosout(sim_time_ns=20, level=20, name="a", msg="b")
+        rec.write_rosout(RosoutRecord(sim_time_ns=20, level=20, name="a", msg="b"))
     with pytest.raises(RecordingWriteError, match="cannot create recording"):
         Recorder(tmp_path / "missing" / "r.mcap", metadata=METADATA)
 

@@ -7,7 +7,6 @@ holds ``/joint_states`` and the full state) also goes to ``/rosout`` as a human-
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Protocol
 
 from harness.events.errors import SinkError
@@ -19,50 +18,24 @@ from harness.events.events import (
     LogMessage,
     NearMiss,
 )
+from harness.events.records import (
+    KIND_BEGIN,
+    KIND_END,
+    KIND_NEAR_MISS,
+    CollisionRecord,
+    RosoutRecord,
+)
 from harness.events.sinks.base import SinkReport
 
 __all__ = ["KIND_BEGIN", "KIND_END", "KIND_NEAR_MISS", "EventRecorder", "RecordingSink"]
-
-KIND_BEGIN = 0
-KIND_END = 1
-KIND_NEAR_MISS = 2
 
 
 class EventRecorder(Protocol):
     """The part of ``harness.recording.Recorder`` this sink uses."""
 
-    def write_collision_event(
-        self,
-        *,
-        step: int,
-        sim_time_ns: int,
-        kind: int,
-        robot: str,
-        body1: str,
-        body2: str,
-        geom1: str,
-        geom2: str,
-        penetration: float,
-        normal_force: float,
-        position: Sequence[float],
-        normal: Sequence[float],
-        duration_ns: int = 0,
-        distance: float = 0.0,
-        begin_step: int = 0,
-        end_step: int = 0,
-    ) -> None: ...
+    def write_collision_event(self, record: CollisionRecord) -> None: ...
 
-    def write_rosout(
-        self,
-        *,
-        sim_time_ns: int,
-        level: int,
-        name: str,
-        msg: str,
-        file: str = "",
-        function: str = "",
-        line: int = 0,
-    ) -> None: ...
+    def write_rosout(self, record: RosoutRecord) -> None: ...
 
 
 class RecordingSink:
@@ -105,30 +78,34 @@ class RecordingSink:
                     duration_ns = event.duration_ns
                     begin_step, end_step = event.begin_step, event.end_step
             self.recorder.write_collision_event(
-                step=event.step,
-                sim_time_ns=event.sim_time_ns,
-                kind=kind,
-                robot=event.robot,
-                body1=event.body1,
-                body2=event.body2,
-                geom1=event.geom1,
-                geom2=event.geom2,
-                penetration=penetration,
-                normal_force=force,
-                position=event.position,
-                normal=event.normal,
-                duration_ns=duration_ns,
-                distance=distance,
-                begin_step=begin_step,
-                end_step=end_step,
+                CollisionRecord(
+                    step=event.step,
+                    sim_time_ns=event.sim_time_ns,
+                    kind=kind,
+                    robot=event.robot,
+                    body1=event.body1,
+                    body2=event.body2,
+                    geom1=event.geom1,
+                    geom2=event.geom2,
+                    penetration=penetration,
+                    normal_force=force,
+                    position=event.position,
+                    normal=event.normal,
+                    duration_ns=duration_ns,
+                    distance=distance,
+                    begin_step=begin_step,
+                    end_step=end_step,
+                )
             )
         if self.rosout:
             name = event.name if isinstance(event, LogMessage) else f"harness.{event.kind}"
             self.recorder.write_rosout(
-                sim_time_ns=event.sim_time_ns,
-                level=int(event.level),
-                name=name,
-                msg=event.message(),
+                RosoutRecord(
+                    sim_time_ns=event.sim_time_ns,
+                    level=int(event.level),
+                    name=name,
+                    msg=event.message(),
+                )
             )
 
     def close(self) -> SinkReport:
