@@ -1,9 +1,11 @@
 """`harness run --backend dask` with a worker that cannot see the client's files.
 
 The worker is a real ``dask worker`` process in its own mount namespace with a private tmpfs
-over /tmp (``unshare --mount``; the test runs as root), while the scenario, robot (URDF in a
-ROS package with an STL and a COLLADA mesh), world (MJCF with a mesh and a texture) and
-client script live in the client's /tmp, and so does ``--out``. The scheduler and the worker
+over this pytest run's temporary root (``unshare --mount``; the test runs as root), while the
+scenario, robot (URDF in a ROS package with an STL and a COLLADA mesh), world (MJCF with a mesh
+and a texture) and client script live there on the client's side, and so does ``--out``. Only
+that folder is hidden: the worker's Python and the project stay visible wherever they are
+installed (a clone under /tmp included). The scheduler and the worker
 bind 127.0.0.1. The results must equal those of local workers (verdicts, state digests, the
 recordings byte for byte), the recordings come back into ``--out``, and each file travels to
 the worker once.
@@ -72,7 +74,7 @@ def _unshare_works() -> bool:
     if shutil.which("unshare") is None:
         return False
     probe = subprocess.run(
-        ["unshare", "--mount", "--propagation", "private", "sh", "-c", "mount -t tmpfs t /tmp"],
+        ["unshare", "--mount", "--propagation", "private", "sh", "-c", "mount -t tmpfs t /mnt"],
         capture_output=True,
     )
     return probe.returncode == 0
@@ -139,18 +141,23 @@ def _same(result):
 
 
 @pytest.fixture
-def isolated_worker(tmp_path):
-    """A scheduler on 127.0.0.1 and one worker process behind a private /tmp."""
+def isolated_worker(tmp_path, tmp_path_factory):
+    """A scheduler on 127.0.0.1 and one worker process that cannot see this run's
+    temporary folders (a private tmpfs over their root, where its own caches live too)."""
     if not _unshare_works():
-        pytest.skip("unshare --mount with a tmpfs over /tmp is not permitted here")
-    if not str(tmp_path.resolve()).startswith("/tmp/"):
-        pytest.skip("the test's files must live under /tmp (the worker's /tmp is private)")
+        pytest.skip("unshare --mount with a private tmpfs is not permitted here")
+    hidden = tmp_path_factory.getbasetemp().resolve()
+    if hidden.parent.name.startswith("pytest-"):  # pytest-of-<user>/pytest-N[/popen-gwK]
+        hidden = hidden.parent if hidden.name.startswith("popen-") else hidden
+    project = Path(harness.__file__).resolve().parents[1]
+    if project.is_relative_to(hidden) or Path(sys.executable).is_relative_to(hidden):
+        pytest.skip(f"the project lies inside the folder the worker must not see ({hidden})")
     env = {
         **os.environ,
-        "PYTHONPATH": str(Path(harness.__file__).resolve().parents[1]),
-        "HARNESS_CACHE_DIR": "/tmp/harness-worker-meshes",  # inside the private /tmp
+        "PYTHONPATH": str(project),
+        "HARNESS_CACHE_DIR": str(hidden / "worker-meshes"),  # inside the private tmpfs
+        "HARNESS_WORKER_DIR": str(hidden / "worker-files"),
     }
-    env.pop("HARNESS_WORKER_DIR", None)
     with distributed.LocalCluster(
         n_workers=0,
         processes=False,
@@ -166,8 +173,8 @@ def isolated_worker(tmp_path):
                 "private",
                 "sh",
                 "-c",
-                'mount -t tmpfs -o size=512m harness-worker /tmp && cd / && exec "$@"',
-                "sh",
+                'mount -t tmpfs -o size=512m harness-worker "$0" && cd / && exec "$@"',
+                str(hidden),
                 sys.executable,
                 "-m",
                 "distributed.cli.dask_worker",
