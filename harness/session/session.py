@@ -170,6 +170,7 @@ from harness.session.options import (
     SessionKeywords,
     TransportOptions,
 )
+from harness.session.pacing import Anchor, frames_until, pace
 from harness.session.ports import Port, ServerPort
 from harness.session.snapshot import complete_prefix
 from harness.session.startup import load_run, open_port, open_recorder, option_groups
@@ -186,8 +187,6 @@ T = TypeVar("T")
 
 LoggerFactory = Callable[["Session"], Logger]
 """Builds a logger once the session (and so its model) exists."""
-
-_BEHIND_S = 0.25  # realtime: further behind than this, re-anchor instead of bursting
 
 
 class Session:
@@ -300,7 +299,7 @@ class Session:
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
         """The loaded world of a session of ``robots`` (None for ``robot=``)."""
         self.robot_name = loaded.name
-        self._anchor: tuple[float, int] | None = None
+        self._anchor: Anchor | None = None
         record_to = record.record_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
@@ -472,32 +471,17 @@ class Session:
                     watcher()  # a run_until waiting for a step that will not come
 
     async def _pace(self) -> None:
-        now = time.monotonic()
-        k = self.sim.step_index
-        if self._anchor is None:
-            self._anchor = (now, k)
-        wall0, k0 = self._anchor
-        delay = wall0 + (k - k0) * self.dt_ns / 1e9 / self.rate - now
-        if delay > 0:
-            await asyncio.sleep(delay)
-        else:
-            if delay < -_BEHIND_S:
-                self._anchor = (now, k)
-            await asyncio.sleep(0)
+        delay, self._anchor = pace(
+            self._anchor, time.monotonic(), self.sim.step_index, self.dt_ns, self.rate
+        )
+        await asyncio.sleep(delay)
 
     def _frames_until(self) -> float:
-        """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time).
-        Until the next step is due, less a quarter step for the step itself, and at least one
-        step period when the clock is behind (frames and clock then share the time about
-        evenly): a flood of frames makes frames wait (for the next boundaries, in arrival
-        order; each recorded at the step it took effect) rather than stopping the clock."""
-        now = time.monotonic()
-        period = self.dt_ns / 1e9 / self.rate
-        due = now + period
-        if self._anchor is not None:
-            wall0, k0 = self._anchor
-            due = wall0 + (self.sim.step_index + 1 - k0) * period
-        return now + max(period, due - now - period / 4)
+        """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time;
+        :func:`harness.session.pacing.frames_until`)."""
+        return frames_until(
+            self._anchor, time.monotonic(), self.sim.step_index, self.dt_ns, self.rate
+        )
 
     def _boundary(self, until: float | None = None) -> None:
         assert self._port is not None
