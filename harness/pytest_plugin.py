@@ -75,6 +75,7 @@ modes and turns kinematic ones into position control; :class:`harness.vocabulary
 On failure the report gets a ``harness`` section: the recording's path, the
 ``harness replay`` command, the collision/joint-limit/log event summary, bridge errors and the
 first golden divergence.
+
 This module is the entry point: the options, the marker, the fixtures and the hooks. The work is
 done in :mod:`harness.plugin` (``settings``: the options and :class:`HarnessSettings`;
 ``markers``: the marker's keys and values; ``scenario``: ``scenario=`` under the marker;

@@ -3,8 +3,8 @@ compares this test's recording so far with its golden through :func:`harness.rep
 :class:`GoldenMismatch`, the golden's path (:func:`golden_path`, :func:`mode_label`) and the
 command that writes it (:func:`update_command`).
 
-This module imports only the standard library and pytest at import time; the replay package
-loads when a golden is first checked.
+This module imports only the standard library, pytest and :mod:`harness.vocabulary` at import
+time; the replay package loads when a golden is first checked.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ class Golden:
     @property
     def path(self) -> Path:
         """``<golden dir>/<test module>/<test name>[<mode>].mcap`` (the mode only when it is
-        not the default; see the module docstring)."""
+        not the default; see :mod:`harness.pytest_plugin`)."""
         return golden_path(self._run.item, self._run.settings, self._run.session_mode())
 
     def check(self, **tolerances: float) -> DiffReport:
