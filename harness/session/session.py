@@ -137,7 +137,7 @@ import dataclasses
 import math
 import threading
 import time
-from collections.abc import Callable, Coroutine, Iterable, Mapping, Sequence
+from collections.abc import Callable, Coroutine, Iterable, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -147,18 +147,8 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.events import EventHub, Logger, RecordingSink, Sink, SinkReport
-from harness.models import (
-    ControlMode,
-    LoadedRobot,
-    LoadedWorld,
-    RobotModel,
-    RobotSpec,
-    WorldObject,
-    load_robot,
-    load_world,
-)
-from harness.models.world import BaseKind, SelfCollision
-from harness.recording import Recorder, describe_run
+from harness.models import LoadedRobot, LoadedWorld, RobotModel
+from harness.recording import Recorder
 from harness.session.control import resolve_default
 from harness.session.core import (
     CLOCK_MODES,
@@ -170,7 +160,6 @@ from harness.session.core import (
 from harness.session.errors import (
     ClientTimeoutError,
     SessionClosedError,
-    SessionConfigError,
     SessionError,
     SimTimeoutError,
 )
@@ -180,11 +169,12 @@ from harness.session.options import (
     RecordOptions,
     SessionKeywords,
     TransportOptions,
-    group_keywords,
 )
+from harness.session.pacing import Anchor, frames_until, pace
 from harness.session.ports import Port, ServerPort
 from harness.session.snapshot import complete_prefix
-from harness.session.upstream import UpstreamPort, UpstreamStats, redact
+from harness.session.startup import load_run, open_port, open_recorder, option_groups
+from harness.session.upstream import UpstreamStats
 from harness.sim import Notice, Simulation
 
 if TYPE_CHECKING:
@@ -197,8 +187,6 @@ T = TypeVar("T")
 
 LoggerFactory = Callable[["Session"], Logger]
 """Builds a logger once the session (and so its model) exists."""
-
-_BEHIND_S = 0.25  # realtime: further behind than this, re-anchor instead of bursting
 
 
 class Session:
@@ -268,19 +256,7 @@ class Session:
         sinks: Iterable[Sink] = (),
         **keywords: Unpack[SessionKeywords],
     ) -> None:
-        if isinstance(record, str | Path):
-            record = RecordOptions(record_to=record)
-        groups = group_keywords(
-            keywords, {"options": options, "transport": transport, "record": record, "load": load}
-        )
-        options = groups["options"]
-        transport = groups["transport"]
-        record = groups["record"]
-        load = groups["load"]
-        assert isinstance(options, CoreOptions)
-        assert isinstance(transport, TransportOptions)
-        assert isinstance(record, RecordOptions)
-        assert isinstance(load, LoadOptions)
+        options, transport, record, load = option_groups(keywords, options, transport, record, load)
         self.options: CoreOptions = options
         """The core's options (the ``controllers`` default resolved once the robot is loaded)."""
         self.transport: TransportOptions = transport
@@ -314,18 +290,7 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        robots = load.robots
-        load_options = _load_options(load.self_collision, load.base, load.strict)
-        loaded = _load(
-            robot,
-            robots,
-            load.objects,
-            load.mode,
-            load.scene,
-            options.namespace,
-            load.robot_args,
-            load_options,
-        )
+        loaded = load_run(robot, load, options.namespace)
         options = dataclasses.replace(
             options, controllers=resolve_default(options.controllers, loaded)
         )
@@ -334,34 +299,14 @@ class Session:
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
         """The loaded world of a session of ``robots`` (None for ``robot=``)."""
         self.robot_name = loaded.name
-        self._anchor: tuple[float, int] | None = None
-        record_to, connect_to = record.record_to, transport.connect_to
+        self._anchor: Anchor | None = None
+        record_to = record.record_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
             hub = EventHub()
             if self.record_path is not None:
-                description = describe_run(
-                    loaded,
-                    seed=options.seed,
-                    scenario=record.scenario,
-                    specs=robots if isinstance(robots, Sequence) else None,
-                    objects=load.objects,
-                    extra={
-                        **options.to_metadata(),
-                        "transport": "server" if connect_to is None else "client",
-                        **({"upstream": redact(connect_to)} if connect_to is not None else {}),
-                        **(
-                            {"ros_domain_id": str(self.ros_domain_id)}
-                            if self.ros_domain_id is not None
-                            else {}
-                        ),
-                    },
-                )
-                self._recorder = Recorder(
-                    self.record_path,
-                    metadata=description.metadata,
-                    attachments=description.attachments,
-                    state_every=options.state_every,
+                self._recorder = open_recorder(
+                    self.record_path, loaded, options, transport, record, load, self.ros_domain_id
                 )
                 hub.add_sink(RecordingSink(self._recorder))
             self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
@@ -371,21 +316,9 @@ class Session:
             while nothing else can step it; prefer the session's methods."""
             self.topics: SessionTopics = self.core.topics
             assert self.core.bridge is not None
-            self.upstream: UpstreamStats | None = None
+            self._port, upstream = open_port(self.core.bridge, transport)
+            self.upstream: UpstreamStats | None = upstream
             """Client mode: what the link to the external server counted (else None)."""
-            if connect_to is not None:
-                upstream = UpstreamPort(
-                    self.core.bridge, connect_to, allow_refused=transport.connect_allow_refused
-                )
-                self.upstream = upstream.stats
-                self._port = upstream
-            else:
-                self._port = ServerPort(
-                    self.core.bridge,
-                    host=transport.host,
-                    port=transport.port,
-                    token=transport.token,
-                )
             for sink in sinks:
                 hub.add_sink(sink)
             for item in loggers:
@@ -538,32 +471,17 @@ class Session:
                     watcher()  # a run_until waiting for a step that will not come
 
     async def _pace(self) -> None:
-        now = time.monotonic()
-        k = self.sim.step_index
-        if self._anchor is None:
-            self._anchor = (now, k)
-        wall0, k0 = self._anchor
-        delay = wall0 + (k - k0) * self.dt_ns / 1e9 / self.rate - now
-        if delay > 0:
-            await asyncio.sleep(delay)
-        else:
-            if delay < -_BEHIND_S:
-                self._anchor = (now, k)
-            await asyncio.sleep(0)
+        delay, self._anchor = pace(
+            self._anchor, time.monotonic(), self.sim.step_index, self.dt_ns, self.rate
+        )
+        await asyncio.sleep(delay)
 
     def _frames_until(self) -> float:
-        """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time).
-        Until the next step is due, less a quarter step for the step itself, and at least one
-        step period when the clock is behind (frames and clock then share the time about
-        evenly): a flood of frames makes frames wait (for the next boundaries, in arrival
-        order; each recorded at the step it took effect) rather than stopping the clock."""
-        now = time.monotonic()
-        period = self.dt_ns / 1e9 / self.rate
-        due = now + period
-        if self._anchor is not None:
-            wall0, k0 = self._anchor
-            due = wall0 + (self.sim.step_index + 1 - k0) * period
-        return now + max(period, due - now - period / 4)
+        """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time;
+        :func:`harness.session.pacing.frames_until`)."""
+        return frames_until(
+            self._anchor, time.monotonic(), self.sim.step_index, self.dt_ns, self.rate
+        )
 
     def _boundary(self, until: float | None = None) -> None:
         assert self._port is not None
@@ -963,82 +881,3 @@ class Session:
     def __repr__(self) -> str:
         state = "closed" if self._closed else getattr(self, "url", "starting")
         return f"Session({self.robot_name!r}, clock={self.clock!r}, {state})"
-
-
-def _load_options(
-    self_collision: SelfCollision | None, base: BaseKind | None, strict: bool
-) -> dict[str, Any]:
-    """The robot load options a session was given (none left at their default)."""
-    options: dict[str, Any] = {}
-    if self_collision is not None:
-        options["self_collision"] = self_collision
-    if base is not None:
-        options["base"] = base
-    if strict:
-        options["strict"] = True
-    return options
-
-
-def _load(
-    robot: str | Path | LoadedRobot | None,
-    robots: Sequence[RobotSpec] | LoadedWorld | None,
-    objects: Sequence[WorldObject],
-    mode: ControlMode | str | Mapping[str, ControlMode | str] | None,
-    scene: str | Path | None,
-    namespace: str,
-    robot_args: Mapping[str, Any] | None = None,
-    load_options: Mapping[str, Any] | None = None,
-) -> LoadedRobot | LoadedWorld:
-    """What a session runs: ``robot`` loaded (or as given), or the world of ``robots``."""
-    if robot_args and (robots is not None or isinstance(robot, LoadedRobot)):
-        raise SessionConfigError(
-            "robot_args apply when the session loads robot=; give each RobotSpec its "
-            "robot_args, or load_robot(..., robot_args=...) yourself"
-        )
-    if load_options and (robots is not None or isinstance(robot, LoadedRobot)):
-        raise SessionConfigError(
-            f"{', '.join(load_options)} apply when the session loads robot=; give each "
-            "RobotSpec its own, or pass them to load_robot(...) yourself"
-        )
-    if robots is None:
-        if objects:
-            raise SessionConfigError(
-                "objects are added to a world: give the robots as robots=[RobotSpec(...)]"
-            )
-        if isinstance(robot, LoadedRobot):
-            if mode is not None:
-                raise SessionConfigError(
-                    "mode applies only when the session loads the robot: this LoadedRobot "
-                    "was built with its control modes (load_robot(..., control=...))"
-                )
-            return robot
-        return load_robot(
-            "demo" if robot is None else robot,
-            control=mode or "position",
-            scene=scene,
-            robot_args=robot_args,
-            **(load_options or {}),
-        )
-    if robot is not None:
-        raise SessionConfigError("give robot= (one robot) or robots= (a world), not both")
-    if mode is not None:
-        raise SessionConfigError(
-            "mode applies to robot=; with robots= give each RobotSpec its control"
-        )
-    if namespace:
-        raise SessionConfigError(
-            f"namespace {namespace!r} applies to robot=; with robots= give each RobotSpec its "
-            "namespace"
-        )
-    if isinstance(robots, LoadedWorld):
-        if objects or scene is not None:
-            raise SessionConfigError(
-                "scene and objects are part of a LoadedWorld already: pass them to load_world"
-            )
-        return robots
-    specs = list(robots)
-    if not specs or not all(isinstance(spec, RobotSpec) for spec in specs):
-        raise SessionConfigError(
-            f"robots must be a non-empty list of RobotSpec or a LoadedWorld, not {robots!r}"
-        )
-    return load_world(specs, scene=scene, objects=objects)

@@ -50,6 +50,34 @@ def test_plugin_module_imports_almost_nothing():
     assert "harness.pytest_plugin" in loaded
 
 
+def _loaded_by(statement: str) -> set[str]:
+    code = f"import json, sys; {statement}; print(json.dumps(sorted(sys.modules)))"
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    return set(json.loads(out))
+
+
+def test_plugin_and_its_rooms_import_only_stdlib_pytest_and_the_vocabulary():
+    # what the entry point loads beyond pytest itself: standard library modules and the
+    # plugin's own harness modules (harness.plugin.*), nothing else of harness
+    extra = _loaded_by("import pytest; import harness.pytest_plugin") - _loaded_by("import pytest")
+    outside = sorted(
+        name
+        for name in extra
+        if name.split(".")[0] not in sys.stdlib_module_names and name.split(".")[0] != "harness"
+    )
+    assert not outside, outside
+    own = {name for name in extra if name.split(".")[0] == "harness"}
+    allowed = {"harness", "harness._version", "harness.errors", "harness.vocabulary"}
+    assert {"harness.pytest_plugin", "harness.plugin.run", "harness.plugin.goldens"} <= own
+    assert not {
+        name
+        for name in own - allowed
+        if name != "harness.pytest_plugin" and not name.startswith("harness.plugin")
+    }, sorted(own)
+
+
 def test_every_option_has_an_ini_twin(pytester, run):
     result = run("--help")
     text = result.stdout.str()

@@ -1,0 +1,180 @@
+"""Golden recordings: :class:`Golden` (the ``golden`` fixture's value: ``golden.check()``
+compares this test's recording so far with its golden through :func:`harness.replay.diff`),
+:class:`GoldenMismatch`, the golden's path (:func:`golden_path`, :func:`mode_label`) and the
+command that writes it (:func:`update_command`).
+
+This module imports only the standard library, pytest and :mod:`harness.vocabulary` at import
+time; the replay package loads when a golden is first checked.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shlex
+import shutil
+import tempfile
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+from harness.plugin.run import safe_name
+from harness.plugin.settings import HarnessSettings
+
+if TYPE_CHECKING:
+    from harness.plugin.run import HarnessRun
+    from harness.replay import DiffEntry, DiffReport
+
+__all__ = [
+    "GOLDENS_WRITTEN",
+    "Golden",
+    "GoldenMismatch",
+    "golden_path",
+    "mode_label",
+    "update_command",
+]
+
+_DEFAULT_MODE = "position"  # harness.models.load_robot's control default
+
+GOLDENS_WRITTEN = pytest.StashKey[list[Path]]()
+"""The goldens ``--harness-update-goldens`` wrote in this run: ``config.stash[GOLDENS_WRITTEN]``."""
+
+
+class GoldenMismatch(AssertionError):
+    """This test's recording differs from its golden beyond the tolerances."""
+
+
+# the failure line users see (and grep in CI) names the class where it is imported from
+GoldenMismatch.__module__ = "harness.pytest_plugin"
+
+
+class Golden:
+    """This test's golden recording: :attr:`path`, :meth:`check`."""
+
+    def __init__(self, run: HarnessRun) -> None:
+        self._run = run
+
+    @property
+    def path(self) -> Path:
+        """``<golden dir>/<test module>/<test name>[<mode>].mcap`` (the mode only when it is
+        not the default; see :mod:`harness.pytest_plugin`)."""
+        return golden_path(self._run.item, self._run.settings, self._run.session_mode())
+
+    def check(self, **tolerances: float) -> DiffReport:
+        """Compare this test's recording so far (a snapshot: the session keeps running) with
+        the golden (or write the golden under ``--harness-update-goldens``). ``tolerances``:
+        per-quantity bounds (:class:`harness.replay.Tolerances` fields; default 0: exact).
+        Raises :class:`GoldenMismatch` naming the first divergence."""
+        from harness.replay import Tolerances, diff
+
+        run = self._run
+        unknown = sorted(set(tolerances) - set(Tolerances._fields))
+        if unknown:
+            raise TypeError(
+                f"golden.check: unknown tolerance {unknown[0]!r} "
+                f"(known: {', '.join(Tolerances._fields)})"
+            )
+        if not run.recordings:
+            raise pytest.UsageError(
+                f"{run.item.nodeid}: golden.check() needs this test's harness_session"
+            )
+        recording = run.recordings[0]
+        session = run.sessions[0]
+        if not session.closed:
+            snapshot = recording.with_name(f"{recording.stem}.snapshot.mcap")
+            session.snapshot(snapshot)
+            if snapshot not in run.snapshots:
+                run.snapshots.append(snapshot)
+            recording = snapshot
+        golden = self.path
+        shown = _shown(golden, run.settings.rootdir)
+        if run.settings.update_goldens:
+            _write_atomically(recording, golden)
+            run.item.config.stash[GOLDENS_WRITTEN].append(golden)
+            run.golden_note = f"written {shown}"
+        elif not golden.is_file():
+            run.golden_note = f"missing {shown}"
+            pytest.fail(
+                f"golden recording {shown} does not exist; create it with:\n"
+                f"    {update_command(run.item, run.settings)}",
+                pytrace=False,
+            )
+        bounds: dict[str, Any] = dict(tolerances)
+        report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
+        if not report.same:
+            first = _first(report.entries)
+            run.divergence = _format_entry(first)
+            raise GoldenMismatch(
+                f"this run differs from golden {shown}: first divergence: {run.divergence}\n"
+                f"{report.format()}\n"
+                f"if the change is intended: {update_command(run.item, run.settings)}"
+            )
+        return report
+
+
+def golden_path(item: pytest.Item, settings: HarnessSettings, mode: Any) -> Path:
+    """``<golden dir>/<test module>/[<class>.]<test name>[<mode>].mcap`` (:func:`mode_label`)."""
+    module = Path(item.nodeid.split("::", 1)[0]).stem
+    name = safe_name(item.name)
+    cls = getattr(item, "cls", None)
+    if cls is not None:
+        name = f"{cls.__name__}.{name}"
+    return settings.golden_dir / module / f"{name}{mode_label(mode)}.mcap"
+
+
+def update_command(item: pytest.Item, settings: HarnessSettings) -> str:
+    """The command that writes ``item``'s golden, run from the invocation directory."""
+    nodepath, _, rest = item.nodeid.partition("::")
+    where = os.path.relpath(settings.rootdir / nodepath, item.config.invocation_params.dir)
+    target = f"{where}::{rest}" if rest else where
+    args = ["python", "-m", "pytest", target, "--harness-update-goldens"]
+    return shlex.join([*args, *settings.plugin_args])
+
+
+def mode_label(mode: Any) -> str:
+    """The golden-name suffix of a control mode: ``""`` for the default (every joint
+    ``position``), ``"[kinematic]"``, or the joints that differ, ``"[j1=velocity,j2=effort]"``."""
+    if isinstance(mode, Mapping):
+        changed = sorted((str(j), str(m)) for j, m in mode.items() if m != _DEFAULT_MODE)
+        return f"[{','.join(f'{j}={m}' for j, m in changed)}]" if changed else ""
+    if mode is None or mode == _DEFAULT_MODE:
+        return ""
+    return f"[{mode}]"
+
+
+def _shown(path: Path, rootdir: Path) -> str:
+    with contextlib.suppress(ValueError):
+        return str(path.relative_to(rootdir))
+    return str(path)
+
+
+def _first(entries: Iterable[DiffEntry]) -> DiffEntry:
+    return min(entries, key=lambda e: (e.step < 0, e.step))
+
+
+def _format_entry(e: DiffEntry) -> str:
+    where = f" at step {e.step}" if e.step >= 0 else ""
+    return (
+        f"{e.quantity} {e.name}{where}: golden {e.a!r}, this run {e.b!r} "
+        f"(max delta {e.max_delta:.6g} > tolerance {e.tolerance:g})"
+    )
+
+
+def _write_atomically(source: Path, target: Path) -> None:
+    """Copy ``source`` to ``target`` through a temporary file in the same folder and a rename,
+    so that a reader (or a second writer) never sees half a file."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as out, open(source, "rb") as src:
+            shutil.copyfileobj(src, out)
+            out.flush()
+            os.fsync(out.fileno())
+        os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a project file
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
