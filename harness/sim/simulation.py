@@ -1037,6 +1037,9 @@ class Simulation:
     def joint_efforts(self) -> F64:
         """Generalised force per joint: the actuator's (after the joint's force limit) for
         dynamic joints, the applied generalised force (``qfrc_applied``) for kinematic ones."""
+        if not self._has_kin:  # what np.where gives then, for less (a new array too)
+            actuator: F64 = self.data.qfrc_actuator[self._dadr]
+            return actuator
         efforts: F64 = np.where(
             self._is_kin, self.data.qfrc_applied[self._dadr], self.data.qfrc_actuator[self._dadr]
         )
