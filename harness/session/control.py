@@ -197,7 +197,7 @@ class _Snapshot(Mapping[str, float]):
         return iter(self._get())
 
     def __len__(self) -> int:
-        return len(self._names)
+        return len(self._get())
 
     def __contains__(self, key: object) -> bool:
         return key in self._get()
