@@ -25,6 +25,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from areas import format_areas
 from common import Row
@@ -143,6 +144,40 @@ def _lockstep(
         if profile is not None:
             session.call(profile.disable)
     return steps / float(out.stdout.strip()), cpu / (steps + _WARM_UP) * 1e6
+
+
+def _sans_io(robot: LoadedRobot, steps: int) -> float:
+    """The session thread's CPU microseconds per lockstep step without sockets: the same
+    publish and ``/harness/step`` frames handed to the session's bridge on its thread (JSON,
+    validation, controller, step, answer), no websockets, no event loop."""
+    import json
+
+    with Session(robot) as session:
+
+        def work() -> float:
+            bridge = session.core.bridge
+            assert bridge is not None
+            cid = bridge.connect("bench")
+            sub = {"op": "subscribe", "topic": "/joint_states"}
+            bridge.receive(cid, json.dumps({**sub, "type": "sensor_msgs/msg/JointState"}), 0)
+            step = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}}
+            call = json.dumps({**step, "id": "s"})
+            topic = "/forward_position_controller/commands"
+            cmd: dict[str, Any] = {"op": "publish", "topic": topic}
+            frames = []
+            for k in range(steps):
+                data = [0.1 * (k % 10) / 10, -0.78, 0.0, -2.35, 0.0, 1.57, 0.78, 0.02]
+                frames.append(json.dumps({**cmd, "msg": {"data": data}}))
+            start = time.thread_time()
+            for frame in frames:
+                bridge.receive(cid, frame, 0)
+                bridge.receive(cid, call, 0)
+                bridge.drain()
+            cpu = time.thread_time() - start
+            bridge.disconnect(cid)
+            return cpu / steps * 1e6
+
+        return min(session.call(work) for _ in range(3))
 
 
 def _raw_server_loop(steps: int, carry: bool = False) -> tuple[float, float]:
@@ -306,6 +341,20 @@ def run(quick: bool) -> list[Row]:
                 higher_is_better=False,
                 note="ours: parse, apply the command, step, answer (no recording); "
                 f"round trip of the raw loop {1e6 / raw:.0f} us",
+            )
+        )
+        rows.append(
+            Row(
+                "lockstep: server thread CPU per step without sockets vs with (ours)",
+                _sans_io(robot, steps),
+                cpu_ours,
+                "us",
+                "(info)",
+                True,
+                higher_is_better=False,
+                note="the same frames handed to the session's bridge on its thread: JSON, "
+                "validation, controller, mj_step, answer; the rest is websockets, asyncio, "
+                "syscalls and the session's loop",
             )
         )
         rows.append(

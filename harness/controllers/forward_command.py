@@ -74,10 +74,12 @@ class ForwardCommandController:
                 f"expected {len(self.joints)} values (one per joint: {', '.join(self.joints)}), "
                 f"got {len(data)}"
             )
-        return [
-            Command(joint, **{self.interface: float(value)})
-            for joint, value in zip(self.joints, data, strict=True)
-        ]
+        interface = self.interface
+        if interface == "position":  # positional arguments: a message every step, for less
+            return [Command(j, float(v)) for j, v in zip(self.joints, data, strict=True)]
+        if interface == "velocity":
+            return [Command(j, None, float(v)) for j, v in zip(self.joints, data, strict=True)]
+        return [Command(j, None, None, float(v)) for j, v in zip(self.joints, data, strict=True)]
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings

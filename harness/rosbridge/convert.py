@@ -91,6 +91,13 @@ def _zero(registry: TypeRegistry, f: Field) -> Any:
 def _zero_scalar(registry: TypeRegistry, f: Field) -> Any:
     if f.is_message:
         return default_message(registry, f.type)
+    return _zero_scalar_value(f)
+
+
+def _zero_scalar_value(f: Field) -> Any:
+    """A primitive scalar field's value when a message omits it (immutable)."""
+    if f.default is not None:
+        return f.default
     if f.type in INT_RANGES:
         return 0
     if f.type in FLOAT_TYPES:
@@ -123,25 +130,66 @@ def from_json(
     if msg_type in _TIME_TYPES:
         return _time_from_json(msg_type, value, path)
     definition = registry.message(msg_type)
-    known = _field_names(definition)
+    known, plan = _plan(definition)
     for key in value:
         if key not in known and not (key == _EMPTY_PLACEHOLDER and not known):
             raise ConversionError(f"Message type {msg_type} does not have a field {path}{key}")
     out: dict[str, Any] = {}
-    for f in definition.fields:
-        fpath = f"{path}{f.name}"
-        if f.name not in value:
-            if msg_type == _HEADER and f.name == "stamp":
+    for f, name, kind, lo, hi, zero in plan:
+        if name not in value:
+            if msg_type == _HEADER and name == "stamp":
                 out["stamp"] = {"sec": now_ns // 1_000_000_000, "nanosec": now_ns % 1_000_000_000}
             else:
-                out[f.name] = _zero(registry, f)
+                out[name] = _zero(registry, f) if zero is _MUTABLE else zero
             continue
-        v = value[f.name]
-        if f.length is None:
-            out[f.name] = _scalar(registry, msg_type, f, v, fpath, now_ns)
+        v = value[name]
+        # the common valid cases inline (what _scalar returns for them), the rest below
+        if (kind == _KIND_FLOAT and type(v) is float) or (
+            kind == _KIND_INT and type(v) is int and lo <= v <= hi
+        ):
+            out[name] = v
+        elif kind == _KIND_ARRAY:
+            out[name] = _array(registry, msg_type, f, v, f"{path}{name}", now_ns)
         else:
-            out[f.name] = _array(registry, msg_type, f, v, fpath, now_ns)
+            out[name] = _scalar(registry, msg_type, f, v, f"{path}{name}", now_ns)
     return out
+
+
+_KIND_FLOAT, _KIND_INT, _KIND_OTHER, _KIND_ARRAY = range(4)
+_MUTABLE = object()
+"""A plan's zero for a field whose default is built anew for every message (a list, a
+nested message): :func:`_zero` is called then."""
+_Plan = tuple[tuple[Field, str, int, int, int, Any], ...]
+_PLANS: dict[int, tuple[MessageDef, frozenset[str], _Plan]] = {}
+
+
+def _plan(definition: MessageDef) -> tuple[frozenset[str], _Plan]:
+    """The field names of a definition and, per field, how :func:`from_json` checks it
+    (built once per definition: every message goes through it)."""
+    cached = _PLANS.get(id(definition))
+    if cached is not None and cached[0] is definition:
+        return cached[1], cached[2]
+    plan: list[tuple[Field, str, int, int, int, Any]] = []
+    for f in definition.fields:
+        zero = _MUTABLE
+        if f.length is None and not f.is_message:
+            zero = _zero_scalar_value(f)  # immutable: shared by every message
+        lo = hi = 0
+        if f.length is not None:
+            kind = _KIND_ARRAY
+        elif f.is_message:
+            kind = _KIND_OTHER
+        elif f.type in FLOAT_TYPES:
+            kind = _KIND_FLOAT
+        elif f.type in INT_RANGES:
+            kind = _KIND_INT
+            lo, hi = INT_RANGES[f.type]
+        else:
+            kind = _KIND_OTHER
+        plan.append((f, f.name, kind, lo, hi, zero))
+    names = _field_names(definition)
+    _PLANS[id(definition)] = (definition, names, tuple(plan))
+    return names, tuple(plan)
 
 
 _FIELD_NAMES: dict[int, tuple[MessageDef, frozenset[str]]] = {}

@@ -68,10 +68,19 @@ def field_of(obj: Mapping[str, Any], op: str, key: str, kind: type, default: Any
 def name_field(obj: Mapping[str, Any], op: str, key: str) -> str:
     """A ROS name field of an op (missing, wrong-typed or invalid raises FrameError)."""
     value: str = field_of(obj, op, key, str)
+    if value in _VALID_NAMES:
+        return value
     problem = name_problem(value, "topic")  # topics, services and actions: one rule set
     if problem is not None:
         raise FrameError(f"{op}: Invalid {key} name {value!r}: it {problem}")
+    if len(_VALID_NAMES) < _VALID_NAMES_MAX:
+        _VALID_NAMES.add(value)
     return value
+
+
+_VALID_NAMES: set[str] = set()
+"""Names :func:`name_field` found valid (a client names the same few every frame)."""
+_VALID_NAMES_MAX = 4096
 
 
 @dataclass

@@ -239,6 +239,7 @@ class BridgeServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._closers: set[asyncio.Future[None]] = set()
         self._batched: list[_Peer] = []
+        self._writing = False  # in a call that writes the batches before it returns
         self._stopped = False
 
     # -- lifecycle ----------------------------------------------------------------------
@@ -388,22 +389,26 @@ class BridgeServer:
         count = 0
         self.pending_event.clear()
         pending = self._pending
-        while pending:
-            cid, item = pending.popleft()
-            if item is _CLOSE:
-                self._close(cid)
-            elif item is _TIMEOUT:
-                self._dispatch(self.bridge.time_out_call(cid))
-            elif cid in self._peers:
-                count += 1
-                self._dispatch(self.bridge.receive(cid, item, now_ns))
-            if until is not None and pending and time.monotonic() >= until:
-                self.pending_event.set()  # more to do at the next boundary
-                break
-        self._take_deadlines()
-        if len(pending) < self.max_pending:
-            self._resume_reading()
-        self._write_batches()  # the answers leave now, not one loop iteration later
+        self._writing = True  # no write scheduled for later: it happens below
+        try:
+            while pending:
+                cid, item = pending.popleft()
+                if item is _CLOSE:
+                    self._close(cid)
+                elif item is _TIMEOUT:
+                    self._dispatch(self.bridge.time_out_call(cid))
+                elif cid in self._peers:
+                    count += 1
+                    self._dispatch(self.bridge.receive(cid, item, now_ns))
+                if until is not None and pending and time.monotonic() >= until:
+                    self.pending_event.set()  # more to do at the next boundary
+                    break
+            self._take_deadlines()
+            if len(pending) < self.max_pending:
+                self._resume_reading()
+        finally:
+            self._writing = False
+            self._write_batches()  # the answers leave now, not one loop iteration later
         return count
 
     def _resume_reading(self) -> None:
@@ -461,9 +466,13 @@ class BridgeServer:
         publishes, deferred answers): whoever calls the bridge's in-process API on the
         server's loop calls this after it (the bridge is sans-I/O: nothing wakes the
         server)."""
-        self._dispatch(self.bridge.drain())
-        self._take_deadlines()
-        self._write_batches()
+        self._writing = True  # no write scheduled for later: it happens below
+        try:
+            self._dispatch(self.bridge.drain())
+            self._take_deadlines()
+        finally:
+            self._writing = False
+            self._write_batches()
 
     def _dispatch(self, outputs: list[Output]) -> None:
         peers = self._peers
@@ -487,7 +496,7 @@ class BridgeServer:
                 # Nothing waits before this frame and the socket keeps up: it goes to the
                 # socket as ``send`` would put it there, without the writer task. Frames
                 # for one peer produced together are written together (one syscall).
-                if not self._batched:
+                if not self._batched and not self._writing:
                     assert self._loop is not None  # peers exist only once started
                     self._loop.call_soon(self._write_batches)
                 self._batched.append(peer)

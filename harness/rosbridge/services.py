@@ -64,6 +64,8 @@ class _PendingCall:
     provider_id: str | None
     callback: Callable[[bool, Any], None] | None = None
     call: ServiceCall | None = None
+    timed: bool = False
+    """Whether its deadline was started (an in-process handler answering at once has none)."""
 
 
 class ServiceOps(BridgeHost):
@@ -141,6 +143,7 @@ class ServiceOps(BridgeHost):
                 return
             if result is DEFERRED:
                 if not call.done:
+                    pending.timed = True
                     self._call_started(key, self.call_timeout_s if timeout is None else timeout)
                 return
             if not call.done:
@@ -158,11 +161,12 @@ class ServiceOps(BridgeHost):
         self._call_by_provider[(svc.provider, rid)] = key
         frame = {"op": "call_service", "id": rid, "service": svc.spelled, "args": request}
         self._send(svc.provider, dumps(frame), "call_service", svc.name, rid)
+        pending.timed = True
         self._call_started(key, self.call_timeout_s if timeout is None else timeout)
 
     def _drop_call(self, key: int) -> _PendingCall | None:
         pending = self._calls.pop(key, None)
-        if pending is not None:
+        if pending is not None and pending.timed:  # answered at once: no deadline started
             self._call_ended(key)
         if pending is not None and pending.provider_id is not None:
             self._call_by_provider.pop((pending.service.provider, pending.provider_id), None)

@@ -14,10 +14,13 @@ recording replays it bit for bit.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
 
 from harness.controllers import (
     SERVICES,
@@ -160,12 +163,52 @@ class _RobotControl:
     def read(self) -> JointReadings:
         joints = self.channels.joints
         names = joints.joint_names
+        # The arrays are copies taken now; their per-joint dicts are built only when a
+        # controller looks (a forward command controller never does).
         return JointReadings(
             self.host.core.sim.sim_time_ns,
-            dict(zip(names, joints.joint_positions().tolist(), strict=True)),
-            dict(zip(names, joints.joint_velocities().tolist(), strict=True)),
-            dict(zip(names, joints.joint_efforts().tolist(), strict=True)),
+            _Snapshot(names, joints.joint_positions()),
+            _Snapshot(names, joints.joint_velocities()),
+            _Snapshot(names, joints.joint_efforts()),
         )
+
+
+class _Snapshot(Mapping[str, float]):
+    """Joint name -> value of an array copied at one instant; the dict is built on first use
+    (the same values a dict built at once would hold)."""
+
+    __slots__ = ("_dict", "_names", "_values")
+
+    def __init__(self, names: Sequence[str], values: npt.NDArray[np.float64]) -> None:
+        self._names = names
+        self._values = values
+        self._dict: dict[str, float] | None = None
+
+    def _get(self) -> dict[str, float]:
+        d = self._dict
+        if d is None:
+            d = self._dict = dict(zip(self._names, self._values.tolist(), strict=True))
+        return d
+
+    def __getitem__(self, key: str) -> float:
+        return self._get()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._get()
+
+    def __eq__(self, other: object) -> bool:
+        return self._get() == (other._get() if isinstance(other, _Snapshot) else other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return repr(self._get())
 
 
 class ControlHost:
@@ -264,12 +307,14 @@ class ControlHost:
     def _on_message(
         self, robot: _RobotControl, name: str, topic: str
     ) -> Callable[[Mapping[str, Any], int], None]:
+        where = robot.resolve(name, topic)
+
         def handle(msg: Mapping[str, Any], connection: int) -> None:
             entry = robot.manager.loaded.get(name)
             if entry is None:
                 return
             out = entry.controller.on_message(topic, msg, connection, robot.read())
-            self._apply(robot, out, name, connection, robot.resolve(name, topic))
+            self._apply(robot, out, name, connection, where)
 
         return handle
 
@@ -364,41 +409,48 @@ class ControlHost:
     ) -> None:
         joints = robot.channels.joints
         control = joints.control
-        fields: dict[str, dict[str, float]] = {"position": {}, "velocity": {}, "effort": {}}
+        positions: dict[str, float] = {}
+        velocities: dict[str, float] = {}
+        efforts: dict[str, float] = {}
         for cmd in commands:
-            given = {
-                f: v
-                for f, v in (
-                    ("position", cmd.position),
-                    ("velocity", cmd.velocity),
-                    ("effort", cmd.effort),
-                )
-                if v is not None
-            }
-            if len(given) == 1:
-                ((field, value),) = given.items()
-            else:
-                mode = control.get(cmd.joint, "position")
-                field = "position" if mode == "kinematic" else mode
-                if field not in given:
-                    continue
-                value = given[field]
-            fields[field][cmd.joint] = value
+            position, velocity, effort = cmd.position, cmd.velocity, cmd.effort
+            # one field given (the common case): that field, whatever the joint's mode
+            if velocity is None and effort is None:
+                if position is not None:
+                    positions[cmd.joint] = position
+                continue
+            if position is None and effort is None:
+                velocities[cmd.joint] = velocity  # type: ignore[assignment]
+                continue
+            if position is None and velocity is None:
+                efforts[cmd.joint] = effort  # type: ignore[assignment]
+                continue
+            # several given: the one the joint's mode takes, if given
+            mode = control.get(cmd.joint, "position")
+            if mode in ("position", "kinematic"):
+                if position is not None:
+                    positions[cmd.joint] = position
+            elif mode == "velocity":
+                if velocity is not None:
+                    velocities[cmd.joint] = velocity
+            elif mode == "effort" and effort is not None:
+                efforts[cmd.joint] = effort
         notices: list[Notice] = []
         try:
-            if fields["position"]:
-                notices += joints.set_positions(fields["position"])
-            if fields["velocity"]:
-                notices += joints.set_velocities(fields["velocity"])
-            if fields["effort"]:
-                notices += joints.set_efforts(fields["effort"])
+            if positions:
+                notices += joints.set_positions(positions)
+            if velocities:
+                notices += joints.set_velocities(velocities)
+            if efforts:
+                notices += joints.set_efforts(efforts)
         except CommandError as exc:
             text = f"{where}: command refused: {exc}"
             if connection:
                 self.core.graph.status(connection, "error", text)
             self.core.log(Level.ERROR, text)
             return
-        robot.channels.commands.drop_from_trajectory([c.joint for c in commands])
+        if robot.channels.commands.trajectory is not None:
+            robot.channels.commands.drop_from_trajectory([c.joint for c in commands])
         for notice in notices:
             key = (where, notice.joint, notice.kind)
             if not connection and key in robot.warned:

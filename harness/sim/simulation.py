@@ -740,8 +740,11 @@ class Simulation:
             qvel_value=qvel_v,
             mocap_pos=np.array(data.mocap_pos, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
             mocap_quat=np.array(data.mocap_quat, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
-            qfrc_applied=np.array(qfrc, dtype=np.float64) if qfrc.any() else _EMPTY_F,
-            xfrc_applied=np.array(xfrc, dtype=np.float64).ravel() if xfrc.any() else _EMPTY_F,
+            # count_nonzero: what any() says (-0.0 is zero, NaN is not), for less
+            qfrc_applied=np.array(qfrc, dtype=np.float64) if np.count_nonzero(qfrc) else _EMPTY_F,
+            xfrc_applied=(
+                np.array(xfrc, dtype=np.float64).ravel() if np.count_nonzero(xfrc) else _EMPTY_F
+            ),
         )
         self._changed = self._applied is None or not applied.same_physics(self._applied)
         self._applied = applied
@@ -1034,6 +1037,9 @@ class Simulation:
     def joint_efforts(self) -> F64:
         """Generalised force per joint: the actuator's (after the joint's force limit) for
         dynamic joints, the applied generalised force (``qfrc_applied``) for kinematic ones."""
+        if not self._has_kin:  # what np.where gives then, for less (a new array too)
+            actuator: F64 = self.data.qfrc_actuator[self._dadr]
+            return actuator
         efforts: F64 = np.where(
             self._is_kin, self.data.qfrc_applied[self._dadr], self.data.qfrc_actuator[self._dadr]
         )
