@@ -82,6 +82,21 @@ def physics_state(
     return b"".join(out)
 
 
+_F64_DTYPE = np.dtype(np.float64)
+_STRIDE = (8,)
+_LENS: dict[int, bytes] = {}
+"""Number of values -> a ``float64[]`` length and the padding after it (few distinct)."""
+
+
+def _f64_len(count: int) -> bytes:
+    packed = _LENS.get(count)
+    if packed is None:
+        if len(_LENS) >= 256:
+            _LENS.clear()
+        packed = _LENS[count] = _F64_LEN.pack(count)
+    return packed
+
+
 def physics_state_parts(
     step: int,
     sim_time_ns: int,
@@ -89,27 +104,29 @@ def physics_state_parts(
     state: npt.NDArray[np.float64],
     qpos: npt.NDArray[np.float64],
     qvel: npt.NDArray[np.float64],
-) -> tuple[tuple[bytes | memoryview, ...], int] | None:
+) -> tuple[tuple[bytes | npt.NDArray[np.float64], ...], int] | None:
     """:func:`physics_state` as buffers to write one after the other, and their total size:
-    views of the arrays themselves, not copies of their bytes (the per-step path). ``None``
-    when an array is not a C-contiguous native float64 array or ``qpos``/``qvel`` is empty
-    (then :func:`physics_state` serialises it)."""
+    the arrays themselves, not copies of their bytes (the per-step path). ``None`` when an
+    array is not a 1-D C-contiguous native float64 array or ``qpos``/``qvel`` is empty (then
+    :func:`physics_state` serialises it)."""
     try:
-        sv, qv, vv = state.data, qpos.data, qvel.data
+        # ``is``: native float64 is one dtype object; any other spelling takes the slow path.
+        if not (
+            state.dtype is _F64_DTYPE
+            and qpos.dtype is _F64_DTYPE
+            and qvel.dtype is _F64_DTYPE
+            and state.strides == _STRIDE
+            and qpos.strides == _STRIDE
+            and qvel.strides == _STRIDE
+        ):
+            return None
     except AttributeError:
         return None
-    if not (
-        sv.c_contiguous
-        and qv.c_contiguous
-        and vv.c_contiguous
-        and sv.format == qv.format == vv.format == "d"
-    ):
-        return None
-    n, m, k = sv.nbytes, qv.nbytes, vv.nbytes
+    n, m, k = state.size, qpos.size, qvel.size
     if not (m and k):
         return None
-    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n >> 3)
-    return (head, sv, _F64_LEN.pack(m >> 3), qv, _F64_LEN.pack(k >> 3), vv), 44 + n + m + k
+    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n)
+    return (head, state, _f64_len(m), qpos, _f64_len(k), qvel), 44 + 8 * (n + m + k)
 
 
 _NAMES: dict[tuple[str, str], tuple[bytes, int]] = {}

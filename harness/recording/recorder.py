@@ -225,10 +225,11 @@ def _u32(value: Sequence[int] | npt.ArrayLike, where: str) -> npt.NDArray[np.uin
 class _Channel:
     """A recorded topic: its MCAP channel id, type and the next sequence number."""
 
-    __slots__ = ("id", "msgtype", "seq")
+    __slots__ = ("id", "msgtype", "seq", "topic")
 
-    def __init__(self, channel_id: int, msgtype: str) -> None:
+    def __init__(self, channel_id: int, topic: str, msgtype: str) -> None:
         self.id = channel_id
+        self.topic = topic
         self.msgtype = msgtype
         self.seq = 0
 
@@ -285,6 +286,8 @@ class Recorder:
         self._encoders: dict[str, Encoder | None] = {}
         self._lock = threading.Lock()
         self._channels: dict[str, _Channel] = {}
+        self._state_channel: _Channel | None = None
+        self._bridge_channel: _Channel | None = None
         self._schemas: dict[str, int] = {}
         self._last_time = -1
         self._messages = 0
@@ -364,24 +367,24 @@ class Recorder:
 
     def write_bridge_frame(self, frame: BridgeFrame) -> None:
         """Record one rosbridge frame: ``frame.data`` when ``frame.binary``, else ``frame.text``."""
-        if frame.text if frame.binary else frame.data:
+        step, time_ns, direction, connection, seq, op, topic, binary, text, data = frame
+        if text if binary else data:
             raise RecordingWriteError(
-                f"{TOPIC_BRIDGE} seq {frame.seq}: a binary frame carries data, a text frame "
+                f"{TOPIC_BRIDGE} seq {seq}: a binary frame carries data, a text frame "
                 "text: give exactly one of text= or data="
             )
-        if frame.direction not in (0, 1):
-            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {frame.seq}: direction must be 0 or 1")
+        if direction != 0 and direction != 1:
+            raise RecordingWriteError(f"{TOPIC_BRIDGE} seq {seq}: direction must be 0 or 1")
         try:
-            binary = frame.binary
             cdr = bridge_frame(
-                frame.step, frame.sim_time_ns, frame.direction, frame.connection, frame.seq,
-                frame.op, frame.topic, None if binary else frame.text,
-                frame.data if binary else None,
+                step, time_ns, direction, connection, seq, op, topic,
+                None if binary else text, data if binary else None,
             )  # fmt: skip
         except (struct.error, UnicodeEncodeError, AttributeError, TypeError) as exc:
-            where = f"{TOPIC_BRIDGE} seq {frame.seq}"
+            where = f"{TOPIC_BRIDGE} seq {seq}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME, (cdr,), len(cdr), frame.sim_time_ns)
+        channel = self._bridge_channel or self._fixed(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME)
+        self._write_on(channel, (cdr,), len(cdr), time_ns)
 
     def write_applied_input(self, inp: AppliedInput) -> None:
         """Record the physics input applied before ``inp.step``."""
@@ -411,30 +414,28 @@ class Recorder:
 
     def write_physics_state(self, record: PhysicsState) -> None:
         """Record the state after ``record.step`` if the step is a multiple of ``state_every``."""
-        step = record.step
+        step, time_ns, state_spec, state, qpos, qvel = record
         if step % self._state_every:
             return
-        time_ns = record.sim_time_ns
         try:
             # MuJoCo's own float64 arrays go into the file as they are (no copy of their bytes).
-            fast = physics_state_parts(
-                step, time_ns, record.state_spec, record.state, record.qpos, record.qvel
-            )
+            fast = physics_state_parts(step, time_ns, state_spec, state, qpos, qvel)
             if fast is None:
                 where = f"{TOPIC_STATE} step {step}"
                 data = physics_state(
                     step,
                     time_ns,
-                    record.state_spec,
-                    _f64(record.state, f"{where}: state"),
-                    _f64(record.qpos, f"{where}: qpos"),
-                    _f64(record.qvel, f"{where}: qvel"),
+                    state_spec,
+                    _f64(state, f"{where}: state"),
+                    _f64(qpos, f"{where}: qpos"),
+                    _f64(qvel, f"{where}: qvel"),
                 )
                 fast = (data,), len(data)
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
-        self._write_cdr(TOPIC_STATE, TYPE_PHYSICS_STATE, fast[0], fast[1], time_ns)
+        channel = self._state_channel or self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE)
+        self._write_on(channel, fast[0], fast[1], time_ns)
 
     def write_epoch(self, epoch: Epoch) -> None:
         """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
@@ -505,19 +506,42 @@ class Recorder:
     def _write_cdr(
         self, topic: str, msgtype: str, parts: tuple[Buffer, ...], size: int, sim_time_ns: int
     ) -> None:
+        channel = self._channels.get(topic) or self._channel(topic, msgtype)
+        if channel.msgtype != msgtype:
+            raise RecordingWriteError(
+                f"{topic}: already recorded as {channel.msgtype}, cannot also record {msgtype}"
+            )
+        self._write_on(channel, parts, size, sim_time_ns)
+
+    def _channel(self, topic: str, msgtype: str) -> _Channel:
+        """The channel of ``topic``, registered on first use."""
         with self._lock:
             if self._closed or self._failure is not None:
                 self._raise_closed()
-            channel = self._channels.get(topic)
-            if channel is None:
-                channel = self._register(topic, msgtype)
-            elif channel.msgtype != msgtype:
-                raise RecordingWriteError(
-                    f"{topic}: already recorded as {channel.msgtype}, cannot also record {msgtype}"
-                )
+            return self._channels.get(topic) or self._register(topic, msgtype)
+
+    def _fixed(self, topic: str, msgtype: str) -> _Channel:
+        """The channel of a per-step topic (state, bridge frames), kept at hand once known."""
+        channel = self._channel(topic, msgtype)
+        if channel.msgtype != msgtype:
+            raise RecordingWriteError(
+                f"{topic}: already recorded as {channel.msgtype}, cannot also record {msgtype}"
+            )
+        if topic == TOPIC_STATE:
+            self._state_channel = channel
+        elif topic == TOPIC_BRIDGE:
+            self._bridge_channel = channel
+        return channel
+
+    def _write_on(
+        self, channel: _Channel, parts: tuple[Buffer, ...], size: int, sim_time_ns: int
+    ) -> None:
+        with self._lock:
+            if self._closed or self._failure is not None:
+                self._raise_closed()
             if sim_time_ns < self._last_time or sim_time_ns < 0:
                 raise RecordingWriteError(
-                    f"{topic}: sim_time_ns {sim_time_ns} is before the last recorded "
+                    f"{channel.topic}: sim_time_ns {sim_time_ns} is before the last recorded "
                     f"{self._last_time}: recorded time must not go backwards"
                 )
             seq = channel.seq
@@ -550,7 +574,7 @@ class Recorder:
         channel_id = self._writer.register_channel(
             topic, "cdr", schema_id, channel_metadata(msgtype, is_latched(topic))
         )
-        channel = self._channels[topic] = _Channel(channel_id, msgtype)
+        channel = self._channels[topic] = _Channel(channel_id, topic, msgtype)
         return channel
 
     def _raise_closed(self) -> None:

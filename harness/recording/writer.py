@@ -28,9 +28,10 @@ import zlib
 from collections import deque
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
@@ -54,8 +55,8 @@ from harness.recording.tail import TailFile
 
 __all__ = ["COMPRESSIONS", "MAX_PENDING", "Buffer", "ChunkWriter"]
 
-Buffer: TypeAlias = bytes | bytearray | memoryview
-"""What a message part may be (C-contiguous)."""
+Buffer: TypeAlias = bytes | bytearray | memoryview | npt.NDArray[Any]
+"""What a message part may be (C-contiguous; an array's raw bytes are written)."""
 
 MAGIC = b"\x89MCAP0\r\n"
 MAX_PENDING = 4
@@ -212,8 +213,9 @@ class ChunkWriter:
         index += (time_ns, offset)
         chunk.end = time_ns
         buffer += _MESSAGE.pack(5, 22 + size, channel_id, sequence, time_ns, time_ns)
+        extend = buffer.extend  # not ``+=``: ``bytearray += ndarray`` is numpy's addition
         for part in parts:
-            buffer += part
+            extend(part)
         if offset + 31 + size > self._chunk_size:
             self._close_chunk()
 
