@@ -25,6 +25,7 @@ from harness.recording.records import (
     PhysicsState,
     PhysicsStateArrays,
     RecordedMessage,
+    RosoutRecord,
 )
 
 __all__ = [
@@ -46,6 +47,7 @@ __all__ = [
     "RecordingDamagedWarning",
     "RecordingFormatError",
     "RecordingWriteError",
+    "RosoutRecord",
     "RunDescription",
     "TopicInfo",
     "describe_run",

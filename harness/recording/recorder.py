@@ -36,7 +36,6 @@ import numpy as np
 import numpy.typing as npt
 
 from harness._version import __version__
-from harness.events.records import CollisionRecord, RosoutRecord
 from harness.recording.cdr import (
     Encoder,
     Unsupported,
@@ -71,8 +70,10 @@ from harness.recording.layout import (
 from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
+    CollisionEvent,
     Epoch,
     PhysicsState,
+    RosoutRecord,
 )
 from harness.recording.salvage import finish_after_failure
 from harness.recording.tail import TailFile
@@ -453,7 +454,7 @@ class Recorder:
         )
         self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, epoch.sim_time_ns)
 
-    def write_collision_event(self, record: CollisionRecord) -> None:
+    def write_collision_event(self, record: CollisionEvent) -> None:
         """Record a collision begin (0), end (1) or near miss (2) (fields as in the .msg)."""
         position, normal = record.position, record.normal
         if len(position) != 3 or len(normal) != 3:

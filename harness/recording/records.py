@@ -27,6 +27,7 @@ __all__ = [
     "PhysicsState",
     "PhysicsStateArrays",
     "RecordedMessage",
+    "RosoutRecord",
 ]
 
 F64 = npt.NDArray[np.float64]
@@ -109,10 +110,22 @@ class CollisionEvent:
     normal_force: float
     position: tuple[float, float, float]
     normal: tuple[float, float, float]
-    duration_ns: int
-    distance: float
+    duration_ns: int = 0
+    distance: float = 0.0
     begin_step: int = 0
     end_step: int = 0
+
+
+class RosoutRecord(NamedTuple):
+    """A ``/rosout`` line as written (levels 10/20/30/40/50, as ``rcl_interfaces/msg/Log``)."""
+
+    sim_time_ns: int
+    level: int
+    name: str
+    msg: str
+    file: str = ""
+    function: str = ""
+    line: int = 0
 
 
 class PhysicsStateArrays(NamedTuple):

@@ -18,10 +18,16 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import ConfigError, ModelError, RecordingError
-from harness.events.records import RosoutRecord
 from harness.models import load_robot
 from harness.models.sdf import build_spec, read_sdf
-from harness.recording import AppliedInput, BridgeFrame, PhysicsState, Recorder, Recording
+from harness.recording import (
+    AppliedInput,
+    BridgeFrame,
+    PhysicsState,
+    Recorder,
+    Recording,
+    RosoutRecord,
+)
 from harness.rosbridge import Bridge, TypeRegistry
 from harness.scenario import Scenario
 

@@ -17,8 +17,15 @@ import cbor2
 import mujoco
 import numpy as np
 
-from harness.events.records import CollisionRecord, RosoutRecord
-from harness.recording import AppliedInput, BridgeFrame, FlushInfo, PhysicsState, Recorder
+from harness.recording import (
+    AppliedInput,
+    BridgeFrame,
+    CollisionEvent,
+    FlushInfo,
+    PhysicsState,
+    Recorder,
+    RosoutRecord,
+)
 from harness.sim.contacts import extract_contacts
 
 MODEL = Path(__file__).resolve().parents[1] / "data" / "recording" / "arm.xml"
@@ -136,7 +143,7 @@ def record(
                 if pair not in active:
                     active[pair] = (step, depth, force, contacts.position[i], contacts.normal[i])
                     g1, g2 = int(contacts.geom1[i]), int(contacts.geom2[i])
-                    recorder.write_collision_event(CollisionRecord(
+                    recorder.write_collision_event(CollisionEvent(
                         step=step, sim_time_ns=now, kind=0, robot="test_arm",
                         body1=names[pair[0]], body2=names[pair[1]], geom1=geoms[g1],
                         geom2=geoms[g2], penetration=max(depth, 0.0), normal_force=force,
@@ -149,7 +156,7 @@ def record(
                     ))  # fmt: skip
             for pair in [p for p in active if p not in seen]:
                 began, depth, force, position, normal = active.pop(pair)
-                recorder.write_collision_event(CollisionRecord(
+                recorder.write_collision_event(CollisionEvent(
                     step=step, sim_time_ns=now, kind=1, robot="test_arm",
                     body1=names[pair[0]], body2=names[pair[1]], geom1="", geom2="",
                     penetration=max(depth, 0.0), normal_force=force, position=position,

@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from harness.events.records import RosoutRecord
 from harness.recording import (
     PhysicsState,
     PhysicsStateArrays,
@@ -25,6 +24,7 @@ from harness.recording import (
     RecordingDamagedError,
     RecordingDamagedWarning,
     RecordingFormatError,
+    RosoutRecord,
 )
 from harness.recording import bulk as bulk_module
 from harness.recording.scan import index_scan, message_offsets, read_chunk_data, scan

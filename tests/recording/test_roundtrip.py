@@ -11,14 +11,15 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from harness.errors import RecordingError
-from harness.events.records import CollisionRecord, RosoutRecord
 from harness.recording import (
     AppliedInput,
     BridgeFrame,
+    CollisionEvent,
     PhysicsState,
     Recorder,
     Recording,
     RecordingWriteError,
+    RosoutRecord,
 )
 from harness.recording.layout import typestore
 
@@ -71,7 +72,7 @@ def test_every_write_reads_back_exactly(tmp_path: Path) -> None:
             step=2, sim_time_ns=4_000_000, direction=1, connection=3, seq=2**64 - 1, op="",
             topic="", binary=True, data=blob,
         ))  # fmt: skip
-        rec.write_collision_event(CollisionRecord(
+        rec.write_collision_event(CollisionEvent(
             step=3, sim_time_ns=6_000_000, kind=2, robot="arm", body1="a", body2="b",
             geom1="ga", geom2="gb", penetration=0.1, normal_force=-0.0,
             position=(np.nan, 1.0, 2.0), normal=(0.0, 0.0, 1.0), duration_ns=-5, distance=1e-9,

@@ -14,9 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.events.records import CollisionRecord
 from harness.models import LoadedRobot, load_robot
-from harness.recording import AppliedInput, BridgeFrame, PhysicsState, Recorder, describe_run
+from harness.recording import (
+    AppliedInput,
+    BridgeFrame,
+    CollisionEvent,
+    PhysicsState,
+    Recorder,
+    describe_run,
+)
 from harness.sim import Simulation
 from harness.sim.collisions import CollisionTracker
 from harness.vocabulary import LimitPolicy
@@ -103,7 +109,7 @@ def record(
                 state=sim.get_state(), qpos=sim.data.qpos, qvel=sim.data.qvel,
             ))  # fmt: skip
             for t in tracker.update(sim.step_index, now, sim.contacts()):
-                rec.write_collision_event(CollisionRecord(
+                rec.write_collision_event(CollisionEvent(
                     step=t.step, sim_time_ns=t.sim_time_ns, kind=0 if t.kind == "begin" else 1,
                     robot=robot.name, body1=names[t.body1], body2=names[t.body2],
                     geom1=geoms[t.geom1], geom2=geoms[t.geom2], penetration=t.penetration,

@@ -18,22 +18,21 @@ from harness.events.events import (
     LogMessage,
     NearMiss,
 )
-from harness.events.records import (
-    KIND_BEGIN,
-    KIND_END,
-    KIND_NEAR_MISS,
-    CollisionRecord,
-    RosoutRecord,
-)
 from harness.events.sinks.base import SinkReport
+from harness.recording.records import CollisionEvent, RosoutRecord
 
 __all__ = ["KIND_BEGIN", "KIND_END", "KIND_NEAR_MISS", "EventRecorder", "RecordingSink"]
+
+
+KIND_BEGIN = 0
+KIND_END = 1
+KIND_NEAR_MISS = 2
 
 
 class EventRecorder(Protocol):
     """The part of ``harness.recording.Recorder`` this sink uses."""
 
-    def write_collision_event(self, record: CollisionRecord) -> None: ...
+    def write_collision_event(self, record: CollisionEvent) -> None: ...
 
     def write_rosout(self, record: RosoutRecord) -> None: ...
 
@@ -78,7 +77,7 @@ class RecordingSink:
                     duration_ns = event.duration_ns
                     begin_step, end_step = event.begin_step, event.end_step
             self.recorder.write_collision_event(
-                CollisionRecord(
+                CollisionEvent(
                     step=event.step,
                     sim_time_ns=event.sim_time_ns,
                     kind=kind,
