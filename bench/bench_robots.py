@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import statistics
 import sys
-import sysconfig
 import tempfile
 import time
 import warnings
@@ -18,18 +17,9 @@ from pathlib import Path
 
 from common import Row
 
+from tests.models.paths import robots_dir
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def robots_dir() -> Path:
-    """Where the PyPI package example-robot-data installs its robots."""
-    for key in ("purelib", "platlib"):
-        candidate = (
-            Path(sysconfig.get_paths()[key]) / "cmeel.prefix/share/example-robot-data/robots"
-        )
-        if candidate.is_dir():
-            return candidate
-    raise RuntimeError("example-robot-data is not installed")
 
 
 def _seconds(fn: object) -> float:

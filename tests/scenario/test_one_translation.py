@@ -18,8 +18,10 @@ from harness.scenario.session_options import scenario_session
 from harness.session import Session
 
 # Everything the marker used to ignore: objects, a timestep, initial joint positions, a robot
-# pose, a second robot, a subscriber's command topic, a clock and logging.
-SCENARIO = """
+# pose, a second robot (a real Gazebo model, osrf/gazebo_models' simple_arm SDF), a subscriber's
+# command topic, a clock and logging.
+SIMPLE_ARM = Path(__file__).resolve().parents[1] / "data" / "gazebo_models" / "simple_arm"
+SCENARIO_TEMPLATE = """
 name: cell
 environment: {map: empty}
 timestep: 0.004
@@ -35,7 +37,7 @@ robots:
     orientation: [0.0, 0.0, 0.5]
     initial_joint_positions: {joint2: 0.3}
     subscribers: [{type: JointStateSubscriber, topic: /left/arm_command}]
-  - robot: demo
+  - robot: {simple_arm}
     name: right
     position: [0.0, 0.4, 0.0]
     controllers: [{type: JointController, mode: kinematic}]
@@ -45,6 +47,7 @@ logging:
   destination: {type: JsonLines, path: events.jsonl}
 recording: {state_every: 2}
 """
+SCENARIO = SCENARIO_TEMPLATE.replace("{simple_arm}", str(SIMPLE_ARM / "model.sdf"))
 
 
 def _metadata(path: Path) -> dict[str, str]:
