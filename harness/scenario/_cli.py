@@ -22,9 +22,7 @@ from harness.scenario.runner import (
     session_iteration_runner,
 )
 
-execute = run_scenarios  # the name this module exported before
-
-__all__ = ["add_arguments", "execute", "run"]
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

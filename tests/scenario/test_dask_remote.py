@@ -32,9 +32,9 @@ from harness.scenario import (
     iteration_specs,
     load_run_file,
     run_iterations,
+    run_scenarios,
     session_iteration_runner,
 )
-from harness.scenario._cli import execute
 from harness.scenario.errors import RunnerError
 
 distributed = pytest.importorskip("distributed", reason="optional Dask backend not installed")
@@ -224,7 +224,7 @@ def test_a_worker_without_the_clients_files_gives_the_same_results_as_local_work
     backend = DaskBackend(address)
     with (tmp_path / "summary.txt").open("w") as text:
         console = Console(file=text, width=200)
-        remote = execute(config, runner, backend, out, console, 2, check_determinism=True)
+        remote = run_scenarios(config, runner, backend, out, console, 2, check_determinism=True)
 
     assert [r.error for r in local + remote] == [None] * 4
     assert [_same(r) for r in remote] == [_same(r) for r in local]

@@ -18,8 +18,8 @@ from harness.scenario import (
     iteration_specs,
     load_run_file,
     run_iterations,
+    run_scenarios,
 )
-from harness.scenario._cli import execute
 from tests.scenario.scenario_testlib import CLIENT, EXAMPLES, gone_runner, process_gone
 from tests.scenario.standins import ClientRunner, StepLoadRunner
 
@@ -114,7 +114,7 @@ def test_failures_are_results_and_reports_count_them(tmp_path):
     )
     out = tmp_path / "results"
     console = Console(record=True, width=200, file=io.StringIO())
-    results = execute(config, StepLoadRunner(), LocalBackend(2), out, console)
+    results = run_scenarios(config, StepLoadRunner(), LocalBackend(2), out, console)
     assert [r.passed for r in results] == [True, True, False, False]
     assert "collisions: 1 disallowed collision(s); first obstacle - forearm" in results[2].reason
     assert [v.name for v in results[2].verdicts] == ["collisions", "joint_limits"]
