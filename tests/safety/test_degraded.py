@@ -17,12 +17,12 @@ import yaml
 from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
+from harness.controllers.command_topics import apply_joint_state, parse_trajectory
 from harness.models import load_robot
 from harness.rosbridge import BridgeServer
 from harness.scenario import Scenario, ScenarioError
 from harness.scenario.world import plan_world
 from harness.session import CommandRefused
-from harness.session.commands import apply_joint_state, parse_trajectory
 from harness.sim import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from harness.controllers.command_topics import parse_trajectory
 from harness.models import LoadedRobot
 from harness.session import CommandRefused
-from harness.session.commands import parse_trajectory
 from harness.sim import Simulation
 
 
