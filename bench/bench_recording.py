@@ -10,9 +10,12 @@ without full recording.
    where the time goes (issue 5's target, >= 0.5 for a lockstep session with recording vs
    without, is measured in bench_session.py).
    The breakdown row says where the time goes.
-3. the same loop stepping ``harness.sim.Simulation`` (issue 20's target, >= 0.6); its note also
-   gives the ratio with a recorder that writes nothing: the ceiling set by the loop's own
-   recording inputs (mj_getState, the records, the 100 Hz dicts and JSON text).
+3. a bare ``harness.sim.Simulation`` loop (issue 20's target, >= 0.6) recording what a
+   session records of a run without clients, through the product's path: every state (read
+   into one buffer), ``/joint_states``, ``/tf`` and ``/clock`` at 100 Hz (CDR laid out once:
+   ``harness.recording.templates``); then the same with a lockstep client's bridge frames
+   (reported). Their notes give the ratio with a recorder that writes nothing: the ceiling set
+   by the loop's own recording inputs (the state read, the records, the messages' bytes).
 """
 
 from __future__ import annotations
@@ -143,33 +146,19 @@ def _loop(
     model: mujoco.MjModel,
     steps: int,
     recorder: Recorder | _NullRecorder | None,
-    use_sim: bool = False,
 ) -> float:
     data = mujoco.MjData(model)
     state = np.zeros(mujoco.mj_stateSize(model, SPEC))
-    sim = None
-    if use_sim:
-        from harness.sim import Simulation
-
-        control = {f"j{i}": "position" for i in range(7)} | {"f1": "position", "f2": "position"}
-        sim = Simulation.from_model(model, control=control)
-        data = sim.data
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(1, model.njnt)]
     targets = np.sin(np.arange(model.nu, dtype=np.float64))
     start = time.perf_counter()
     for k in range(steps):
-        if sim is not None:
-            sim.step()
-        else:
-            data.ctrl[:] = targets * np.sin(k * 1e-3)
-            mujoco.mj_step(model, data)
+        data.ctrl[:] = targets * np.sin(k * 1e-3)
+        mujoco.mj_step(model, data)
         if recorder is None:
             continue
         t = (k + 1) * 1_000_000
-        if sim is not None:
-            state = sim.get_state()
-        else:
-            mujoco.mj_getState(model, data, state, SPEC)
+        mujoco.mj_getState(model, data, state, SPEC)
         # built as the session core builds it (positionally)
         recorder.write_physics_state(PhysicsState(k + 1, t, SPEC, state, data.qpos, data.qvel))
         recorder.write_bridge_frame(BridgeFrame(
@@ -197,37 +186,117 @@ def _loop(
     return time.perf_counter() - start
 
 
+class _SimLoop:
+    """A bare ``Simulation`` loop recording what a session records of a run without clients,
+    through the product's recording path: the state after every step (read into one buffer),
+    ``/joint_states``, ``/tf`` and ``/clock`` at 100 Hz (CDR laid out once per run:
+    :mod:`harness.recording.templates`). ``frames``: also a bridge frame per step (a
+    ``/harness/step`` call) and the JSON text of a ``/joint_states`` publish at 100 Hz."""
+
+    def __init__(self, path: Path) -> None:
+        from harness.models import load_robot
+        from harness.recording.templates import JointStateCdr
+        from harness.session.tf import RobotFrames, TfTree
+
+        self.robot = load_robot(path, control="position")
+        model = self.robot.model
+        self.names = [f"j{i}" for i in range(7)] + ["f1", "f2"]
+        joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in self.names]
+        self.qadr = np.array([model.jnt_qposadr[j] for j in joints])
+        self.dadr = np.array([model.jnt_dofadr[j] for j in joints])
+        self.js = JointStateCdr(self.names)
+        self.tree = TfTree(model, [RobotFrames(self.robot.description)])
+        self.every = round(0.01 / model.opt.timestep)  # 100 Hz
+
+    def run(self, steps: int, recorder: Recorder | _NullRecorder | None, frames: bool) -> float:
+        from harness.recording.templates import clock_cdr
+        from harness.sim import Simulation
+
+        sim = Simulation(self.robot)
+        data = sim.data
+        qpos, qvel = data.qpos, data.qvel
+        buffer = np.empty(sim.state_size)
+        js, tree, qadr, dadr, every = self.js, self.tree, self.qadr, self.dadr, self.every
+        sim.set_positions({n: 0.02 * np.sin(i) for i, n in enumerate(self.names)})
+        start = time.perf_counter()
+        for k in range(1, steps + 1):
+            sim.step()
+            if recorder is None:
+                continue
+            t = k * 1_000_000
+            recorder.write_physics_state(
+                PhysicsState(k, t, SPEC, sim.get_state(buffer), qpos, qvel)
+            )
+            if frames:
+                recorder.write_bridge_frame(BridgeFrame(
+                    step=k, sim_time_ns=t, direction=0, connection=1, seq=k, op="call_service",
+                    topic="/harness/step", text='{"op":"call_service","service":"/harness/step"}',
+                ))  # fmt: skip
+            if k % every == 0:
+                position, velocity = qpos[qadr], qvel[dadr]
+                effort = data.qfrc_actuator[dadr]
+                recorder.write_message(
+                    "/joint_states", "sensor_msgs/msg/JointState",
+                    js.encode(t, position, velocity, effort), sim_time_ns=t,
+                )  # fmt: skip
+                recorder.write_message(
+                    "/tf", "tf2_msgs/msg/TFMessage", tree.moving_cdr(*sim.body_poses(), t),
+                    sim_time_ns=t,
+                )  # fmt: skip
+                recorder.write_message(
+                    "/clock", "rosgraph_msgs/msg/Clock", clock_cdr(t), sim_time_ns=t
+                )
+                if frames:
+                    sec, nanosec = divmod(t, 1_000_000_000)
+                    msg = {
+                        "header": {"stamp": {"sec": sec, "nanosec": nanosec}, "frame_id": ""},
+                        "name": self.names,
+                        "position": position.tolist(),
+                        "velocity": velocity.tolist(),
+                        "effort": effort.tolist(),
+                    }
+                    recorder.write_bridge_frame(BridgeFrame(
+                        step=k, sim_time_ns=t, direction=1, connection=1, seq=k, op="publish",
+                        topic="/joint_states",
+                        text=json.dumps({"op": "publish", "topic": "/joint_states", "msg": msg}),
+                    ))  # fmt: skip
+        return time.perf_counter() - start
+
+
 def _sim_row(quick: bool, tmp: Path) -> list[Row]:
-    """The same loop stepping ``harness.sim.Simulation`` (when it can be built here)."""
-    model = mujoco.MjModel.from_xml_string(_arm_xml())
+    """Issue 20's row: a bare ``Simulation`` loop with full recording vs without."""
+    arm = tmp / "arm.xml"
+    arm.write_text(_arm_xml())
+    loop = _SimLoop(arm)
     steps = 3_000 if quick else 20_000
-    try:
-        bare = min(_loop(model, steps, None, True) for _ in range(3))
-    except Exception as exc:  # the Simulation API is young: report, do not fail the run
-        print(f"  recording: Simulation loop skipped ({exc})")
-        return []
-    recorded = []
-    for i in range(3):
-        with Recorder(tmp / f"sim{i}.mcap", metadata=METADATA) as rec:
-            recorded.append(_loop(model, steps, rec, True))
-    full = min(recorded)
-    ceiling = min(_loop(model, steps, _NullRecorder(), True) for _ in range(3))
-    return [
-        Row(
-            "recording: bare Simulation loop, full recording vs none",
-            steps / full,
-            steps / bare,
-            "st/s",
-            "ratio >= 0.6",
-            bare / full >= 0.6,
-            note=(
-                f"Simulation.step {bare / steps * 1e6:.1f} us/step bare; "
-                f"{(full - bare) / steps * 1e6:.1f} us/step recording, of which "
-                f"{(ceiling - bare) / steps * 1e6:.1f} us the loop's own record building "
-                f"(a recorder writing nothing: ratio {bare / ceiling:.2f})"
-            ),
+    rows = []
+    for frames in (False, True):
+        bare = min(loop.run(steps, None, frames) for _ in range(3))
+        recorded = []
+        for i in range(3):
+            with Recorder(tmp / f"sim{i}.mcap", metadata=METADATA) as rec:
+                recorded.append(loop.run(steps, rec, frames))
+        full = min(recorded)
+        ceiling = min(loop.run(steps, _NullRecorder(), frames) for _ in range(3))
+        note = (
+            f"Simulation.step {bare / steps * 1e6:.1f} us/step bare; "
+            f"{(full - bare) / steps * 1e6:.1f} us/step recording, of which "
+            f"{(ceiling - bare) / steps * 1e6:.1f} us the loop's own record building "
+            f"(a recorder writing nothing: ratio {bare / ceiling:.2f})"
         )
-    ]
+        if not frames:
+            rows.append(Row(
+                "recording: bare Simulation loop, full recording vs none",
+                steps / full, steps / bare, "st/s", "ratio >= 0.6", bare / full >= 0.6,
+                note=note + "; every state, /joint_states, /tf (10 transforms), /clock at 100 Hz",
+            ))  # fmt: skip
+        else:
+            rows.append(Row(
+                "recording: the same loop + a bridge frame per step and a JSON publish at 100 Hz",
+                steps / full, steps / bare, "st/s", "report", True,
+                note=note + "; what a lockstep client's frames add (with their JSON text)",
+            ))  # fmt: skip
+    return rows
 
 
 def _loop_rows(quick: bool, tmp: Path) -> list[Row]:

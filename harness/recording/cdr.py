@@ -19,15 +19,18 @@ import numpy.typing as npt
 from rosbags.typesys.store import Typestore
 
 __all__ = [
+    "CDR_HEADER",
     "Encoder",
     "Unsupported",
     "bridge_frame",
     "compile_encoder",
     "physics_state",
+    "physics_state_head",
     "physics_state_parts",
 ]
 
-_HEADER = b"\x00\x01\x00\x00"  # CDR little-endian encapsulation
+CDR_HEADER = b"\x00\x01\x00\x00"
+"""The encapsulation header every message starts with (CDR, little-endian)."""
 _PAD = b"\x00\x00\x00\x00\x00\x00\x00"
 # step, sim_time_ns, state_spec, len(state): offsets 0, 8, 16, 20 -> float64 data at 24
 _PS_HEAD = struct.Struct("<QqII")
@@ -75,7 +78,7 @@ def physics_state(
     qvel: npt.NDArray[np.float64],
 ) -> bytes:
     """``harness_msgs/msg/PhysicsState`` as CDR (arrays 1-D float64, C-contiguous)."""
-    out = [_HEADER, _PS_HEAD.pack(step, sim_time_ns, state_spec, state.size), state.tobytes()]
+    out = [CDR_HEADER, _PS_HEAD.pack(step, sim_time_ns, state_spec, state.size), state.tobytes()]
     pos = 24 + 8 * state.size
     pos = _f64_seq(out, pos, qpos)
     _f64_seq(out, pos, qvel)
@@ -125,8 +128,14 @@ def physics_state_parts(
     n, m, k = state.size, qpos.size, qvel.size
     if not (m and k):
         return None
-    head = _PS_START.pack(_HEADER, step, sim_time_ns, state_spec, n)
+    head = _PS_START.pack(CDR_HEADER, step, sim_time_ns, state_spec, n)
     return (head, state, _f64_len(m), qpos, _f64_len(k), qvel), 44 + 8 * (n + m + k)
+
+
+def physics_state_head(step: int, sim_time_ns: int, state_spec: int, state_size: int) -> bytes:
+    """The first part of :func:`physics_state_parts` (the CDR header and the fields before
+    the state's values)."""
+    return _PS_START.pack(CDR_HEADER, step, sim_time_ns, state_spec, state_size)
 
 
 _NAMES: dict[tuple[str, str], tuple[bytes, int]] = {}
@@ -182,7 +191,7 @@ def bridge_frame(
         size = len(raw) + 1
         return b"".join(
             (
-                _BF_START.pack(_HEADER, step, sim_time_ns, direction, connection, seq),
+                _BF_START.pack(CDR_HEADER, step, sim_time_ns, direction, connection, seq),
                 prefix[0],
                 _U32.pack(size),
                 raw,
@@ -192,7 +201,7 @@ def bridge_frame(
     names = _NAMES.get((op, topic))
     if names is None:
         names = _names(op, topic)
-    out = [_HEADER, _BF_HEAD.pack(step, sim_time_ns, direction, connection, seq), names[0]]
+    out = [CDR_HEADER, _BF_HEAD.pack(step, sim_time_ns, direction, connection, seq), names[0]]
     out.append(b"\x00" if data is None else b"\x01")
     pos = _string(out, names[1] + 1, b"" if text is None else text.encode())
     pad = -pos % 4
@@ -249,7 +258,7 @@ def compile_encoder(store: Typestore, msgtype: str) -> Encoder:
     body = _message_encoder(store, msgtype)
 
     def encode(value: Mapping[str, Any]) -> bytes:
-        out = [_HEADER]
+        out = [CDR_HEADER]
         try:
             body(value, out, 0)
         except (struct.error, TypeError, ValueError, OverflowError, AttributeError) as exc:

@@ -37,11 +37,13 @@ import numpy.typing as npt
 
 from harness._version import __version__
 from harness.recording.cdr import (
+    CDR_HEADER,
     Encoder,
     Unsupported,
     bridge_frame,
     compile_encoder,
     physics_state,
+    physics_state_head,
     physics_state_parts,
 )
 from harness.recording.convert import from_rosbridge
@@ -289,6 +291,8 @@ class Recorder:
         self._channels: dict[str, _Channel] = {}
         self._state_channel: _Channel | None = None
         self._bridge_channel: _Channel | None = None
+        self._state_parts: tuple[Buffer, ...] | None = None  # the last state's, see below
+        self._state_size = 0
         self._schemas: dict[str, int] = {}
         self._last_time = -1
         self._messages = 0
@@ -348,7 +352,16 @@ class Recorder:
     # -- writing ---------------------------------------------------------------------------
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
-        """Record ``msg`` on ``topic``: a dict in rosbridge JSON form or a rosbags object."""
+        """Record ``msg`` on ``topic``: a dict in rosbridge JSON form, a rosbags object, or
+        ``bytes``: the message's CDR, written as it is (see :mod:`harness.recording.templates`)."""
+        if type(msg) is bytes:
+            if msg[:4] != CDR_HEADER:
+                raise RecordingWriteError(
+                    f"{topic} ({msgtype}): pre-serialised message does not start with the "
+                    "little-endian CDR header 00 01 00 00"
+                )
+            self._write_cdr(topic, msgtype, (msg,), len(msg), sim_time_ns)
+            return
         if isinstance(msg, Mapping):
             encode = self._encoders.get(msgtype, _UNCOMPILED)
             if encode is _UNCOMPILED:
@@ -418,9 +431,19 @@ class Recorder:
         step, time_ns, state_spec, state, qpos, qvel = record
         if step % self._state_every:
             return
+        same = self._state_parts
+        if same is not None and state is same[1] and qpos is same[3] and qvel is same[5]:
+            # The arrays of the last state again (the session's buffer and MuJoCo's own
+            # qpos/qvel, whose sizes and dtypes do not change): only the head is new.
+            parts = (physics_state_head(step, time_ns, state_spec, state.size), *same[1:])
+            self._write_on(self._state_channel or self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE),
+                           parts, self._state_size, time_ns)  # fmt: skip
+            return
         try:
             # MuJoCo's own float64 arrays go into the file as they are (no copy of their bytes).
             fast = physics_state_parts(step, time_ns, state_spec, state, qpos, qvel)
+            if fast is not None:
+                self._state_parts, self._state_size = fast
             if fast is None:
                 where = f"{TOPIC_STATE} step {step}"
                 data = physics_state(

@@ -16,13 +16,22 @@ import numpy.typing as npt
 from harness.controllers.command_topics import FORWARD_TOPICS, Reporter, RobotCommands
 from harness.controllers.listed import ListedJoints
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
+from harness.recording.templates import JointStateCdr
 from harness.session.errors import SessionConfigError
 from harness.session.tf import RobotFrames
 from harness.session.topics import joint_state_msg
 from harness.session.urdf_text import description_text
 from harness.sim import CommandField, RobotJoints, Simulation
 
-__all__ = ["RobotChannels", "SessionTopics", "joint_state_of", "robot_channels", "robot_frames"]
+__all__ = [
+    "RobotChannels",
+    "SessionTopics",
+    "joint_state_arrays",
+    "joint_state_cdr",
+    "joint_state_of",
+    "robot_channels",
+    "robot_frames",
+]
 
 F64 = npt.NDArray[np.float64]
 
@@ -99,6 +108,8 @@ class RobotChannels:
         self.js_qadr = np.array(qadr, dtype=np.intp)
         self.js_dadr = np.array(dadr, dtype=np.intp)
         self.js_kin = np.array(kin, dtype=bool)
+        self.js_cdr = JointStateCdr(self.js_names)
+        """The layout of the robot's ``joint_states`` in the recording."""
         self.listed = ListedJoints(description, self.js_names, self.joints.joint_names)
         """Listed on ``joint_states`` but not controllable: dropped from ``joint_command``."""
         self.commands = RobotCommands(
@@ -122,22 +133,27 @@ def robot_frames(channels: RobotChannels) -> RobotFrames:
     return RobotFrames(channels.description, channels.prefix, prefix)
 
 
-def joint_state_of(sim: Simulation, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
-    """The robot's ``sensor_msgs/msg/JointState`` now (joint names with ``prefix``)."""
+def joint_state_arrays(sim: Simulation, channels: RobotChannels) -> tuple[F64, F64, F64]:
+    """The robot's joint positions, velocities and efforts now, in ``joint_states`` order
+    (effort: the applied force of a kinematic joint, the actuator force of the others)."""
     data = sim.data
     effort: F64 = np.where(
         channels.js_kin,
         data.qfrc_applied[channels.js_dadr],
         data.qfrc_actuator[channels.js_dadr],
     )
+    return data.qpos[channels.js_qadr], data.qvel[channels.js_dadr], effort
+
+
+def joint_state_of(sim: Simulation, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
+    """The robot's ``sensor_msgs/msg/JointState`` now (joint names with ``prefix``)."""
     names = channels.js_names if not prefix else [prefix + n for n in channels.js_names]
-    return joint_state_msg(
-        sim.sim_time_ns,
-        names,
-        data.qpos[channels.js_qadr],
-        data.qvel[channels.js_dadr],
-        effort,
-    )
+    return joint_state_msg(sim.sim_time_ns, names, *joint_state_arrays(sim, channels))
+
+
+def joint_state_cdr(sim: Simulation, channels: RobotChannels) -> bytes:
+    """:func:`joint_state_of` (no prefix) as CDR (what the recording keeps)."""
+    return channels.js_cdr.encode(sim.sim_time_ns, *joint_state_arrays(sim, channels))
 
 
 def _resolve(name: str, namespace: str, check_name: Callable[[str, str], str]) -> str:

@@ -26,11 +26,14 @@ from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from typing import Any, Literal, Protocol
 
+import numpy as np
+
 from harness.controllers.command_topics import FORWARD_TOPICS
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
 from harness.names import NameKind, check_name
 from harness.recording.records import BridgeFrame, Epoch, PhysicsState
+from harness.recording.templates import clock_cdr
 from harness.rosbridge import DIRECTION_IN, TapRecord
 from harness.sensors import TOPIC_TF_STATIC
 from harness.sensors.hook import record_metadata, session_sensors
@@ -47,6 +50,7 @@ from harness.session.channels import (
     ROSOUT,
     RobotChannels,
     SessionTopics,
+    joint_state_cdr,
     joint_state_of,
     robot_channels,
     robot_frames,
@@ -134,7 +138,12 @@ FAILURE_PREFIX = "the run failed: "
 
 
 class RecordSink(Protocol):
-    """What the core writes to the recording (:class:`harness.recording.Recorder` is one)."""
+    """What the core writes to the recording (:class:`harness.recording.Recorder` is one).
+
+    The arrays of a :class:`PhysicsState` are the simulation's own (MuJoCo's ``qpos`` and
+    ``qvel``) and a buffer the next state is read into: valid during the call, copy what you
+    keep. A message is a dict in rosbridge JSON form or, for the periodic topics, ``bytes``:
+    its CDR (:mod:`harness.recording.templates`)."""
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None: ...
 
@@ -189,6 +198,8 @@ class SessionCore:
                 "of a world take their namespaces from their RobotSpec"
             )
         self.sim = Simulation(robot, kinematic_limits=options.kinematic_limits)
+        # each step's recorded state is read into this one buffer (the recorder copies it)
+        self._state = np.empty(self.sim.state_size, dtype=np.float64)
         self.robot_name = robot.name
         self.recorder = recorder
         self.hub = hub if hub is not None else EventHub()
@@ -406,7 +417,12 @@ class SessionCore:
             data = sim.data
             recorder.write_physics_state(
                 PhysicsState(
-                    k, sim.sim_time_ns, sim.state_spec, sim.get_state(), data.qpos, data.qvel
+                    k,
+                    sim.sim_time_ns,
+                    sim.state_spec,
+                    sim.get_state(self._state),
+                    data.qpos,
+                    data.qvel,
                 )
             )
         if self._js_every and k % self._js_every == 0:
@@ -414,13 +430,17 @@ class SessionCore:
                 self.publish(
                     channels.topics.joint_states,
                     TYPE_JOINT_STATE,
-                    lambda channels=channels: self._joint_state_of(channels),  # type: ignore[misc]
+                    partial(self._joint_state_of, channels),
+                    cdr=partial(joint_state_cdr, sim, channels),
                 )
         if self._clock_every and k % self._clock_every == 0:
-            self.publish(CLOCK, TYPE_CLOCK, lambda: clock_msg(self.sim.sim_time_ns))
+            t = sim.sim_time_ns
+            self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), cdr=partial(clock_cdr, t))
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
-                self.publish(topic, TYPE_TF, partial(self._moving_tf, tree))
+                self.publish(
+                    topic, TYPE_TF, partial(self._moving_tf, tree), cdr=partial(self._tf_cdr, tree)
+                )
         if self.sensors is not None:
             for due in self.sensors.due(sim.data, k, sim.sim_time_ns):
                 out = due.output
@@ -428,6 +448,9 @@ class SessionCore:
 
     def _moving_tf(self, tree: TfTree) -> dict[str, Any]:
         return tree.message(tree.moving, self.sim.link_poses(), self.sim.sim_time_ns)
+
+    def _tf_cdr(self, tree: TfTree) -> bytes:
+        return tree.moving_cdr(*self.sim.body_poses(), self.sim.sim_time_ns)
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
         return joint_state_of(self.sim, channels, prefix)
@@ -450,23 +473,29 @@ class SessionCore:
         type: str,
         build: Callable[[], Mapping[str, Any]],
         *,
+        cdr: Callable[[], bytes] | None = None,
         latch: bool = False,
         record: bool = True,
     ) -> None:
         """Publish on the graph (when someone listens or ``latch``) and record (``record``);
-        ``build`` makes the message only when needed."""
+        ``build`` makes the message only when needed; ``cdr``, when given, makes the same
+        message as CDR for the recording (:mod:`harness.recording.templates`)."""
         self.record_frames()
         self.publish_counts.note(topic)
         recorder = self.recorder if record else None
         send = latch or self.graph.has_subscribers(topic)
         if recorder is None and not send:
             return
-        msg = build()
         now = self.sim.sim_time_ns
+        msg = None
         if recorder is not None:
-            recorder.write_message(topic, type, msg, sim_time_ns=now)
+            if cdr is None:
+                msg = build()
+                recorder.write_message(topic, type, msg, sim_time_ns=now)
+            else:
+                recorder.write_message(topic, type, cdr(), sim_time_ns=now)
         if send:
-            self.graph.publish(topic, type, msg, now, latch=latch)
+            self.graph.publish(topic, type, build() if msg is None else msg, now, latch=latch)
 
     # ----------------------------------------------------------------------------- frames
 

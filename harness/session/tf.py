@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models import RobotModel
+from harness.recording.templates import TfCdr
 from harness.session.topics import stamp
 
 __all__ = ["WORLD_FRAME", "RobotFrames", "TfEdge", "TfTree", "relative_pose"]
@@ -93,13 +94,22 @@ class TfTree:
         """The transforms of ``/tf_static``."""
         self.moving = tuple(e for e in edges if e.moving)
         """The transforms of ``/tf``."""
+        self._moving_cdr: TfCdr | None = None
+        body = mujoco.mjtObj.mjOBJ_BODY
+        # (parent, child) body ids of the moving edges; the world (id 0) has the identity pose
+        self._moving_ids = tuple(
+            (
+                0 if e.parent_body is None else mujoco.mj_name2id(model, body, e.parent_body),
+                mujoco.mj_name2id(model, body, e.child_body),
+            )
+            for e in self.moving
+        )
 
-    def message(
-        self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]], sim_time_ns: int
-    ) -> dict[str, Any]:
-        """The ``tf2_msgs/msg/TFMessage`` of ``edges`` from the bodies' world ``poses``
-        (:meth:`harness.sim.Simulation.link_poses`)."""
-        time = stamp(sim_time_ns)
+    def poses(
+        self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]]
+    ) -> list[tuple[Vec, Quat]]:
+        """Each edge's child pose in its parent's frame, ``((x, y, z), (w, x, y, z))``, from
+        the bodies' world ``poses`` (:meth:`harness.sim.Simulation.link_poses`)."""
         # plain floats: for a few transforms numpy's per-call cost dominates
         flat: dict[str | None, list[float]] = {None: [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]}
         for e in edges:
@@ -107,10 +117,20 @@ class TfTree:
                 if body is not None and body not in flat:
                     xyz, quat = poses[body]
                     flat[body] = xyz.tolist() + quat.tolist()
-        transforms = []
+        out = []
         for e in edges:
             p, c = flat[e.parent_body], flat[e.child_body]
-            (x, y, z), (w, rx, ry, rz) = relative_pose(p[:3], p[3:], c[:3], c[3:])
+            out.append(relative_pose(p[:3], p[3:], c[:3], c[3:]))
+        return out
+
+    def message(
+        self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]], sim_time_ns: int
+    ) -> dict[str, Any]:
+        """The ``tf2_msgs/msg/TFMessage`` of ``edges`` from the bodies' world ``poses``
+        (:meth:`harness.sim.Simulation.link_poses`)."""
+        time = stamp(sim_time_ns)
+        transforms = []
+        for e, ((x, y, z), (w, rx, ry, rz)) in zip(edges, self.poses(edges, poses), strict=True):
             transforms.append(
                 {
                     "header": {"stamp": time, "frame_id": e.parent},
@@ -122,6 +142,20 @@ class TfTree:
                 }
             )
         return {"transforms": transforms}
+
+    def moving_cdr(self, xpos: F64, xquat: F64, sim_time_ns: int) -> bytes:
+        """:meth:`message` of :attr:`moving` as CDR (what the recording keeps of ``/tf``), from
+        every body's world pose by body id (:meth:`harness.sim.Simulation.body_poses`)."""
+        if self._moving_cdr is None:
+            self._moving_cdr = TfCdr([(e.parent, e.child) for e in self.moving])
+        positions, quats = xpos.tolist(), xquat.tolist()
+        return self._moving_cdr.encode(
+            sim_time_ns,
+            [
+                relative_pose(positions[p], quats[p], positions[c], quats[c])
+                for p, c in self._moving_ids
+            ],
+        )
 
 
 def _can_move(model: mujoco.MjModel, body: int, ancestor: int) -> bool:

@@ -471,11 +471,22 @@ class Simulation:
                 self.data.act[adr] = self.data.ctrl[act]
         self._restart(0)
 
-    def get_state(self) -> F64:
-        """The full ``mjSTATE_INTEGRATION`` state (a new array)."""
-        state = np.empty(self._state_size, dtype=np.float64)
-        mujoco.mj_getState(self.model, self.data, state, STATE_SPEC)
-        return state
+    def get_state(self, out: F64 | None = None) -> F64:
+        """The full ``mjSTATE_INTEGRATION`` state: a new array, or written into ``out`` (a
+        C-contiguous float64 array of :attr:`state_size` values) and ``out`` returned."""
+        if out is None:
+            state = np.empty(self._state_size, dtype=np.float64)
+            mujoco.mj_getState(self.model, self.data, state, STATE_SPEC)
+            return state
+        try:
+            mujoco.mj_getState(self.model, self.data, out, STATE_SPEC)
+        except TypeError:
+            raise StateError(
+                f"get_state(out=): out must be a writable C-contiguous float64 array of "
+                f"{self._state_size} values, not {getattr(out, 'dtype', type(out).__name__)} "
+                f"of shape {getattr(out, 'shape', '?')}"
+            ) from None
+        return out
 
     def set_state(self, state: npt.ArrayLike, step_index: int) -> None:
         """Restore a state captured by :meth:`get_state` at ``step_index``. Commands are taken
@@ -1047,6 +1058,13 @@ class Simulation:
 
     def link_poses(self) -> dict[str, tuple[F64, F64]]:
         """Every named body's world pose as ``(xyz, quat w-x-y-z)``, for the current state."""
+        xpos, xquat = self.body_poses()
+        return {n: (xpos[b].copy(), xquat[b].copy()) for b, n in self._bodies}
+
+    def body_poses(self) -> tuple[F64, F64]:
+        """Every body's world position (``nbody x 3``) and orientation (``nbody x 4``, w-x-y-z)
+        for the current state, by body id (0: the world). The arrays are reused: read them
+        before the next call."""
         if self._scratch is None:
             self._scratch = mujoco.MjData(self.model)
         scratch = self._scratch
@@ -1055,7 +1073,7 @@ class Simulation:
             scratch.mocap_pos[:] = self.data.mocap_pos
             scratch.mocap_quat[:] = self.data.mocap_quat
         mujoco.mj_kinematics(self.model, scratch)
-        return {n: (scratch.xpos[b].copy(), scratch.xquat[b].copy()) for b, n in self._bodies}
+        return scratch.xpos, scratch.xquat
 
     def contacts(self) -> ContactSet:
         """The contacts of the last step (see :func:`harness.sim.contacts.extract_contacts`)."""

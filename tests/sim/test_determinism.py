@@ -13,7 +13,7 @@ import pytest
 
 from harness.demo import JOINTS, trajectory
 from harness.models import load_robot
-from harness.sim import STATE_SPEC, AppliedInput, Simulation, advance, replay
+from harness.sim import STATE_SPEC, AppliedInput, Simulation, StateError, advance, replay
 
 CHILD = """
 import json
@@ -158,3 +158,17 @@ def test_reset_reproduces_the_run():
             sim.step()
         first.append(sim.get_state())
     np.testing.assert_array_equal(first[0], first[1])
+
+
+def test_get_state_into_a_buffer_equals_a_new_array() -> None:
+    """``get_state(out=)`` fills the caller's buffer with the same bits, and refuses a buffer
+    of the wrong size or type with one line naming it."""
+    sim = Simulation(load_robot("demo"))
+    buffer = np.full(sim.state_size, np.nan)
+    for _ in range(20):
+        sim.step()
+        assert sim.get_state(buffer) is buffer
+        assert buffer.tobytes() == sim.get_state().tobytes()
+    for bad in (np.zeros(3), np.zeros(sim.state_size, np.float32)):
+        with pytest.raises(StateError, match=r"get_state\(out=\): out must be a writable"):
+            sim.get_state(bad)
