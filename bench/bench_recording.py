@@ -352,10 +352,58 @@ def _loop_rows(quick: bool, tmp: Path) -> list[Row]:
     ]
 
 
+def _session_row(quick: bool, tmp: Path) -> list[Row]:
+    """A session's own stepping (the sans-I/O core, no client) on a real robot: recording as
+    a fast-clock CI run records (states, /joint_states, /tf, /clock, controller states) vs
+    the same core without a recorder."""
+    import warnings
+
+    from harness.models import load_robot
+    from harness.session import Session
+    from tests.models.paths import robots_dir
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = load_robot(robots_dir() / "panda_description/urdf/panda.urdf", cache_dir=tmp)
+    steps = 2_000 if quick else 10_000
+
+    def stepping(record: Path | None) -> float:
+        with Session(robot, record_to=record) as session:
+            session.step(100)
+
+            def work() -> float:
+                advance = session.core.advance
+                start = time.perf_counter()
+                for _ in range(steps):
+                    advance()
+                return time.perf_counter() - start
+
+            return session.call(work)
+
+    bare = min(stepping(None) for _ in range(3))
+    full = min(stepping(tmp / f"session{i}.mcap") for i in range(3))
+    return [
+        Row(
+            "recording: session stepping without clients (Panda), full recording vs none",
+            steps / full,
+            steps / bare,
+            "st/s",
+            "report",
+            True,
+            note=(
+                f"SessionCore.advance {bare / steps * 1e6:.1f} us/step without a recorder, "
+                f"{(full - bare) / steps * 1e6:.1f} us/step more recording "
+                f"(timestep {robot.model.opt.timestep} s)"
+            ),
+        )
+    ]
+
+
 def run(quick: bool) -> list[Row]:
     with tempfile.TemporaryDirectory() as tmp:
         rows = _writer_rows(quick, Path(tmp)) + _loop_rows(quick, Path(tmp))
         rows += _sim_row(quick, Path(tmp))
+        rows += _session_row(quick, Path(tmp))
     for row in rows:
         print(f"  {row.name}: {row.note}")
     return rows
