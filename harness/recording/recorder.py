@@ -22,13 +22,10 @@ from __future__ import annotations
 
 import contextlib
 import os
-import platform
 import struct
-import sys
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -49,9 +46,7 @@ from harness.recording.cdr import (
 from harness.recording.convert import from_rosbridge
 from harness.recording.errors import RecordingWriteError
 from harness.recording.layout import (
-    FORMAT_VERSION,
     METADATA_NAME,
-    METADATA_REQUIRED,
     PROFILE,
     TOPIC_BRIDGE,
     TOPIC_COLLISIONS,
@@ -69,6 +64,7 @@ from harness.recording.layout import (
     schema_text,
     typestore,
 )
+from harness.recording.metadata import build_metadata, definitions_text, media_type, package_version
 from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
@@ -81,36 +77,12 @@ from harness.recording.salvage import finish_after_failure
 from harness.recording.tail import TailFile
 from harness.recording.writer import COMPRESSIONS, Buffer, ChunkWriter
 
-__all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats", "build_metadata"]
+__all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats"]
 
 MAX_RECORDING_BYTES = 16 * 2**30
 """Default size limit of one recording (16 GiB: hours of full-rate recording of a robot arm;
 a runaway run stops there instead of filling the disk)."""
 
-_MEDIA_TYPES = {
-    ".xml": "application/xml",
-    ".urdf": "application/xml",
-    ".sdf": "application/xml",
-    ".xacro": "application/xml",
-    ".srdf": "application/xml",
-    ".yaml": "application/yaml",
-    ".yml": "application/yaml",
-    ".json": "application/json",
-    ".toml": "application/toml",
-    ".txt": "text/plain",
-    ".msg": "text/plain",
-}
-# Keys the recorder itself writes; a caller giving one is an error.
-_RESERVED = (
-    "format_version",
-    "harness_version",
-    "mujoco_version",
-    "numpy_version",
-    "python_version",
-    "platform",
-    "state_every",
-    "compression",
-)
 _F64 = np.dtype(np.float64)
 _EMPTY_F64: npt.NDArray[np.float64] = np.zeros(0, np.float64)
 _EMPTY_U32: npt.NDArray[np.uint32] = np.zeros(0, np.uint32)
@@ -135,58 +107,6 @@ class RecorderStats(NamedTuple):
     flush_seconds_max: float
 
 
-def _package_version(name: str) -> str:
-    try:
-        return version(name)
-    except PackageNotFoundError:
-        return "unknown"
-
-
-def build_metadata(
-    metadata: Mapping[str, str], *, state_every: int, compression: str
-) -> dict[str, str]:
-    """The ``harness`` metadata record: the caller's keys (validated) plus versions/platform."""
-    for key, value in metadata.items():
-        if not isinstance(key, str) or not isinstance(value, str):
-            raise RecordingWriteError(
-                f"metadata: key {key!r} must map a string to a string, got {type(value).__name__}"
-            )
-        if key in _RESERVED:
-            raise RecordingWriteError(f"metadata: key {key!r} is written by the recorder")
-    missing = [key for key in METADATA_REQUIRED if key not in metadata]
-    if missing:
-        raise RecordingWriteError(
-            f"metadata: missing required key {missing[0]!r} (required: "
-            f"{', '.join(METADATA_REQUIRED)})"
-        )
-    try:
-        timestep = float(metadata["timestep"])
-    except ValueError:
-        timestep = -1.0
-    if not timestep > 0:
-        raise RecordingWriteError(
-            f"metadata: 'timestep' must be a positive number of seconds, "
-            f"got {metadata['timestep']!r}"
-        )
-    out = dict(metadata)
-    timestep_ns = out.setdefault("timestep_ns", str(round(timestep * 1e9)))
-    if not timestep_ns.isdigit() or int(timestep_ns) <= 0:
-        raise RecordingWriteError(
-            f"metadata: 'timestep_ns' must be a positive integer, got {timestep_ns!r}"
-        )
-    out.update(
-        format_version=str(FORMAT_VERSION),
-        harness_version=__version__,
-        mujoco_version=_package_version("mujoco"),
-        numpy_version=np.__version__,
-        python_version=platform.python_version(),
-        platform=f"{sys.platform} {platform.machine()} {platform.platform()}",
-        state_every=str(state_every),
-        compression=compression,
-    )
-    return dict(sorted(out.items()))
-
-
 def _uncompiled(value: Mapping[str, Any]) -> bytes:
     raise AssertionError("never called: marks a type not compiled yet")
 
@@ -200,10 +120,6 @@ def _compile(store: Any, msgtype: str) -> Encoder | None:
         return compile_encoder(store, msgtype)
     except Unsupported:
         return None
-
-
-def _media_type(name: str) -> str:
-    return _MEDIA_TYPES.get(os.path.splitext(name)[1].lower(), "application/octet-stream")
 
 
 def _f64(value: Sequence[float] | npt.ArrayLike, where: str) -> npt.NDArray[np.float64]:
@@ -312,16 +228,16 @@ class Recorder:
             self._writer = ChunkWriter(
                 self._stream,
                 profile=PROFILE,
-                library=library or f"harness/{__version__} mcap-python/{_package_version('mcap')}",
+                library=library or f"harness/{__version__} mcap-python/{package_version('mcap')}",
                 chunk_size=chunk_size,
                 compression=compression,
             )
             self._writer.add_metadata(METADATA_NAME, self.metadata)
             if not attachments:
                 # An MCAP without attachments gets empty index groups that strict doctors flag.
-                attachments = {"harness_msgs.txt": _definitions_text()}
+                attachments = {"harness_msgs.txt": definitions_text()}
             for name, blob in attachments.items():
-                self._writer.add_attachment(name, _media_type(name), bytes(blob))
+                self._writer.add_attachment(name, media_type(name), bytes(blob))
             # Header and attachments reach the file system now: a full disk (or a file size
             # limit) is reported here, before the run starts, not at the first flush.
             self._stream.flush()
@@ -715,10 +631,3 @@ class Recorder:
             raise RecordingWriteError(
                 f"{self.path}: recording failed: {self._failure}"
             ) from self._failure
-
-
-def _definitions_text() -> bytes:
-    from harness.msgs import message_definitions
-
-    parts = [f"# {name}\n{text}" for name, text in message_definitions().items()]
-    return "\n".join(parts).encode("utf-8")
