@@ -12,7 +12,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from harness.models.build import DATA, LoadedRobot, load_robot
+from harness.models.build import LoadedRobot, load_robot
+from harness.models.bundled import DATA
 from harness.models.world import PoseLike
 
 __all__ = [
