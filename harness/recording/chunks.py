@@ -64,7 +64,7 @@ MESSAGE_HEADER_SIZE = 9 + 22
 
 class RecordDamage(Exception):
     """A record (or the records of a container) that cannot be read; the message says why.
-    The passes name it at the record's byte offset and pass over that record."""
+    The passes of :mod:`harness.recording.scan` name it with the byte offset where it is."""
 
 
 def parse_record(cls: Any, body: bytes | memoryview) -> Any:

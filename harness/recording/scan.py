@@ -67,6 +67,7 @@ from harness.recording.summary import (
     summary_chunk_offsets,
 )
 
+# The two passes, and (from scanned, chunks) the names readers have imported from here.
 __all__ = [
     "MAGIC",
     "MESSAGE_HEADER_SIZE",
