@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from harness.recording.chunks import MESSAGE_HEADER_SIZE, gather
 from harness.recording.records import PhysicsStateArrays
-from harness.recording.scan import MESSAGE_HEADER_SIZE, gather
 
 __all__ = ["decode_physics_states", "empty_physics_states"]
 

@@ -28,6 +28,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from harness.recording.bulk import decode_physics_states, empty_physics_states
+from harness.recording.chunks import chunk_messages, gather, message_offsets, read_chunk_data
 from harness.recording.errors import (
     RecordingDamagedError,
     RecordingDamagedWarning,
@@ -53,18 +54,8 @@ from harness.recording.records import (
     PhysicsStateArrays,
     RecordedMessage,
 )
-from harness.recording.scan import (
-    I64,
-    ChunkInfo,
-    Problem,
-    Scan,
-    chunk_messages,
-    gather,
-    index_scan,
-    message_offsets,
-    read_chunk_data,
-    scan,
-)
+from harness.recording.scan import index_scan, scan
+from harness.recording.scanned import I64, ChunkInfo, Problem, Scan
 
 __all__ = ["LostRange", "Recording", "TopicInfo"]
 

@@ -22,7 +22,7 @@ from mcap.writer import CompressionType, Writer
 
 from harness.recording.errors import RecordingDamagedWarning, RecordingWriteError
 from harness.recording.recording import LostRange, Recording
-from harness.recording.scan import Problem
+from harness.recording.scanned import Problem
 
 __all__ = ["RepairReport", "repair"]
 

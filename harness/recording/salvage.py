@@ -35,7 +35,8 @@ from mcap.records import (
     Statistics,
 )
 
-from harness.recording.scan import MAGIC, scan
+from harness.recording.chunks import MAGIC
+from harness.recording.scan import scan
 
 __all__ = ["close_prefix", "finish_after_failure"]
 
