@@ -29,6 +29,7 @@ from harness.names import name_problem
 
 __all__ = [
     "BASE_KINDS",
+    "OBJECT_SIZES",
     "SELF_COLLISION_POLICIES",
     "BaseKind",
     "DuplicateNamespaceError",
@@ -43,6 +44,7 @@ __all__ = [
     "SelfCollision",
     "SelfCollisionReport",
     "WorldObject",
+    "add_object",
     "check_namespace",
     "placement_pose",
 ]
@@ -63,8 +65,17 @@ BaseKind = Literal["fixed", "floating"]
 BASE_KINDS: tuple[BaseKind, ...] = cast("tuple[BaseKind, ...]", vocabulary.BASE_KINDS)
 """The spellings of :class:`harness.vocabulary.RobotBase`."""
 
-_OBJECT_SIZES: Mapping[str, int] = MappingProxyType(
+OBJECT_SIZES: Mapping[str, int] = MappingProxyType(
     {"box": 3, "sphere": 1, "cylinder": 2, "capsule": 2}
+)
+"""How many numbers ``WorldObject.size`` has for each :data:`ObjectShape`."""
+_GEOM_TYPES: Mapping[str, mujoco.mjtGeom] = MappingProxyType(
+    {
+        "box": mujoco.mjtGeom.mjGEOM_BOX,
+        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+        "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+        "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+    }
 )
 
 
@@ -166,11 +177,10 @@ class WorldObject:
         """Raise :class:`ModelStructureError` naming ``where`` when the object is malformed."""
         if not self.name or "/" in self.name:
             raise ModelStructureError(f"{where}: object name {self.name!r} is empty or has '/'")
-        expected = _OBJECT_SIZES.get(self.shape)
+        expected = OBJECT_SIZES.get(self.shape)
         if expected is None:
             raise ModelStructureError(
-                f"{where}: unknown shape {self.shape!r} (expected one of "
-                f"{', '.join(_OBJECT_SIZES)})"
+                f"{where}: unknown shape {self.shape!r} (expected one of {', '.join(OBJECT_SIZES)})"
             )
         if len(self.size) != expected or not all(math.isfinite(s) and s > 0 for s in self.size):
             raise ModelStructureError(
@@ -178,6 +188,23 @@ class WorldObject:
             )
         if self.mass is not None and not (math.isfinite(self.mass) and self.mass > 0):
             raise ModelStructureError(f"{where}: mass {self.mass!r} is not positive")
+
+
+def add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
+    """Add ``obj`` (checked: :meth:`WorldObject.check` naming ``where``) to ``spec``'s world
+    body: a body and a geom both named ``obj.name``, and a free joint ``"<name>_joint"`` when
+    it has a mass."""
+    obj.check(where)
+    pose = placement_pose(obj.pose, where) or Pose()
+    body = spec.worldbody.add_body(name=obj.name, pos=list(pose.xyz), quat=list(pose.quat))
+    if obj.mass is not None:
+        body.add_freejoint(name=f"{obj.name}_joint")
+    geom = body.add_geom(name=obj.name, type=_GEOM_TYPES[obj.shape])
+    geom.size = [*obj.size, *([0.0] * (3 - len(obj.size)))]
+    if obj.mass is not None:
+        geom.mass = obj.mass
+    if obj.rgba is not None:
+        geom.rgba = list(obj.rgba)
 
 
 class IgnoredPair(NamedTuple):

@@ -12,6 +12,7 @@ import functools
 import os
 from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import pytest
@@ -20,6 +21,7 @@ from harness.vocabulary import Actuation, ControlMode
 
 __all__ = [
     "check_keys",
+    "first_robot_keys",
     "marker_keys",
     "marker_options",
     "one_mode",
@@ -42,6 +44,7 @@ _MARKER_OWN = frozenset(
 )
 _NOT_MARKER = frozenset({"host", "port", "token", "record_to"})  # the plugin's own choice
 _DYNAMIC = (ControlMode.POSITION, ControlMode.VELOCITY, ControlMode.EFFORT)
+_SPEC_SPELLINGS = {"source": "robot", "control": "mode"}  # as Session(robot=, mode=) spells them
 
 
 @functools.cache
@@ -52,6 +55,22 @@ def marker_keys() -> frozenset[str]:
     from harness.session.options import SESSION_KEYWORDS
 
     return frozenset((set(SESSION_KEYWORDS) - _NOT_MARKER) | _MARKER_OWN)
+
+
+@functools.cache
+def first_robot_keys() -> Mapping[str, str]:
+    """The marker keys that, with ``scenario=``, apply to the scenario's first robot, each
+    -> the :class:`harness.models.RobotSpec` field it sets: every RobotSpec field that is a
+    marker key (:func:`marker_keys`), ``source`` spelled ``robot`` and ``control`` spelled
+    ``mode`` as ``Session`` spells them. A RobotSpec field that becomes a session option
+    applies to the first robot without another edit."""
+    from dataclasses import fields
+
+    from harness.models.world import RobotSpec
+
+    keys = marker_keys()
+    spelled = ((_SPEC_SPELLINGS.get(f.name, f.name), f.name) for f in fields(RobotSpec))
+    return MappingProxyType({key: name for key, name in spelled if key in keys})
 
 
 def marker_options(item: pytest.Item) -> dict[str, Any]:

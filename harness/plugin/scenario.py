@@ -13,13 +13,10 @@ from typing import Any
 
 import pytest
 
-from harness.plugin.markers import parse_load_options, parse_mode
+from harness.plugin.markers import first_robot_keys, parse_load_options, parse_mode
 from harness.vocabulary import ClockMode
 
-__all__ = ["ROBOT_KEYS", "over_scenario", "scenario_session"]
-
-ROBOT_KEYS = ("robot", "mode", "namespace", "robot_args", "self_collision", "base", "strict")
-"""Marker keys that, with a scenario, apply to its first robot (``robots=`` replaces them all)."""
+__all__ = ["over_scenario", "scenario_session"]
 
 
 def scenario_session(path: Path, folder: Path) -> Any:
@@ -38,26 +35,27 @@ def scenario_session(path: Path, folder: Path) -> Any:
 
 def over_scenario(planned: Any, marker: dict[str, Any], where: str) -> dict[str, Any]:
     """The scenario's Session keywords with the marker's keys over them (the marker wins):
-    world-level keys replace the scenario's; ``robots`` replaces its robots; ``robot``,
-    ``mode``, ``namespace``, ``robot_args``, ``self_collision``, ``base`` and ``strict``
-    apply to its first robot (a RobotSpec field each: ``source``, ``control``, ...).
-    ``marker`` loses the robot keys it had (they are in the first robot now)."""
+    world-level keys replace the scenario's; ``robots`` replaces its robots; the robot keys
+    (:func:`harness.plugin.markers.first_robot_keys`: ``robot``, ``mode``, ``namespace``,
+    ...) apply to its first robot (a RobotSpec field each: ``source``, ``control``,
+    ``namespace``, ...). ``marker`` loses the robot keys it had (they are in the first robot
+    now)."""
     import dataclasses
 
     keywords = planned.keywords()
     keywords["port"] = 0  # a free port per test: xdist workers run side by side
     del keywords["record_to"]  # the test's own recording
-    own = {k: marker.pop(k) for k in ROBOT_KEYS if k in marker}
+    fields = first_robot_keys()
+    own = {k: marker.pop(k) for k in fields if k in marker}
     if "robots" not in marker and own:
         if "mode" in own:
             own["mode"] = parse_mode(own["mode"], f"{where}: harness option 'mode'")
         parse_load_options(own, where)
-        names = {"robot": "source", "mode": "control"}
         first = keywords["robots"][0]
         if "robot" in own:  # another robot: the file's joint settings are not its
             first = dataclasses.replace(first, control="position", initial_positions={})
             first = dataclasses.replace(first, robot_args={})
-        first = dataclasses.replace(first, **{names.get(k, k): v for k, v in own.items()})
+        first = dataclasses.replace(first, **{fields[k]: v for k, v in own.items()})
         keywords["robots"] = [first, *keywords["robots"][1:]]
     elif own:
         pytest.fail(

@@ -27,9 +27,9 @@ from harness.controllers import ControllersConfig, ControllersConfigError, load_
 from harness.errors import ModelError
 from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
-from harness.models.description import ControlMode
+from harness.models.description import ControlMode, Pose
 from harness.models.resolve import resolve_uri
-from harness.models.world import BaseKind, SelfCollision
+from harness.models.world import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
 from harness.session.options import TransportOptions
@@ -57,7 +57,6 @@ __all__ = [
     "ScenarioBridgeSection",
     "ScenarioRecordingSection",
     "ScenarioRobot",
-    "SceneObject",
     "Subscriber",
 ]
 
@@ -196,19 +195,6 @@ class Clock:
 
 
 @dataclass(frozen=True)
-class SceneObject:
-    """A primitive added to the world; without ``mass`` it is fixed."""
-
-    name: str
-    shape: Literal["box", "sphere", "cylinder"]
-    size: tuple[float, ...]
-    position: Vector3 = (0.0, 0.0, 0.0)
-    orientation: Vector3 = (0.0, 0.0, 0.0)
-    mass: float | None = None
-    rgba: tuple[float, float, float, float] | None = None
-
-
-@dataclass(frozen=True)
 class ScenarioRecordingSection:
     """The ``recording`` section: whether each iteration records an MCAP file; its
     ``state_every`` and ``bridge_frames`` are the session's ``CoreOptions.state_every`` and
@@ -275,7 +261,9 @@ class Scenario:
     clock: Clock | None = None
     """The ``clock`` section; None when the file has none (``harness run`` then runs
     ``realtime``, the pytest marker ``lockstep``: see :mod:`harness.scenario.session_options`)."""
-    objects: tuple[SceneObject, ...] = ()
+    objects: tuple[WorldObject, ...] = ()
+    """The ``objects`` entries; the file's ``position`` and ``orientation`` (roll, pitch, yaw)
+    are each object's ``pose``."""
     recording: ScenarioRecordingSection = ScenarioRecordingSection()
     criteria: Criteria = Criteria()
     client: ClientSpec | None = None
@@ -580,9 +568,8 @@ class _Builder:
             self.problems.append(f"{self.where}: {exc}")
             return _LOGGING_OFF
 
-    def object(self, data: dict[str, Any], index: int) -> SceneObject:
-        counts = {"box": 3, "sphere": 1, "cylinder": 2}
-        want = counts[data["shape"]]
+    def object(self, data: dict[str, Any], index: int) -> WorldObject:
+        want = OBJECT_SIZES[data["shape"]]
         if len(data["size"]) != want:
             self.problem(
                 ["objects", index, "size"],
@@ -591,12 +578,11 @@ class _Builder:
             )
         mass = data.get("mass")
         rgba = data.get("rgba")
-        return SceneObject(
+        return WorldObject(
             name=data["name"],
             shape=data["shape"],
             size=tuple(float(s) for s in data["size"]),
-            position=_vec3(data.get("position")),
-            orientation=_vec3(data.get("orientation")),
+            pose=Pose.from_xyz_rpy(_vec3(data.get("position")), _vec3(data.get("orientation"))),
             mass=None if mass is None else float(mass),
             rgba=None
             if rgba is None

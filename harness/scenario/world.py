@@ -45,12 +45,13 @@ from harness.models import (
     load_world,
 )
 from harness.models import RobotSpec as WorldRobot
-from harness.models.description import Pose, RobotModel
+from harness.models.description import RobotModel
 from harness.models.mjcf_files import check_mjcf_files, generated_from
+from harness.models.world import add_object
 from harness.models.worldfile import is_sdf_world, load_world_file
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
-from harness.scenario.scenario import Scenario, ScenarioRobot, SceneObject
+from harness.scenario.scenario import Scenario, ScenarioRobot
 from harness.vocabulary import LimitPolicy
 
 __all__ = [
@@ -74,11 +75,6 @@ DEFAULT_JOINT_COMMAND_TOPIC = "/joint_command"
 TRAJECTORY_TOPIC = "/joint_trajectory"
 """The trajectory topic the Session serves for a robot (under its namespace, if any)."""
 _HINGE_LIKE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-_SHAPES = {
-    "box": mujoco.mjtGeom.mjGEOM_BOX,
-    "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
-    "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
-}
 
 
 def _where(scenario: Scenario) -> str:
@@ -249,7 +245,10 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
                     f"of the map {_map_name(env_map)!r}; choose another name"
                 ]
             )
-        _add_object(spec, obj)
+        try:
+            add_object(spec, obj, f"{_where(scenario)}: objects[{index}] ({obj.name!r})")
+        except ModelError as exc:  # a Scenario built in Python, not read from a file
+            raise ScenarioError([str(exc)]) from None
     # Keep asset paths valid from the generated file's folder.
     spec.meshdir = str((base / spec.meshdir).resolve()) if spec.meshdir else str(base)
     spec.texturedir = str((base / spec.texturedir).resolve()) if spec.texturedir else str(base)
@@ -277,20 +276,6 @@ def _sdf_world_spec(scenario: Scenario, file: Path) -> mujoco.MjSpec:
 
 def _map_name(env_map: str | Path) -> str:
     return env_map.name if isinstance(env_map, Path) else env_map
-
-
-def _add_object(spec: mujoco.MjSpec, obj: SceneObject) -> None:
-    pose = Pose.from_xyz_rpy(obj.position, obj.orientation)
-    body = spec.worldbody.add_body(name=obj.name, pos=list(pose.xyz), quat=list(pose.quat))
-    geom_options: dict[str, object] = {"name": obj.name, "type": _SHAPES[obj.shape]}
-    size = list(obj.size) + [0.0] * (3 - len(obj.size))
-    geom_options["size"] = size
-    if obj.rgba is not None:
-        geom_options["rgba"] = list(obj.rgba)
-    if obj.mass is not None:
-        body.add_freejoint(name=f"{obj.name}_joint")
-        geom_options["mass"] = obj.mass
-    body.add_geom(**geom_options)
 
 
 class WorldPlan(NamedTuple):

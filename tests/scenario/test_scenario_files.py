@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from harness.events import LOGGING_SCHEMA, SinkSpec
+from harness.models import WorldObject
 from harness.scenario import Scenario, ScenarioError, load_run_file
 from harness.scenario import scenario as sc
 from harness.scenario._validation import schema, validator
@@ -245,7 +246,8 @@ def test_schema_and_dataclasses_agree():
     assert _props("robot") == _fields(sc.ScenarioRobot) - {"named"}
     assert _props("subscriber") == _fields(sc.Subscriber)
     assert _props("controller") - {"type", "beyond_limits"} == _fields(sc.Controller)
-    assert _props("object") == _fields(sc.SceneObject)
+    # an object is a WorldObject: the file's position and orientation are its pose
+    assert _props("object") == _fields(WorldObject) - {"pose"} | {"position", "orientation"}
     assert _props("recording") == _fields(sc.ScenarioRecordingSection)
     assert _props("criteria") == _fields(sc.Criteria)
     assert _props("clock") == _fields(sc.Clock)
