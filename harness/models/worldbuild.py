@@ -40,6 +40,7 @@ from harness.models.world import (
     LoadedWorld,
     RobotSpec,
     WorldObject,
+    add_object,
     check_namespace,
     placement_pose,
 )
@@ -113,12 +114,12 @@ def load_world(
         if placements[0] is not None:
             _place_top_bodies(spec, placements[0])
         for number, obj in enumerate(objects):
-            _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
+            add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
         spec, _scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
         sources.update(scene_sources)
         for number, obj in enumerate(objects):
-            _add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
+            add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
         for robot, placement in zip(prepared, placements, strict=True):
             if placement is None:
                 frame = spec.worldbody.add_frame()
@@ -321,26 +322,6 @@ def _place_top_bodies(spec: mujoco.MjSpec, pose: Pose) -> None:
         )
         target.pos = list(composed.xyz)
         target.quat = list(composed.quat)
-
-
-def _add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
-    obj.check(where)
-    pose = placement_pose(obj.pose, where) or Pose()
-    body = spec.worldbody.add_body(name=obj.name, pos=list(pose.xyz), quat=list(pose.quat))
-    if obj.mass is not None:
-        body.add_freejoint(name=f"{obj.name}_joint")
-    shapes = {
-        "box": mujoco.mjtGeom.mjGEOM_BOX,
-        "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
-        "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
-        "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
-    }
-    geom = body.add_geom(name=obj.name, type=shapes[obj.shape])
-    geom.size = [*obj.size, *([0.0] * (3 - len(obj.size)))]
-    if obj.mass is not None:
-        geom.mass = obj.mass
-    if obj.rgba is not None:
-        geom.rgba = list(obj.rgba)
 
 
 def _view(
