@@ -14,13 +14,21 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Literal, NamedTuple
 
+import mujoco
 import numpy as np
 import numpy.typing as npt
 
 from harness.sim.errors import CommandError
 from harness.sim.layout import JointLayout
 
-__all__ = ["CommandField", "CommandTable", "Entry", "Notice", "joint_state_entries"]
+__all__ = [
+    "CommandField",
+    "CommandTable",
+    "Entry",
+    "Notice",
+    "body_wrench",
+    "joint_state_entries",
+]
 
 CommandField = Literal["position", "velocity", "effort"]
 Entry = tuple[str, str, object]
@@ -65,6 +73,19 @@ def joint_state_entries(
     return entries
 
 
+def body_wrench(
+    model: mujoco.MjModel, body: str, force: Sequence[float], torque: Sequence[float]
+) -> tuple[int, npt.NDArray[np.float64]]:
+    """``(body id, [force, torque])`` of a wrench to apply at ``body``, checked."""
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
+    if bid <= 0:
+        raise CommandError(f"unknown body {body!r} for apply_wrench")
+    wrench = np.array([*force, *torque], dtype=np.float64)
+    if wrench.shape != (6,) or not np.all(np.isfinite(wrench)):
+        raise CommandError(f"body {body!r}: force and torque must be 3 finite values each")
+    return bid, wrench
+
+
 class CommandTable:
     """The command per controllable joint (``cmd``, updated in place) and how commands apply.
 
@@ -81,6 +102,20 @@ class CommandTable:
         self.row_is_kin = tuple(m == "kinematic" for m in layout.modes)
         self.lows = layout.lows
         self.highs = layout.highs
+        self.qadr = layout.qadr
+
+    def hold(self, qpos: npt.NDArray[np.float64]) -> None:
+        """Commands that hold every joint where ``qpos`` has it: kinematic joints at that
+        position, position servos there (clamped to their range), velocity and effort 0."""
+        cmd, lows, highs = self.cmd, self.lows, self.highs
+        for r, mode in enumerate(self.modes):
+            q = float(qpos[self.qadr[r]])
+            if mode == "kinematic":
+                cmd[r] = q
+            elif mode == "position":
+                cmd[r] = min(max(q, lows[r]), highs[r])
+            else:
+                cmd[r] = 0.0
 
     def validate(self, entries: Iterable[Entry]) -> list[tuple[int, str, float]]:
         """``(row, field, value)`` per entry; raises on an unknown joint or a bad value."""

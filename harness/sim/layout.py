@@ -31,6 +31,7 @@ __all__ = [
     "WriteKey",
     "build_layout",
     "check_model",
+    "kinematic_targets",
     "object_name",
     "write_target",
 ]
@@ -243,6 +244,17 @@ def write_target(array: F64, index: npt.NDArray[np.integer]) -> tuple[F64, Write
     if np.array_equal(index, np.arange(first, first + size)):
         return array[first : first + size], ...
     return array, np.asarray(index, dtype=np.intp)
+
+
+def kinematic_targets(cmd: F64, gather: npt.NDArray[np.intp], follow: tuple[Follow, ...]) -> F64:
+    """A new array of the kinematic writes' positions from the commands ``cmd``: the
+    kinematic rows', then the mimic followers' (``gather`` and ``follow`` of a
+    :class:`JointLayout`; never changed in place afterwards: applied inputs share it)."""
+    out: F64 = cmd[gather]  # fancy indexing: a new array
+    for slot, leader_ref, follower_ref, c0, c1, c2, c3, c4 in follow:
+        x = out.item(slot) - leader_ref
+        out[slot] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
+    return out
 
 
 def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:

@@ -38,13 +38,28 @@ from harness.errors import SimulationError
 from harness.models.description import ControlMode, RobotModel
 from harness.models.world import LoadedWorld
 from harness.sim.capture import EMPTY_F64, EMPTY_U32, capture_input
-from harness.sim.commands import CommandField, CommandTable, Entry, Notice, joint_state_entries
+from harness.sim.commands import (
+    CommandField,
+    CommandTable,
+    Entry,
+    Notice,
+    body_wrench,
+    joint_state_entries,
+)
 from harness.sim.contacts import ContactSet, extract_contacts
-from harness.sim.errors import CommandError, ControlConfigError, InstabilityError, StateError
+from harness.sim.errors import ControlConfigError, InstabilityError
 from harness.sim.inputs import AppliedInput
 from harness.sim.instability import failure, warning_names
-from harness.sim.layout import build_layout, check_model, object_name, write_target
+from harness.sim.layout import (
+    build_layout,
+    check_model,
+    kinematic_targets,
+    object_name,
+    write_target,
+)
 from harness.sim.planar import PlanarBase
+from harness.sim.poses import BodyPoses
+from harness.sim.state import STATE_SPEC, checked_state, out_error
 from harness.vocabulary import LimitPolicy
 
 __all__ = [
@@ -58,10 +73,6 @@ __all__ = [
 ]
 
 F64 = npt.NDArray[np.float64]
-
-STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
-"""The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
-warmstart and does not restore bit-exactly."""
 
 Observer = Callable[["Simulation"], None]
 _mj_step = mujoco.mj_step
@@ -163,22 +174,19 @@ class Simulation:
         self._warning_names = warning_names()
         self._observers: list[Observer] = []
         self._planar: PlanarBase | None = None
-        self._scratch: mujoco.MjData | None = None
 
         layout = build_layout(model, control, description, limit_policy)
         self._commands = CommandTable(layout)
         self._cmd = self._commands.cmd  # the same array, updated in place
+        self._layout = layout
+        # The layout's arrays the step and read paths use, as attributes of their own.
         self._names = layout.names
-        self._modes = layout.modes
         self._qadr = layout.qadr
         self._dadr = layout.dadr
-        self._lo = np.array(layout.lows, dtype=np.float64)
-        self._hi = np.array(layout.highs, dtype=np.float64)
         self._is_kin = layout.is_kin
         self._dyn_rows = layout.dyn_rows
         self._dyn_act = layout.dyn_act
-        self._kin_rows = layout.kin_rows
-        self._has_kin = bool(self._kin_rows.size)
+        self._has_kin = bool(layout.kin_rows.size)
         self._kin_gather = layout.kin_gather
         self._follow = layout.follow
         self._kin_names = layout.kin_names
@@ -188,11 +196,7 @@ class Simulation:
         # reallocated, so views of them stay valid).
         self._kin_qpos, self._kin_qkey = write_target(self.data.qpos, self._kin_qadr)
         self._kin_qvel, self._kin_dkey = write_target(self.data.qvel, self._kin_dadr)
-        self._bodies = tuple(
-            (b, n)
-            for b in range(1, model.nbody)
-            if (n := object_name(model, mujoco.mjtObj.mjOBJ_BODY, b))
-        )
+        self._poses = BodyPoses(model)
         self.reset()
 
     # ----------------------------------------------------------------------------- state
@@ -205,14 +209,7 @@ class Simulation:
             mujoco.mj_resetDataKeyframe(self.model, self.data, self._keyframe)
         else:
             mujoco.mj_resetData(self.model, self.data)
-        for r, mode in enumerate(self._modes):
-            q = float(self.data.qpos[self._qadr[r]])
-            if mode == "kinematic":
-                self._cmd[r] = q
-            elif mode == "position":
-                self._cmd[r] = min(max(q, self._lo[r]), self._hi[r])
-            else:
-                self._cmd[r] = 0.0
+        self._commands.hold(self.data.qpos)
         self.data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
         # a filtered position command (the drive's setpoint filter) starts at its command
         model = self.model
@@ -232,34 +229,16 @@ class Simulation:
         try:
             mujoco.mj_getState(self.model, self.data, out, STATE_SPEC)
         except TypeError:
-            raise StateError(
-                f"get_state(out=): out must be a writable C-contiguous float64 array of "
-                f"{self._state_size} values, not {getattr(out, 'dtype', type(out).__name__)} "
-                f"of shape {getattr(out, 'shape', '?')}"
-            ) from None
+            raise out_error(out, self._state_size) from None
         return out
 
     def set_state(self, state: npt.ArrayLike, step_index: int) -> None:
         """Restore a state captured by :meth:`get_state` at ``step_index``. Commands are taken
         from it: positions held, ctrl as in the state."""
-        arr = np.asarray(state, dtype=np.float64)
-        if arr.shape != (self._state_size,):
-            raise StateError(
-                f"state has shape {arr.shape}, the model's INTEGRATION state has "
-                f"({self._state_size},)"
-            )
-        if not np.all(np.isfinite(arr)):
-            raise StateError("state holds non-finite values")
-        if step_index < 0:
-            raise StateError(f"step_index must be >= 0, not {step_index}")
-        # mjSTATE_TIME is the first component of every state.
-        if abs(float(arr[0]) - step_index * self._dt) > self._half_dt:
-            raise StateError(
-                f"state time {float(arr[0])!r} s does not match step {step_index} "
-                f"(step * dt = {step_index * self.dt_ns / 1e9!r} s)"
-            )
+        arr = checked_state(state, self._state_size, step_index, self._dt, self.dt_ns)
         mujoco.mj_setState(self.model, self.data, arr, STATE_SPEC)
-        self._cmd[self._kin_rows] = self.data.qpos[self._qadr[self._kin_rows]]
+        kin_rows = self._layout.kin_rows
+        self._cmd[kin_rows] = self.data.qpos[self._qadr[kin_rows]]
         self._cmd[self._dyn_rows] = self.data.ctrl[self._dyn_act]
         self._restart(step_index)
 
@@ -363,7 +342,11 @@ class Simulation:
         the new kinematic writes is this step's, and it changed exactly when those writes did.
         """
         if self._kin_dirty or self._kin_moving:
-            pos = self._kinematic_targets() if self._kin_dirty else self._kin_pos
+            pos = (
+                kinematic_targets(self._cmd, self._kin_gather, self._follow)
+                if self._kin_dirty
+                else self._kin_pos
+            )
             self._kin_dirty = False
             vel: F64 = pos - self._kin_prev
             vel /= self._dt_array
@@ -468,7 +451,7 @@ class Simulation:
             data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
             data.xfrc_applied[:] = self._xfrc
         if (self._dirty or self._kin_dirty) and self._has_kin:
-            self._kin_pos = self._kinematic_targets()
+            self._kin_pos = kinematic_targets(self._cmd, self._kin_gather, self._follow)
         if self._has_kin:
             self._kin_vel = (self._kin_pos - self._kin_prev) / self._dt
             self._kin_prev = self._kin_pos
@@ -492,15 +475,6 @@ class Simulation:
         )
         self._changed = self._applied is None or not applied.same_physics(self._applied)
         self._applied = applied
-
-    def _kinematic_targets(self) -> F64:
-        """A new array of the kinematic writes' positions: the commands, then the mimic
-        followers' (never changed in place afterwards: applied inputs share it)."""
-        out: F64 = self._cmd[self._kin_gather]  # fancy indexing: a new array
-        for slot, leader_ref, follower_ref, c0, c1, c2, c3, c4 in self._follow:
-            x = out.item(slot) - leader_ref
-            out[slot] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
-        return out
 
     def _fail(self, step: int) -> None:
         message, warning = failure(self.model, self.data, step, self.dt_ns)
@@ -539,7 +513,7 @@ class Simulation:
     @property
     def control(self) -> Mapping[str, ControlMode]:
         """Joint name -> control mode."""
-        return MappingProxyType(dict(zip(self._names, self._modes, strict=True)))
+        return MappingProxyType(dict(zip(self._names, self._layout.modes, strict=True)))
 
     def command(
         self,
@@ -609,12 +583,7 @@ class Simulation:
     ) -> None:
         """Apply a world-frame force and torque at ``body``'s centre of mass from the next step
         on (it holds until changed; zero to stop)."""
-        bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, body)
-        if bid <= 0:
-            raise CommandError(f"unknown body {body!r} for apply_wrench")
-        wrench = np.array([*force, *torque], dtype=np.float64)
-        if wrench.shape != (6,) or not np.all(np.isfinite(wrench)):
-            raise CommandError(f"body {body!r}: force and torque must be 3 finite values each")
+        bid, wrench = body_wrench(self.model, body, force, torque)
         self._xfrc[bid] = wrench
         self._dirty = True
         self._fast = self._kin_fast = False
@@ -667,22 +636,13 @@ class Simulation:
 
     def link_poses(self) -> dict[str, tuple[F64, F64]]:
         """Every named body's world pose as ``(xyz, quat w-x-y-z)``, for the current state."""
-        xpos, xquat = self.body_poses()
-        return {n: (xpos[b].copy(), xquat[b].copy()) for b, n in self._bodies}
+        return self._poses.by_name(self.data)
 
     def body_poses(self) -> tuple[F64, F64]:
         """Every body's world position (``nbody x 3``) and orientation (``nbody x 4``, w-x-y-z)
         for the current state, by body id (0: the world). The arrays are reused: read them
         before the next call."""
-        if self._scratch is None:
-            self._scratch = mujoco.MjData(self.model)
-        scratch = self._scratch
-        scratch.qpos[:] = self.data.qpos
-        if self.model.nmocap:
-            scratch.mocap_pos[:] = self.data.mocap_pos
-            scratch.mocap_quat[:] = self.data.mocap_quat
-        mujoco.mj_kinematics(self.model, scratch)
-        return scratch.xpos, scratch.xquat
+        return self._poses.read(self.data)
 
     def contacts(self) -> ContactSet:
         """The contacts of the last step (see :func:`harness.sim.contacts.extract_contacts`)."""
