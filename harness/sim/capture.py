@@ -12,14 +12,14 @@ import numpy.typing as npt
 from harness.sim.inputs import AppliedInput
 from harness.sim.planar import PlanarBase
 
-__all__ = ["EMPTY_F64", "EMPTY_U32", "capture_input"]
+__all__ = ["KinematicWrites", "capture_input"]
 
 F64 = npt.NDArray[np.float64]
 U32 = npt.NDArray[np.uint32]
-EMPTY_F64: F64 = np.zeros(0, dtype=np.float64)
-"""An empty value array: no writes of that kind."""
-EMPTY_U32: U32 = np.zeros(0, dtype=np.uint32)
-"""An empty index array: no writes of that kind."""
+KinematicWrites = tuple[U32, F64, U32, F64]
+"""A step's kinematic writes: qpos addresses and values, dof addresses and values."""
+_EMPTY_F: F64 = np.zeros(0, dtype=np.float64)
+_EMPTY_U: U32 = np.zeros(0, dtype=np.uint32)
 
 
 def capture_input(
@@ -28,16 +28,14 @@ def capture_input(
     step: int,
     dt_ns: int,
     kinematic_joints: tuple[str, ...],
-    qpos: tuple[U32, F64],
-    qvel: tuple[U32, F64],
+    kinematic: KinematicWrites | None,
     planar: PlanarBase | None,
     dt: float,
 ) -> AppliedInput:
     """The input of ``step`` (the next step): ``data``'s ctrl, mocap poses and applied forces
-    (copies), and the kinematic writes ``qpos``/``qvel`` (index, values; the arrays are kept)
-    followed by ``planar``'s write for a step of ``dt`` from ``data.qpos``."""
-    qpos_i, qpos_v = qpos
-    qvel_i, qvel_v = qvel
+    (copies), and the ``kinematic`` writes (the arrays are kept; None: none) followed by
+    ``planar``'s write for a step of ``dt`` from ``data.qpos``."""
+    qpos_i, qpos_v, qvel_i, qvel_v = kinematic or (_EMPTY_U, _EMPTY_F, _EMPTY_U, _EMPTY_F)
     if planar is not None:
         # The planar base's write joins the kinematic writes (recorded, replayed alike).
         base_q, base_v = planar.write(data.qpos, dt)
@@ -58,11 +56,11 @@ def capture_input(
         qpos_value=qpos_v,
         qvel_index=qvel_i,
         qvel_value=qvel_v,
-        mocap_pos=np.array(data.mocap_pos, dtype=np.float64).ravel() if nmocap else EMPTY_F64,
-        mocap_quat=np.array(data.mocap_quat, dtype=np.float64).ravel() if nmocap else EMPTY_F64,
+        mocap_pos=np.array(data.mocap_pos, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
+        mocap_quat=np.array(data.mocap_quat, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
         # count_nonzero: what any() says (-0.0 is zero, NaN is not), for less
-        qfrc_applied=np.array(qfrc, dtype=np.float64) if np.count_nonzero(qfrc) else EMPTY_F64,
+        qfrc_applied=np.array(qfrc, dtype=np.float64) if np.count_nonzero(qfrc) else _EMPTY_F,
         xfrc_applied=(
-            np.array(xfrc, dtype=np.float64).ravel() if np.count_nonzero(xfrc) else EMPTY_F64
+            np.array(xfrc, dtype=np.float64).ravel() if np.count_nonzero(xfrc) else _EMPTY_F
         ),
     )

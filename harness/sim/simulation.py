@@ -37,7 +37,7 @@ import numpy.typing as npt
 from harness.errors import SimulationError
 from harness.models.description import ControlMode, RobotModel
 from harness.models.world import LoadedWorld
-from harness.sim.capture import EMPTY_F64, EMPTY_U32, capture_input
+from harness.sim.capture import capture_input
 from harness.sim.commands import (
     CommandField,
     CommandTable,
@@ -458,20 +458,12 @@ class Simulation:
             self._kin_moving = bool(self._kin_vel.any())
         self._dirty = self._kin_dirty = False
         self._update_fast()
-        qpos_i, qpos_v, qvel_i, qvel_v = EMPTY_U32, EMPTY_F64, EMPTY_U32, EMPTY_F64
+        kinematic = None
         if self._has_kin:
-            qpos_i, qpos_v = self._kin_qadr, self._kin_pos.copy()
-            qvel_i, qvel_v = self._kin_dadr, self._kin_vel.copy()
+            kinematic = (self._kin_qadr, self._kin_pos.copy(), self._kin_dadr, self._kin_vel.copy())
+        step, planar = self._step + 1, self._planar
         applied = capture_input(
-            self.model,
-            data,
-            self._step + 1,
-            self.dt_ns,
-            self._kin_names,
-            (qpos_i, qpos_v),
-            (qvel_i, qvel_v),
-            self._planar,
-            self._dt,
+            self.model, data, step, self.dt_ns, self._kin_names, kinematic, planar, self._dt
         )
         self._changed = self._applied is None or not applied.same_physics(self._applied)
         self._applied = applied
