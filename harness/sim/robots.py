@@ -18,8 +18,9 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models.description import ControlMode
+from harness.sim.commands import Notice
 from harness.sim.errors import CommandError
-from harness.sim.simulation import Notice, Simulation
+from harness.sim.simulation import Simulation
 
 __all__ = ["RobotJoints"]
 

@@ -26,28 +26,40 @@ step, MuJoCo's convention).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from types import EllipsisType, MappingProxyType
-from typing import Literal, NamedTuple, Protocol
+from collections.abc import Callable, Mapping, Sequence
+from types import MappingProxyType
+from typing import Protocol
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
 from harness.errors import SimulationError
-from harness.models.description import CONTROL_MODES, ControlMode, RobotModel
+from harness.models.description import ControlMode, RobotModel
 from harness.models.world import LoadedWorld
-from harness.sim.contacts import ContactSet, extract_contacts
-from harness.sim.errors import (
-    CommandError,
-    ControlConfigError,
-    InstabilityError,
-    StateError,
-    TimestepError,
+from harness.sim.capture import capture_input
+from harness.sim.commands import (
+    CommandField,
+    CommandTable,
+    Entry,
+    Notice,
+    body_wrench,
+    joint_state_entries,
 )
+from harness.sim.contacts import ContactSet, extract_contacts
+from harness.sim.errors import ControlConfigError, InstabilityError
 from harness.sim.inputs import AppliedInput
+from harness.sim.instability import failure, warning_names
+from harness.sim.layout import (
+    build_layout,
+    check_model,
+    kinematic_targets,
+    object_name,
+    write_target,
+)
 from harness.sim.planar import PlanarBase
+from harness.sim.poses import BodyPoses
+from harness.sim.state import STATE_SPEC, checked_state, out_error
 from harness.vocabulary import LimitPolicy
 
 __all__ = [
@@ -61,40 +73,9 @@ __all__ = [
 ]
 
 F64 = npt.NDArray[np.float64]
-_Key = EllipsisType | npt.NDArray[np.intp]
 
-STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
-"""The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
-warmstart and does not restore bit-exactly."""
-
-CommandField = Literal["position", "velocity", "effort"]
 Observer = Callable[["Simulation"], None]
-
-_FIELD_OF_MODE: dict[str, CommandField] = {
-    "kinematic": "position",
-    "position": "position",
-    "velocity": "velocity",
-    "effort": "effort",
-}
-_WARNING_MEANING = {
-    "INERTIA": "invalid inertia",
-    "CONTACTFULL": "too many contacts, some dropped",
-    "CNSTRFULL": "constraint buffer full, some dropped",
-    "BADQPOS": "bad position, MuJoCo auto-reset the state",
-    "BADQVEL": "bad velocity, MuJoCo auto-reset the state",
-    "BADQACC": "bad acceleration, MuJoCo auto-reset the state",
-    "BADCTRL": "bad control value",
-}
 _mj_step = mujoco.mj_step
-_EMPTY_F = np.zeros(0, dtype=np.float64)
-_EMPTY_U = np.zeros(0, dtype=np.uint32)
-
-
-def warning_names() -> tuple[str, ...]:
-    """MuJoCo's warning names by index (``"BADQACC"``, ...), as in ``data.warning``."""
-    members = mujoco.mjtWarning.__members__
-    by_index = {int(v): k.removeprefix("mjWARN_") for k, v in members.items() if k != "mjNWARNING"}
-    return tuple(by_index[i] for i in sorted(by_index))
 
 
 class RobotLike(Protocol):
@@ -108,63 +89,6 @@ class RobotLike(Protocol):
 
     @property
     def control(self) -> Mapping[str, ControlMode]: ...
-
-
-class Notice(NamedTuple):
-    """Something a command did not do as asked: ``kind`` is ``"clamped"`` (``applied`` is the
-    value used) or ``"ignored"`` (the field does not apply to the joint's mode; ``applied`` is
-    NaN). The session turns notices into warning events."""
-
-    joint: str
-    kind: Literal["clamped", "ignored"]
-    field: CommandField
-    requested: float
-    applied: float
-    message: str
-
-
-class _Mimic(NamedTuple):
-    leader_row: int  # index into the kinematic leaders
-    qpos_adr: int
-    dof_adr: int
-    name: str
-    coef: tuple[float, float, float, float, float]
-    follower_ref: float
-    leader_ref: float
-
-
-def _actuator_kind(model: mujoco.MjModel, act: int) -> ControlMode | None:
-    """The control mode an actuator implements, or None when it is not one of the three."""
-    if int(model.actuator_dyntype[act]) != int(mujoco.mjtDyn.mjDYN_NONE):
-        return None
-    if int(model.actuator_gaintype[act]) != int(mujoco.mjtGain.mjGAIN_FIXED):
-        return None
-    gain = float(model.actuator_gainprm[act][0])
-    bias = model.actuator_biasprm[act]
-    biastype = int(model.actuator_biastype[act])
-    if biastype == int(mujoco.mjtBias.mjBIAS_NONE):
-        return ControlMode.EFFORT
-    if biastype == int(mujoco.mjtBias.mjBIAS_AFFINE) and gain != 0.0 and bias[0] == 0.0:
-        if bias[1] == -gain:
-            return ControlMode.POSITION
-        if bias[1] == 0.0 and bias[2] == -gain:
-            return ControlMode.VELOCITY
-    return None
-
-
-def _write_target(array: F64, index: npt.NDArray[np.integer]) -> tuple[F64, _Key]:
-    """Where ``array[index] = values`` writes, as ``(target, key)`` for ``target[key] =
-    values``: a view and ``...`` when ``index`` is a run of consecutive addresses (the same
-    elements, written for much less per step), else ``array`` and ``index``."""
-    size = int(index.size)
-    first = int(index[0]) if size else 0
-    if np.array_equal(index, np.arange(first, first + size)):
-        return array[first : first + size], ...
-    return array, np.asarray(index, dtype=np.intp)
-
-
-def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
-    return mujoco.mj_id2name(model, obj, index) or ""
 
 
 class Simulation:
@@ -234,28 +158,7 @@ class Simulation:
             limit_policy = LimitPolicy.parse(kinematic_limits)
         except ValueError as exc:
             raise ControlConfigError(str(exc)) from None
-        dt = float(model.opt.timestep)
-        dt_ns = round(dt * 1e9)
-        if dt_ns <= 0 or dt_ns / 1e9 != dt:
-            raise TimestepError(
-                f"model timestep {dt!r} s is not a whole number of nanoseconds "
-                f"(sim_time_ns = step * dt_ns needs one; e.g. {max(dt_ns, 1) / 1e9!r})"
-            )
-        if int(model.opt.enableflags) & int(mujoco.mjtEnableBit.mjENBL_SLEEP):
-            raise ControlConfigError(
-                "the model enables sleeping (option/flag sleep): sleeping bodies break state "
-                "restore, disable it"
-            )
-        self._keyframe = -1
-        if keyframe is not None:
-            self._keyframe = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
-            if self._keyframe < 0 and keyframe != "home":
-                raise ControlConfigError(f"the model has no keyframe {keyframe!r}")
-            if self._keyframe >= 0 and float(model.key_time[self._keyframe]) != 0.0:
-                raise ControlConfigError(
-                    f"keyframe {keyframe!r} has time {float(model.key_time[self._keyframe])!r}: "
-                    "the initial state must be at time 0"
-                )
+        dt, dt_ns, self._keyframe = check_model(model, keyframe)
         self.model = model
         self.data = mujoco.MjData(model)
         self.dt_ns = dt_ns
@@ -271,178 +174,30 @@ class Simulation:
         self._warning_names = warning_names()
         self._observers: list[Observer] = []
         self._planar: PlanarBase | None = None
-        self._scratch: mujoco.MjData | None = None
 
-        actuators: dict[int, list[int]] = {}
-        for act in range(model.nu):
-            if int(model.actuator_trntype[act]) == int(mujoco.mjtTrn.mjTRN_JOINT):
-                actuators.setdefault(int(model.actuator_trnid[act][0]), []).append(act)
-        mimics = self._mimic_equalities(model)
-
-        names: list[str] = []
-        modes: list[ControlMode] = []
-        qadr: list[int] = []
-        dadr: list[int] = []
-        act_of: list[int] = []
-        lows: list[float] = []
-        highs: list[float] = []
-        for name, mode in control.items():
-            if mode not in CONTROL_MODES:
-                raise ControlConfigError(
-                    f"joint {name!r}: control mode {mode!r} is not one of "
-                    f"{', '.join(CONTROL_MODES)}"
-                )
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-            if jid < 0:
-                raise ControlConfigError(f"control names joint {name!r}, which the model lacks")
-            jtype = int(model.jnt_type[jid])
-            if jtype not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-                raise ControlConfigError(
-                    f"joint {name!r} is not a hinge or slide joint: it cannot be controlled"
-                )
-            if jid in mimics:
-                lead = _name(model, mujoco.mjtObj.mjOBJ_JOINT, mimics[jid][0])
-                raise ControlConfigError(
-                    f"joint {name!r} mimics {lead!r} (joint equality): command {lead!r}"
-                )
-            acts = actuators.get(jid, [])
-            act_names = ", ".join(repr(_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a)) for a in acts)
-            if mode == "kinematic":
-                if acts:
-                    raise ControlConfigError(
-                        f"joint {name!r} is kinematic but actuator {act_names} drives it: "
-                        "build the model without an actuator on kinematic joints"
-                    )
-                act_of.append(-1)
-            else:
-                if len(acts) != 1:
-                    raise ControlConfigError(
-                        f"joint {name!r} ({mode}) needs exactly one joint actuator, "
-                        f"the model has {len(acts)}{': ' + act_names if acts else ''}"
-                    )
-                kind = _actuator_kind(model, acts[0])
-                if kind is not None and kind != mode:
-                    raise ControlConfigError(
-                        f"joint {name!r} is to be {mode}-controlled but its actuator "
-                        f"{act_names} is a {kind} actuator"
-                    )
-                act_of.append(acts[0])
-            lo, hi = self._command_range(model, jid, acts[0] if acts else -1, name, mode)
-            names.append(name)
-            modes.append(mode)
-            qadr.append(int(model.jnt_qposadr[jid]))
-            dadr.append(int(model.jnt_dofadr[jid]))
-            lows.append(lo)
-            highs.append(hi)
-
-        self._names = tuple(names)
-        self._index = {n: i for i, n in enumerate(names)}
-        self._modes = tuple(modes)
-        self._qadr = np.array(qadr, dtype=np.intp)
-        self._dadr = np.array(dadr, dtype=np.intp)
-        self._lo = np.array(lows, dtype=np.float64)
-        self._hi = np.array(highs, dtype=np.float64)
-        self._cmd: F64 = np.zeros(len(names), dtype=np.float64)
-        self._is_kin = np.array([m == "kinematic" for m in modes], dtype=bool)
-        self._dyn_rows = np.flatnonzero(~self._is_kin)
-        self._dyn_act = np.array([act_of[r] for r in self._dyn_rows], dtype=np.intp)
-        self._kin_rows = np.flatnonzero(self._is_kin)
-        self._has_kin = bool(self._kin_rows.size)
-        # Per-row facts as plain Python values: commands read them for every joint they name.
-        self._wanted = tuple(_FIELD_OF_MODE[m] for m in modes)
-        self._row_is_kin = tuple(m == "kinematic" for m in modes)
-        self._lo_list = tuple(lows)
-        self._hi_list = tuple(highs)
-
-        # Kinematic writes: the kinematic joints, then the mimic followers of those joints.
-        leader_row = {int(self._qadr[r]): i for i, r in enumerate(self._kin_rows)}
-        followers: list[_Mimic] = []
-        for follower, (leader, coef) in sorted(mimics.items()):
-            row = leader_row.get(int(model.jnt_qposadr[leader]))
-            if row is not None:
-                followers.append(
-                    _Mimic(
-                        leader_row=row,
-                        qpos_adr=int(model.jnt_qposadr[follower]),
-                        dof_adr=int(model.jnt_dofadr[follower]),
-                        name=_name(model, mujoco.mjtObj.mjOBJ_JOINT, follower),
-                        coef=coef,
-                        follower_ref=float(model.qpos0[model.jnt_qposadr[follower]]),
-                        leader_ref=float(model.qpos0[model.jnt_qposadr[leader]]),
-                    )
-                )
-        self._followers = tuple(followers)
-        # The kinematic writes' positions gather the commands of the kinematic rows, then each
-        # follower's leader's (turned into the follower's by the mimic law: _follow holds the
-        # slot, leader_ref, follower_ref, c0..c4).
-        self._kin_gather = np.array(
-            [*self._kin_rows, *(self._kin_rows[f.leader_row] for f in followers)], dtype=np.intp
-        )
-        self._follow = tuple(
-            (self._kin_rows.size + i, f.leader_ref, f.follower_ref, *f.coef)
-            for i, f in enumerate(followers)
-        )
-        self._kin_names = tuple(self._names[r] for r in self._kin_rows) + tuple(
-            f.name for f in followers
-        )
-        self._kin_qadr = np.array(
-            [*self._qadr[self._kin_rows], *(f.qpos_adr for f in followers)], dtype=np.uint32
-        )
-        self._kin_dadr = np.array(
-            [*self._dadr[self._kin_rows], *(f.dof_adr for f in followers)], dtype=np.uint32
-        )
+        layout = build_layout(model, control, description, limit_policy)
+        self._commands = CommandTable(layout)
+        self._cmd = self._commands.cmd  # the same array, updated in place
+        self._layout = layout
+        # The layout's arrays the step and read paths use, as attributes of their own.
+        self._names = layout.names
+        self._qadr = layout.qadr
+        self._dadr = layout.dadr
+        self._is_kin = layout.is_kin
+        self._dyn_rows = layout.dyn_rows
+        self._dyn_act = layout.dyn_act
+        self._has_kin = bool(layout.kin_rows.size)
+        self._kin_gather = layout.kin_gather
+        self._follow = layout.follow
+        self._kin_names = layout.kin_names
+        self._kin_qadr = layout.kin_qadr
+        self._kin_dadr = layout.kin_dadr
         # The kinematic writes' targets in the simulation's own MjData (its buffers are never
         # reallocated, so views of them stay valid).
-        self._kin_qpos, self._kin_qkey = _write_target(self.data.qpos, self._kin_qadr)
-        self._kin_qvel, self._kin_dkey = _write_target(self.data.qvel, self._kin_dadr)
-        self._bodies = tuple(
-            (b, n)
-            for b in range(1, model.nbody)
-            if (n := _name(model, mujoco.mjtObj.mjOBJ_BODY, b))
-        )
+        self._kin_qpos, self._kin_qkey = write_target(self.data.qpos, self._kin_qadr)
+        self._kin_qvel, self._kin_dkey = write_target(self.data.qvel, self._kin_dadr)
+        self._poses = BodyPoses(model)
         self.reset()
-
-    @staticmethod
-    def _mimic_equalities(
-        model: mujoco.MjModel,
-    ) -> dict[int, tuple[int, tuple[float, float, float, float, float]]]:
-        """follower joint id -> (leader joint id, polynomial coefficients), from the active
-        joint equalities (URDF ``<mimic>`` becomes one)."""
-        out: dict[int, tuple[int, tuple[float, float, float, float, float]]] = {}
-        for e in range(model.neq):
-            if int(model.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT):
-                continue
-            if not model.eq_active0[e] or int(model.eq_obj2id[e]) < 0:
-                continue
-            c = [float(v) for v in model.eq_data[e][:5]]
-            out[int(model.eq_obj1id[e])] = (int(model.eq_obj2id[e]), (c[0], c[1], c[2], c[3], c[4]))
-        return out
-
-    def _command_range(
-        self, model: mujoco.MjModel, jid: int, act: int, name: str, mode: ControlMode
-    ) -> tuple[float, float]:
-        lo, hi = -math.inf, math.inf
-        limits = None
-        if self.description is not None:
-            try:
-                limits = self.description.joint(name).limits
-            except KeyError:
-                limits = None
-        if mode == "position" or (mode == "kinematic" and self.kinematic_limits == "clamp"):
-            if model.jnt_limited[jid]:
-                lo, hi = float(model.jnt_range[jid][0]), float(model.jnt_range[jid][1])
-        elif mode == "velocity":
-            if limits is not None and limits.velocity:
-                lo, hi = -abs(limits.velocity), abs(limits.velocity)
-        elif mode == "effort":
-            if model.jnt_actfrclimited[jid]:
-                lo, hi = (float(v) for v in model.jnt_actfrcrange[jid])
-            if limits is not None and limits.effort:
-                lo, hi = max(lo, -abs(limits.effort)), min(hi, abs(limits.effort))
-        if act >= 0 and model.actuator_ctrllimited[act]:
-            lo = max(lo, float(model.actuator_ctrlrange[act][0]))
-            hi = min(hi, float(model.actuator_ctrlrange[act][1]))
-        return lo, hi
 
     # ----------------------------------------------------------------------------- state
 
@@ -454,14 +209,7 @@ class Simulation:
             mujoco.mj_resetDataKeyframe(self.model, self.data, self._keyframe)
         else:
             mujoco.mj_resetData(self.model, self.data)
-        for r, mode in enumerate(self._modes):
-            q = float(self.data.qpos[self._qadr[r]])
-            if mode == "kinematic":
-                self._cmd[r] = q
-            elif mode == "position":
-                self._cmd[r] = min(max(q, self._lo[r]), self._hi[r])
-            else:
-                self._cmd[r] = 0.0
+        self._commands.hold(self.data.qpos)
         self.data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
         # a filtered position command (the drive's setpoint filter) starts at its command
         model = self.model
@@ -481,34 +229,16 @@ class Simulation:
         try:
             mujoco.mj_getState(self.model, self.data, out, STATE_SPEC)
         except TypeError:
-            raise StateError(
-                f"get_state(out=): out must be a writable C-contiguous float64 array of "
-                f"{self._state_size} values, not {getattr(out, 'dtype', type(out).__name__)} "
-                f"of shape {getattr(out, 'shape', '?')}"
-            ) from None
+            raise out_error(out, self._state_size) from None
         return out
 
     def set_state(self, state: npt.ArrayLike, step_index: int) -> None:
         """Restore a state captured by :meth:`get_state` at ``step_index``. Commands are taken
         from it: positions held, ctrl as in the state."""
-        arr = np.asarray(state, dtype=np.float64)
-        if arr.shape != (self._state_size,):
-            raise StateError(
-                f"state has shape {arr.shape}, the model's INTEGRATION state has "
-                f"({self._state_size},)"
-            )
-        if not np.all(np.isfinite(arr)):
-            raise StateError("state holds non-finite values")
-        if step_index < 0:
-            raise StateError(f"step_index must be >= 0, not {step_index}")
-        # mjSTATE_TIME is the first component of every state.
-        if abs(float(arr[0]) - step_index * self._dt) > self._half_dt:
-            raise StateError(
-                f"state time {float(arr[0])!r} s does not match step {step_index} "
-                f"(step * dt = {step_index * self.dt_ns / 1e9!r} s)"
-            )
+        arr = checked_state(state, self._state_size, step_index, self._dt, self.dt_ns)
         mujoco.mj_setState(self.model, self.data, arr, STATE_SPEC)
-        self._cmd[self._kin_rows] = self.data.qpos[self._qadr[self._kin_rows]]
+        kin_rows = self._layout.kin_rows
+        self._cmd[kin_rows] = self.data.qpos[self._qadr[kin_rows]]
         self._cmd[self._dyn_rows] = self.data.ctrl[self._dyn_act]
         self._restart(step_index)
 
@@ -612,7 +342,11 @@ class Simulation:
         the new kinematic writes is this step's, and it changed exactly when those writes did.
         """
         if self._kin_dirty or self._kin_moving:
-            pos = self._kinematic_targets() if self._kin_dirty else self._kin_pos
+            pos = (
+                kinematic_targets(self._cmd, self._kin_gather, self._follow)
+                if self._kin_dirty
+                else self._kin_pos
+            )
             self._kin_dirty = False
             vel: F64 = pos - self._kin_prev
             vel /= self._dt_array
@@ -717,82 +451,25 @@ class Simulation:
             data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
             data.xfrc_applied[:] = self._xfrc
         if (self._dirty or self._kin_dirty) and self._has_kin:
-            self._kin_pos = self._kinematic_targets()
+            self._kin_pos = kinematic_targets(self._cmd, self._kin_gather, self._follow)
         if self._has_kin:
             self._kin_vel = (self._kin_pos - self._kin_prev) / self._dt
             self._kin_prev = self._kin_pos
             self._kin_moving = bool(self._kin_vel.any())
         self._dirty = self._kin_dirty = False
         self._update_fast()
-        nmocap = self.model.nmocap
-        qfrc = data.qfrc_applied
-        xfrc = data.xfrc_applied
-        kin_names = self._kin_names
-        qpos_i, qpos_v, qvel_i, qvel_v = _EMPTY_U, _EMPTY_F, _EMPTY_U, _EMPTY_F
+        kinematic = None
         if self._has_kin:
-            qpos_i, qpos_v = self._kin_qadr, self._kin_pos.copy()
-            qvel_i, qvel_v = self._kin_dadr, self._kin_vel.copy()
-        if self._planar is not None:
-            # The planar base's write joins the kinematic writes (recorded, replayed alike).
-            base_q, base_v = self._planar.write(data.qpos, self._dt)
-            kin_names = (*kin_names, self._planar.joint)
-            qpos_i = np.concatenate([qpos_i, self._planar.qpos_index])
-            qpos_v = np.concatenate([qpos_v, base_q])
-            qvel_i = np.concatenate([qvel_i, self._planar.qvel_index])
-            qvel_v = np.concatenate([qvel_v, base_v])
-        applied = AppliedInput(
-            step=self._step + 1,
-            sim_time_ns=(self._step + 1) * self.dt_ns,
-            ctrl=np.array(data.ctrl, dtype=np.float64),
-            kinematic_joints=kin_names,
-            qpos_index=qpos_i,
-            qpos_value=qpos_v,
-            qvel_index=qvel_i,
-            qvel_value=qvel_v,
-            mocap_pos=np.array(data.mocap_pos, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
-            mocap_quat=np.array(data.mocap_quat, dtype=np.float64).ravel() if nmocap else _EMPTY_F,
-            # count_nonzero: what any() says (-0.0 is zero, NaN is not), for less
-            qfrc_applied=np.array(qfrc, dtype=np.float64) if np.count_nonzero(qfrc) else _EMPTY_F,
-            xfrc_applied=(
-                np.array(xfrc, dtype=np.float64).ravel() if np.count_nonzero(xfrc) else _EMPTY_F
-            ),
+            kinematic = (self._kin_qadr, self._kin_pos.copy(), self._kin_dadr, self._kin_vel.copy())
+        step, planar = self._step + 1, self._planar
+        applied = capture_input(
+            self.model, data, step, self.dt_ns, self._kin_names, kinematic, planar, self._dt
         )
         self._changed = self._applied is None or not applied.same_physics(self._applied)
         self._applied = applied
 
-    def _kinematic_targets(self) -> F64:
-        """A new array of the kinematic writes' positions: the commands, then the mimic
-        followers' (never changed in place afterwards: applied inputs share it)."""
-        out: F64 = self._cmd[self._kin_gather]  # fancy indexing: a new array
-        for slot, leader_ref, follower_ref, c0, c1, c2, c3, c4 in self._follow:
-            x = out.item(slot) - leader_ref
-            out[slot] = follower_ref + c0 + x * (c1 + x * (c2 + x * (c3 + x * c4)))
-        return out
-
     def _fail(self, step: int) -> None:
-        counts = self._warnings
-        nonzero = np.flatnonzero(counts)
-        if nonzero.size:
-            index = int(nonzero[0])
-            warning = self._warning_names[index]
-            info = int(self.data.warning.lastinfo[index])
-            where = ""
-            if warning in ("BADQACC", "BADQVEL") and 0 <= info < self.model.nv:
-                joint = _name(
-                    self.model, mujoco.mjtObj.mjOBJ_JOINT, int(self.model.dof_jntid[info])
-                )
-                where = f" at dof {info} (joint {joint!r})"
-            message = (
-                f"step {step} (sim time {step * self.dt_ns} ns): MuJoCo warning {warning}"
-                f"{where}: {_WARNING_MEANING.get(warning, 'see MuJoCo docs')}; the run is no "
-                "longer valid (lower gains or the timestep, or check masses and forces)"
-            )
-        else:
-            warning = "TIME"
-            message = (
-                f"step {step}: simulation time {self.data.time!r} s does not match "
-                f"step * dt = {step * self.dt_ns / 1e9!r} s (time jumped: did MuJoCo reset?)"
-            )
+        message, warning = failure(self.model, self.data, step, self.dt_ns)
         self._failed = f"the simulation failed at {message}; reset() or set_state() first"
         self._fast = self._kin_fast = False
         raise InstabilityError(message, step=step, warning=warning)
@@ -828,7 +505,7 @@ class Simulation:
     @property
     def control(self) -> Mapping[str, ControlMode]:
         """Joint name -> control mode."""
-        return MappingProxyType(dict(zip(self._names, self._modes, strict=True)))
+        return MappingProxyType(dict(zip(self._names, self._layout.modes, strict=True)))
 
     def command(
         self,
@@ -843,20 +520,25 @@ class Simulation:
         reported as ignored when nothing applies. Unknown joint or non-finite value: raises
         :class:`~harness.sim.errors.CommandError` and nothing changes."""
         given = {"position": position, "velocity": velocity, "effort": effort}
-        entries = [(joint, f, v) for f, v in given.items() if v is not None]
-        return self._apply(self._validate(entries))
+        return self._apply([(joint, f, v) for f, v in given.items() if v is not None])
 
     def set_positions(self, positions: Mapping[str, float]) -> list[Notice]:
         """Position commands for several joints (all validated before any applies)."""
-        return self._apply_field("position", positions)
+        notices, kin, dyn = self._commands.apply_field("position", positions)
+        self._mark_dirty(kin, dyn)
+        return notices
 
     def set_velocities(self, velocities: Mapping[str, float]) -> list[Notice]:
         """Velocity commands for several joints (all validated before any applies)."""
-        return self._apply_field("velocity", velocities)
+        notices, kin, dyn = self._commands.apply_field("velocity", velocities)
+        self._mark_dirty(kin, dyn)
+        return notices
 
     def set_efforts(self, efforts: Mapping[str, float]) -> list[Notice]:
         """Effort commands for several joints (all validated before any applies)."""
-        return self._apply_field("effort", efforts)
+        notices, kin, dyn = self._commands.apply_field("effort", efforts)
+        self._mark_dirty(kin, dyn)
+        return notices
 
     def command_joint_state(
         self,
@@ -869,14 +551,7 @@ class Simulation:
         JointStateSubscriber): for each ``name[i]``, ``effort[i]``, ``velocity[i]`` and
         ``position[i]`` apply where that index exists, per the joint's mode. Unlike the
         original, unknown names are refused, not skipped."""
-        entries: list[tuple[str, str, object]] = []
-        for field, values in (("effort", effort), ("velocity", velocity), ("position", position)):
-            if len(values) > len(name):
-                raise CommandError(
-                    f"joint state command has {len(values)} {field} values for {len(name)} names"
-                )
-            entries.extend((name[i], field, values[i]) for i in range(len(values)))
-        return self._apply(self._validate(entries))
+        return self._apply(joint_state_entries(name, position, velocity, effort))
 
     def set_base_velocity(
         self,
@@ -900,12 +575,7 @@ class Simulation:
     ) -> None:
         """Apply a world-frame force and torque at ``body``'s centre of mass from the next step
         on (it holds until changed; zero to stop)."""
-        bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, body)
-        if bid <= 0:
-            raise CommandError(f"unknown body {body!r} for apply_wrench")
-        wrench = np.array([*force, *torque], dtype=np.float64)
-        if wrench.shape != (6,) or not np.all(np.isfinite(wrench)):
-            raise CommandError(f"body {body!r}: force and torque must be 3 finite values each")
+        bid, wrench = body_wrench(self.model, body, force, torque)
         self._xfrc[bid] = wrench
         self._dirty = True
         self._fast = self._kin_fast = False
@@ -915,84 +585,8 @@ class Simulation:
         commands: F64 = self._cmd.copy()
         return commands
 
-    def _validate(self, entries: Iterable[tuple[str, str, object]]) -> list[tuple[int, str, float]]:
-        out: list[tuple[int, str, float]] = []
-        for joint, field, raw in entries:
-            row = self._index.get(joint)
-            if row is None:
-                known = ", ".join(self._names) or "none"
-                raise CommandError(f"unknown joint {joint!r} (controllable joints: {known})")
-            try:
-                value = float(raw)  # type: ignore[arg-type]
-            except (TypeError, ValueError):
-                raise CommandError(f"joint {joint!r}: {field} {raw!r} is not a number") from None
-            if not math.isfinite(value):
-                raise CommandError(f"joint {joint!r}: {field} {value!r} is not finite")
-            out.append((row, field, value))
-        return out
-
-    def _apply_field(self, field: CommandField, values: Mapping[str, float]) -> list[Notice]:
-        """Commands of one field, one per joint (a mapping names each joint once): what
-        ``_apply(_validate(...))`` does for them, in one pass (a client may send these every
-        step). Every value is checked before any applies."""
-        index, wanted, lows, highs = self._index, self._wanted, self._lo_list, self._hi_list
-        notices: list[Notice] = []
-        writes: list[tuple[int, float]] = []
-        for joint, raw in values.items():
-            row = index.get(joint)
-            if row is None:
-                known = ", ".join(self._names) or "none"
-                raise CommandError(f"unknown joint {joint!r} (controllable joints: {known})")
-            try:
-                value = float(raw)
-            except (TypeError, ValueError):
-                raise CommandError(f"joint {joint!r}: {field} {raw!r} is not a number") from None
-            if not math.isfinite(value):
-                raise CommandError(f"joint {joint!r}: {field} {value!r} is not finite")
-            if wanted[row] != field:
-                notices.append(self._ignored(row, field, value))
-                continue
-            # min(max(value, low), high), for less
-            applied = value
-            if applied < lows[row]:
-                applied = lows[row]
-            if applied > highs[row]:
-                applied = highs[row]
-            if applied != value:
-                notices.append(self._clamped(row, value, applied))
-            writes.append((row, applied))
-        cmd, row_is_kin = self._cmd, self._row_is_kin
-        kin = dyn = False
-        for row, applied in writes:
-            cmd[row] = applied
-            if row_is_kin[row]:
-                kin = True
-            else:
-                dyn = True
-        self._mark_dirty(kin, dyn)
-        return notices
-
-    def _apply(self, entries: list[tuple[int, str, float]]) -> list[Notice]:
-        notices: list[Notice] = []
-        by_row: dict[int, dict[str, float]] = {}
-        for row, field, value in entries:
-            by_row.setdefault(row, {})[field] = value
-        kin = dyn = False
-        for row, fields in by_row.items():
-            wanted = self._wanted[row]
-            if wanted not in fields:
-                for field, value in fields.items():
-                    notices.append(self._ignored(row, field, value))
-                continue
-            value = fields[wanted]
-            applied = min(max(value, self._lo_list[row]), self._hi_list[row])
-            if applied != value:
-                notices.append(self._clamped(row, value, applied))
-            self._cmd[row] = applied
-            if self._row_is_kin[row]:
-                kin = True
-            else:
-                dyn = True
+    def _apply(self, entries: list[Entry]) -> list[Notice]:
+        notices, kin, dyn = self._commands.apply(self._commands.validate(entries))
         self._mark_dirty(kin, dyn)
         return notices
 
@@ -1005,30 +599,6 @@ class Simulation:
         if dyn:
             self._dirty = True
             self._fast = self._kin_fast = False
-
-    def _ignored(self, row: int, field: str, value: float) -> Notice:
-        name, mode = self._names[row], self._modes[row]
-        return Notice(
-            name,
-            "ignored",
-            field,  # type: ignore[arg-type]
-            value,
-            math.nan,
-            f"joint {name!r} is {mode}-controlled: {field} command ignored",
-        )
-
-    def _clamped(self, row: int, value: float, applied: float) -> Notice:
-        name, wanted = self._names[row], self._wanted[row]
-        lo, hi = self._lo_list[row], self._hi_list[row]
-        return Notice(
-            name,
-            "clamped",
-            wanted,
-            value,
-            applied,
-            f"joint {name!r}: {wanted} {value:g} is beyond its limits "
-            f"[{lo:g}, {hi:g}]: clamped to {applied:g}",
-        )
 
     # ----------------------------------------------------------------------------- reads
 
@@ -1058,22 +628,13 @@ class Simulation:
 
     def link_poses(self) -> dict[str, tuple[F64, F64]]:
         """Every named body's world pose as ``(xyz, quat w-x-y-z)``, for the current state."""
-        xpos, xquat = self.body_poses()
-        return {n: (xpos[b].copy(), xquat[b].copy()) for b, n in self._bodies}
+        return self._poses.by_name(self.data)
 
     def body_poses(self) -> tuple[F64, F64]:
         """Every body's world position (``nbody x 3``) and orientation (``nbody x 4``, w-x-y-z)
         for the current state, by body id (0: the world). The arrays are reused: read them
         before the next call."""
-        if self._scratch is None:
-            self._scratch = mujoco.MjData(self.model)
-        scratch = self._scratch
-        scratch.qpos[:] = self.data.qpos
-        if self.model.nmocap:
-            scratch.mocap_pos[:] = self.data.mocap_pos
-            scratch.mocap_quat[:] = self.data.mocap_quat
-        mujoco.mj_kinematics(self.model, scratch)
-        return scratch.xpos, scratch.xquat
+        return self._poses.read(self.data)
 
     def contacts(self) -> ContactSet:
         """The contacts of the last step (see :func:`harness.sim.contacts.extract_contacts`)."""
@@ -1081,11 +642,11 @@ class Simulation:
 
     def body_name(self, body_id: int) -> str:
         """A body's name (``"body<id>"`` when unnamed)."""
-        return _name(self.model, mujoco.mjtObj.mjOBJ_BODY, body_id) or f"body{body_id}"
+        return object_name(self.model, mujoco.mjtObj.mjOBJ_BODY, body_id) or f"body{body_id}"
 
     def geom_name(self, geom_id: int) -> str:
         """A geom's name (``"geom<id>"`` when unnamed)."""
-        return _name(self.model, mujoco.mjtObj.mjOBJ_GEOM, geom_id) or f"geom{geom_id}"
+        return object_name(self.model, mujoco.mjtObj.mjOBJ_GEOM, geom_id) or f"geom{geom_id}"
 
     def warning_counts(self) -> dict[str, int]:
         """MuJoCo's warning counters by name (all zero while the run is valid)."""
