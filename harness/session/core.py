@@ -13,7 +13,11 @@ drives a fresh core with the recorded frames, so both run the same code.
 Rooms: the robots' topics and joints (:mod:`harness.session.channels`), the bridge, graph
 and ``/rosout`` sink (:mod:`harness.session.bridge`), markers, the recorded inputs that are
 not client frames (:mod:`harness.session.markers`), the controllers
-(:mod:`harness.session.control`). Python loggers are not replayable from a file: what they
+(:mod:`harness.session.control`), the graph set-up at :meth:`SessionCore.start`
+(:mod:`harness.session.wiring`), the ``/harness/*`` services
+(:mod:`harness.session.services`), the recorded form of frames and markers
+(:mod:`harness.session.frames`), resets and their epochs (:mod:`harness.session.epochs`).
+Python loggers are not replayable from a file: what they
 publish on ``/rosout`` needs the same loggers (``loggers=`` of
 :func:`harness.replay.pipeline.replay_pipeline`).
 """
@@ -21,21 +25,18 @@ publish on ``/rosout`` needs the same loggers (``loggers=`` of
 from __future__ import annotations
 
 import contextlib
-import json
 from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from typing import Any, Literal, Protocol
 
 import numpy as np
 
-from harness.controllers.command_topics import FORWARD_TOPICS
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
 from harness.names import NameKind, check_name
 from harness.recording.records import BridgeFrame, Epoch, PhysicsState
 from harness.recording.templates import clock_cdr
-from harness.rosbridge import DIRECTION_IN, TapRecord
-from harness.sensors import TOPIC_TF_STATIC
+from harness.rosbridge import DIRECTION_IN
 from harness.sensors.hook import record_metadata, session_sensors
 from harness.session.bridge import (
     BridgePort,
@@ -47,22 +48,22 @@ from harness.session.bridge import (
 )
 from harness.session.channels import (
     CLOCK,
-    ROSOUT,
     RobotChannels,
     SessionTopics,
     joint_state_cdr,
     joint_state_of,
     robot_channels,
-    robot_frames,
 )
 from harness.session.control import (
     ControlHost,
 )
+from harness.session.epochs import reset_epoch, restart
 from harness.session.errors import (
     SessionClosedError,
     SessionConfigError,
     SessionError,
 )
+from harness.session.frames import marker_frame, tap_frame
 from harness.session.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_CLOSE,
@@ -75,23 +76,18 @@ from harness.session.markers import (
     replay_marker,
 )
 from harness.session.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
-from harness.session.stepping import PublishCounter, parse_step_request, run_step
+from harness.session.services import SERVICE_GET_STATE as SERVICE_GET_STATE
+from harness.session.services import SERVICE_PAUSE as SERVICE_PAUSE
+from harness.session.services import SERVICE_RESET as SERVICE_RESET
+from harness.session.services import SERVICE_STEP, HarnessServices
+from harness.session.stepping import PublishCounter
 from harness.session.tf import TfTree
-from harness.session.topics import (
-    HARNESS_NODE,
-    TYPE_CLOCK,
-    TYPE_FORWARD,
-    TYPE_JOINT_STATE,
-    TYPE_LOG,
-    TYPE_STRING,
-    TYPE_TF,
-    TYPE_TRAJECTORY,
-    TopicDef,
-    clock_msg,
-    node_name,
-    period_steps,
-    robot_topic_defs,
-    stamp,
+from harness.session.topics import TYPE_CLOCK, TYPE_JOINT_STATE, TYPE_TF, clock_msg, period_steps
+from harness.session.wiring import (
+    advertise_and_subscribe,
+    publish_latched,
+    published_topics,
+    tf_trees,
 )
 from harness.sim import Notice, Simulation
 from harness.sim.inputs import AppliedInput
@@ -126,10 +122,6 @@ __all__ = [
 StartMode = Literal["now", "paused", "on_client"]
 START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
 
-SERVICE_STEP = "/harness/step"
-SERVICE_RESET = "/harness/reset"
-SERVICE_PAUSE = "/harness/pause"
-SERVICE_GET_STATE = "/harness/get_state"
 _LOG_NAME = "harness.session"
 LOG_NAME = _LOG_NAME
 """The ``name`` of the session's own log events (``/rosout``)."""
@@ -235,17 +227,14 @@ class SessionCore:
         )
         self._state_every = options.state_every
         self._epoch = 0  # resets so far: each is recorded as an epoch (harness_msgs/Epoch)
-        tf_topics: dict[tuple[str, str], list[RobotChannels]] = {}
-        for channels in self.robots:
-            key = (channels.topics.tf, channels.topics.tf_static)
-            tf_topics.setdefault(key, []).append(channels)
-        self._tf_trees = tuple(
-            (tf, tf_static, TfTree(self.sim.model, (robot_frames(r) for r in rs)))
-            for (tf, tf_static), rs in tf_topics.items()
+        self._tf_trees = tf_trees(self.sim.model, self.robots)
+        self.published = published_topics(
+            self.robots,
+            joint_states=bool(self._js_every),
+            tf=bool(self._tf_every),
+            clock=bool(self._clock_every),
         )
-        self.published = self._published_topics()
         """Every topic the simulation publishes (type, node, latched), in advertising order."""
-        self._next_seq = 0
         self.publish_counts = PublishCounter()  # what /harness/step's until_topic counts
         self.paused = options.start != "now"
         self.failure: BaseException | None = None
@@ -261,22 +250,6 @@ class SessionCore:
 
     # ----------------------------------------------------------------------------- set-up
 
-    def _published_topics(self) -> tuple[TopicDef, ...]:
-        defs: list[TopicDef] = []
-        for channels in self.robots:
-            topics = channels.topics
-            defs += robot_topic_defs(
-                channels.namespace,
-                joint_states=topics.joint_states if self._js_every else None,
-                tf=topics.tf if self._tf_every else None,
-                tf_static=topics.tf_static,
-                robot_description=topics.robot_description,
-            )
-        if self._clock_every:
-            defs.append(TopicDef(CLOCK, TYPE_CLOCK, HARNESS_NODE))
-        defs.append(TopicDef(ROSOUT, TYPE_LOG, HARNESS_NODE))
-        return tuple(defs)
-
     def robot_channels(self, namespace: str) -> RobotChannels:
         """The robot with ``namespace`` (:class:`SessionError` naming the namespaces if none)."""
         for channels in self.robots:
@@ -291,68 +264,15 @@ class SessionCore:
         """Advertise every published topic, subscribe every robot's command topics and
         serve the services."""
         graph = self.graph
-        for published in self.published:
-            graph.advertise(
-                published.name, published.type, node=published.node, latch=published.latched
-            )
-        for channels in self.robots:
-            topics = channels.topics
-            commands = channels.commands
-            graph.subscribe(topics.joint_command, TYPE_JOINT_STATE, commands.on_joint_command)
-            graph.subscribe(
-                topics.joint_trajectory,
-                TYPE_TRAJECTORY,
-                lambda msg, c, commands=commands: commands.on_trajectory(  # type: ignore[misc]
-                    msg, c, self.sim.sim_time_ns
-                ),
-            )
-            for command_field, topic in topics.forward.items():
-                if self.control.claims(topic):
-                    continue  # served by the forward command controller of that name
-                controller = FORWARD_TOPICS[command_field].split("/")[0]
-                graph.subscribe(
-                    topic,
-                    TYPE_FORWARD,
-                    commands.forward_handler(command_field, topic),
-                    node=node_name(channels.namespace, controller),
-                )
-        graph.serve(SERVICE_STEP, "harness_msgs/srv/Step", self._srv_step)
-        graph.serve(SERVICE_RESET, "std_srvs/srv/Trigger", self._srv_reset)
-        graph.serve(SERVICE_PAUSE, "std_srvs/srv/SetBool", self._srv_pause)
-        graph.serve(SERVICE_GET_STATE, "harness_msgs/srv/GetState", self._srv_get_state)
+        advertise_and_subscribe(graph, self.published, self.robots, self.sim, self.control.claims)
+        HarnessServices(self, reset=self._reset, pause=self._set_paused).serve(graph)
         self.control.start()
 
     def publish_initial(self) -> None:
         """Publish every robot's latched description and static transforms and record/publish
         step 0 (after :meth:`start`, once the graph has settled)."""
-        poses = self.sim.link_poses()
-        sensor_frames = self.sensors is not None
-        for _, tf_static, tree in self._tf_trees:
-            # one latched message per topic: a late subscriber gets only the last one
-            with_sensors = sensor_frames and tf_static == TOPIC_TF_STATIC
-            sensor_frames = sensor_frames and not with_sensors
-            build = partial(self._static_tf, tree, poses, with_sensors)
-            self.publish(tf_static, TYPE_TF, build, latch=True)
-        for channels in self.robots:
-            text = channels.description_text
-            self.publish(
-                channels.topics.robot_description,
-                TYPE_STRING,
-                lambda text=text: {"data": text},  # type: ignore[misc]
-                latch=True,
-            )
-        if sensor_frames and self.sensors is not None:
-            self.publish(TOPIC_TF_STATIC, TYPE_TF, self.sensors.static_tf, latch=True)
+        publish_latched(self, self.sim, self._tf_trees, self.robots, self.sensors)
         self._after_state()
-
-    def _static_tf(
-        self, tree: TfTree, poses: Mapping[str, Any], with_sensors: bool
-    ) -> dict[str, Any]:
-        msg = tree.message(tree.static, poses, self.sim.sim_time_ns)
-        if with_sensors and self.sensors is not None:
-            sensors = self.sensors.static_tf(self.sim.sim_time_ns)
-            msg["transforms"] = [*msg["transforms"], *sensors["transforms"]]
-        return msg
 
     # ----------------------------------------------------------------------------- stepping
 
@@ -505,53 +425,21 @@ class SessionCore:
         calls into the bridge, the core before each of its own writes, so the recording
         keeps the order in which things happened)."""
         bridge = self.bridge
-        if bridge is None or self.recorder is None:
+        recorder = self.recorder
+        if bridge is None or recorder is None:
             return
+        dt_ns = self.dt_ns
         for record in bridge.frames():
-            self._tap(record)
-
-    def _tap(self, record: TapRecord) -> None:
-        assert self.recorder is not None
-        k = record.now_ns // self.dt_ns  # the step it crossed at
-        data = record.data
-        self._next_seq = record.seq + 1
-        binary = isinstance(data, bytes)
-        text, payload = ("", data) if isinstance(data, bytes) else (data, b"")
-        self.recorder.write_bridge_frame(
-            BridgeFrame(
-                step=k + 1 if record.direction == DIRECTION_IN else k,
-                sim_time_ns=k * self.dt_ns,
-                direction=record.direction,
-                connection=record.connection,
-                seq=record.seq,
-                op=record.op,
-                topic=record.name,
-                binary=binary,
-                text=text,
-                data=payload,
-            )
-        )
+            recorder.write_bridge_frame(tap_frame(record, dt_ns))
 
     def _marker(self, topic: str, args: Mapping[str, Any]) -> None:
         if self.recorder is None or self.bridge is None or not self.options.record_bridge_frames:
             return
         self.record_frames()
-        self._next_seq = self.bridge.seq
-        k = self.sim.step_index
-        self.recorder.write_bridge_frame(
-            BridgeFrame(
-                step=k + 1,
-                sim_time_ns=k * self.dt_ns,
-                direction=DIRECTION_IN,
-                connection=0,
-                seq=self._next_seq,
-                op="",
-                topic=topic,
-                binary=False,
-                text=json.dumps(args, sort_keys=True),
-                data=b"",
-            )
+        frame = marker_frame(
+            topic, args, step=self.sim.step_index, dt_ns=self.dt_ns, seq=self.bridge.seq
         )
+        self.recorder.write_bridge_frame(frame)
 
     def replay_frame(self, connection: int, op: str, topic: str, payload: str | bytes) -> None:
         """Apply one recorded incoming frame or marker at the current step boundary, as the
@@ -652,28 +540,6 @@ class SessionCore:
 
     # ----------------------------------------------------------------------------- services
 
-    def _srv_step(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        step = parse_step_request(request, self.options.max_step_request)
-        self.check_running()
-        run_step(step, self.advance, self.publish_counts)
-        return {"sim_time": stamp(self.sim.sim_time_ns)}
-
-    def _srv_reset(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        return {"success": True, "message": self._reset()}
-
-    def _srv_pause(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        return {"success": True, "message": self._set_paused(bool(request["data"]))}
-
-    def _srv_get_state(self, request: Mapping[str, Any]) -> Mapping[str, Any]:
-        return {
-            "step": self.sim.step_index,
-            "sim_time": stamp(self.sim.sim_time_ns),
-            "clock": self.clock,
-            "paused": self.paused,
-            "joint_state": self.joint_state(),
-            "controllable_joints": list(self.sim.joint_names),
-        }
-
     def reset(self) -> str:
         """Back to the initial state, step numbering continuing (recorded as a marker)."""
         self._marker(MARKER_PYTHON, {"call": "reset"})
@@ -681,11 +547,7 @@ class SessionCore:
 
     def _reset(self) -> str:
         sim = self.sim
-        k = sim.step_index
-        sim.reset()
-        state = sim.get_state()
-        state[0] = k * self.dt_ns / 1e9  # mjSTATE_TIME first: step numbering continues
-        sim.set_state(state, k)
+        k = restart(sim)
         for channels in self.robots:
             channels.commands.trajectory = None
         self.control.reset()
@@ -698,18 +560,7 @@ class SessionCore:
         recorder = self.recorder
         if recorder is not None:
             # The state recorded for step k ends the epoch before; this one starts the next.
-            recorder.write_epoch(
-                Epoch(
-                    step=k,
-                    sim_time_ns=sim.sim_time_ns,
-                    epoch=self._epoch,
-                    reason="reset",
-                    state_spec=sim.state_spec,
-                    state=sim.get_state(),
-                    qpos=sim.data.qpos,
-                    qvel=sim.data.qvel,
-                )
-            )
+            recorder.write_epoch(reset_epoch(sim, self._epoch))
         self.log(Level.WARNING, text)
         self._after_state(record_state=False)
         return text
