@@ -1,7 +1,9 @@
 """The session: one run of a simulated robot on the rosbridge bridge (:class:`Session`, a thin
 shell around the sans-I/O :class:`SessionCore`) and ``harness serve``. Its rooms: the robots'
-topics (``channels.py``), the bridge and graph (``bridge.py``), markers (``markers.py``),
-controllers (``control.py``); the command topics it serves live in
+topics (``channels.py``), the bridge and graph (``bridge.py``), the graph set-up at start
+(``wiring.py``), the ``/harness/*`` services (``services.py``), recorded frames
+(``frames.py``), resets (``epochs.py``), markers (``markers.py``), controllers
+(``control.py``), ``/tf`` (``tf.py``); the command topics it serves live in
 :mod:`harness.controllers.command_topics`."""
 
 from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory
