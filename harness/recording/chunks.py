@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import ChunkIndex
+from mcap.records import Channel, ChunkIndex, Schema
 
 from harness.recording import inflate
 from harness.recording._crc import crc32
@@ -47,6 +47,7 @@ __all__ = [
     "parse_record",
     "read_chunk_data",
     "record_spans",
+    "take_definition",
 ]
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -70,6 +71,19 @@ class RecordDamage(Exception):
 def parse_record(cls: Any, body: bytes | memoryview) -> Any:
     """The ``mcap.records`` record ``cls`` read from its ``body``."""
     return cls.read(ReadDataStream(BytesIO(body)))
+
+
+def take_definition(result: Scan, opcode: int, body: bytes | memoryview) -> bool:
+    """A schema or channel record into ``result`` (True); False for any other record."""
+    if opcode == Opcode.SCHEMA:
+        schema = parse_record(Schema, body)
+        result.schemas[schema.id] = schema
+    elif opcode == Opcode.CHANNEL:
+        channel = parse_record(Channel, body)
+        result.channels[channel.id] = channel
+    else:
+        return False
+    return True
 
 
 class ChunkHead(NamedTuple):

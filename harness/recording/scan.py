@@ -28,7 +28,7 @@ from io import BytesIO
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, ChunkIndex, Header, Metadata, Schema
+from mcap.records import ChunkIndex, Header, Metadata
 
 from harness.recording._crc import crc32
 from harness.recording.chunks import (
@@ -50,6 +50,7 @@ from harness.recording.chunks import (
     parse_record,
     read_chunk_data,
     record_spans,
+    take_definition,
 )
 from harness.recording.errors import RecordingFormatError
 from harness.recording.scanned import (
@@ -305,13 +306,9 @@ def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_tim
         messages = 0
         view = memoryview(data)
         for inner, start, end in record_spans(view):
-            if inner == Opcode.SCHEMA:
-                schema = parse_record(Schema, view[start:end])
-                result.schemas[schema.id] = schema
-            elif inner == Opcode.CHANNEL:
-                channel = parse_record(Channel, view[start:end])
-                result.channels[channel.id] = channel
-            elif inner == Opcode.MESSAGE:
+            if take_definition(result, inner, view[start:end]):
+                continue
+            if inner == Opcode.MESSAGE:
                 channel_id, _, log_time, _ = MESSAGE_HEAD.unpack_from(view, start)
                 log_time = int(log_time)
                 if channel_id not in result.channels:
@@ -346,14 +343,10 @@ def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_tim
         result.attachments.append(attachment)
         if attachment.damaged:
             result.problems.append(Problem(pos, f"corrupt: {attachment.damaged}"))
-    elif opcode == Opcode.SCHEMA:
-        schema = parse_record(Schema, body)
-        result.schemas[schema.id] = schema
-    elif opcode == Opcode.CHANNEL:
-        channel = parse_record(Channel, body)
-        result.channels[channel.id] = channel
     elif opcode == Opcode.MESSAGE:
         raise RecordDamage("unchunked message records are not written by the harness")
+    else:
+        take_definition(result, opcode, body)
     return last_time
 
 

@@ -12,10 +12,17 @@ from __future__ import annotations
 import struct
 
 from mcap.opcode import Opcode
-from mcap.records import Channel, ChunkIndex, Schema, Statistics
+from mcap.records import Channel, ChunkIndex, Statistics
 
 from harness.recording._crc import crc32
-from harness.recording.chunks import MAGIC, U64, RecordDamage, parse_record, record_spans
+from harness.recording.chunks import (
+    MAGIC,
+    U64,
+    RecordDamage,
+    parse_record,
+    record_spans,
+    take_definition,
+)
 from harness.recording.scanned import Problem, Scan
 
 __all__ = ["FOOTER_SIZE", "check_summary", "summary_chunk_indexes", "summary_chunk_offsets"]
@@ -28,15 +35,11 @@ def summary_chunk_indexes(section: memoryview, result: Scan) -> dict[int, ChunkI
     """Schemas and channels into ``result``; the chunk indexes by chunk offset."""
     indexes: dict[int, ChunkIndex] = {}
     for opcode, start, end in record_spans(section):
-        if opcode == Opcode.SCHEMA:
-            schema = parse_record(Schema, section[start:end])
-            result.schemas[schema.id] = schema
-        elif opcode == Opcode.CHANNEL:
-            channel = parse_record(Channel, section[start:end])
-            result.channels[channel.id] = channel
-        elif opcode == Opcode.CHUNK_INDEX:
+        if opcode == Opcode.CHUNK_INDEX:
             index: ChunkIndex = parse_record(ChunkIndex, section[start:end])
             indexes[index.chunk_start_offset] = index
+        else:
+            take_definition(result, opcode, section[start:end])
     return indexes
 
 
