@@ -107,10 +107,29 @@ def _zero_scalar_value(f: Field) -> Any:
     return ""
 
 
+_DEFAULTS: dict[int, tuple[MessageDef, dict[str, Any]]] = {}
+
+
 def default_message(registry: TypeRegistry, msg_type: str) -> dict[str, Any]:
     """The canonical message of ``msg_type`` with every field at its default (the value
     the ROS 2 definition declares, else zero)."""
-    return {f.name: _zero(registry, f) for f in registry.message(msg_type).fields}
+    definition = registry.message(msg_type)
+    cached = _DEFAULTS.get(id(definition))
+    if cached is None or cached[0] is not definition:
+        # built once per definition, copied for every message (a message is the caller's)
+        template = {f.name: _zero(registry, f) for f in definition.fields}
+        cached = _DEFAULTS[id(definition)] = (definition, template)
+    return _fresh(cached[1])  # type: ignore[no-any-return]
+
+
+def _fresh(value: Any) -> Any:
+    """A copy of a canonical value sharing nothing mutable with it."""
+    kind = type(value)
+    if kind is dict:
+        return {k: _fresh(v) for k, v in value.items()}
+    if kind is list:
+        return [_fresh(v) for v in value] if value else []
+    return value  # immutable: numbers, strings, bytes, bools
 
 
 def from_json(
@@ -207,6 +226,16 @@ def _field_names(definition: MessageDef) -> frozenset[str]:
 
 
 def _time_from_json(msg_type: str, value: Mapping[str, Any], path: str) -> dict[str, Any]:
+    sec = value.get("sec")
+    nanosec = value.get("nanosec")
+    if (  # the common case (what the checks below accept for it), at once
+        len(value) == 2
+        and type(sec) is int
+        and type(nanosec) is int
+        and -(2**31) <= sec <= 2**31 - 1
+        and 0 <= nanosec <= 2**32 - 1
+    ):
+        return {"sec": sec, "nanosec": nanosec}
     sec = value.get("sec", value.get("secs", 0))
     nanosec = value.get("nanosec", value.get("nsecs", 0))
     for key in value:
@@ -311,12 +340,25 @@ def _finite(value: Any) -> Any:
 _ENCODER = json.JSONEncoder(
     separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
 )
+# The C encoder ``_ENCODER.encode`` builds for every call, built once: the same text (it is
+# what ``encode`` runs), without the per-call set-up. No circular-reference markers: a
+# canonical value is a tree (a cycle would fail in ``_finite`` anyway).
+_MAKE_ENCODER: Any = getattr(json.encoder, "c_make_encoder", None)
+_C_ENCODER: Any = (
+    None
+    if _MAKE_ENCODER is None
+    else _MAKE_ENCODER(
+        None, _json_default, json.encoder.encode_basestring, None, ":", ",", False, False, False
+    )
+)
 
 
 def dumps(value: Any) -> str:
     """Compact JSON text of a canonical value: bytes as base64, NaN/Inf as null, keys in
     the order they were built (definition order), non-ASCII kept as UTF-8."""
     try:
+        if _C_ENCODER is not None:
+            return "".join(_C_ENCODER(value, 0))
         return _ENCODER.encode(value)
     except ValueError:
         return _ENCODER.encode(_finite(value))

@@ -433,7 +433,7 @@ class BridgeServer:
                     self.pending_event.set()  # more to do at the next boundary
                     break
             self._take_deadlines()
-            if len(pending) < self.max_pending:
+            if self._paused and len(pending) < self.max_pending:
                 self._resume_reading()
         finally:
             self._writing = False
@@ -495,9 +495,13 @@ class BridgeServer:
         publishes, deferred answers): whoever calls the bridge's in-process API on the
         server's loop calls this after it (the bridge is sans-I/O: nothing wakes the
         server)."""
+        outputs = self.bridge.drain()
+        if not outputs and not self._batched:  # the common case at a step boundary
+            self._take_deadlines()
+            return
         self._writing = True  # no write scheduled for later: it happens below
         try:
-            self._dispatch(self.bridge.drain())
+            self._dispatch(outputs)
             self._take_deadlines()
         finally:
             self._writing = False

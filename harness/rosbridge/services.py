@@ -91,11 +91,12 @@ class ServiceOps(BridgeHost):
         msg_id = obj.get("id")
         args = obj.get("args", {})
         timeout = bounded_timeout(
-            field_of(obj, "call_service", "timeout", float, None),
+            field_of(obj, "call_service", "timeout", float, None) if "timeout" in obj else None,
             self.call_timeout_s,
             "call_service",
         )
-        svc = self._services.get(normalize(spelled))
+        # keys are normalized names: a name found as given needs no normalizing
+        svc = self._services.get(spelled) or self._services.get(normalize(spelled))
         if svc is None:
             self._service_failure(c, spelled, f"Service {spelled} does not exist", msg_id)
             return

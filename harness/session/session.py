@@ -380,7 +380,7 @@ class Session:
                 self._port.wake.set()
         bridge = core.bridge
         if bridge is not None:
-            seen, now_open = bridge.opened, len(bridge.connections)
+            seen, now_open = bridge.opened, bridge.open_count
             if seen != self._clients_seen or now_open != self._clients_open:
                 with self._clients:
                     self._clients_seen, self._clients_open = seen, now_open
