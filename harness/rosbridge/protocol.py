@@ -254,7 +254,10 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
     ) -> None:
         if connection not in self._conns:
             return
-        self._tap(connection, DIRECTION_OUT, data, op, name)
+        if self._frames is None:
+            self._seq += 1  # what _tap does when no frames are kept
+        else:
+            self._tap(connection, DIRECTION_OUT, data, op, name)
         self._outbox.append(Output(connection, data, op, name, queue_limit))
 
     def _send(
@@ -316,14 +319,17 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             except (json.JSONDecodeError, RecursionError):
                 end = -1
             if end == len(data) and type(obj) is dict:
-                op = obj.get("op")
-                self._tap(
-                    connection,
-                    DIRECTION_IN,
-                    data,
-                    op if type(op) is str else "",
-                    self._frame_name(obj),
-                )
+                if self._frames is None:
+                    self._seq += 1  # what _tap does when no frames are kept
+                else:
+                    op = obj.get("op")
+                    self._tap(
+                        connection,
+                        DIRECTION_IN,
+                        data,
+                        op if type(op) is str else "",
+                        self._frame_name(obj),
+                    )
                 self._process(connection, obj)
                 return self.drain()
         objects: list[Any] = []
