@@ -107,7 +107,7 @@ def _zero_scalar_value(f: Field) -> Any:
     return ""
 
 
-_DEFAULTS: dict[int, tuple[MessageDef, dict[str, Any]]] = {}
+_DEFAULTS: dict[int, tuple[MessageDef, dict[str, Any], tuple[str, ...]]] = {}
 
 
 def default_message(registry: TypeRegistry, msg_type: str) -> dict[str, Any]:
@@ -118,8 +118,13 @@ def default_message(registry: TypeRegistry, msg_type: str) -> dict[str, Any]:
     if cached is None or cached[0] is not definition:
         # built once per definition, copied for every message (a message is the caller's)
         template = {f.name: _zero(registry, f) for f in definition.fields}
-        cached = _DEFAULTS[id(definition)] = (definition, template)
-    return _fresh(cached[1])  # type: ignore[no-any-return]
+        mutable = tuple(k for k, v in template.items() if type(v) in (dict, list))
+        cached = _DEFAULTS[id(definition)] = (definition, template, mutable)
+    _, template, mutable = cached
+    out = template.copy()
+    for key in mutable:
+        out[key] = _fresh(template[key])
+    return out
 
 
 def _fresh(value: Any) -> Any:
