@@ -7,8 +7,11 @@ process (like robot software) publishes one forward position command per step an
 recording, against the bare loop (``sim.set_positions(...)``, ``sim.step()``) in the same run,
 and against a bare ``websockets`` server answering the same client (the ratio issue 20 asks
 for). The same client sending its command and its step request in one WebSocket message
-(two JSON objects, which rosbridge v2 allows) is measured too. A cProfile of the session's
-thread during a run without recording says where the time goes, by area (printed).
+(two JSON objects, which rosbridge v2 allows) is measured too. Where the server's time goes:
+its CPU per step without sockets (the same frames handed to the bridge on its thread), and
+live split into the bridge's ``receive`` (the frames' work) and the rest (the transport:
+sockets, websockets, the loop), the latter against the raw server's whole CPU; a cProfile of
+the session's thread during a run without recording, by area (printed).
 
 Start-up + teardown (``Session(...)`` then ``close()``, demo robot, recording on): fresh (the
 session loads the robot) and warm (a loaded robot passed in); the limit is the original
