@@ -107,10 +107,34 @@ def _zero_scalar_value(f: Field) -> Any:
     return ""
 
 
+_DEFAULTS: dict[int, tuple[MessageDef, dict[str, Any], tuple[str, ...]]] = {}
+
+
 def default_message(registry: TypeRegistry, msg_type: str) -> dict[str, Any]:
     """The canonical message of ``msg_type`` with every field at its default (the value
     the ROS 2 definition declares, else zero)."""
-    return {f.name: _zero(registry, f) for f in registry.message(msg_type).fields}
+    definition = registry.message(msg_type)
+    cached = _DEFAULTS.get(id(definition))
+    if cached is None or cached[0] is not definition:
+        # built once per definition, copied for every message (a message is the caller's)
+        template = {f.name: _zero(registry, f) for f in definition.fields}
+        mutable = tuple(k for k, v in template.items() if type(v) in (dict, list))
+        cached = _DEFAULTS[id(definition)] = (definition, template, mutable)
+    _, template, mutable = cached
+    out = template.copy()
+    for key in mutable:
+        out[key] = _fresh(template[key])
+    return out
+
+
+def _fresh(value: Any) -> Any:
+    """A copy of a canonical value sharing nothing mutable with it."""
+    kind = type(value)
+    if kind is dict:
+        return {k: _fresh(v) for k, v in value.items()}
+    if kind is list:
+        return [_fresh(v) for v in value] if value else []
+    return value  # immutable: numbers, strings, bytes, bools
 
 
 def from_json(
@@ -207,6 +231,16 @@ def _field_names(definition: MessageDef) -> frozenset[str]:
 
 
 def _time_from_json(msg_type: str, value: Mapping[str, Any], path: str) -> dict[str, Any]:
+    sec = value.get("sec")
+    nanosec = value.get("nanosec")
+    if (  # the common case (what the checks below accept for it), at once
+        len(value) == 2
+        and type(sec) is int
+        and type(nanosec) is int
+        and -(2**31) <= sec <= 2**31 - 1
+        and 0 <= nanosec <= 2**32 - 1
+    ):
+        return {"sec": sec, "nanosec": nanosec}
     sec = value.get("sec", value.get("secs", 0))
     nanosec = value.get("nanosec", value.get("nsecs", 0))
     for key in value:
@@ -269,8 +303,10 @@ def _array(
             raise _fail(msg_type, "a base64 string or a list of ints", path, v)
     elif not isinstance(v, list):
         raise _fail(msg_type, f"a list ({f.type}[])", path, v)
-    elif f.type in FLOAT_TYPES and all(type(x) is float for x in v):
-        items = list(v)  # the common case, every element already a float: nothing to convert
+    elif (f.type in FLOAT_TYPES and _all_of(v, float)) or (
+        f.type == "string" and not f.string_bound and _all_of(v, str)
+    ):
+        items = list(v)  # the common cases, every element as it must be: nothing to convert
     else:
         scalar = f._replace(length=None, default=None)
         items = [
@@ -285,6 +321,15 @@ def _array(
             f"{msg_type} field {path} allows at most {f.length} elements, but got {len(items)}"
         )
     return items
+
+
+def _all_of(values: list[Any], kind: type) -> bool:
+    """Whether every element is exactly a ``kind`` (a loop: cheaper than ``all()`` over a
+    generator for the few elements of a message's array)."""
+    for x in values:  # noqa: SIM110
+        if type(x) is not kind:
+            return False
+    return True
 
 
 # -- JSON out -------------------------------------------------------------------------------
@@ -311,12 +356,25 @@ def _finite(value: Any) -> Any:
 _ENCODER = json.JSONEncoder(
     separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
 )
+# The C encoder ``_ENCODER.encode`` builds for every call, built once: the same text (it is
+# what ``encode`` runs), without the per-call set-up. No circular-reference markers: a
+# canonical value is a tree (a cycle would fail in ``_finite`` anyway).
+_MAKE_ENCODER: Any = getattr(json.encoder, "c_make_encoder", None)
+_C_ENCODER: Any = (
+    None
+    if _MAKE_ENCODER is None
+    else _MAKE_ENCODER(
+        None, _json_default, json.encoder.encode_basestring, None, ":", ",", False, False, False
+    )
+)
 
 
 def dumps(value: Any) -> str:
     """Compact JSON text of a canonical value: bytes as base64, NaN/Inf as null, keys in
     the order they were built (definition order), non-ASCII kept as UTF-8."""
     try:
+        if _C_ENCODER is not None:
+            return "".join(_C_ENCODER(value, 0))
         return _ENCODER.encode(value)
     except ValueError:
         return _ENCODER.encode(_finite(value))

@@ -67,9 +67,10 @@ def field_of(obj: Mapping[str, Any], op: str, key: str, kind: type, default: Any
 
 def name_field(obj: Mapping[str, Any], op: str, key: str) -> str:
     """A ROS name field of an op (missing, wrong-typed or invalid raises FrameError)."""
-    value: str = field_of(obj, op, key, str)
-    if value in _VALID_NAMES:
+    value: str = obj.get(key)  # type: ignore[assignment]  # checked next
+    if type(value) is str and value in _VALID_NAMES:
         return value
+    value = field_of(obj, op, key, str)
     problem = name_problem(value, "topic")  # topics, services and actions: one rule set
     if problem is not None:
         raise FrameError(f"{op}: Invalid {key} name {value!r}: it {problem}")

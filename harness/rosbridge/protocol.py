@@ -188,6 +188,11 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         return list(self._conns)
 
     @property
+    def open_count(self) -> int:
+        """How many connections are open now."""
+        return len(self._conns)
+
+    @property
     def opened(self) -> int:
         """How many connections were ever opened (ids are given in order from 1)."""
         return self._next_conn - 1
@@ -249,7 +254,10 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
     ) -> None:
         if connection not in self._conns:
             return
-        self._tap(connection, DIRECTION_OUT, data, op, name)
+        if self._frames is None:
+            self._seq += 1  # what _tap does when no frames are kept
+        else:
+            self._tap(connection, DIRECTION_OUT, data, op, name)
         self._outbox.append(Output(connection, data, op, name, queue_limit))
 
     def _send(
@@ -302,6 +310,28 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         if connection not in self._conns:
             raise FrameError(f"receive: connection {connection} is not open")
         self._now_ns = now_ns
+        if type(data) is str:
+            # The common frame, one JSON object, at once (what the general path below does
+            # for it); anything else (whitespace around it, several objects, bad JSON, not
+            # an object) takes the general path from the start.
+            try:
+                obj, end = _DECODER.raw_decode(data)
+            except (json.JSONDecodeError, RecursionError):
+                end = -1
+            if end == len(data) and type(obj) is dict:
+                if self._frames is None:
+                    self._seq += 1  # what _tap does when no frames are kept
+                else:
+                    op = obj.get("op")
+                    self._tap(
+                        connection,
+                        DIRECTION_IN,
+                        data,
+                        op if type(op) is str else "",
+                        self._frame_name(obj),
+                    )
+                self._process(connection, obj)
+                return self.drain()
         objects: list[Any] = []
         error: str | None = None
         if isinstance(data, (bytes, bytearray, memoryview)):
@@ -426,9 +456,14 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
 
     def _op_publish(self, c: int, obj: Mapping[str, Any]) -> None:
         topic = name_field(obj, "publish", "topic")
-        msg = field_of(obj, "publish", "msg", dict, {})
-        latch = field_of(obj, "publish", "latch", bool, False)
-        t = self._topics.get(normalize(topic))
+        msg = obj.get("msg", {})
+        if type(msg) is not dict:
+            msg = field_of(obj, "publish", "msg", dict)
+        latch = obj.get("latch", False)
+        if latch is not False and latch is not True:
+            latch = field_of(obj, "publish", "latch", bool)
+        # keys are normalized names: a name found as given needs no normalizing
+        t = self._topics.get(topic) or self._topics.get(normalize(topic))
         if t is None or t.type is None:
             raise FrameError(
                 f"publish: Cannot infer topic type for topic {topic} as it is not yet advertised"

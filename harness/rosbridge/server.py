@@ -75,9 +75,20 @@ class _Connection(ServerConnection):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.on_message: Callable[[str | bytes], None] | None = None
+        self.after_read: Callable[[], None] | None = None
         self.early: list[str | bytes] = []
         self._parts = bytearray()
         self._text = False
+
+    def data_received(self, data: bytes) -> None:
+        super().data_received(data)
+        if self.after_read is not None:
+            self.after_read()
+
+    def eof_received(self) -> None:
+        super().eof_received()
+        if self.after_read is not None:
+            self.after_read()
 
     def process_event(self, event: Event) -> None:
         if not isinstance(event, Frame) or event.opcode not in DATA_OPCODES:
@@ -230,6 +241,12 @@ class BridgeServer:
         self.metrics: dict[int, ConnectionMetrics] = {}
         self.pending_event = asyncio.Event()
         """Set when queued input waits for :meth:`process_pending`."""
+        self.on_input: Callable[[], bool] | None = None
+        """Queued mode: called at the end of a socket read that queued input (in the
+        connection's ``data_received``), before :attr:`pending_event` is set: an owner that
+        processes the input at once returns True (the event stays clear: no wake-up, one
+        loop iteration less), else False."""
+        self._unannounced = False  # input queued by the current read, pending_event not set
         self._pending: collections.deque[tuple[int, Any]] = collections.deque()
         self._paused: list[_Peer] = []
         self._peers: dict[int, _Peer] = {}
@@ -339,10 +356,14 @@ class BridgeServer:
             early, ws.early = ws.early, []
             for message in early:
                 receive(message)
+            self._announce()
             ws.on_message = receive
+            if self.queued:
+                ws.after_read = self._announce
             await ws.wait_closed()
         finally:
             ws.on_message = None
+            ws.after_read = None
             if self.queued:
                 self._pending.append((cid, _CLOSE))
                 self.pending_event.set()
@@ -360,7 +381,7 @@ class BridgeServer:
         def receive_queued(message: str | bytes) -> None:
             metrics.received += 1
             pending.append((cid, message))
-            self.pending_event.set()
+            self._unannounced = True  # announced at the end of the read (_announce)
             if len(pending) >= self.max_pending and not peer.paused:
                 peer.paused = True  # read no more from it until process_pending drains
                 self._paused.append(peer)
@@ -373,6 +394,14 @@ class BridgeServer:
             self._write_batches()
 
         return receive_queued if self.queued else receive_now
+
+    def _announce(self) -> None:
+        """After a read: input it queued is processed by the owner now, or waits for it
+        (:attr:`pending_event`)."""
+        if self._unannounced:
+            self._unannounced = False
+            if self.on_input is None or not self.on_input():
+                self.pending_event.set()
 
     def _close(self, cid: int) -> None:
         self._peers.pop(cid, None)
@@ -404,7 +433,7 @@ class BridgeServer:
                     self.pending_event.set()  # more to do at the next boundary
                     break
             self._take_deadlines()
-            if len(pending) < self.max_pending:
+            if self._paused and len(pending) < self.max_pending:
                 self._resume_reading()
         finally:
             self._writing = False
@@ -466,9 +495,13 @@ class BridgeServer:
         publishes, deferred answers): whoever calls the bridge's in-process API on the
         server's loop calls this after it (the bridge is sans-I/O: nothing wakes the
         server)."""
+        outputs = self.bridge.drain()
+        if not outputs and not self._batched:  # the common case at a step boundary
+            self._take_deadlines()
+            return
         self._writing = True  # no write scheduled for later: it happens below
         try:
-            self._dispatch(self.bridge.drain())
+            self._dispatch(outputs)
             self._take_deadlines()
         finally:
             self._writing = False

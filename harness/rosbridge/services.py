@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from harness.rosbridge.convert import dumps, from_json
-from harness.rosbridge.deadlines import bounded_timeout
+from harness.rosbridge.deadlines import MAX_TIMEOUT_S, bounded_timeout
 from harness.rosbridge.errors import ConversionError, FrameError
 from harness.rosbridge.frames import BridgeHost, field_of, name_field
 from harness.rosbridge.graph import HARNESS_NODE, ServiceEntry, normalize
@@ -90,12 +90,16 @@ class ServiceOps(BridgeHost):
         spelled = name_field(obj, "call_service", "service")
         msg_id = obj.get("id")
         args = obj.get("args", {})
-        timeout = bounded_timeout(
-            field_of(obj, "call_service", "timeout", float, None),
-            self.call_timeout_s,
-            "call_service",
-        )
-        svc = self._services.get(normalize(spelled))
+        timeout = self.call_timeout_s
+        if "timeout" in obj or type(timeout) is not float or not 0 <= timeout <= MAX_TIMEOUT_S:
+            # (a default that is a float in range is its own bounded timeout)
+            timeout = bounded_timeout(
+                field_of(obj, "call_service", "timeout", float, None),
+                self.call_timeout_s,
+                "call_service",
+            )
+        # keys are normalized names: a name found as given needs no normalizing
+        svc = self._services.get(spelled) or self._services.get(normalize(spelled))
         if svc is None:
             self._service_failure(c, spelled, f"Service {spelled} does not exist", msg_id)
             return

@@ -347,6 +347,8 @@ class Session:
         self.core.publish_initial()
         port.flush()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
+        if isinstance(port, ServerPort):
+            port.server.on_input = self._on_input
         return url
 
     @property
@@ -378,7 +380,7 @@ class Session:
                 self._port.wake.set()
         bridge = core.bridge
         if bridge is not None:
-            seen, now_open = bridge.opened, len(bridge.connections)
+            seen, now_open = bridge.opened, bridge.open_count
             if seen != self._clients_seen or now_open != self._clients_open:
                 with self._clients:
                     self._clients_seen, self._clients_open = seen, now_open
@@ -444,7 +446,7 @@ class Session:
         core = self.core
         while True:
             try:
-                if self.clock == "lockstep" or core.paused or core.failure is not None:
+                if self._idle():
                     await wake.wait()
                     self._boundary()
                     continue
@@ -464,11 +466,32 @@ class Session:
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
-                core.fail(exc)
-                with contextlib.suppress(Exception):  # a recorder error is the failure already
-                    self._settle()
-                for watcher in tuple(self._watchers):
-                    watcher()  # a run_until waiting for a step that will not come
+                self._failed(exc)
+
+    def _idle(self) -> bool:
+        """Whether time stands still (lockstep, paused, failed): input is applied as it
+        comes."""
+        core = self.core
+        return self.clock == "lockstep" or core.paused or core.failure is not None
+
+    def _failed(self, exc: Exception) -> None:
+        self.core.fail(exc)
+        with contextlib.suppress(Exception):  # a recorder error is the failure already
+            self._settle()
+        for watcher in tuple(self._watchers):
+            watcher()  # a run_until waiting for a step that will not come
+
+    def _on_input(self) -> bool:
+        """Input was read while time stands still: apply it now, in the read's callback,
+        as :meth:`_drive` would once woken (one loop iteration less per request). False
+        when the clock runs: its step boundaries apply input."""
+        if not self._idle():
+            return False
+        try:
+            self._boundary()
+        except Exception as exc:
+            self._failed(exc)
+        return True
 
     async def _pace(self) -> None:
         delay, self._anchor = pace(
@@ -832,6 +855,8 @@ class Session:
             raise errors[0]
 
     async def _shutdown(self) -> None:
+        if isinstance(self._port, ServerPort):
+            self._port.server.on_input = None  # closing applies input as it always did
         if self._driver is not None:
             self._driver.cancel()
             with contextlib.suppress(asyncio.CancelledError):
