@@ -271,13 +271,15 @@ def _sim_row(quick: bool, tmp: Path) -> list[Row]:
     steps = 3_000 if quick else 20_000
     rows = []
     for frames in (False, True):
-        bare = min(loop.run(steps, None, frames) for _ in range(3))
-        recorded = []
-        for i in range(3):
+        # interleaved, best of five each: a machine slowing down for a while then costs
+        # every variant alike instead of the one measured then
+        bares, fulls, ceilings = [], [], []
+        for i in range(5):
+            bares.append(loop.run(steps, None, frames))
             with Recorder(tmp / f"sim{i}.mcap", metadata=METADATA) as rec:
-                recorded.append(loop.run(steps, rec, frames))
-        full = min(recorded)
-        ceiling = min(loop.run(steps, _NullRecorder(), frames) for _ in range(3))
+                fulls.append(loop.run(steps, rec, frames))
+            ceilings.append(loop.run(steps, _NullRecorder(), frames))
+        bare, full, ceiling = min(bares), min(fulls), min(ceilings)
         note = (
             f"Simulation.step {bare / steps * 1e6:.1f} us/step bare; "
             f"{(full - bare) / steps * 1e6:.1f} us/step recording, of which "
