@@ -348,34 +348,34 @@ class Recorder:
         if step % self._state_every:
             return
         same = self._state_parts
-        if same is not None and state is same[1] and qpos is same[3] and qvel is same[5]:
-            # The arrays of the last state again (the session's buffer and MuJoCo's own
-            # qpos/qvel, whose sizes and dtypes do not change): only the head is new.
-            parts = (physics_state_head(step, time_ns, state_spec, state.size), *same[1:])
-            self._write_on(self._state_channel or self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE),
-                           parts, self._state_size, time_ns)  # fmt: skip
-            return
         try:
-            # MuJoCo's own float64 arrays go into the file as they are (no copy of their bytes).
-            fast = physics_state_parts(step, time_ns, state_spec, state, qpos, qvel)
-            if fast is not None:
-                self._state_parts, self._state_size = fast
-            if fast is None:
-                where = f"{TOPIC_STATE} step {step}"
-                data = physics_state(
-                    step,
-                    time_ns,
-                    state_spec,
-                    _f64(state, f"{where}: state"),
-                    _f64(qpos, f"{where}: qpos"),
-                    _f64(qvel, f"{where}: qvel"),
-                )
-                fast = (data,), len(data)
+            if same is not None and state is same[1] and qpos is same[3] and qvel is same[5]:
+                # The arrays of the last state again (the session's buffer and MuJoCo's own
+                # qpos/qvel, whose sizes and dtypes do not change): only the head is new.
+                head = physics_state_head(step, time_ns, state_spec, state.size)
+                parts, size = (head, *same[1:]), self._state_size
+            else:
+                # MuJoCo's own float64 arrays go into the file as they are (no copy of their
+                # bytes); anything else is converted (and checked) first.
+                fast = physics_state_parts(step, time_ns, state_spec, state, qpos, qvel)
+                if fast is not None:
+                    parts, size = self._state_parts, self._state_size = fast
+                else:
+                    where = f"{TOPIC_STATE} step {step}"
+                    data = physics_state(
+                        step,
+                        time_ns,
+                        state_spec,
+                        _f64(state, f"{where}: state"),
+                        _f64(qpos, f"{where}: qpos"),
+                        _f64(qvel, f"{where}: qvel"),
+                    )
+                    parts, size = (data,), len(data)
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
         channel = self._state_channel or self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE)
-        self._write_on(channel, fast[0], fast[1], time_ns)
+        self._write_on(channel, parts, size, time_ns)
 
     def write_epoch(self, epoch: Epoch) -> None:
         """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
