@@ -88,44 +88,22 @@ A value beyond a joint's limits is clamped (dynamic modes; kinematic mode when
 ``kinematic_limits="clamp"``) and reported as a ``warning`` status and a WARNING event:
 ``"<topic>: joint 'joint1': position 9 is beyond its limits [-2.9, 2.9]: clamped to 2.9"``.
 
-Recording (``record_to``)
--------------------------
-Every frame in and out of the bridge (incoming frames with ``step`` = the step before which they
-took effect and the sim time of the boundary they were applied at; outgoing with the current
-step), the applied input whenever it changes, the physics state every ``state_every`` steps
-(step 0 included), every published message, and the loggers' events (collisions, ``/rosout``),
-plus markers for the inputs that are not client frames (a socket closing, a wall-clock call
-timeout, a transport status, a Python command: :mod:`harness.session.core`).
-``record_bridge_frames=False`` leaves out the bridge frames and markers (such a recording
-cannot be replayed at ``--level full``). :meth:`Session.snapshot` writes a complete copy of
-the recording so far while the session runs (mid-test golden comparisons).
-
-Closing
--------
-:meth:`Session.close` ends a recording the same way for the same client behaviour: the
-free-running clock stops; the frames already received are processed as at any step boundary;
-the server sends every client a close frame and, until each closing handshake completes,
-keeps processing what the clients still send, in arrival order; each socket's closing is a
-``harness/disconnect`` marker where it arrives; then a ``harness/close`` marker records the
-last step ``k``, a connection somehow still open gets a disconnect marker, loggers finish and
-the recording is closed. So the recording holds every frame a client sent before it received
-the server's close frame, processed exactly as if it had been processed before ``close()``
-was called: in lockstep a late ``/harness/step`` request still steps (refusing it would make
-the recording depend on whether the idle loop got to it before ``close()``); otherwise the
-frames take effect at step ``k + 1``, which is never taken. What remains timing-dependent is
-only how far a client got before the close frame reached it: a client still sending while
-the session closes (a library's goodbye ``unsubscribe`` racing ``close()``) may or may not
-have its last frames recorded, and a client that does not answer the closing handshake
-within 10 s is cut off. With a free-running clock, which step a frame lands on is wall-clock
-timing anyway. Golden comparisons ignore exactly the frames after the last step
-(:func:`harness.replay.diff` with ``ignore_after_last_step=True``).
+Recording and closing
+---------------------
+What a recording holds and :meth:`Session.snapshot`: :mod:`harness.session.recordfile`.
+:meth:`Session.close` ends a recording the same way for the same client behaviour (every frame
+a client sent before it received the server's close frame is processed as at a step
+boundary): :mod:`harness.session.teardown`.
 
 Structure
 ---------
 The per-step logic is :class:`~harness.session.core.SessionCore` (sans-I/O); this class is
 the shell around it: the thread, the asyncio loop, the WebSocket server or client, the clock
 modes, and the Python API handing calls to the loop. ``harness replay --level full`` drives a
-fresh core with a recording's frames.
+fresh core with a recording's frames. What the shell does once is in its own modules: building
+(:mod:`harness.session.startup`, :mod:`harness.session.assembly`), the recording file
+(:mod:`harness.session.recordfile`), ``run_until`` (:mod:`harness.session.waiting`) and
+closing (:mod:`harness.session.teardown`).
 """
 
 from __future__ import annotations
@@ -133,11 +111,11 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
-import dataclasses
 import math
 import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable, Mapping
+from functools import partial
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -146,10 +124,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.events import EventHub, Logger, RecordingSink, Sink, SinkReport
+from harness.events import Logger, Sink, SinkReport
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.recording import Recorder
-from harness.session.control import resolve_default
+from harness.session.assembly import build_core, resolve_run, ros2_domain, start_ros2
 from harness.session.core import (
     CLOCK_MODES,
     ClockMode,
@@ -161,7 +139,6 @@ from harness.session.errors import (
     ClientTimeoutError,
     SessionClosedError,
     SessionError,
-    SimTimeoutError,
 )
 from harness.session.options import (
     CoreOptions,
@@ -172,9 +149,11 @@ from harness.session.options import (
 )
 from harness.session.pacing import Anchor, frames_until, pace
 from harness.session.ports import Port, ServerPort
-from harness.session.snapshot import complete_prefix
-from harness.session.startup import load_run, open_port, open_recorder, option_groups
+from harness.session.recordfile import flush_at_boundary, open_recording, write_snapshot
+from harness.session.startup import option_groups
+from harness.session.teardown import cancel_other_tasks, close_port, stop_driver, stop_loop
 from harness.session.upstream import UpstreamStats
+from harness.session.waiting import run_until_free, run_until_lockstep
 from harness.sim import Notice, Simulation
 
 if TYPE_CHECKING:
@@ -260,13 +239,9 @@ class Session:
         self.options: CoreOptions = options
         """The core's options (the ``controllers`` default resolved once the robot is loaded)."""
         self.transport: TransportOptions = transport
-        self.ros_domain_id: int | None = None
+        self.ros_domain_id: int | None = ros2_domain(transport)
         """The ROS_DOMAIN_ID of the ROS 2 side (``ros2=True``), else None."""
         self._ros2: Any = None
-        if transport.ros2:
-            from harness.ros2 import choose_domain_id
-
-            self.ros_domain_id = choose_domain_id()
         clock = options.clock
         start = options.start
         self.clock: ClockMode = clock
@@ -290,10 +265,7 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        loaded = load_run(robot, load, options.namespace)
-        options = dataclasses.replace(
-            options, controllers=resolve_default(options.controllers, loaded)
-        )
+        loaded, options = resolve_run(robot, load, options)
         self.options = options
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
@@ -303,24 +275,20 @@ class Session:
         record_to = record.record_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
-            hub = EventHub()
-            if self.record_path is not None:
-                self._recorder = open_recorder(
-                    self.record_path, loaded, options, transport, record, load, self.ros_domain_id
-                )
-                hub.add_sink(RecordingSink(self._recorder))
-            self.core = SessionCore(loaded, options, recorder=self._recorder, hub=hub)
+            self._recorder, hub = open_recording(
+                self.record_path, loaded, options, transport, record, load, self.ros_domain_id
+            )
+            core, self._port, upstream = build_core(
+                loaded, options, self._recorder, hub, transport, sinks
+            )
+            self.core: SessionCore = core
             """The sans-I/O core (touch it only from the session's thread)."""
+            self.upstream: UpstreamStats | None = upstream
+            """Client mode: what the link to the external server counted (else None)."""
             self.sim: Simulation = self.core.sim
             """The simulation. Touch it only from the session's thread (loggers, predicates) or
             while nothing else can step it; prefer the session's methods."""
             self.topics: SessionTopics = self.core.topics
-            assert self.core.bridge is not None
-            self._port, upstream = open_port(self.core.bridge, transport)
-            self.upstream: UpstreamStats | None = upstream
-            """Client mode: what the link to the external server counted (else None)."""
-            for sink in sinks:
-                hub.add_sink(sink)
             for item in loggers:
                 hub.add_logger(item if isinstance(item, Logger) else item(self))
             self._thread = threading.Thread(
@@ -330,7 +298,8 @@ class Session:
             self.url: str = self._await(self._start())
             """``ws://host:port`` of the embedded server (or the external server's URL)."""
             if self.ros_domain_id is not None:
-                self._start_ros2()
+                assert self.core.bridge is not None
+                self._ros2 = start_ros2(self.url, self.core.bridge, self.ros_domain_id, self._call)
         except BaseException:
             with contextlib.suppress(Exception):
                 self.close()
@@ -356,16 +325,6 @@ class Session:
         """What the ROS 2 side could not put on DDS (``name (type): reason``; also warning
         events), empty without ``ros2``."""
         return self._ros2.refused if self._ros2 is not None else ()
-
-    def _start_ros2(self) -> None:
-        from harness.ros2 import Ros2Gateway
-        from harness.rosbridge.offer import offer_of
-
-        bridge = self.core.bridge
-        assert bridge is not None
-        assert self.ros_domain_id is not None
-        offer = self._call(lambda: offer_of(bridge))
-        self._ros2 = Ros2Gateway.start(self.url, offer, self.ros_domain_id)
 
     def _settle(self) -> None:
         """Take what the core reports after a call into it (drained, as a sans-I/O protocol's
@@ -551,57 +510,15 @@ class Session:
             raise SessionError(f"sim_timeout must be >= 0 s, not {sim_timeout!r}")
         budget = math.ceil(round(sim_timeout * 1e9) / self.dt_ns)
         if self.clock == "lockstep":
-            return self._await(self._run_until_lockstep(predicate, budget, sim_timeout))
-        return self._await(self._run_until_free(predicate, budget, sim_timeout))
-
-    def _timeout(self, sim_timeout: float) -> SimTimeoutError:
-        t = self.sim.sim_time_ns
-        return SimTimeoutError(
-            f"condition not met within {sim_timeout:g} s of simulation time "
-            f"(now step {self.sim.step_index}, sim time {t / 1e9:.6f} s)"
+            advance = partial(self._settled, self.core.advance)
+            return self._await(
+                run_until_lockstep(
+                    self.core, predicate, budget, sim_timeout, self._boundary, advance
+                )
+            )
+        return self._await(
+            run_until_free(self.core, self._watchers, predicate, budget, sim_timeout)
         )
-
-    async def _run_until_lockstep(
-        self, predicate: Callable[[], bool], budget: int, sim_timeout: float
-    ) -> int:
-        self.core.check_running()
-        for i in range(budget + 1):
-            if predicate():
-                return self.sim.step_index
-            if i == budget:
-                break
-            self._boundary()
-            self.core.check_running()
-            self._settled(self.core.advance)
-            await asyncio.sleep(0)
-        raise self._timeout(sim_timeout)
-
-    async def _run_until_free(
-        self, predicate: Callable[[], bool], budget: int, sim_timeout: float
-    ) -> int:
-        self.core.check_running()
-        if predicate():
-            return self.sim.step_index
-        done: asyncio.Future[int] = asyncio.get_running_loop().create_future()
-        deadline = self.sim.step_index + budget
-
-        def check() -> None:
-            if done.done():
-                return
-            try:
-                self.core.check_running()
-                if predicate():
-                    done.set_result(self.sim.step_index)
-                elif self.sim.step_index >= deadline:
-                    done.set_exception(self._timeout(sim_timeout))
-            except Exception as exc:
-                done.set_exception(exc)
-
-        self._watchers.append(check)
-        try:
-            return await done
-        finally:
-            self._watchers.remove(check)
 
     def command(
         self,
@@ -813,15 +730,8 @@ class Session:
         if recorder is None:
             raise SessionError("snapshot: this session records nothing (record_to=None)")
 
-        def flush() -> tuple[int, int]:
-            self._boundary()
-            recorder.flush()
-            return self.sim.step_index, recorder.stats.file_bytes
-
-        step, size = self._call(flush)
-        with open(recorder.path, "rb") as source:
-            prefix = source.read(size)
-        complete_prefix(prefix, path, recorder.metadata.get("compression", "zstd"))
+        step, size = self._call(lambda: flush_at_boundary(recorder, self._boundary, self.sim))
+        write_snapshot(recorder, size, path)
         return step
 
     # ----------------------------------------------------------------------------- teardown
@@ -833,19 +743,9 @@ class Session:
             if self._closed:
                 return
             self._closed = True
-        errors: list[BaseException] = []
         if self._ros2 is not None:
             self._ros2.stop()  # its connection closes like any client's
-        thread = self._thread
-        if thread is not None and thread.is_alive():
-            try:
-                asyncio.run_coroutine_threadsafe(self._shutdown(), self._loop).result()
-            except Exception as exc:
-                errors.append(exc)
-            self._loop.call_soon_threadsafe(self._loop.stop)
-            thread.join()
-        if not self._loop.is_running():
-            self._loop.close()
+        errors = stop_loop(self._loop, self._thread, self._shutdown)
         if self._recorder is not None:
             try:
                 self._recorder.close()
@@ -857,40 +757,15 @@ class Session:
     async def _shutdown(self) -> None:
         if isinstance(self._port, ServerPort):
             self._port.server.on_input = None  # closing applies input as it always did
-        if self._driver is not None:
-            self._driver.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._driver
+        await stop_driver(self._driver)
         try:
             try:
                 if self._port is not None:
-                    await self._close_port(self._port)
+                    await close_port(self.core, self._port, self._boundary)
             finally:
                 self.sink_reports = self.core.finish()
         finally:
-            current = asyncio.current_task()
-            others = [t for t in asyncio.all_tasks() if t is not current]
-            for task in others:
-                task.cancel()
-            await asyncio.gather(*others, return_exceptions=True)
-            await asyncio.get_running_loop().shutdown_default_executor()
-
-    async def _close_port(self, port: Port) -> None:
-        """Deterministic close (module docstring): marker, every frame received processed
-        while the closing handshakes complete, a disconnect for every connection."""
-        bridge = self.core.bridge
-        try:
-            if bridge is None:
-                return
-            self._boundary()
-            await asyncio.sleep(0)  # answers to those frames leave before the close frames
-        finally:
-            await port.stop(self._boundary)
-        self._boundary()
-        self.core.record_close()
-        for connection in bridge.connections:
-            bridge.disconnect(connection)
-        bridge.drain()  # nobody to send to
+            await cancel_other_tasks()
 
     def __enter__(self) -> Session:
         return self
