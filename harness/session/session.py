@@ -109,12 +109,11 @@ closing (:mod:`harness.session.teardown`).
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
 import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable, Coroutine, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from functools import partial
 from pathlib import Path
 from types import TracebackType
@@ -137,9 +136,9 @@ from harness.session.core import (
 )
 from harness.session.errors import (
     ClientTimeoutError,
-    SessionClosedError,
     SessionError,
 )
+from harness.session.loopthread import LoopThread
 from harness.session.options import (
     CoreOptions,
     LoadOptions,
@@ -151,7 +150,7 @@ from harness.session.pacing import Anchor, frames_until, pace
 from harness.session.ports import Port, ServerPort
 from harness.session.recordfile import flush_at_boundary, open_recording, write_snapshot
 from harness.session.startup import option_groups
-from harness.session.teardown import cancel_other_tasks, close_port, stop_driver, stop_loop
+from harness.session.teardown import cancel_other_tasks, close_port, stop_driver
 from harness.session.upstream import UpstreamStats
 from harness.session.waiting import run_until_free, run_until_lockstep
 from harness.sim import Notice, Simulation
@@ -255,10 +254,11 @@ class Session:
         self._watched_step = -1
         self.rate = options.rate
         self.namespace = options.namespace
-        self._closed = False
         self._close_lock = threading.Lock()
-        self._loop = asyncio.new_event_loop()
-        self._thread: threading.Thread | None = None
+        self._runner = LoopThread()
+        # bound once: a call into the loop is one call, as when these were methods
+        self._await = self._runner.run
+        self._call = self._runner.call
         self._port: Port | None = None
         self._recorder: Recorder | None = None
         self._driver: asyncio.Task[None] | None = None
@@ -291,10 +291,8 @@ class Session:
             self.topics: SessionTopics = self.core.topics
             for item in loggers:
                 hub.add_logger(item if isinstance(item, Logger) else item(self))
-            self._thread = threading.Thread(
-                target=self._loop.run_forever, name="harness-session", daemon=True
-            )
-            self._thread.start()
+            self._runner.after_call = self._port.flush
+            self._runner.start()
             self.url: str = self._await(self._start())
             """``ws://host:port`` of the embedded server (or the external server's URL)."""
             if self.ros_domain_id is not None:
@@ -357,43 +355,6 @@ class Session:
             return fn()
         finally:
             self._settle()
-
-    # ----------------------------------------------------------------------------- threads
-
-    def _on_loop_thread(self) -> bool:
-        return self._thread is not None and threading.current_thread() is self._thread
-
-    def _await(self, coro: Coroutine[Any, Any, T]) -> T:
-        if self._on_loop_thread():
-            coro.close()
-            raise SessionError(
-                "this session method waits for the simulation: it cannot be called from the "
-                "session's own thread (a predicate, logger or callback)"
-            )
-        if self._closed or self._thread is None or not self._thread.is_alive():
-            coro.close()
-            raise SessionClosedError("the session is closed")
-        return asyncio.run_coroutine_threadsafe(coro, self._loop).result()
-
-    def _call(self, fn: Callable[[], T]) -> T:
-        """Run ``fn`` on the session's thread (directly when already there)."""
-        if self._on_loop_thread():
-            return fn()
-        if self._closed or self._thread is None or not self._thread.is_alive():
-            raise SessionClosedError("the session is closed")
-        future: concurrent.futures.Future[T] = concurrent.futures.Future()
-
-        def run() -> None:
-            try:
-                future.set_result(fn())
-            except BaseException as exc:
-                future.set_exception(exc)
-            finally:
-                if self._port is not None:
-                    self._port.flush()  # what fn made the core produce
-
-        self._loop.call_soon_threadsafe(run)
-        return future.result()
 
     # ----------------------------------------------------------------------------- stepping
 
@@ -569,7 +530,7 @@ class Session:
     @property
     def closed(self) -> bool:
         """Whether :meth:`close` was called."""
-        return self._closed
+        return self._runner.closed
 
     @property
     def paused(self) -> bool:
@@ -740,12 +701,12 @@ class Session:
         """Stop stepping, finish loggers and sinks, close every connection and the server,
         join the thread, close the recording (idempotent)."""
         with self._close_lock:
-            if self._closed:
+            if self._runner.closed:
                 return
-            self._closed = True
+            self._runner.closed = True
         if self._ros2 is not None:
             self._ros2.stop()  # its connection closes like any client's
-        errors = stop_loop(self._loop, self._thread, self._shutdown)
+        errors = self._runner.stop(self._shutdown)
         if self._recorder is not None:
             try:
                 self._recorder.close()
@@ -779,5 +740,5 @@ class Session:
         self.close()
 
     def __repr__(self) -> str:
-        state = "closed" if self._closed else getattr(self, "url", "starting")
+        state = "closed" if self._runner.closed else getattr(self, "url", "starting")
         return f"Session({self.robot_name!r}, clock={self.clock!r}, {state})"

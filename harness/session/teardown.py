@@ -1,7 +1,7 @@
 """The pieces of :meth:`Session.close <harness.session.Session.close>`: the deterministic close
 of the port (:func:`close_port`), the driver's and the loop's other tasks' end
-(:func:`stop_driver`, :func:`cancel_other_tasks`), and the event-loop thread's end
-(:func:`stop_loop`). The session calls them in this order; what they guarantee:
+(:func:`stop_driver`, :func:`cancel_other_tasks`), run on the session's loop before its
+thread ends (:meth:`~harness.session.loopthread.LoopThread.stop`). What they guarantee:
 
 :meth:`Session.close <harness.session.Session.close>` ends a recording the same way for the
 same client behaviour: the free-running clock stops; the frames already received are
@@ -27,14 +27,12 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import threading
-from collections.abc import Callable, Coroutine
-from typing import Any
+from collections.abc import Callable
 
 from harness.session.core import SessionCore
 from harness.session.ports import Port
 
-__all__ = ["cancel_other_tasks", "close_port", "stop_driver", "stop_loop"]
+__all__ = ["cancel_other_tasks", "close_port", "stop_driver"]
 
 
 async def stop_driver(driver: asyncio.Task[None] | None) -> None:
@@ -73,23 +71,3 @@ async def cancel_other_tasks() -> None:
         task.cancel()
     await asyncio.gather(*others, return_exceptions=True)
     await asyncio.get_running_loop().shutdown_default_executor()
-
-
-def stop_loop(
-    loop: asyncio.AbstractEventLoop,
-    thread: threading.Thread | None,
-    shutdown: Callable[[], Coroutine[Any, Any, None]],
-) -> list[BaseException]:
-    """Run ``shutdown()`` on ``loop`` (when its ``thread`` runs), stop the loop, join the
-    thread and close the loop; returns the error ``shutdown`` raised, if any."""
-    errors: list[BaseException] = []
-    if thread is not None and thread.is_alive():
-        try:
-            asyncio.run_coroutine_threadsafe(shutdown(), loop).result()
-        except Exception as exc:
-            errors.append(exc)
-        loop.call_soon_threadsafe(loop.stop)
-        thread.join()
-    if not loop.is_running():
-        loop.close()
-    return errors
