@@ -152,7 +152,7 @@ from harness.session.recordfile import flush_at_boundary, open_recording, write_
 from harness.session.startup import option_groups
 from harness.session.teardown import cancel_other_tasks, close_port, stop_driver
 from harness.session.upstream import UpstreamStats
-from harness.session.waiting import run_until_free, run_until_lockstep
+from harness.session.waiting import run_steps, run_until_free, run_until_lockstep
 from harness.sim import Notice, Simulation
 
 if TYPE_CHECKING:
@@ -442,25 +442,8 @@ class Session:
         at every step boundary; returns the step index reached."""
         if not isinstance(n, int) or n < 0:
             raise SessionError(f"step count must be an integer >= 0, not {n!r}")
-        return self._await(self._steps(n))
-
-    async def _steps(self, n: int) -> int:
-        self._require_stepping()
-        for i in range(n):
-            self._boundary()
-            self.core.check_running()
-            self._settled(self.core.advance)
-            if i + 1 < n:
-                await asyncio.sleep(0)
-        return self.sim.step_index
-
-    def _require_stepping(self) -> None:
-        if self.clock != "lockstep" and not self.core.paused:
-            raise SessionError(
-                f"the clock is {self.clock}: time moves by itself; pause() first to step, or "
-                "wait with run_until()"
-            )
-        self.core.check_running()
+        advance = partial(self._settled, self.core.advance)
+        return self._await(run_steps(self.core, self.clock, n, self._boundary, advance))
 
     def run_until(self, predicate: Callable[[], bool], *, sim_timeout: float) -> int:
         """Wait until ``predicate()`` holds, checked after every step on the session's thread

@@ -1,8 +1,9 @@
-""":meth:`Session.run_until <harness.session.Session.run_until>` on the session's event loop:
-in lockstep it steps until the predicate holds (:func:`run_until_lockstep`); with a
-free-running clock it registers a watcher the driver calls after each step
-(:func:`run_until_free`). Both give up after a budget of steps of simulation time
-(:func:`sim_timeout_error`).
+"""Stepping from Python on the session's event loop: :meth:`Session.step
+<harness.session.Session.step>` (:func:`run_steps`, refused while a free-running clock runs)
+and :meth:`Session.run_until <harness.session.Session.run_until>`: in lockstep it steps until
+the predicate holds (:func:`run_until_lockstep`); with a free-running clock it registers a
+watcher the driver calls after each step (:func:`run_until_free`). Both give up after a budget
+of steps of simulation time (:func:`sim_timeout_error`).
 """
 
 from __future__ import annotations
@@ -11,10 +12,45 @@ import asyncio
 from collections.abc import Callable
 
 from harness.session.core import SessionCore
-from harness.session.errors import SimTimeoutError
+from harness.session.errors import SessionError, SimTimeoutError
 from harness.sim import Simulation
 
-__all__ = ["run_until_free", "run_until_lockstep", "sim_timeout_error"]
+__all__ = [
+    "require_stepping",
+    "run_steps",
+    "run_until_free",
+    "run_until_lockstep",
+    "sim_timeout_error",
+]
+
+
+def require_stepping(core: SessionCore, clock: str) -> None:
+    """Refuse stepping while a free-running ``clock`` runs, or after a failure."""
+    if clock != "lockstep" and not core.paused:
+        raise SessionError(
+            f"the clock is {clock}: time moves by itself; pause() first to step, or "
+            "wait with run_until()"
+        )
+    core.check_running()
+
+
+async def run_steps(
+    core: SessionCore,
+    clock: str,
+    n: int,
+    boundary: Callable[[], None],
+    settled_advance: Callable[[], None],
+) -> int:
+    """Take ``n`` steps (``boundary`` then ``settled_advance``, the session's step), yielding
+    to the loop between them; the step index reached."""
+    require_stepping(core, clock)
+    for i in range(n):
+        boundary()
+        core.check_running()
+        settled_advance()
+        if i + 1 < n:
+            await asyncio.sleep(0)
+    return core.sim.step_index
 
 
 def sim_timeout_error(sim: Simulation, sim_timeout: float) -> SimTimeoutError:
