@@ -100,10 +100,11 @@ Structure
 The per-step logic is :class:`~harness.session.core.SessionCore` (sans-I/O); this class is
 the shell around it: the thread, the asyncio loop, the WebSocket server or client, the clock
 modes, and the Python API handing calls to the loop. ``harness replay --level full`` drives a
-fresh core with a recording's frames. What the shell does once is in its own modules: building
-(:mod:`harness.session.startup`, :mod:`harness.session.assembly`), the recording file
-(:mod:`harness.session.recordfile`), ``run_until`` (:mod:`harness.session.waiting`) and
-closing (:mod:`harness.session.teardown`).
+fresh core with a recording's frames. The shell's pieces outside its hot path have modules of
+their own: building (:mod:`harness.session.startup`, :mod:`harness.session.assembly`), the
+thread and its loop (:mod:`harness.session.loopthread`), the recording file
+(:mod:`harness.session.recordfile`), ``step``/``run_until`` from Python
+(:mod:`harness.session.waiting`) and closing (:mod:`harness.session.teardown`).
 """
 
 from __future__ import annotations
