@@ -3,8 +3,9 @@ shell around the sans-I/O :class:`SessionCore`) and ``harness serve``. Its rooms
 topics (``channels.py``), the bridge and graph (``bridge.py``), the graph set-up at start
 (``wiring.py``), the ``/harness/*`` services (``services.py``), recorded frames
 (``frames.py``), resets (``epochs.py``), markers (``markers.py``), controllers
-(``control.py``), ``/tf`` (``tf.py``); the command topics it serves live in
-:mod:`harness.controllers.command_topics`."""
+(``control.py``), ``/tf`` (``tf.py``), and the shell's pieces outside its hot path
+(``assembly.py``, ``loopthread.py``, ``recordfile.py``, ``waiting.py``, ``teardown.py``); the
+command topics it serves live in :mod:`harness.controllers.command_topics`."""
 
 from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory
 from harness.session.core import (
