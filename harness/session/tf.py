@@ -105,7 +105,7 @@ class TfTree:
             for e in self.moving
         )
 
-    def poses(
+    def relative_poses(
         self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]]
     ) -> list[tuple[Vec, Quat]]:
         """Each edge's child pose in its parent's frame, ``((x, y, z), (w, x, y, z))``, from
@@ -130,7 +130,8 @@ class TfTree:
         (:meth:`harness.sim.Simulation.link_poses`)."""
         time = stamp(sim_time_ns)
         transforms = []
-        for e, ((x, y, z), (w, rx, ry, rz)) in zip(edges, self.poses(edges, poses), strict=True):
+        relative = self.relative_poses(edges, poses)
+        for e, ((x, y, z), (w, rx, ry, rz)) in zip(edges, relative, strict=True):
             transforms.append(
                 {
                     "header": {"stamp": time, "frame_id": e.parent},
