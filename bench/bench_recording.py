@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 import mujoco
@@ -240,7 +241,8 @@ class _SimLoop:
                     js.encode(t, position, velocity, effort), sim_time_ns=t,
                 )  # fmt: skip
                 recorder.write_message(
-                    "/tf", "tf2_msgs/msg/TFMessage", tree.moving_cdr(*sim.body_poses(), t),
+                    "/tf", "tf2_msgs/msg/TFMessage",
+                    tree.moving_cdr(partial(tree.moving_poses, sim.body_poses), t),
                     sim_time_ns=t,
                 )  # fmt: skip
                 recorder.write_message(

@@ -271,7 +271,7 @@ class Recorder:
         """Record ``msg`` on ``topic``: a dict in rosbridge JSON form, a rosbags object, or
         ``bytes``: the message's CDR, written as it is (see :mod:`harness.recording.templates`)."""
         if type(msg) is bytes:
-            if msg[:4] != CDR_HEADER:
+            if not msg.startswith(CDR_HEADER):
                 raise RecordingWriteError(
                     f"{topic} ({msgtype}): pre-serialised message does not start with the "
                     "little-endian CDR header 00 01 00 00"

@@ -28,6 +28,7 @@ __all__ = [
     "SessionTopics",
     "joint_state_arrays",
     "joint_state_cdr",
+    "joint_state_message",
     "joint_state_of",
     "robot_channels",
     "robot_frames",
@@ -145,15 +146,24 @@ def joint_state_arrays(sim: Simulation, channels: RobotChannels) -> tuple[F64, F
     return data.qpos[channels.js_qadr], data.qvel[channels.js_dadr], effort
 
 
+def joint_state_message(
+    sim_time_ns: int, channels: RobotChannels, arrays: Callable[[], tuple[F64, F64, F64]]
+) -> dict[str, Any]:
+    """:func:`joint_state_of` (no prefix) from ``arrays()`` (:func:`joint_state_arrays`)."""
+    return joint_state_msg(sim_time_ns, channels.js_names, *arrays())
+
+
+def joint_state_cdr(
+    sim_time_ns: int, channels: RobotChannels, arrays: Callable[[], tuple[F64, F64, F64]]
+) -> bytes:
+    """:func:`joint_state_message` as CDR (what the recording keeps)."""
+    return channels.js_cdr.encode(sim_time_ns, *arrays())
+
+
 def joint_state_of(sim: Simulation, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
     """The robot's ``sensor_msgs/msg/JointState`` now (joint names with ``prefix``)."""
     names = channels.js_names if not prefix else [prefix + n for n in channels.js_names]
     return joint_state_msg(sim.sim_time_ns, names, *joint_state_arrays(sim, channels))
-
-
-def joint_state_cdr(sim: Simulation, channels: RobotChannels) -> bytes:
-    """:func:`joint_state_of` (no prefix) as CDR (what the recording keeps)."""
-    return channels.js_cdr.encode(sim.sim_time_ns, *joint_state_arrays(sim, channels))
 
 
 def _resolve(name: str, namespace: str, check_name: Callable[[str, str], str]) -> str:

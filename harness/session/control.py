@@ -37,6 +37,7 @@ from harness.controllers import (
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
+from harness.session.bridge import Publisher
 from harness.session.topics import node_name
 from harness.sim import CommandError, ControlConfigError, Notice
 
@@ -113,24 +114,14 @@ def controllers_from_metadata(text: str | None) -> ControllersConfig | str:
     return ControllersConfig.from_json(text)
 
 
-class _Core(Protocol):
-    """What the host needs of the session core."""
+class _Core(Publisher, Protocol):
+    """What the host needs of the session core (it publishes through it)."""
 
     sim: Any
     robot_name: str
     robots: Any
     graph: Any
     bridge: Any
-
-    def publish(
-        self,
-        topic: str,
-        type: str,
-        build: Callable[[], Mapping[str, Any]],
-        *,
-        latch: bool = False,
-        record: bool = True,
-    ) -> None: ...
 
     def log(self, level: Level, text: str) -> None: ...
 

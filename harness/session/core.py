@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
+from functools import cache, partial
 from typing import Any, Literal, Protocol
 
 import numpy as np
@@ -50,7 +50,9 @@ from harness.session.channels import (
     CLOCK,
     RobotChannels,
     SessionTopics,
+    joint_state_arrays,
     joint_state_cdr,
+    joint_state_message,
     joint_state_of,
     robot_channels,
 )
@@ -81,8 +83,13 @@ from harness.session.services import SERVICE_PAUSE as SERVICE_PAUSE
 from harness.session.services import SERVICE_RESET as SERVICE_RESET
 from harness.session.services import SERVICE_STEP, HarnessServices
 from harness.session.stepping import PublishCounter
-from harness.session.tf import TfTree
-from harness.session.topics import TYPE_CLOCK, TYPE_JOINT_STATE, TYPE_TF, clock_msg, period_steps
+from harness.session.topics import (
+    TYPE_CLOCK,
+    TYPE_JOINT_STATE,
+    TYPE_TF,
+    clock_msg,
+    period_steps,
+)
 from harness.session.wiring import (
     advertise_and_subscribe,
     publish_latched,
@@ -331,14 +338,14 @@ class SessionCore:
         """Record the state and publish what is due at the current step."""
         self.record_frames()
         sim = self.sim
-        k = sim.step_index
+        k, t = sim.step_index, sim.sim_time_ns
         recorder = self.recorder
         if recorder is not None and record_state and k % self._state_every == 0:
             data = sim.data
             recorder.write_physics_state(
                 PhysicsState(
                     k,
-                    sim.sim_time_ns,
+                    t,
                     sim.state_spec,
                     sim.get_state(self._state),
                     data.qpos,
@@ -347,30 +354,30 @@ class SessionCore:
             )
         if self._js_every and k % self._js_every == 0:
             for channels in self.robots:
+                # one reading of the joints serves the subscribers' message and the recording
+                arrays = cache(partial(joint_state_arrays, sim, channels))
                 self.publish(
                     channels.topics.joint_states,
                     TYPE_JOINT_STATE,
-                    partial(self._joint_state_of, channels),
-                    cdr=partial(joint_state_cdr, sim, channels),
+                    partial(joint_state_message, t, channels, arrays),
+                    cdr=partial(joint_state_cdr, t, channels, arrays),
                 )
         if self._clock_every and k % self._clock_every == 0:
-            t = sim.sim_time_ns
             self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), cdr=partial(clock_cdr, t))
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
+                # one kinematics pass serves the subscribers' message and the recording
+                relative = cache(partial(tree.moving_poses, sim.body_poses))
                 self.publish(
-                    topic, TYPE_TF, partial(self._moving_tf, tree), cdr=partial(self._tf_cdr, tree)
+                    topic,
+                    TYPE_TF,
+                    partial(tree.moving_message, relative, t),
+                    cdr=partial(tree.moving_cdr, relative, t),
                 )
         if self.sensors is not None:
-            for due in self.sensors.due(sim.data, k, sim.sim_time_ns):
+            for due in self.sensors.due(sim.data, k, t):
                 out = due.output
                 self.publish(out.topic, out.msgtype, due.build, record=out.record)
-
-    def _moving_tf(self, tree: TfTree) -> dict[str, Any]:
-        return tree.message(tree.moving, self.sim.link_poses(), self.sim.sim_time_ns)
-
-    def _tf_cdr(self, tree: TfTree) -> bytes:
-        return tree.moving_cdr(*self.sim.body_poses(), self.sim.sim_time_ns)
 
     def _joint_state_of(self, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:
         return joint_state_of(self.sim, channels, prefix)

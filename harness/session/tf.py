@@ -11,7 +11,7 @@ kinematics, so the tree composes to exactly the world poses the simulation has.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -123,14 +123,30 @@ class TfTree:
             out.append(relative_pose(p[:3], p[3:], c[:3], c[3:]))
         return out
 
+    def moving_poses(self, body_poses: Callable[[], tuple[F64, F64]]) -> list[tuple[Vec, Quat]]:
+        """:meth:`relative_poses` of :attr:`moving`, from every body's world pose by body id
+        (``body_poses``: :meth:`harness.sim.Simulation.body_poses`, no dict of copies)."""
+        xpos, xquat = body_poses()
+        positions, quats = xpos.tolist(), xquat.tolist()
+        return [
+            relative_pose(positions[p], quats[p], positions[c], quats[c])
+            for p, c in self._moving_ids
+        ]
+
     def message(
         self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]], sim_time_ns: int
     ) -> dict[str, Any]:
         """The ``tf2_msgs/msg/TFMessage`` of ``edges`` from the bodies' world ``poses``
         (:meth:`harness.sim.Simulation.link_poses`)."""
+        return self.transforms(edges, self.relative_poses(edges, poses), sim_time_ns)
+
+    def transforms(
+        self, edges: tuple[TfEdge, ...], relative: list[tuple[Vec, Quat]], sim_time_ns: int
+    ) -> dict[str, Any]:
+        """The ``tf2_msgs/msg/TFMessage`` of ``edges`` from their ``relative`` poses
+        (:meth:`relative_poses`, :meth:`moving_poses`)."""
         time = stamp(sim_time_ns)
         transforms = []
-        relative = self.relative_poses(edges, poses)
         for e, ((x, y, z), (w, rx, ry, rz)) in zip(edges, relative, strict=True):
             transforms.append(
                 {
@@ -144,19 +160,17 @@ class TfTree:
             )
         return {"transforms": transforms}
 
-    def moving_cdr(self, xpos: F64, xquat: F64, sim_time_ns: int) -> bytes:
-        """:meth:`message` of :attr:`moving` as CDR (what the recording keeps of ``/tf``), from
-        every body's world pose by body id (:meth:`harness.sim.Simulation.body_poses`)."""
+    def moving_message(
+        self, relative: Callable[[], list[tuple[Vec, Quat]]], sim_time_ns: int
+    ) -> dict[str, Any]:
+        """:meth:`transforms` of :attr:`moving` from ``relative()`` (:meth:`moving_poses`)."""
+        return self.transforms(self.moving, relative(), sim_time_ns)
+
+    def moving_cdr(self, relative: Callable[[], list[tuple[Vec, Quat]]], sim_time_ns: int) -> bytes:
+        """:meth:`moving_message` as CDR (what the recording keeps of ``/tf``)."""
         if self._moving_cdr is None:
             self._moving_cdr = TfCdr([(e.parent, e.child) for e in self.moving])
-        positions, quats = xpos.tolist(), xquat.tolist()
-        return self._moving_cdr.encode(
-            sim_time_ns,
-            [
-                relative_pose(positions[p], quats[p], positions[c], quats[c])
-                for p, c in self._moving_ids
-            ],
-        )
+        return self._moving_cdr.encode(sim_time_ns, relative())
 
 
 def _can_move(model: mujoco.MjModel, body: int, ancestor: int) -> bool:

@@ -5,6 +5,7 @@ prefixes)."""
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,12 @@ from harness.recording.convert import from_rosbridge
 from harness.recording.layout import typestore
 from harness.recording.templates import clock_cdr
 from harness.session import Session
-from harness.session.channels import joint_state_cdr, joint_state_of
+from harness.session.channels import (
+    joint_state_arrays,
+    joint_state_cdr,
+    joint_state_message,
+    joint_state_of,
+)
 from harness.session.topics import clock_msg
 from tests.models.paths import robots_dir
 
@@ -31,7 +37,6 @@ def _compare(session: Session, seed: int) -> int:
     core = session.core
     sim = core.sim
     rng = np.random.default_rng(seed)
-    transforms = 0
 
     def check() -> int:
         count = 0
@@ -41,17 +46,21 @@ def _compare(session: Session, seed: int) -> int:
             t = 1_234_567_891 * (k + 1)
             for channels in core.robots:
                 expected = _serialised("sensor_msgs/msg/JointState", joint_state_of(sim, channels))
-                assert joint_state_cdr(sim, channels) == expected
+                now = sim.sim_time_ns  # joint_state_of stamps the simulation's time
+                arrays = partial(joint_state_arrays, sim, channels)
+                assert joint_state_cdr(now, channels, arrays) == expected
+                assert joint_state_message(now, channels, arrays) == joint_state_of(sim, channels)
             for _, _, tree in core._tf_trees:
                 msg = tree.message(tree.moving, sim.link_poses(), t)
-                got = tree.moving_cdr(*sim.body_poses(), t)
+                relative = partial(tree.moving_poses, sim.body_poses)
+                assert tree.moving_message(relative, t) == msg
+                got = tree.moving_cdr(relative, t)
                 assert got == _serialised("tf2_msgs/msg/TFMessage", msg)
                 count += len(msg["transforms"])
             assert clock_cdr(t) == _serialised("rosgraph_msgs/msg/Clock", clock_msg(t))
         return count
 
-    transforms = session.call(check)
-    return transforms
+    return session.call(check)
 
 
 @pytest.mark.parametrize(
