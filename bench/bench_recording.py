@@ -33,6 +33,8 @@ from mcap.writer import CompressionType, Writer
 
 from harness.recording import BridgeFrame, PhysicsState, Recorder
 from harness.recording.layout import TYPE_PHYSICS_STATE, channel_metadata, schema_text, typestore
+from harness.recording.stateslot import PhysicsStateSlot
+from harness.sim.state import qpos_qvel_slices
 
 SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 METADATA = {
@@ -136,6 +138,11 @@ class _NullRecorder:
     def write_physics_state(self, record: PhysicsState) -> None:
         pass
 
+    def physics_state_slot(
+        self, state_spec: int, state_size: int, qpos: slice, qvel: slice
+    ) -> PhysicsStateSlot:
+        return PhysicsStateSlot(np.zeros(state_size), lambda step, sim_time_ns: None)
+
     def write_bridge_frame(self, frame: BridgeFrame) -> None:
         pass
 
@@ -216,18 +223,19 @@ class _SimLoop:
         sim = Simulation(self.robot)
         data = sim.data
         qpos, qvel = data.qpos, data.qvel
-        buffer = np.empty(sim.state_size)
+        slot = None
+        if recorder is not None:
+            slot = recorder.physics_state_slot(SPEC, sim.state_size, *qpos_qvel_slices(sim.model))
         js, tree, qadr, dadr, every = self.js, self.tree, self.qadr, self.dadr, self.every
         sim.set_positions({n: 0.02 * np.sin(i) for i, n in enumerate(self.names)})
         start = time.perf_counter()
         for k in range(1, steps + 1):
             sim.step()
-            if recorder is None:
+            if recorder is None or slot is None:
                 continue
             t = k * 1_000_000
-            recorder.write_physics_state(
-                PhysicsState(k, t, SPEC, sim.get_state(buffer), qpos, qvel)
-            )
+            sim.get_state(slot.state)
+            slot.write(k, t)
             if frames:
                 recorder.write_bridge_frame(BridgeFrame(
                     step=k, sim_time_ns=t, direction=0, connection=1, seq=k, op="call_service",

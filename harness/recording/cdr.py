@@ -25,7 +25,6 @@ __all__ = [
     "bridge_frame",
     "compile_encoder",
     "physics_state",
-    "physics_state_head",
     "physics_state_parts",
 ]
 
@@ -130,12 +129,6 @@ def physics_state_parts(
         return None
     head = _PS_START.pack(CDR_HEADER, step, sim_time_ns, state_spec, n)
     return (head, state, _f64_len(m), qpos, _f64_len(k), qvel), 44 + 8 * (n + m + k)
-
-
-def physics_state_head(step: int, sim_time_ns: int, state_spec: int, state_size: int) -> bytes:
-    """The first part of :func:`physics_state_parts` (the CDR header and the fields before
-    the state's values)."""
-    return _PS_START.pack(CDR_HEADER, step, sim_time_ns, state_spec, state_size)
 
 
 _NAMES: dict[tuple[str, str], tuple[bytes, int]] = {}

@@ -27,7 +27,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, NoReturn
 
 import numpy as np
 import numpy.typing as npt
@@ -40,7 +40,6 @@ from harness.recording.cdr import (
     bridge_frame,
     compile_encoder,
     physics_state,
-    physics_state_head,
     physics_state_parts,
 )
 from harness.recording.convert import from_rosbridge
@@ -74,10 +73,15 @@ from harness.recording.records import (
     RosoutRecord,
 )
 from harness.recording.salvage import finish_after_failure
+from harness.recording.stateslot import PhysicsStateSlot, StateRecords
 from harness.recording.tail import TailFile
 from harness.recording.writer import COMPRESSIONS, Buffer, ChunkWriter
 
-__all__ = ["MAX_RECORDING_BYTES", "FlushInfo", "Recorder", "RecorderStats"]
+__all__ = ["MAX_RECORDING_BYTES", "STATE_RING", "FlushInfo", "Recorder", "RecorderStats"]
+
+STATE_RING = 32
+"""States a physics state slot fills before they move into the chunk under the lock (the flush
+thread moves those filled so far too: crash safety is unchanged)."""
 
 MAX_RECORDING_BYTES = 16 * 2**30
 """Default size limit of one recording (16 GiB: hours of full-rate recording of a robot arm;
@@ -206,9 +210,8 @@ class Recorder:
         self._lock = threading.Lock()
         self._channels: dict[str, _Channel] = {}
         self._state_channel: _Channel | None = None
+        self._state_slot = False
         self._bridge_channel: _Channel | None = None
-        self._state_parts: tuple[Buffer, ...] | None = None  # the last state's, see below
-        self._state_size = 0
         self._schemas: dict[str, int] = {}
         self._last_time = -1
         self._messages = 0
@@ -343,39 +346,83 @@ class Recorder:
         self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, inp.sim_time_ns)
 
     def write_physics_state(self, record: PhysicsState) -> None:
-        """Record the state after ``record.step`` if the step is a multiple of ``state_every``."""
+        """Record the state after ``record.step`` if the step is a multiple of ``state_every``
+        (a run recording every step: :meth:`physics_state_slot`)."""
         step, time_ns, state_spec, state, qpos, qvel = record
         if step % self._state_every:
             return
-        same = self._state_parts
         try:
-            if same is not None and state is same[1] and qpos is same[3] and qvel is same[5]:
-                # The arrays of the last state again (the session's buffer and MuJoCo's own
-                # qpos/qvel, whose sizes and dtypes do not change): only the head is new.
-                head = physics_state_head(step, time_ns, state_spec, state.size)
-                parts, size = (head, *same[1:]), self._state_size
+            # MuJoCo's own float64 arrays go into the file as they are (no copy of their
+            # bytes); anything else is converted (and checked) first.
+            fast = physics_state_parts(step, time_ns, state_spec, state, qpos, qvel)
+            if fast is not None:
+                parts, size = fast
             else:
-                # MuJoCo's own float64 arrays go into the file as they are (no copy of their
-                # bytes); anything else is converted (and checked) first.
-                fast = physics_state_parts(step, time_ns, state_spec, state, qpos, qvel)
-                if fast is not None:
-                    parts, size = self._state_parts, self._state_size = fast
-                else:
-                    where = f"{TOPIC_STATE} step {step}"
-                    data = physics_state(
-                        step,
-                        time_ns,
-                        state_spec,
-                        _f64(state, f"{where}: state"),
-                        _f64(qpos, f"{where}: qpos"),
-                        _f64(qvel, f"{where}: qvel"),
-                    )
-                    parts, size = (data,), len(data)
+                where = f"{TOPIC_STATE} step {step}"
+                data = physics_state(
+                    step,
+                    time_ns,
+                    state_spec,
+                    _f64(state, f"{where}: state"),
+                    _f64(qpos, f"{where}: qpos"),
+                    _f64(qvel, f"{where}: qvel"),
+                )
+                parts, size = (data,), len(data)
         except (struct.error, TypeError) as exc:
             where = f"{TOPIC_STATE} step {step}"
             raise RecordingWriteError(f"{where}: cannot serialise: {exc}") from None
         channel = self._state_channel or self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE)
         self._write_on(channel, parts, size, time_ns)
+
+    def physics_state_slot(
+        self, state_spec: int, state_size: int, qpos: slice, qvel: slice
+    ) -> PhysicsStateSlot:
+        """A slot recording a run's state after each step in place: read the state into
+        ``slot.state`` (``state_size`` values; ``qpos`` and ``qvel`` where MuJoCo's qpos and
+        qvel lie in it), then call ``slot.write(step, sim_time_ns)``. The same messages as
+        :meth:`write_physics_state` (``state_every`` applies), without a record or a layout
+        per step (:mod:`harness.recording.stateslot`). One slot per recorder; write from the
+        thread that writes the other messages."""
+        if self._state_slot:
+            raise RecordingWriteError(f"{self.path}: a recorder has one physics state slot")
+        records = StateRecords(STATE_RING, 0, state_spec, state_size, qpos, qvel)
+        self._state_slot = True
+        ring, fill, every = records.ring, records.fill, self._state_every
+
+        def write(step: int, sim_time_ns: int) -> None:
+            if step % every:
+                return
+            if self._closed or self._failure is not None:
+                with self._lock:
+                    self._raise_closed()
+            channel = self._state_channel
+            if channel is None:
+                channel = self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE)
+                ring.channel_id = channel.id
+                self._writer.attach(ring)
+            if sim_time_ns < self._last_time or sim_time_ns < 0:
+                self._time_error(channel, sim_time_ns)
+            seq = channel.seq
+            try:
+                fill(seq, step, sim_time_ns)
+            except struct.error as exc:
+                raise RecordingWriteError(
+                    f"{TOPIC_STATE} step {step}: cannot serialise: {exc}"
+                ) from None
+            channel.seq = seq + 1
+            self._last_time = sim_time_ns
+            self._messages += 1
+            self._dirty = True
+            if ring.count == ring.capacity:
+                with self._lock:
+                    try:
+                        self._writer.settle()
+                    except OSError as exc:  # a full chunk was written out: disk full
+                        self._failure = exc
+                        self._raise_closed()
+                    ring.restart()
+
+        return PhysicsStateSlot(records.state, write)
 
     def write_epoch(self, epoch: Epoch) -> None:
         """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
@@ -480,10 +527,7 @@ class Recorder:
             if self._closed or self._failure is not None:
                 self._raise_closed()
             if sim_time_ns < self._last_time or sim_time_ns < 0:
-                raise RecordingWriteError(
-                    f"{channel.topic}: sim_time_ns {sim_time_ns} is before the last recorded "
-                    f"{self._last_time}: recorded time must not go backwards"
-                )
+                self._time_error(channel, sim_time_ns)
             seq = channel.seq
             channel.seq = seq + 1
             try:
@@ -516,6 +560,12 @@ class Recorder:
         )
         channel = self._channels[topic] = _Channel(channel_id, topic, msgtype)
         return channel
+
+    def _time_error(self, channel: _Channel, sim_time_ns: int) -> NoReturn:
+        raise RecordingWriteError(
+            f"{channel.topic}: sim_time_ns {sim_time_ns} is before the last recorded "
+            f"{self._last_time}: recorded time must not go backwards"
+        )
 
     def _raise_closed(self) -> None:
         if self._failure is not None:

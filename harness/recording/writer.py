@@ -14,6 +14,11 @@ with two differences that make recording cheap for the thread that steps the sim
   GIL, so the stepping thread keeps going meanwhile. At most :data:`MAX_PENDING` chunks wait;
   beyond that the caller waits (nothing is dropped).
 
+A channel whose messages all have one size (the per-step state) may be filled in place into a
+:class:`RecordRing` by one thread and moved into the open chunk by the writer before anything
+else is added (:meth:`ChunkWriter.settle`): the file's bytes are those of adding each message
+in turn, at a lock and a few calls per ring instead of per message.
+
 Chunks still close by size alone (byte-reproducible files). :meth:`drain` waits until every
 closed chunk is on disk; :meth:`provisional` gives the open chunk as a complete chunk record
 plus its message indexes for the crash-safety tail (:mod:`harness.recording.tail`).
@@ -53,7 +58,7 @@ from mcap.records import (
 from harness.recording._crc import crc32
 from harness.recording.tail import TailFile
 
-__all__ = ["COMPRESSIONS", "MAX_PENDING", "Buffer", "ChunkWriter"]
+__all__ = ["COMPRESSIONS", "MAX_PENDING", "Buffer", "ChunkWriter", "RecordRing"]
 
 Buffer: TypeAlias = bytes | bytearray | memoryview | npt.NDArray[Any]
 """What a message part may be (C-contiguous; an array's raw bytes are written)."""
@@ -87,6 +92,32 @@ COMPRESSIONS: dict[str, Callable[[bytes | bytearray], bytes] | None] = {
 """Chunk compressions by their name in the recorder's options."""
 
 _CHUNK_NAMES = {"zstd": b"zstd", "lz4": b"lz4", "none": b""}
+
+
+class RecordRing:
+    """Complete MCAP message records of one channel, each ``record_size`` bytes, laid out one
+    after the other in :attr:`buffer` (``capacity`` of them; ``times[i]`` is record ``i``'s
+    log time). The filling thread writes record ``count`` and then increments ``count``; the
+    writer moves records ``moved`` up to ``count`` into the chunk (:meth:`ChunkWriter.settle`,
+    under the caller's lock); the filler starts again at 0 only after a settle, under the
+    same lock (:meth:`restart`)."""
+
+    __slots__ = ("buffer", "capacity", "channel_id", "count", "moved", "record_size", "times")
+
+    def __init__(self, channel_id: int, record_size: int, capacity: int) -> None:
+        self.channel_id = channel_id
+        self.record_size = record_size
+        self.capacity = capacity
+        self.buffer = bytearray(record_size * capacity)
+        self.times = [0] * capacity
+        self.count = 0
+        self.moved = 0
+
+    def restart(self) -> None:
+        """Fill from record 0 again (every record has been moved)."""
+        if self.moved != self.count:
+            raise RuntimeError("RecordRing.restart: records not moved yet")
+        self.count = self.moved = 0
 
 
 class _Open:
@@ -132,6 +163,7 @@ class ChunkWriter:
         self._start = 0
         self._end = 0
         self._data_crc = 0
+        self._ring: RecordRing | None = None
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="harness-chunks")
         self._pending: deque[Future[None]] = deque()
         self._commit(MAGIC)
@@ -169,6 +201,7 @@ class ChunkWriter:
 
     def register_schema(self, name: str, encoding: str, data: bytes) -> int:
         """A schema (in the open chunk and the summary); its id."""
+        self.settle()
         schema = Schema(id=len(self._schemas) + 1, data=data, encoding=encoding, name=name)
         self._schemas.append(schema)
         self._open.buffer += _record(schema)
@@ -178,6 +211,7 @@ class ChunkWriter:
         self, topic: str, message_encoding: str, schema_id: int, metadata: Mapping[str, str]
     ) -> int:
         """A channel (in the open chunk and the summary); its id."""
+        self.settle()
         channel = Channel(
             id=len(self._channels) + 1,
             topic=topic,
@@ -202,6 +236,9 @@ class ChunkWriter:
         """A message whose data is ``parts`` one after the other (``size`` bytes in all;
         C-contiguous buffers), ``log_time == publish_time == time_ns`` (times must not go
         backwards)."""
+        ring = self._ring
+        if ring is not None and ring.moved != ring.count:
+            self.settle()
         chunk = self._open
         buffer = chunk.buffer
         offset = len(buffer)
@@ -218,6 +255,42 @@ class ChunkWriter:
             extend(part)
         if offset + 31 + size > self._chunk_size:
             self._close_chunk()
+
+    def attach(self, ring: RecordRing) -> None:
+        """Take ``ring``'s records into the file (one ring per writer)."""
+        if self._ring is not None:
+            raise RuntimeError("ChunkWriter.attach: a ring is attached already")
+        self._ring = ring
+
+    def settle(self) -> None:
+        """Move the ring's complete records into the chunk, closing chunks where adding them
+        one by one would (called by every method that adds to the chunk)."""
+        ring = self._ring
+        if ring is None:
+            return
+        first, count = ring.moved, ring.count
+        size, cid = ring.record_size, ring.channel_id
+        records = memoryview(ring.buffer)
+        while first < count:
+            chunk = self._open
+            buffer = chunk.buffer
+            offset = len(buffer)
+            # a chunk closes after the record that takes it past chunk_size
+            n = min(count - first, max(0, self._chunk_size - offset) // size + 1)
+            times = ring.times[first : first + n]
+            index = chunk.indexes.get(cid)
+            if index is None:
+                if not chunk.indexes:
+                    chunk.start = times[0]
+                index = chunk.indexes[cid] = []
+            for k, time_ns in enumerate(times):
+                index += (time_ns, offset + k * size)
+            chunk.end = times[-1]
+            buffer += records[first * size : (first + n) * size]
+            first += n
+            ring.moved = first
+            if offset + n * size > self._chunk_size:
+                self._close_chunk()
 
     def _close_chunk(self) -> None:
         chunk = self._open
@@ -293,12 +366,14 @@ class ChunkWriter:
 
     def flush(self) -> None:
         """Close the open chunk and wait until it is written."""
+        self.settle()
         self._close_chunk()
         self.drain()
 
     def provisional(self) -> bytes | None:
         """The open chunk as the chunk record and message indexes it would be written as if it
         closed now (``None``: no message in it); call after :meth:`drain`."""
+        self.settle()
         if not self._open.indexes:
             return None
         data, _ = self._chunk_bytes(self._open, self._stream.tell())

@@ -49,6 +49,7 @@ from harness.events import EventHub, Level, Logger
 from harness.models import LoadedRobot, LoadedWorld
 from harness.recording import AppliedInput, BridgeFrame, Epoch, PhysicsState, Recording
 from harness.recording.layout import TOPIC_EPOCH
+from harness.recording.stateslot import PhysicsStateSlot, forwarding_slot
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.sensor_check import SensorCheck
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
@@ -339,6 +340,11 @@ class _Checker:
                         self.input_at, expected.step, "the re-run applied no new input"
                     )
                 )
+
+    def physics_state_slot(
+        self, state_spec: int, state_size: int, qpos: slice, qvel: slice
+    ) -> PhysicsStateSlot:
+        return forwarding_slot(self.write_physics_state, state_spec, state_size, qpos, qvel)
 
     def write_physics_state(self, record: PhysicsState) -> None:
         if self.mismatch is not None:

@@ -29,12 +29,11 @@ from collections.abc import Callable, Mapping, Sequence
 from functools import cache, partial
 from typing import Any, Literal, Protocol
 
-import numpy as np
-
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
 from harness.names import NameKind, check_name
-from harness.recording.records import BridgeFrame, Epoch, PhysicsState
+from harness.recording.records import BridgeFrame, Epoch
+from harness.recording.stateslot import PhysicsStateSlot
 from harness.recording.templates import clock_cdr
 from harness.rosbridge import DIRECTION_IN
 from harness.sensors.hook import record_metadata, session_sensors
@@ -98,6 +97,7 @@ from harness.session.wiring import (
 )
 from harness.sim import Notice, Simulation
 from harness.sim.inputs import AppliedInput
+from harness.sim.state import qpos_qvel_slices
 from harness.vocabulary import CLOCK_MODES, ClockMode
 
 __all__ = [
@@ -139,10 +139,11 @@ FAILURE_PREFIX = "the run failed: "
 class RecordSink(Protocol):
     """What the core writes to the recording (:class:`harness.recording.Recorder` is one).
 
-    The arrays of a :class:`PhysicsState` are the simulation's own (MuJoCo's ``qpos`` and
-    ``qvel``) and a buffer the next state is read into: valid during the call, copy what you
-    keep. A message is a dict in rosbridge JSON form or, for the periodic topics, ``bytes``:
-    its CDR (:mod:`harness.recording.templates`)."""
+    The state after each step goes through one slot (:meth:`physics_state_slot`; a sink
+    taking :class:`PhysicsState` records makes one with
+    :func:`harness.recording.stateslot.forwarding_slot`). A message is a dict in rosbridge
+    JSON form or, for the periodic topics, ``bytes``: its CDR
+    (:mod:`harness.recording.templates`)."""
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None: ...
 
@@ -150,7 +151,9 @@ class RecordSink(Protocol):
 
     def write_applied_input(self, inp: AppliedInput) -> None: ...
 
-    def write_physics_state(self, record: PhysicsState) -> None: ...
+    def physics_state_slot(
+        self, state_spec: int, state_size: int, qpos: slice, qvel: slice
+    ) -> PhysicsStateSlot: ...
 
     def write_epoch(self, epoch: Epoch) -> None: ...
 
@@ -197,8 +200,14 @@ class SessionCore:
                 "of a world take their namespaces from their RobotSpec"
             )
         self.sim = Simulation(robot, kinematic_limits=options.kinematic_limits)
-        # each step's recorded state is read into this one buffer (the recorder copies it)
-        self._state = np.empty(self.sim.state_size, dtype=np.float64)
+        # each step's recorded state is read straight into the recorder's slot
+        self._state_slot = (
+            None
+            if recorder is None
+            else recorder.physics_state_slot(
+                self.sim.state_spec, self.sim.state_size, *qpos_qvel_slices(self.sim.model)
+            )
+        )
         self.robot_name = robot.name
         self.recorder = recorder
         self.hub = hub if hub is not None else EventHub()
@@ -339,19 +348,10 @@ class SessionCore:
         self.record_frames()
         sim = self.sim
         k, t = sim.step_index, sim.sim_time_ns
-        recorder = self.recorder
-        if recorder is not None and record_state and k % self._state_every == 0:
-            data = sim.data
-            recorder.write_physics_state(
-                PhysicsState(
-                    k,
-                    t,
-                    sim.state_spec,
-                    sim.get_state(self._state),
-                    data.qpos,
-                    data.qvel,
-                )
-            )
+        slot = self._state_slot
+        if slot is not None and record_state and k % self._state_every == 0:
+            sim.get_state(slot.state)
+            slot.write(k, t)
         if self._js_every and k % self._js_every == 0:
             for channels in self.robots:
                 # one reading of the joints serves the subscribers' message and the recording

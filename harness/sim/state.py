@@ -9,7 +9,7 @@ import numpy.typing as npt
 
 from harness.sim.errors import StateError
 
-__all__ = ["STATE_SPEC", "checked_state", "out_error"]
+__all__ = ["STATE_SPEC", "checked_state", "out_error", "qpos_qvel_slices"]
 
 STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 """The ``mjtState`` mask of every captured state: FULLPHYSICS alone misses the solver
@@ -45,4 +45,15 @@ def out_error(out: object, size: int) -> StateError:
         f"get_state(out=): out must be a writable C-contiguous float64 array of "
         f"{size} values, not {getattr(out, 'dtype', type(out).__name__)} "
         f"of shape {getattr(out, 'shape', '?')}"
+    )
+
+
+def qpos_qvel_slices(model: mujoco.MjModel) -> tuple[slice, slice]:
+    """Where ``qpos`` and ``qvel`` lie in a :data:`STATE_SPEC` state of ``model`` (a state
+    lists its components in the order of their ``mjtState`` bits)."""
+    before_qpos = mujoco.mj_stateSize(model, STATE_SPEC & (int(mujoco.mjtState.mjSTATE_QPOS) - 1))
+    before_qvel = mujoco.mj_stateSize(model, STATE_SPEC & (int(mujoco.mjtState.mjSTATE_QVEL) - 1))
+    return (
+        slice(before_qpos, before_qpos + model.nq),
+        slice(before_qvel, before_qvel + model.nv),
     )

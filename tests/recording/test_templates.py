@@ -143,30 +143,3 @@ def test_recorder_refuses_bytes_that_are_not_cdr(tmp_path: Path) -> None:
             rec.write_message("/clock", "rosgraph_msgs/msg/Clock", b"{}", sim_time_ns=2)
     with Recording(path) as recording:
         assert [m.sim_time_ns for m in recording.messages("/clock")] == [1]
-
-
-def test_the_same_state_arrays_again_are_checked_like_new_ones(tmp_path: Path) -> None:
-    """The recorder's path for the arrays of the last state (the session's buffer, MuJoCo's
-    qpos/qvel) writes the same bytes as new arrays would, and refuses a bad step in one line
-    as the first path does."""
-    from harness.recording import PhysicsState, RecordingWriteError
-
-    state, qpos, qvel = np.arange(7.0), np.arange(3.0), np.arange(2.0)
-    files = []
-    for reuse in (True, False):
-        path = tmp_path / f"{reuse}.mcap"
-        with Recorder(path, metadata=METADATA, library="test") as rec:
-            for k in range(1, 4):
-                state[0] = qpos[0] = k
-                if reuse:
-                    rec.write_physics_state(PhysicsState(k, k, 1, state, qpos, qvel))
-                else:
-                    rec.write_physics_state(
-                        PhysicsState(k, k, 1, state.copy(), qpos.copy(), qvel.copy())
-                    )
-            with pytest.raises(RecordingWriteError, match=r"^/harness/state step -1: cannot"):
-                rec.write_physics_state(PhysicsState(-1, 5, 1, state, qpos, qvel))
-        files.append(path)
-    with Recording(files[0]) as a, Recording(files[1]) as b:
-        assert [m.data for m in a.messages()] == [m.data for m in b.messages()]
-        assert [float(s.state[0]) for s in a.physics_states()] == [1.0, 2.0, 3.0]
