@@ -194,6 +194,13 @@ def _loop(
     return time.perf_counter() - start
 
 
+def _index(addresses: list[int]) -> slice | np.ndarray:
+    first = addresses[0]
+    if addresses == list(range(first, first + len(addresses))):
+        return slice(first, first + len(addresses))
+    return np.array(addresses)
+
+
 class _SimLoop:
     """A bare ``Simulation`` loop recording what a session records of a run without clients,
     through the product's recording path: the state after every step (read into one buffer),
@@ -210,8 +217,9 @@ class _SimLoop:
         model = self.robot.model
         self.names = [f"j{i}" for i in range(7)] + ["f1", "f2"]
         joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in self.names]
-        self.qadr = np.array([model.jnt_qposadr[j] for j in joints])
-        self.dadr = np.array([model.jnt_dofadr[j] for j in joints])
+        # consecutive joints read as slices (views), as the session's joint_state_arrays does
+        self.qadr = _index([int(model.jnt_qposadr[j]) for j in joints])
+        self.dadr = _index([int(model.jnt_dofadr[j]) for j in joints])
         self.js = JointStateCdr(self.names)
         self.tree = TfTree(model, [RobotFrames(self.robot.description)])
         self.every = round(0.01 / model.opt.timestep)  # 100 Hz
@@ -250,7 +258,7 @@ class _SimLoop:
                 )  # fmt: skip
                 recorder.write_message(
                     "/tf", "tf2_msgs/msg/TFMessage",
-                    tree.moving_cdr(partial(tree.moving_poses, sim.body_poses), t),
+                    tree.moving_cdr(partial(tree.moving_poses, qpos, sim.body_poses), t),
                     sim_time_ns=t,
                 )  # fmt: skip
                 recorder.write_message(

@@ -109,6 +109,17 @@ class RobotChannels:
         self.js_qadr = np.array(qadr, dtype=np.intp)
         self.js_dadr = np.array(dadr, dtype=np.intp)
         self.js_kin = np.array(kin, dtype=bool)
+        # how joint_state_arrays reads them: a slice (a view, no gather) when consecutive,
+        # and the efforts of one source when every joint is kinematic or none is
+        self.js_qpos_index = _consecutive(self.js_qadr)
+        self.js_dof_index = _consecutive(self.js_dadr)
+        self.js_effort_source = (
+            "qfrc_applied"
+            if self.js_kin.all()
+            else "qfrc_actuator"
+            if not self.js_kin.any()
+            else ""
+        )
         self.js_cdr = JointStateCdr(self.js_names)
         """The layout of the robot's ``joint_states`` in the recording."""
         self.listed = ListedJoints(description, self.js_names, self.joints.joint_names)
@@ -136,14 +147,24 @@ def robot_frames(channels: RobotChannels) -> RobotFrames:
 
 def joint_state_arrays(sim: Simulation, channels: RobotChannels) -> tuple[F64, F64, F64]:
     """The robot's joint positions, velocities and efforts now, in ``joint_states`` order
-    (effort: the applied force of a kinematic joint, the actuator force of the others)."""
+    (effort: the applied force of a kinematic joint, the actuator force of the others); views
+    of the simulation's arrays where they can be: read them before the next step."""
     data = sim.data
-    effort: F64 = np.where(
-        channels.js_kin,
-        data.qfrc_applied[channels.js_dadr],
-        data.qfrc_actuator[channels.js_dadr],
-    )
-    return data.qpos[channels.js_qadr], data.qvel[channels.js_dadr], effort
+    dof = channels.js_dof_index
+    if channels.js_effort_source:
+        effort: F64 = getattr(data, channels.js_effort_source)[dof]
+    else:
+        effort = np.where(channels.js_kin, data.qfrc_applied[dof], data.qfrc_actuator[dof])
+    return data.qpos[channels.js_qpos_index], data.qvel[dof], effort
+
+
+def _consecutive(addresses: npt.NDArray[np.intp]) -> slice | npt.NDArray[np.intp]:
+    """``addresses`` as a slice when they are consecutive (indexing gives a view)."""
+    if addresses.size and np.array_equal(
+        addresses, np.arange(addresses[0], addresses[0] + addresses.size)
+    ):
+        return slice(int(addresses[0]), int(addresses[0]) + addresses.size)
+    return addresses
 
 
 def joint_state_message(

@@ -367,7 +367,7 @@ class SessionCore:
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
                 # one kinematics pass serves the subscribers' message and the recording
-                relative = cache(partial(tree.moving_poses, sim.body_poses))
+                relative = cache(partial(tree.moving_poses, sim.data.qpos, sim.body_poses))
                 self.publish(
                     topic,
                     TYPE_TF,

@@ -6,13 +6,16 @@ link from its parent link (the description's joint parent → child, not a flat 
 
 A transform is moving when anything between the parent's and the child's MuJoCo bodies can
 move: a joint of a body on the path, or a mocap body. Poses come from the simulation's own
-kinematics, so the tree composes to exactly the world poses the simulation has.
+kinematics (a link moved by one joint from its parent: the joint's position and the body's
+offset, the terms MuJoCo composes), so the tree composes to the world poses the simulation has
+(to rounding).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from math import cos, sin
 from typing import Any
 
 import mujoco
@@ -26,6 +29,8 @@ from harness.session.topics import stamp
 __all__ = ["WORLD_FRAME", "RobotFrames", "TfEdge", "TfTree", "relative_pose"]
 
 F64 = npt.NDArray[np.float64]
+Vec = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
 
 WORLD_FRAME = "world"
 """The frame id of the simulation's world (the parent of every root link)."""
@@ -97,13 +102,18 @@ class TfTree:
         self._moving_cdr: TfCdr | None = None
         body = mujoco.mjtObj.mjOBJ_BODY
         # (parent, child) body ids of the moving edges; the world (id 0) has the identity pose
-        self._moving_ids = tuple(
+        ids = [
             (
                 0 if e.parent_body is None else mujoco.mj_name2id(model, body, e.parent_body),
                 mujoco.mj_name2id(model, body, e.child_body),
             )
             for e in self.moving
-        )
+        ]
+        self._hinges: list[tuple[int, int, float, Vec, Quat, Quat]] = []
+        self._slides: list[tuple[int, int, float, Vec, Vec, Quat]] = []
+        self._others: list[tuple[int, int, int]] = []
+        for i, (p, c) in enumerate(ids):
+            _plan(model, i, p, c, self._hinges, self._slides, self._others)
 
     def relative_poses(
         self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]]
@@ -123,15 +133,31 @@ class TfTree:
             out.append(relative_pose(p[:3], p[3:], c[:3], c[3:]))
         return out
 
-    def moving_poses(self, body_poses: Callable[[], tuple[F64, F64]]) -> list[tuple[Vec, Quat]]:
-        """:meth:`relative_poses` of :attr:`moving`, from every body's world pose by body id
-        (``body_poses``: :meth:`harness.sim.Simulation.body_poses`, no dict of copies)."""
-        xpos, xquat = body_poses()
-        positions, quats = xpos.tolist(), xquat.tolist()
-        return [
-            relative_pose(positions[p], quats[p], positions[c], quats[c])
-            for p, c in self._moving_ids
-        ]
+    def moving_poses(
+        self, qpos: F64, body_poses: Callable[[], tuple[F64, F64]]
+    ) -> list[tuple[Vec, Quat]]:
+        """:meth:`relative_poses` of :attr:`moving` in the state whose positions are ``qpos``.
+
+        A child moved by one hinge (at its origin) or slide joint from its parent body is
+        posed from the joint's position alone, as MuJoCo's kinematics pose it (the body's
+        offset, then the joint's rotation or translation); the others from every body's world
+        pose (``body_poses``: :meth:`harness.sim.Simulation.body_poses`), called only then."""
+        out: list[tuple[Vec, Quat]] = [((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))] * len(self.moving)
+        q = qpos.tolist()
+        for i, adr, q0, xyz, (aw, ax, ay, az), (bw, bx, by, bz) in self._hinges:
+            # the body's quaternion times the joint's (cos h, sin h axis), h half the angle
+            half = 0.5 * (q[adr] - q0)
+            c, s = cos(half), sin(half)
+            out[i] = xyz, (c * aw + s * bw, c * ax + s * bx, c * ay + s * by, c * az + s * bz)
+        for i, adr, q0, (x, y, z), (ux, uy, uz), quat in self._slides:
+            d = q[adr] - q0
+            out[i] = (x + d * ux, y + d * uy, z + d * uz), quat
+        if self._others:
+            xpos, xquat = body_poses()
+            positions, quats = xpos.tolist(), xquat.tolist()
+            for i, p, c in self._others:
+                out[i] = relative_pose(positions[p], quats[p], positions[c], quats[c])
+        return out
 
     def message(
         self, edges: tuple[TfEdge, ...], poses: Mapping[str, tuple[F64, F64]], sim_time_ns: int
@@ -173,6 +199,51 @@ class TfTree:
         return self._moving_cdr.encode(sim_time_ns, relative())
 
 
+def _plan(
+    model: mujoco.MjModel,
+    i: int,
+    parent: int,
+    child: int,
+    hinges: list[tuple[int, int, float, Vec, Quat, Quat]],
+    slides: list[tuple[int, int, float, Vec, Vec, Quat]],
+    others: list[tuple[int, int, int]],
+) -> None:
+    """How moving edge ``i`` is posed: from its one hinge or slide joint when the child's
+    MuJoCo parent is the edge's parent, else from world poses."""
+    joint = int(model.body_jntadr[child])
+    kind = int(model.jnt_type[joint]) if model.body_jntnum[child] == 1 else -1
+    local = (
+        int(model.body_parentid[child]) == parent  # the world (0) included
+        and model.body_mocapid[child] < 0
+        and (
+            kind == mujoco.mjtJoint.mjJNT_SLIDE
+            or (kind == mujoco.mjtJoint.mjJNT_HINGE and not model.jnt_pos[joint].any())
+        )
+    )
+    if not local:
+        others.append((i, parent, child))
+        return
+    adr = int(model.jnt_qposadr[joint])
+    q0 = float(model.qpos0[adr])
+    x, y, z = (float(v) for v in model.body_pos[child])
+    w, qx, qy, qz = (float(v) for v in model.body_quat[child])
+    ux, uy, uz = (float(v) for v in model.jnt_axis[joint])
+    if kind == mujoco.mjtJoint.mjJNT_HINGE:
+        # body_quat * (0, axis): the part of the pose's quaternion that sin(h) multiplies
+        b = (
+            -qx * ux - qy * uy - qz * uz,
+            w * ux + qy * uz - qz * uy,
+            w * uy - qx * uz + qz * ux,
+            w * uz + qx * uy - qy * ux,
+        )
+        hinges.append((i, adr, q0, (x, y, z), (w, qx, qy, qz), b))
+    else:
+        axis = np.empty(3)
+        mujoco.mju_rotVecQuat(axis, model.jnt_axis[joint], model.body_quat[child])
+        ax, ay, az = (float(v) for v in axis)
+        slides.append((i, adr, q0, (x, y, z), (ax, ay, az), (w, qx, qy, qz)))
+
+
 def _can_move(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
     """Whether ``body``'s pose in ``ancestor``'s frame can change (a joint or mocap body on
     the way up; a body that is not a descendant counts as moving)."""
@@ -182,10 +253,6 @@ def _can_move(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
             return True
         b = int(model.body_parentid[b])
     return False
-
-
-Vec = tuple[float, float, float]
-Quat = tuple[float, float, float, float]
 
 
 def relative_pose(
