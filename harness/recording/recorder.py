@@ -73,7 +73,7 @@ from harness.recording.records import (
     RosoutRecord,
 )
 from harness.recording.salvage import finish_after_failure
-from harness.recording.stateslot import PhysicsStateSlot, StateRecords
+from harness.recording.stateslot import HEAD, PhysicsStateSlot, StateRecords
 from harness.recording.tail import TailFile
 from harness.recording.writer import COMPRESSIONS, Buffer, ChunkWriter
 
@@ -387,33 +387,50 @@ class Recorder:
             raise RecordingWriteError(f"{self.path}: a recorder has one physics state slot")
         records = StateRecords(STATE_RING, 0, state_spec, state_size, qpos, qvel)
         self._state_slot = True
-        ring, fill, every = records.ring, records.fill, self._state_every
+        ring, every = records.ring, self._state_every
+        buffer, size, times, targets = ring.buffer, ring.record_size, ring.times, records.targets
+        state, qpos_part, qvel_part = records.sources
+        pack, length = HEAD.pack_into, 22 + records.message_size
+        channel = _Channel(0, TOPIC_STATE, TYPE_PHYSICS_STATE)  # until the first write
 
         def write(step: int, sim_time_ns: int) -> None:
+            nonlocal channel
             if step % every:
                 return
-            if self._closed or self._failure is not None:
-                with self._lock:
-                    self._raise_closed()
-            channel = self._state_channel
-            if channel is None:
+            if (
+                sim_time_ns < self._last_time
+                or sim_time_ns < 0
+                or self._closed
+                or self._failure is not None
+            ):
+                self._slot_refusal(channel, step, sim_time_ns)
+            if not channel.id:
                 channel = self._fixed(TOPIC_STATE, TYPE_PHYSICS_STATE)
                 ring.channel_id = channel.id
                 self._writer.attach(ring)
-            if sim_time_ns < self._last_time or sim_time_ns < 0:
-                self._time_error(channel, sim_time_ns)
+            i = ring.count
             seq = channel.seq
             try:
-                fill(seq, step, sim_time_ns)
+                pack(
+                    buffer, i * size, 5, length, channel.id, seq, sim_time_ns, sim_time_ns,
+                    CDR_HEADER, step, sim_time_ns, state_spec, state_size,
+                )  # fmt: skip
             except struct.error as exc:
                 raise RecordingWriteError(
                     f"{TOPIC_STATE} step {step}: cannot serialise: {exc}"
                 ) from None
+            to_state, to_qpos, to_qvel = targets[i]
+            to_state[:] = state
+            to_qpos[:] = qpos_part
+            to_qvel[:] = qvel_part
+            times[i] = sim_time_ns
             channel.seq = seq + 1
             self._last_time = sim_time_ns
             self._messages += 1
             self._dirty = True
-            if ring.count == ring.capacity:
+            i += 1
+            ring.count = i
+            if i == STATE_RING:
                 with self._lock:
                     try:
                         self._writer.settle()
@@ -560,6 +577,14 @@ class Recorder:
         )
         channel = self._channels[topic] = _Channel(channel_id, topic, msgtype)
         return channel
+
+    def _slot_refusal(self, channel: _Channel, step: int, sim_time_ns: int) -> None:
+        """Raise what a state slot's write at ``sim_time_ns`` is refused for, if anything."""
+        with self._lock:
+            if self._closed or self._failure is not None:
+                self._raise_closed()
+        if sim_time_ns < self._last_time or sim_time_ns < 0:
+            self._time_error(channel, sim_time_ns)
 
     def _time_error(self, channel: _Channel, sim_time_ns: int) -> NoReturn:
         raise RecordingWriteError(

@@ -19,17 +19,16 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from harness.recording.cdr import CDR_HEADER
 from harness.recording.errors import RecordingWriteError
 from harness.recording.records import PhysicsState
 from harness.recording.writer import RecordRing
 
-__all__ = ["PhysicsStateSlot", "StateRecords", "forwarding_slot"]
+__all__ = ["HEAD", "PhysicsStateSlot", "StateRecords", "forwarding_slot"]
 
 F64 = npt.NDArray[np.float64]
 # the MCAP message record's head (opcode 5, record length, channel id, sequence, log and
 # publish time), the CDR header, then step, sim_time_ns, state_spec, len(state)
-_HEAD = struct.Struct("<BQHIQQ4sQqII")
+HEAD = struct.Struct("<BQHIQQ4sQqII")
 _RECORD_HEAD = 31  # the MCAP message record's head
 _LEN = struct.Struct("<I")
 
@@ -82,10 +81,14 @@ def forwarding_slot(
 
 class StateRecords:
     """``harness_msgs/msg/PhysicsState`` message records of channel ``channel_id`` laid out
-    in ``ring``: :attr:`state` is the array the caller reads each state into; :meth:`fill`
-    writes the next record from it (head, the state, and ``qpos``/``qvel`` copied out of it)."""
+    in ``ring``: :attr:`state` is the array the caller reads each state into. Record ``i`` is
+    written by packing :data:`HEAD` at ``i * ring.record_size`` (the record's head, then the
+    message's: ``5, 22 + message_size, channel id, sequence, time, time, CDR_HEADER, step,
+    time, state_spec, len(state)``) and copying each of :attr:`sources` (the state and the
+    ``qpos``/``qvel`` parts of it) into ``targets[i]``'s (the recorder's slot does it inline:
+    a call less per step)."""
 
-    __slots__ = ("_dst", "_head", "_n", "_size", "_spec", "_src", "ring", "state")
+    __slots__ = ("message_size", "ring", "sources", "state", "targets")
 
     def __init__(
         self, ring_capacity: int, channel_id: int, state_spec: int, state_size: int,
@@ -99,14 +102,12 @@ class StateRecords:
         at_q = at_m + 4 + (-(at_m + 4) % 8 if m else 0)
         at_k = at_q + 8 * m
         at_v = at_k + 4 + (-(at_k + 4) % 8 if k else 0)
-        self._size = 4 + at_v + 8 * k  # the message's CDR
-        record = _RECORD_HEAD + self._size
+        self.message_size = 4 + at_v + 8 * k  # the message's CDR
+        record = _RECORD_HEAD + self.message_size
         self.ring = RecordRing(channel_id, record, ring_capacity)
         self.state: F64 = np.zeros(n, dtype=np.float64)
-        self._spec = state_spec
-        self._n = n
         state = self.state.data.cast("B")
-        self._src = (
+        self.sources = (
             state,
             state[8 * qpos_span.start : 8 * qpos_span.stop],
             state[8 * qvel_span.start : 8 * qvel_span.stop],
@@ -125,22 +126,4 @@ class StateRecords:
                     out[at + at_v : at + at_v + 8 * k],
                 )
             )
-        self._dst = tuple(dst)
-        self._head = _HEAD
-
-    def fill(self, sequence: int, step: int, sim_time_ns: int) -> None:
-        """Write record ``ring.count`` (raises ``struct.error`` for a step or time out of
-        range) and count it; the ring must not be full."""
-        ring = self.ring
-        i = ring.count
-        self._head.pack_into(
-            ring.buffer, i * ring.record_size, 5, 22 + self._size, ring.channel_id, sequence,
-            sim_time_ns, sim_time_ns, CDR_HEADER, step, sim_time_ns, self._spec, self._n,
-        )  # fmt: skip
-        state, qpos, qvel = self._src
-        to_state, to_qpos, to_qvel = self._dst[i]
-        to_state[:] = state
-        to_qpos[:] = qpos
-        to_qvel[:] = qvel
-        ring.times[i] = sim_time_ns
-        ring.count = i + 1
+        self.targets = tuple(dst)
