@@ -28,6 +28,7 @@ chunk, by :meth:`drain`, :meth:`flush` and :meth:`finish`.
 
 from __future__ import annotations
 
+import io
 import struct
 import sys
 import zlib
@@ -87,14 +88,14 @@ def _u64s(values: list[int]) -> bytes:
     return packed.tobytes()
 
 
-def _lz4(data: bytes | bytearray) -> bytes:
+def _lz4(data: bytes | bytearray | memoryview) -> bytes:
     import lz4.frame  # type: ignore[import-untyped]
 
     packed: bytes = lz4.frame.compress(data)
     return packed
 
 
-COMPRESSIONS: dict[str, Callable[[bytes | bytearray], bytes] | None] = {
+COMPRESSIONS: dict[str, Callable[[bytes | bytearray | memoryview], bytes] | None] = {
     "zstd": zstandard.compress,
     "lz4": _lz4,
     "none": None,
@@ -131,16 +132,28 @@ class RecordRing:
 
 
 class _Open:
-    """The open chunk: its records, its message indexes (flat ``[time, offset, ...]`` per
-    channel, in first-message order) and its time range."""
+    """The open chunk: its records (``out``, from position 0 to its position), its message
+    indexes (flat ``[time, offset, ...]`` per channel, in first-message order) and its time
+    range."""
 
-    __slots__ = ("buffer", "end", "indexes", "start")
+    __slots__ = ("end", "indexes", "out", "start")
 
-    def __init__(self) -> None:
-        self.buffer = bytearray()
+    def __init__(self, out: io.BytesIO) -> None:
+        self.out = out
         self.indexes: dict[int, list[int]] = {}  # empty: no message yet
         self.start = 0
         self.end = 0
+
+
+def _buffer(capacity: int) -> io.BytesIO:
+    """A chunk buffer that holds ``capacity`` bytes without growing: a buffer grown by
+    appending is copied at every reallocation (for a 1 MiB chunk that costs more than the
+    copies of its messages)."""
+    out = io.BytesIO()
+    out.seek(capacity - 1)
+    out.write(b"\0")
+    out.seek(0)
+    return out
 
 
 class ChunkWriter:
@@ -162,7 +175,9 @@ class ChunkWriter:
         self._chunk_size = chunk_size
         self._compress = COMPRESSIONS[compression]
         self._compression = compression
-        self._open = _Open()
+        # chunk buffers the chunk thread is done with, for the next chunks
+        self._spare: deque[io.BytesIO] = deque(maxlen=2)
+        self._open = self._new_chunk()
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []
         self._chunk_indexes: list[ChunkIndex] = []
@@ -214,7 +229,7 @@ class ChunkWriter:
         self.settle()
         schema = Schema(id=len(self._schemas) + 1, data=data, encoding=encoding, name=name)
         self._schemas.append(schema)
-        self._open.buffer += _record(schema)
+        self._open.out.write(_record(schema))
         return schema.id
 
     def register_channel(
@@ -230,7 +245,7 @@ class ChunkWriter:
             schema_id=schema_id,
         )
         self._channels.append(channel)
-        self._open.buffer += _record(channel)
+        self._open.out.write(_record(channel))
         return channel.id
 
     # -- messages ----------------------------------------------------------------------------
@@ -250,8 +265,8 @@ class ChunkWriter:
         if ring is not None and ring.moved != ring.count:
             self.settle()
         chunk = self._open
-        buffer = chunk.buffer
-        offset = len(buffer)
+        out = chunk.out
+        offset = out.tell()
         index = chunk.indexes.get(channel_id)
         if index is None:
             if not chunk.indexes:
@@ -259,10 +274,10 @@ class ChunkWriter:
             index = chunk.indexes[channel_id] = []
         index += (time_ns, offset)
         chunk.end = time_ns
-        buffer += _MESSAGE.pack(5, 22 + size, channel_id, sequence, time_ns, time_ns)
-        extend = buffer.extend  # not ``+=``: ``bytearray += ndarray`` is numpy's addition
+        write = out.write
+        write(_MESSAGE.pack(5, 22 + size, channel_id, sequence, time_ns, time_ns))
         for part in parts:
-            extend(part)
+            write(part)  # type: ignore[arg-type]  # numpy's stubs lack the buffer protocol
         if offset + 31 + size > self._chunk_size:
             self._close_chunk()
 
@@ -283,8 +298,7 @@ class ChunkWriter:
         records = memoryview(ring.buffer)
         while first < count:
             chunk = self._open
-            buffer = chunk.buffer
-            offset = len(buffer)
+            offset = chunk.out.tell()
             # a chunk closes after the record that takes it past chunk_size
             n = min(count - first, max(0, self._chunk_size - offset) // size + 1)
             times = ring.times[first : first + n]
@@ -293,10 +307,12 @@ class ChunkWriter:
                 if not chunk.indexes:
                     chunk.start = times[0]
                 index = chunk.indexes[cid] = []
-            for k, time_ns in enumerate(times):
-                index += (time_ns, offset + k * size)
+            pairs = [0] * (2 * n)
+            pairs[0::2] = times
+            pairs[1::2] = range(offset, offset + n * size, size)
+            index += pairs
             chunk.end = times[-1]
-            buffer += records[first * size : (first + n) * size]
+            chunk.out.write(records[first * size : (first + n) * size])
             first += n
             ring.moved = first
             if offset + n * size > self._chunk_size:
@@ -312,7 +328,7 @@ class ChunkWriter:
         for channel_id, index in chunk.indexes.items():
             self._counts[channel_id] = self._counts.get(channel_id, 0) + len(index) // 2
             self._messages += len(index) // 2
-        self._open = _Open()
+        self._open = self._new_chunk()
         pending = self._pending
         while pending and pending[0].done():
             pending.popleft().result()  # a failed write raises here
@@ -320,13 +336,24 @@ class ChunkWriter:
             pending.popleft().result()
         pending.append(self._pool.submit(self._write_chunk, chunk))
 
+    def _new_chunk(self) -> _Open:
+        try:
+            out = self._spare.pop()
+        except IndexError:
+            out = _buffer(self._chunk_size + 65536)
+        out.seek(0)
+        return _Open(out)
+
     def _chunk_bytes(self, chunk: _Open, offset: int) -> tuple[bytes, ChunkIndex]:
         """The chunk record and its message indexes as they are written at ``offset``."""
-        raw = chunk.buffer
+        with chunk.out.getbuffer() as whole, whole[: chunk.out.tell()] as raw:
+            return self._chunk_record(chunk, raw, offset)
+
+    def _chunk_record(self, chunk: _Open, raw: memoryview, offset: int) -> tuple[bytes, ChunkIndex]:
         packed = raw if self._compress is None else self._compress(raw)
         name = _CHUNK_NAMES[self._compression]
         length = 8 + 8 + 8 + 4 + 4 + len(name) + 8 + len(packed)
-        parts: list[bytes | bytearray] = [
+        parts: list[bytes | bytearray | memoryview] = [
             _CHUNK.pack(6, length, chunk.start, chunk.end, len(raw), crc32(raw)),
             _U32.pack(len(name)),
             name,
@@ -359,6 +386,7 @@ class ChunkWriter:
     def _write_chunk(self, chunk: _Open) -> None:
         """On the chunk thread: compress, CRC and write one closed chunk."""
         data, entry = self._chunk_bytes(chunk, self._stream.tell())
+        self._spare.append(chunk.out)
         self._commit(data)
         self._chunk_indexes.append(entry)
 
