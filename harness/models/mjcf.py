@@ -52,7 +52,9 @@ def _geometry(model: mujoco.MjModel, g: int) -> Geometry | None:
 
 
 def description_from_model(model: mujoco.MjModel, name: str, source: str | None) -> RobotModel:
-    """Bodies as links and joints as joints, posed at ``qpos0`` (the model's zero configuration).
+    """Bodies as links and joints as joints, posed at ``qpos0`` (the model's zero configuration);
+    a body without a joint is fixed to its parent body (``<parent>_to_<child>``), except under
+    the world, where it stays a root link.
 
     Joint equality constraints ``joint1 = f(joint2)`` become mimics of ``joint2``.
     """
@@ -127,6 +129,26 @@ def description_from_model(model: mujoco.MjModel, name: str, source: str | None)
                 mimics.get(j),
                 float(model.dof_damping[dof]),
                 float(model.dof_frictionloss[dof]),
+            )
+        )
+    # A body without a joint is welded to its parent body: a fixed joint, as URDF says it (the
+    # link then hangs from its parent in /tf_static and /robot_description, not from the world).
+    taken = {j.name for j in joints}
+    for b in range(1, model.nbody):
+        parent = int(model.body_parentid[b])
+        if model.body_jntnum[b] or not parent:
+            continue
+        joint_name = f"{body_name(parent)}_to_{body_name(b)}"
+        while joint_name in taken:
+            joint_name += "_fixed"
+        taken.add(joint_name)
+        joints.append(
+            Joint(
+                joint_name,
+                "fixed",
+                body_name(parent),
+                body_name(b),
+                _pose(data.xpos[b], data.xquat[b]),
             )
         )
     return RobotModel(name, tuple(links), tuple(joints), (), source, "mjcf")
