@@ -25,7 +25,7 @@ import os
 import struct
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple, NoReturn
 
@@ -62,6 +62,13 @@ from harness.recording.layout import (
     is_latched,
     schema_text,
     typestore,
+)
+from harness.recording.messages import (
+    applied_input_message,
+    collision_event_message,
+    epoch_message,
+    f64,
+    rosout_message,
 )
 from harness.recording.metadata import build_metadata, definitions_text, media_type, package_version
 from harness.recording.records import (
@@ -124,25 +131,6 @@ def _compile(store: Any, msgtype: str) -> Encoder | None:
         return compile_encoder(store, msgtype)
     except Unsupported:
         return None
-
-
-def _f64(value: Sequence[float] | npt.ArrayLike, where: str) -> npt.NDArray[np.float64]:
-    try:
-        # serialize_cdr needs C-contiguous arrays (model slices and reversed views are not).
-        array = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise RecordingWriteError(f"{where}: expected a sequence of numbers") from None
-    return array.reshape(-1) if array.ndim != 1 else array
-
-
-def _u32(value: Sequence[int] | npt.ArrayLike, where: str) -> npt.NDArray[np.uint32]:
-    try:
-        array = np.asarray(value)
-        if array.size and (array.dtype.kind not in "iu" or array.min() < 0):
-            raise ValueError
-        return np.ascontiguousarray(array, dtype=np.uint32).reshape(-1)
-    except (TypeError, ValueError):
-        raise RecordingWriteError(f"{where}: expected non-negative integers") from None
 
 
 class _Channel:
@@ -319,32 +307,6 @@ class Recorder:
         channel = self._bridge_channel or self._fixed(TOPIC_BRIDGE, TYPE_BRIDGE_FRAME)
         self._write_on(channel, (cdr,), len(cdr), time_ns)
 
-    def write_applied_input(self, inp: AppliedInput) -> None:
-        """Record the physics input applied before ``inp.step``."""
-        step = inp.step
-        where = f"{TOPIC_INPUTS} step {step}"
-        qpos_i = _u32(inp.qpos_index, f"{where}: qpos_index")
-        qpos_v = _f64(inp.qpos_value, f"{where}: qpos_value")
-        qvel_i = _u32(inp.qvel_index, f"{where}: qvel_index")
-        qvel_v = _f64(inp.qvel_value, f"{where}: qvel_value")
-        if qpos_i.shape != qpos_v.shape or qvel_i.shape != qvel_v.shape:
-            raise RecordingWriteError(f"{where}: index and value arrays differ in length")
-        msg = self._types[TYPE_APPLIED_INPUT](
-            step=step,
-            sim_time_ns=inp.sim_time_ns,
-            ctrl=_f64(inp.ctrl, f"{where}: ctrl"),
-            kinematic_joints=list(inp.kinematic_joints),
-            qpos_index=qpos_i,
-            qpos_value=qpos_v,
-            qvel_index=qvel_i,
-            qvel_value=qvel_v,
-            mocap_pos=_f64(inp.mocap_pos, f"{where}: mocap_pos"),
-            mocap_quat=_f64(inp.mocap_quat, f"{where}: mocap_quat"),
-            qfrc_applied=_f64(inp.qfrc_applied, f"{where}: qfrc_applied"),
-            xfrc_applied=_f64(inp.xfrc_applied, f"{where}: xfrc_applied"),
-        )
-        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, inp.sim_time_ns)
-
     def write_physics_state(self, record: PhysicsState) -> None:
         """Record the state after ``record.step`` if the step is a multiple of ``state_every``
         (a run recording every step: :meth:`physics_state_slot`)."""
@@ -363,9 +325,9 @@ class Recorder:
                     step,
                     time_ns,
                     state_spec,
-                    _f64(state, f"{where}: state"),
-                    _f64(qpos, f"{where}: qpos"),
-                    _f64(qvel, f"{where}: qvel"),
+                    f64(state, f"{where}: state"),
+                    f64(qpos, f"{where}: qpos"),
+                    f64(qvel, f"{where}: qvel"),
                 )
                 parts, size = (data,), len(data)
         except (struct.error, TypeError) as exc:
@@ -441,64 +403,25 @@ class Recorder:
 
         return PhysicsStateSlot(records.state, write)
 
+    def write_applied_input(self, inp: AppliedInput) -> None:
+        """Record the physics input applied before ``inp.step``."""
+        msg = applied_input_message(self._types, inp)
+        self._write(TOPIC_INPUTS, TYPE_APPLIED_INPUT, msg, inp.sim_time_ns)
+
     def write_epoch(self, epoch: Epoch) -> None:
         """Record a discontinuity after ``epoch.step`` (a reset): the state the run continues
         from. Always written (``state_every`` does not apply)."""
-        where = f"{TOPIC_EPOCH} step {epoch.step}"
-        msg = self._types[TYPE_EPOCH](
-            step=epoch.step,
-            sim_time_ns=epoch.sim_time_ns,
-            epoch=epoch.epoch,
-            reason=epoch.reason,
-            state_spec=epoch.state_spec,
-            state=_f64(epoch.state, f"{where}: state"),
-            qpos=_f64(epoch.qpos, f"{where}: qpos"),
-            qvel=_f64(epoch.qvel, f"{where}: qvel"),
-        )
-        self._write(TOPIC_EPOCH, TYPE_EPOCH, msg, epoch.sim_time_ns)
+        self._write(TOPIC_EPOCH, TYPE_EPOCH, epoch_message(self._types, epoch), epoch.sim_time_ns)
 
     def write_collision_event(self, record: CollisionEvent) -> None:
         """Record a collision begin (0), end (1) or near miss (2) (fields as in the .msg)."""
-        position, normal = record.position, record.normal
-        if len(position) != 3 or len(normal) != 3:
-            raise RecordingWriteError(
-                f"{TOPIC_COLLISIONS} step {record.step}: position and normal need 3 components"
-            )
-        point = self._types["geometry_msgs/msg/Point"]
-        vector = self._types["geometry_msgs/msg/Vector3"]
-        msg = self._types[TYPE_COLLISION_EVENT](
-            step=record.step,
-            sim_time_ns=record.sim_time_ns,
-            kind=record.kind,
-            robot=record.robot,
-            body1=record.body1,
-            body2=record.body2,
-            geom1=record.geom1,
-            geom2=record.geom2,
-            penetration=float(record.penetration),
-            normal_force=float(record.normal_force),
-            position=point(x=float(position[0]), y=float(position[1]), z=float(position[2])),
-            normal=vector(x=float(normal[0]), y=float(normal[1]), z=float(normal[2])),
-            duration_ns=record.duration_ns,
-            distance=float(record.distance),
-            begin_step=record.begin_step,
-            end_step=record.end_step,
-        )
+        msg = collision_event_message(self._types, record)
         self._write(TOPIC_COLLISIONS, TYPE_COLLISION_EVENT, msg, record.sim_time_ns)
 
     def write_rosout(self, record: RosoutRecord) -> None:
         """Record a ``rcl_interfaces/msg/Log`` on ``/rosout`` (levels 10/20/30/40/50)."""
-        sec, nanosec = divmod(record.sim_time_ns, 1_000_000_000)
-        log = self._types["rcl_interfaces/msg/Log"](
-            stamp=self._types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
-            level=record.level,
-            name=record.name,
-            msg=record.msg,
-            file=record.file,
-            function=record.function,
-            line=record.line,
-        )
-        self._write(TOPIC_ROSOUT, "rcl_interfaces/msg/Log", log, record.sim_time_ns)
+        msg = rosout_message(self._types, record)
+        self._write(TOPIC_ROSOUT, "rcl_interfaces/msg/Log", msg, record.sim_time_ns)
 
     def _write(self, topic: str, msgtype: str, msg: Any, sim_time_ns: int) -> None:
         try:
