@@ -13,6 +13,7 @@ from collections.abc import Callable, Coroutine
 from typing import Any, TypeVar
 
 from harness.session.errors import SessionClosedError, SessionError
+from harness.session.polling import PollingSelector
 
 __all__ = ["LoopThread"]
 
@@ -22,10 +23,13 @@ T = TypeVar("T")
 class LoopThread:
     """An event loop (created now) and the daemon thread that will run it. ``closed``: set
     by the owner when it closes (calls are then refused); ``after_call``: run on the loop
-    after every :meth:`call`'s function (the session flushes its port there)."""
+    after every :meth:`call`'s function (the session flushes its port there); ``selector``:
+    the loop's, which polls before blocking while its ``should_poll`` says so
+    (:mod:`harness.session.polling`)."""
 
     def __init__(self) -> None:
-        self.loop = asyncio.new_event_loop()
+        self.selector = PollingSelector()
+        self.loop: asyncio.AbstractEventLoop = asyncio.SelectorEventLoop(self.selector)
         self.thread: threading.Thread | None = None
         self.closed = False
         self.after_call: Callable[[], None] | None = None
@@ -53,6 +57,7 @@ class LoopThread:
         if self.closed or self.thread is None or not self.thread.is_alive():
             coro.close()
             raise SessionClosedError("the session is closed")
+        self.selector.called = True
         return asyncio.run_coroutine_threadsafe(coro, self.loop).result()
 
     def call(self, fn: Callable[[], T]) -> T:
@@ -72,6 +77,7 @@ class LoopThread:
                 if self.after_call is not None:
                     self.after_call()  # what fn made the core produce
 
+        self.selector.called = True
         self.loop.call_soon_threadsafe(run)
         return future.result()
 

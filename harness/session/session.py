@@ -127,6 +127,7 @@ import numpy.typing as npt
 from harness.events import Logger, Sink, SinkReport
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.recording import Recorder
+from harness.session import heap
 from harness.session.assembly import build_core, resolve_run, ros2_domain, start_ros2
 from harness.session.core import (
     CLOCK_MODES,
@@ -263,6 +264,7 @@ class Session:
         self._port: Port | None = None
         self._recorder: Recorder | None = None
         self._driver: asyncio.Task[None] | None = None
+        self._heap_held = False
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
@@ -293,9 +295,13 @@ class Session:
             for item in loggers:
                 hub.add_logger(item if isinstance(item, Logger) else item(self))
             self._runner.after_call = self._port.flush
+            self._runner.selector.should_poll = self._idle  # lockstep clients: busy-poll
             self._runner.start()
             self.url: str = self._await(self._start())
             """``ws://host:port`` of the embedded server (or the external server's URL)."""
+            if clock == "realtime":  # no full collection stalls the pace (heap.py)
+                heap.hold()
+                self._heap_held = True
             if self.ros_domain_id is not None:
                 assert self.core.bridge is not None
                 self._ros2 = start_ros2(self.url, self.core.bridge, self.ros_domain_id, self._call)
@@ -691,6 +697,9 @@ class Session:
         if self._ros2 is not None:
             self._ros2.stop()  # its connection closes like any client's
         errors = self._runner.stop(self._shutdown)
+        if self._heap_held:
+            self._heap_held = False
+            heap.release()
         if self._recorder is not None:
             try:
                 self._recorder.close()
