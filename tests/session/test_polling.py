@@ -136,9 +136,7 @@ def test_a_session_stepped_from_python_does_not_poll(demo_position: LoadedRobot)
             session.wait_for_client(timeout=60)
             graph = session.core.graph
             # its subscription in, so that nothing but our calls wakes the loop from now on
-            session.run_until(
-                lambda: graph.has_subscribers("/joint_states"), sim_timeout=1000.0
-            )
+            session.run_until(lambda: graph.has_subscribers("/joint_states"), sim_timeout=1000.0)
             selector = session._runner.selector
             selector.polled = 0
             assert selector.polling  # a client of another process, time standing still
