@@ -330,7 +330,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
                             data,
                             op if type(op) is str else "",
                             name if type(name) is str else self._frame_name(obj),
-                            self._now_ns,
+                            now_ns,  # what _now_ns returns now (a session bridge's: its clock)
                         )
                     )
                 self._seq += 1
