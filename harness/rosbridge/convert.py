@@ -168,8 +168,10 @@ def from_json(
             continue
         v = value[name]
         # the common valid cases inline (what _scalar returns for them), the rest below
-        if (kind == _KIND_FLOAT and type(v) is float) or (
-            kind == _KIND_INT and type(v) is int and lo <= v <= hi
+        if (
+            (kind == _KIND_FLOAT and type(v) is float)
+            or (kind == _KIND_INT and type(v) is int and lo <= v <= hi)
+            or (kind == _KIND_STR and type(v) is str)
         ):
             out[name] = v
         elif kind == _KIND_ARRAY:
@@ -179,7 +181,7 @@ def from_json(
     return out
 
 
-_KIND_FLOAT, _KIND_INT, _KIND_OTHER, _KIND_ARRAY = range(4)
+_KIND_FLOAT, _KIND_INT, _KIND_OTHER, _KIND_ARRAY, _KIND_STR = range(5)
 _MUTABLE = object()
 """A plan's zero for a field whose default is built anew for every message (a list, a
 nested message): :func:`_zero` is called then."""
@@ -208,6 +210,8 @@ def _plan(definition: MessageDef) -> tuple[frozenset[str], _Plan]:
         elif f.type in INT_RANGES:
             kind = _KIND_INT
             lo, hi = INT_RANGES[f.type]
+        elif f.type in ("string", "wstring") and not f.string_bound:
+            kind = _KIND_STR  # any str (what _scalar checks for it)
         else:
             kind = _KIND_OTHER
         plan.append((f, f.name, kind, lo, hi, zero))

@@ -319,17 +319,21 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             except (json.JSONDecodeError, RecursionError):
                 end = -1
             if end == len(data) and type(obj) is dict:
-                if self._frames is None:
-                    self._seq += 1  # what _tap does when no frames are kept
-                else:
+                if self._frames is not None:  # _tap's record, inline: (almost) every frame
                     op = obj.get("op")
-                    self._tap(
-                        connection,
-                        DIRECTION_IN,
-                        data,
-                        op if type(op) is str else "",
-                        self._frame_name(obj),
+                    name = obj.get("topic")
+                    self._frames.append(
+                        TapRecord(
+                            self._seq,
+                            connection,
+                            DIRECTION_IN,
+                            data,
+                            op if type(op) is str else "",
+                            name if type(name) is str else self._frame_name(obj),
+                            now_ns,  # what _now_ns returns now (a session bridge's: its clock)
+                        )
                     )
+                self._seq += 1
                 self._process(connection, obj)
                 return self.drain()
         objects: list[Any] = []
@@ -475,11 +479,13 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         assert t.type is not None
         if latch:
             t.latched = msg
-        frames: dict[str, str] = {}
-        for cid, sub in t.subscribers.items():
-            self._send_to_subscriber(t, cid, sub, msg, frames)
-        for local in list(t.local):
-            local.callback(Message(t.name, t.type, msg, sender))
+        if t.subscribers:
+            frames: dict[str, str] = {}
+            for cid, sub in t.subscribers.items():
+                self._send_to_subscriber(t, cid, sub, msg, frames)
+        if t.local:
+            for local in list(t.local):
+                local.callback(Message(t.name, t.type, msg, sender))
 
     def _send_to_subscriber(
         self,
@@ -499,11 +505,34 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             return
         sub.last_sent_ns = now
         limit = sub.queue_length or self.default_queue_length
-        if sub.compression == "cbor":
+        compression = sub.compression
+        if compression == "none":
+            # The common frame (a JSON publish, unfragmented) as _send and _emit would send
+            # it, without their calls: every message relayed to every subscriber is here.
+            frame = frames.get(sub.spelled) if frames is not None else None
+            if frame is None:
+                frame = publish_prefix(sub.spelled) + dumps(msg) + "}"
+                if frames is not None:
+                    frames[sub.spelled] = frame
+            conn = self._conns.get(cid)
+            if conn is None:
+                return
+            size = sub.fragment_size if sub.fragment_size is not None else conn.fragment_size
+            if size is not None and len(frame) > size:
+                self._send(cid, frame, "publish", t.name, None, size, limit)
+                return
+            if self._frames is not None:
+                self._frames.append(
+                    TapRecord(self._seq, cid, DIRECTION_OUT, frame, "publish", t.name, now)
+                )
+            self._seq += 1
+            self._outbox.append(Output(cid, frame, "publish", t.name, limit))
+            return
+        if compression == "cbor":
             data = to_cbor(self.registry, t.type, sub.spelled, msg)
             self._emit(cid, data, "publish", t.name, limit)
             return
-        if sub.compression == "cbor-raw":
+        if compression == "cbor-raw":
             import cbor2
 
             raw = {
@@ -519,7 +548,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             frame = publish_prefix(sub.spelled) + dumps(msg) + "}"
             if frames is not None:
                 frames[sub.spelled] = frame
-        if sub.compression == "png":
+        if compression == "png":
             frame = dumps({"op": "png", "data": _png(frame)})
         self._send(cid, frame, "publish", t.name, None, sub.fragment_size, limit)
 

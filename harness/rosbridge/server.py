@@ -28,6 +28,7 @@ import collections
 import contextlib
 import hmac
 import ipaddress
+import struct
 import time
 import urllib.parse
 import warnings
@@ -148,20 +149,52 @@ class _Peer:
         self.paused = False
 
 
+_HEAD_16 = struct.Struct("!BBH")
+_HEAD_64 = struct.Struct("!BBQ")
+_FIN_TEXT = 0x80 | Opcode.TEXT.value
+_FIN_BINARY = 0x80 | Opcode.BINARY.value
+
+
+def frame_head(first: int, length: int) -> bytes:
+    """The header of an unmasked WebSocket frame (a server's) with first byte ``first``
+    (FIN, opcode) and a payload of ``length`` bytes, as ``Frame.serialize`` writes it."""
+    if length < 126:
+        return bytes((first, length))
+    if length < 65536:
+        return _HEAD_16.pack(first, 126, length)
+    return _HEAD_64.pack(first, 127, length)
+
+
 def _write_frames(peer: _Peer, frames: list[str | bytes]) -> None:
     """Write ``frames`` to the peer's socket in one write (what ``send`` does per frame)."""
     ws = peer.ws
     if not frames or ws.state is not State.OPEN:
         return  # closing: lost like frames a failed ``send`` could not write
     protocol = ws.protocol
-    for data in frames:
-        if isinstance(data, str):
-            protocol.send_text(data.encode())
-        else:
-            protocol.send_binary(data)
     # Only these frames: the protocol is open and the connection flushes everything else
     # (pongs, close frames) as soon as it is produced.
-    peer.transport.writelines(protocol.data_to_send())
+    parts = protocol.data_to_send()
+    if protocol.extensions or protocol.debug or protocol.expect_continuation_frame:
+        for data in frames:
+            if isinstance(data, str):
+                protocol.send_text(data.encode())
+            else:
+                protocol.send_binary(data)
+        parts += protocol.data_to_send()
+    else:
+        # The bytes protocol.send_text / send_binary would produce (a server's frames are
+        # not masked; no extension: compression is off), framed here: a frame object, its
+        # checks and a BytesIO per frame cost more than the rest of a relayed frame's send.
+        append = parts.append
+        for data in frames:
+            if isinstance(data, str):
+                raw = data.encode()
+                append(frame_head(_FIN_TEXT, len(raw)))
+            else:
+                raw = data
+                append(frame_head(_FIN_BINARY, len(raw)))
+            append(raw)
+    peer.transport.writelines(parts)
     peer.metrics.sent += len(frames)
 
 

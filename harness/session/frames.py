@@ -23,22 +23,18 @@ __all__ = ["marker_frame", "tap_frame"]
 
 def tap_frame(record: TapRecord, dt_ns: int) -> BridgeFrame:
     """The record of a frame the bridge kept, in a simulation of time step ``dt_ns``."""
-    k = record.now_ns // dt_ns  # the step it crossed at
-    data = record.data
-    binary = isinstance(data, bytes)
-    text, payload = ("", data) if isinstance(data, bytes) else (data, b"")
-    return BridgeFrame(
-        step=k + 1 if record.direction == DIRECTION_IN else k,
-        sim_time_ns=k * dt_ns,
-        direction=record.direction,
-        connection=record.connection,
-        seq=record.seq,
-        op=record.op,
-        topic=record.name,
-        binary=binary,
-        text=text,
-        data=payload,
-    )
+    seq, connection, direction, data, op, name, now_ns = record
+    k = now_ns // dt_ns  # the step it crossed at
+    step = k + 1 if direction == DIRECTION_IN else k
+    # positional (tuple.__new__): every frame in and out is recorded through here
+    if isinstance(data, bytes):
+        fields = (step, k * dt_ns, direction, connection, seq, op, name, True, "", data)
+    else:
+        fields = (step, k * dt_ns, direction, connection, seq, op, name, False, data, b"")
+    return _new(BridgeFrame, fields)
+
+
+_new = tuple.__new__
 
 
 def marker_frame(
