@@ -9,7 +9,7 @@ than :data:`BEHIND_S` re-anchors instead of bursting to catch up.
 
 from __future__ import annotations
 
-__all__ = ["BEHIND_S", "Anchor", "frames_until", "pace"]
+__all__ = ["BEHIND_S", "Anchor", "frames_until", "pace", "waiting_until"]
 
 BEHIND_S = 0.25
 """Realtime: further behind than this (seconds), re-anchor instead of bursting."""
@@ -47,3 +47,14 @@ def frames_until(anchor: Anchor | None, now: float, step: int, dt_ns: int, rate:
         wall0, k0 = anchor
         due = wall0 + (step + 1 - k0) * period
     return now + max(period, due - now - period / 4)
+
+
+def waiting_until(anchor: Anchor | None, step: int, dt_ns: int, rate: float) -> float | None:
+    """While the clock waits for the step after ``step``: until when input read now may be
+    applied at once (a :func:`time.monotonic` time: the next step's due time less a quarter
+    step for the step itself), None without an anchor."""
+    if anchor is None:
+        return None
+    period = dt_ns / 1e9 / rate
+    wall0, k0 = anchor
+    return wall0 + (step + 1 - k0) * period - period / 4

@@ -148,7 +148,7 @@ from harness.session.options import (
     SessionKeywords,
     TransportOptions,
 )
-from harness.session.pacing import Anchor, frames_until, pace
+from harness.session.pacing import Anchor, frames_until, pace, waiting_until
 from harness.session.ports import Port, ServerPort
 from harness.session.recordfile import flush_at_boundary, open_recording, write_snapshot
 from harness.session.startup import option_groups
@@ -265,6 +265,7 @@ class Session:
         self._recorder: Recorder | None = None
         self._driver: asyncio.Task[None] | None = None
         self._heap_held = False
+        self._waiting = False  # a realtime clock waits for its next step's time
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
@@ -410,12 +411,20 @@ class Session:
 
     def _on_input(self) -> bool:
         """Input was read while time stands still: apply it now, in the read's callback,
-        as :meth:`_drive` would once woken (one loop iteration less per request). False
-        when the clock runs: its step boundaries apply input."""
-        if not self._idle():
+        as :meth:`_drive` would once woken (one loop iteration less per request); so too
+        while a realtime clock waits for its next step, until a quarter step before it is
+        due (the boundary it waits at is where the input takes effect either way; a relayed
+        message is not held for up to a step). False otherwise: the next step boundary
+        applies the input."""
+        until = None
+        if self._waiting:
+            until = waiting_until(self._anchor, self.sim.step_index, self.dt_ns, self.rate)
+            if until is None or time.monotonic() >= until:
+                return False
+        elif not self._idle():
             return False
         try:
-            self._boundary()
+            self._boundary(until)
         except Exception as exc:
             self._failed(exc)
         return True
@@ -424,7 +433,11 @@ class Session:
         delay, self._anchor = pace(
             self._anchor, time.monotonic(), self.sim.step_index, self.dt_ns, self.rate
         )
-        await asyncio.sleep(delay)
+        self._waiting = True
+        try:
+            await asyncio.sleep(delay)
+        finally:
+            self._waiting = False
 
     def _frames_until(self) -> float:
         """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time;

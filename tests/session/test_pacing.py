@@ -41,3 +41,16 @@ def test_frames_wait_until_the_next_step_is_due_less_a_quarter_step():
     )
     # behind: still one period of frames (frames and clock share the time)
     assert frames_until((50.0, 0), 51.0, 3, DT_NS, 1.0) == pytest.approx(51.0 + period)
+
+
+def test_input_read_while_the_clock_waits_applies_until_a_quarter_step_before_the_next():
+    from harness.session.pacing import waiting_until
+
+    period = DT_NS / 1e9
+    assert waiting_until(None, 3, DT_NS, 1.0) is None  # no anchor: the boundary decides
+    # anchored at step 0 at 50.0: step 4 due at 50.008, input until a quarter step before
+    assert waiting_until((50.0, 0), 3, DT_NS, 1.0) == pytest.approx(50.0 + 4 * period - period / 4)
+    # rate 0.5: twice the wall time per step
+    assert waiting_until((50.0, 0), 3, DT_NS, 0.5) == pytest.approx(
+        50.0 + 4 * 2 * period - period / 2
+    )
