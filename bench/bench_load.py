@@ -5,7 +5,8 @@ clock at its 2 ms step, recording on) in this one. The limit is the offered load
 1 kHz = 20 000 frames/s in and as many out); ours is what the server delivered per second, until
 the last frame arrived. Also: publish -> delivery latency, drops (every one counted: received +
 reported drops must equal what was sent), the session process's RSS growth, the simulation's
-step rate under load against real time, and whether the recording holds every frame.
+step rate under load against real time, and whether the recording holds every frame. The
+latency's floor: the same generator against a bare ``websockets`` relay in this process.
 
 A second, shorter run (same load) measures CPU instead of wall time, which the other
 engineers' jobs on a shared machine disturb far less: the session thread's CPU per relayed
@@ -106,6 +107,70 @@ def _cpu_rows(cpu: dict[str, Any], offered: float) -> list[Row]:
     ]
 
 
+def _raw_relay_latency(seconds: float) -> dict[str, Any]:
+    """The floor of the latency rows: the same load generator against a bare ``websockets``
+    relay (the library the session serves with) on a thread of this process, as the session
+    runs: each frame parsed, a ``publish`` sent on to its topic's subscribers as rosbridge
+    frames it, a ``call_service`` answered; no simulation, validation or recording (and no
+    ``/joint_states``: the generator is told not to subscribe). The generator's report."""
+    import asyncio
+    import threading
+
+    from websockets.asyncio.server import ServerConnection, serve
+
+    subscribers: dict[str, set[ServerConnection]] = {}
+
+    async def handler(ws: ServerConnection) -> None:
+        async for raw in ws:
+            frame = json.loads(raw)
+            op = frame.get("op")
+            if op == "subscribe":
+                subscribers.setdefault(frame["topic"], set()).add(ws)
+            elif op == "publish":
+                text = json.dumps(
+                    {"op": "publish", "topic": frame["topic"], "msg": frame["msg"]},
+                    separators=(",", ":"),
+                )
+                for sub in tuple(subscribers.get(frame["topic"], ())):
+                    await sub.send(text)
+            elif op == "call_service":
+                answer = {
+                    "op": "service_response",
+                    "service": frame["service"],
+                    "id": frame.get("id"),
+                    "values": {"topics": []},
+                    "result": True,
+                }
+                await ws.send(json.dumps(answer))
+
+    ready = threading.Event()
+    box: dict[str, Any] = {}
+
+    async def main() -> None:
+        async with serve(handler, "127.0.0.1", 0, compression=None) as server:
+            box["port"] = server.sockets[0].getsockname()[1]
+            box["loop"] = asyncio.get_running_loop()
+            box["stop"] = stop = asyncio.Event()
+            ready.set()
+            await stop.wait()
+
+    thread = threading.Thread(target=asyncio.run, args=(main(),), daemon=True)
+    thread.start()
+    ready.wait()
+    try:
+        out = subprocess.run(
+            [sys.executable, str(LOADGEN), f"ws://127.0.0.1:{box['port']}", "--clients",
+             str(CLIENTS), "--rate", str(RATE), "--seconds", str(seconds),
+             "--no-joint-states"],
+            capture_output=True, text=True, check=True,
+        ).stdout  # fmt: skip
+    finally:
+        box["loop"].call_soon_threadsafe(box["stop"].set)
+        thread.join()
+    report: dict[str, Any] = json.loads(out)
+    return report
+
+
 def run(quick: bool) -> list[Row]:
     seconds = 5.0 if quick else 30.0
     offered = CLIENTS * RATE
@@ -118,6 +183,7 @@ def run(quick: bool) -> list[Row]:
     except RuntimeError as exc:  # the load generator gave up (a backlog past its timeouts)
         failed = str(exc).strip().splitlines()[-1][:200]
         print(f"  load run failed: {exc}")
+    raw = _raw_relay_latency(min(seconds, 10.0))
     cpu = _cpu_run(min(seconds, 5.0), None)
     profile = cProfile.Profile()
     profiled = _cpu_run(2.0, profile)
@@ -161,6 +227,17 @@ def run(quick: bool) -> list[Row]:
             c["latency_us"]["p99"] <= 10_000,
             higher_is_better=False,
             note=f"p50 {c['latency_us']['p50'] / 1e3:.1f} ms",
+        ),
+        Row(
+            "load: latency p99, ours vs a raw websockets relay under the same load",
+            c["latency_us"]["p99"] / 1e3,
+            raw["latency_us"]["p99"] / 1e3,
+            "ms",
+            "(info: the floor on this machine)",
+            True,
+            higher_is_better=False,
+            note=f"raw relay: p50 {raw['latency_us']['p50'] / 1e3:.1f} ms, "
+            f"{min(seconds, 10.0):g} s, no simulation, validation or recording",
         ),
         Row(
             "load: frames received or reported dropped, of sent",
