@@ -5,6 +5,7 @@ never changes what is recorded."""
 from __future__ import annotations
 
 import hashlib
+import os
 import selectors
 import socket
 import subprocess
@@ -101,6 +102,7 @@ def test_a_quick_peer_grows_the_window_and_is_answered_while_polling(
 ) -> None:
     selector = PollingSelector()
     selector.should_poll = lambda: True
+    selector.cpu_free = lambda: True  # whatever else the machine runs now
     conn, proc = _remote(listener)
     try:
         selector.register(conn, selectors.EVENT_READ)
@@ -148,6 +150,22 @@ def test_a_session_stepped_from_python_does_not_poll(demo_position: LoadedRobot)
             listener.wait(timeout=60)
 
 
+_SPIN = "while True: pass"
+
+
+def test_no_polling_while_more_tasks_are_runnable_than_cpus() -> None:
+    selector = PollingSelector()
+    cpus = len(os.sched_getaffinity(0))
+    spinners = [subprocess.Popen([sys.executable, "-c", _SPIN]) for _ in range(cpus + 1)]
+    try:
+        assert not selector.runnable_fit()
+    finally:
+        for proc in spinners:
+            proc.kill()
+            proc.wait(timeout=30)
+        selector.close()
+
+
 @given(
     window=st.integers(0, MAX_NS),
     waited=st.integers(0, 10 * MAX_NS),
@@ -186,6 +204,7 @@ with connect(sys.argv[1], compression=None) as ws:
 def _recorded(robot: LoadedRobot, path: Path, max_ns: int) -> tuple[str, int]:
     with Session(robot, record_to=path) as session:
         session._runner.selector.max_ns = max_ns
+        session._runner.selector.cpu_free = lambda: True  # whatever else the machine runs
         subprocess.run([sys.executable, "-c", _CLIENT, session.url], check=True, timeout=120)
         polled = session._runner.selector.polled
         assert session.step_index == 300
