@@ -39,6 +39,7 @@ MAX_NS = 300_000
 is ~100-250 us here)."""
 GROW_START_NS = 40_000
 """The window a wait that ended soon after blocking grows an empty window to."""
+_KNOWN_MAX = 1024
 
 
 def _hex_address(host: str, port: int) -> str | None:
@@ -87,21 +88,20 @@ def peer_in_process(sock: socket.socket) -> bool:
     return False
 
 
-def _tcp_peer(fd: int) -> tuple[bool, Any] | None:
-    """(in this process, peer address) of TCP socket ``fd``; None when ``fd`` is no connected
-    TCP socket (the listening socket, the loop's self-pipe, a file)."""
+def _tcp_peer(fd: int) -> tuple[socket.socket, Any] | None:
+    """A duplicate of TCP socket ``fd`` (the caller closes it) and its peer; None when ``fd``
+    is no connected TCP socket (the listening socket, the loop's self-pipe, a file)."""
     try:
         sock = socket.socket(fileno=os.dup(fd))
     except OSError:
         return None
-    with sock:
-        if sock.family not in (socket.AF_INET, socket.AF_INET6) or sock.type != socket.SOCK_STREAM:
-            return None
-        try:
-            peer = sock.getpeername()
-        except OSError:
-            return None
-        return peer_in_process(sock), peer
+    try:
+        if sock.family in (socket.AF_INET, socket.AF_INET6) and sock.type == socket.SOCK_STREAM:
+            return sock, sock.getpeername()
+    except OSError:
+        pass
+    sock.close()
+    return None
 
 
 class PollingSelector(selectors.DefaultSelector):
@@ -178,8 +178,13 @@ class PollingSelector(selectors.DefaultSelector):
         found = _tcp_peer(fd)
         if found is None:
             return
-        _, peer = found
-        local = self._known.setdefault((fd, peer), found[0])
+        sock, peer = found
+        with sock:
+            local = self._known.get((fd, peer))
+            if local is None:
+                if len(self._known) >= _KNOWN_MAX:  # a long-running server's old peers
+                    self._known.clear()
+                local = self._known[(fd, peer)] = peer_in_process(sock)
         self._peers[fd] = (local, peer)
         self._local += local
 
