@@ -38,6 +38,10 @@ class ForwardCommandController:
 
     actions: tuple[ActionEndpoint, ...] = ()
     publishers: tuple[TopicEndpoint, ...] = ()
+    reads_state = False
+    """Its methods never look at the :class:`JointReadings` they are given (the session then
+    copies no joint arrays for it: a command may come every step). A subclass that reads them
+    sets this True."""
 
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
         p = Params(spec, source)

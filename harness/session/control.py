@@ -151,6 +151,18 @@ class _RobotControl:
         base = f"/{ns}/{controller}" if ns else f"/{controller}"
         return base + "/" + name.removeprefix("~/") if name.startswith("~/") else name
 
+    def unread(self) -> JointReadings:
+        """Readings for controllers that never look at them (``reads_state`` False): the
+        time only; reading a joint raises."""
+        return JointReadings(self.host.core.sim.sim_time_ns, _UNREAD, _UNREAD, _UNREAD)
+
+    def read_for(self, controllers: Sequence[Any]) -> JointReadings:
+        """:meth:`read`, or :meth:`unread` when none of ``controllers`` reads the joints."""
+        for controller in controllers:
+            if getattr(controller, "reads_state", True):
+                return self.read()
+        return self.unread()
+
     def read(self) -> JointReadings:
         joints = self.channels.joints
         names = joints.joint_names
@@ -200,6 +212,36 @@ class _Snapshot(Mapping[str, float]):
 
     def __repr__(self) -> str:
         return repr(self._get())
+
+
+class _Unread(Mapping[str, float]):
+    """The joint readings given to a controller that declares it never reads them
+    (``reads_state = False``): any look raises, so a wrong declaration shows."""
+
+    __slots__ = ()
+
+    def _refuse(self) -> RuntimeError:
+        return RuntimeError(
+            "this controller declares reads_state = False: it is given no joint readings"
+        )
+
+    def __getitem__(self, key: str) -> float:
+        raise self._refuse()
+
+    def __iter__(self) -> Iterator[str]:
+        raise self._refuse()
+
+    def __len__(self) -> int:
+        raise self._refuse()
+
+    def __contains__(self, key: object) -> bool:
+        raise self._refuse()
+
+    def __repr__(self) -> str:
+        return "<unread>"
+
+
+_UNREAD = _Unread()
 
 
 class ControlHost:
@@ -283,7 +325,7 @@ class ControlHost:
             active = robot.manager.active()
             if not active:
                 continue
-            state = robot.read()
+            state = robot.read_for(active)
             period = robot.every * self.core.sim.dt_ns
             for controller in active:
                 self._apply(robot, controller.update(state, period), controller.name)
@@ -304,7 +346,9 @@ class ControlHost:
             entry = robot.manager.loaded.get(name)
             if entry is None:
                 return
-            out = entry.controller.on_message(topic, msg, connection, robot.read())
+            controller = entry.controller
+            state = robot.read() if getattr(controller, "reads_state", True) else robot.unread()
+            out = controller.on_message(topic, msg, connection, state)
             self._apply(robot, out, name, connection, where)
 
         return handle
