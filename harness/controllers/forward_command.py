@@ -72,18 +72,28 @@ class ForwardCommandController:
     def commands(self, msg: Mapping[str, Any]) -> list[Command]:
         """The joint commands of one ``Float64MultiArray``; ``ValueError`` when refused (the
         simulation refuses non-finite values)."""
-        data = list(msg["data"])
-        if len(data) != len(self.joints):
-            raise ValueError(
-                f"expected {len(self.joints)} values (one per joint: {', '.join(self.joints)}), "
-                f"got {len(data)}"
-            )
+        data = self._data(msg)
         interface = self.interface
         if interface == "position":  # positional arguments: a message every step, for less
             return [Command(j, float(v)) for j, v in zip(self.joints, data, strict=True)]
         if interface == "velocity":
             return [Command(j, None, float(v)) for j, v in zip(self.joints, data, strict=True)]
         return [Command(j, None, None, float(v)) for j, v in zip(self.joints, data, strict=True)]
+
+    def _data(self, msg: Mapping[str, Any]) -> list[Any]:
+        data = list(msg["data"])
+        if len(data) != len(self.joints):
+            raise ValueError(
+                f"expected {len(self.joints)} values (one per joint: {', '.join(self.joints)}), "
+                f"got {len(data)}"
+            )
+        return data
+
+    def targets(self, msg: Mapping[str, Any]) -> dict[str, float]:
+        """What :meth:`commands` gives, as joint -> value of :attr:`interface` (each joint
+        once, in :attr:`joints` order): the session writes it at once (a command may come
+        every step); ``ValueError`` when refused."""
+        return dict(zip(self.joints, map(float, self._data(msg)), strict=True))
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings

@@ -14,7 +14,7 @@ recording replays it bit for bit.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Protocol
@@ -34,6 +34,7 @@ from harness.controllers import (
     default_controllers,
     load_controllers,
 )
+from harness.controllers.forward_command import ForwardCommandController
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
@@ -347,6 +348,24 @@ class ControlHost:
             if entry is None:
                 return
             controller = entry.controller
+            if type(controller) is ForwardCommandController and controller.active:
+                # what on_message and _command do for it, without a Command per joint
+                try:
+                    values = controller.targets(msg)
+                except ValueError:
+                    pass  # refused: on_message below says why
+                else:
+                    field = controller.interface
+                    self._write(
+                        robot,
+                        values if field == "position" else None,
+                        values if field == "velocity" else None,
+                        values if field == "effort" else None,
+                        values,
+                        where,
+                        connection,
+                    )
+                    return
             state = robot.read() if getattr(controller, "reads_state", True) else robot.unread()
             out = controller.on_message(topic, msg, connection, state)
             self._apply(robot, out, name, connection, where)
@@ -470,6 +489,23 @@ class ControlHost:
                     velocities[cmd.joint] = velocity
             elif mode == "effort" and effort is not None:
                 efforts[cmd.joint] = effort
+        self._write(
+            robot, positions, velocities, efforts, (c.joint for c in commands), where, connection
+        )
+
+    def _write(
+        self,
+        robot: _RobotControl,
+        positions: Mapping[str, float] | None,
+        velocities: Mapping[str, float] | None,
+        efforts: Mapping[str, float] | None,
+        commanded: Iterable[str],
+        where: str,
+        connection: int,
+    ) -> None:
+        """Write the commands of each field (``commanded``: every joint commanded, the
+        trajectory lets go of them) and report what was refused or changed."""
+        joints = robot.channels.joints
         notices: list[Notice] = []
         try:
             if positions:
@@ -485,7 +521,7 @@ class ControlHost:
             self.core.log(Level.ERROR, text)
             return
         if robot.channels.commands.trajectory is not None:
-            robot.channels.commands.drop_from_trajectory([c.joint for c in commands])
+            robot.channels.commands.drop_from_trajectory(list(commanded))
         for notice in notices:
             key = (where, notice.joint, notice.kind)
             if not connection and key in robot.warned:

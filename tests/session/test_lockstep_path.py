@@ -75,3 +75,61 @@ def test_forward_commands_step_by_step_move_the_arm() -> None:
             "nanosec": sim.sim_time_ns % 10**9,
         }
         assert np.allclose(session.call(sim.joint_positions)[:7], target[:7], atol=0.05)
+
+
+CONTROLLERS = """
+controller_manager:
+  ros__parameters:
+    update_rate: 100
+    vel:
+      type: velocity_controllers/JointGroupVelocityController
+    idle:
+      type: velocity_controllers/JointGroupVelocityController
+vel:
+  ros__parameters:
+    joints: [joint1, joint2]
+idle:
+  ros__parameters:
+    joints: [joint1]
+"""
+
+
+def test_velocity_group_commands_and_refusals() -> None:
+    robot = load_robot("demo", control="velocity")
+    with Session(robot, controllers=CONTROLLERS) as session:
+
+        def run() -> list[tuple[str, str]]:
+            bridge = session.core.bridge
+            assert bridge is not None
+            cid = bridge.connect("client")
+            replies: list[tuple[str, str]] = []
+            bridge.receive(cid, json.dumps({"op": "set_level", "level": "warning"}), 0)
+
+            def publish(topic: str, data: list[float]) -> None:
+                frame = {"op": "publish", "topic": topic, "msg": {"data": data}}
+                for o in [*bridge.receive(cid, json.dumps(frame), 0), *bridge.drain()]:
+                    reply = json.loads(o.data)
+                    replies.append((reply["level"], reply["msg"]))
+
+            publish("/vel/commands", [0.25, -0.5])
+            commands = session.core.sim.joint_commands()
+            names = session.core.sim.joint_names
+            assert commands[names.index("joint1")] == 0.25
+            assert commands[names.index("joint2")] == -0.5
+            publish("/vel/commands", [0.25])
+            publish("/idle/commands", [0.1])
+            publish("/vel/commands", [1e9, 0.0])
+            assert session.core.sim.joint_commands()[names.index("joint2")] == 0.0
+            bridge.disconnect(cid)
+            return replies
+
+        replies = session.call(run)
+        assert replies[0] == (
+            "error",
+            "/vel/commands: command refused: expected 2 values (one per joint: joint1, joint2), "
+            "got 1",
+        )
+        assert replies[1] == ("error", "/idle/commands: inactive, command ignored")
+        assert replies[2][0] == "warning"
+        assert replies[2][1].startswith("/vel/commands: joint 'joint1': velocity 1e+09 is beyond")
+        assert len(replies) == 3
