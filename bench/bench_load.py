@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from areas import format_areas
-from common import Row
+from common import Row, websockets_thread
 
 from harness.session import Session
 from tests.load.loadrun import LOADGEN, load_run
@@ -113,10 +113,7 @@ def _raw_relay_latency(seconds: float) -> dict[str, Any]:
     runs: each frame parsed, a ``publish`` sent on to its topic's subscribers as rosbridge
     frames it, a ``call_service`` answered; no simulation, validation or recording (and no
     ``/joint_states``: the generator is told not to subscribe). The generator's report."""
-    import asyncio
-    import threading
-
-    from websockets.asyncio.server import ServerConnection, serve
+    from websockets.asyncio.server import ServerConnection
 
     subscribers: dict[str, set[ServerConnection]] = {}
 
@@ -143,30 +140,13 @@ def _raw_relay_latency(seconds: float) -> dict[str, Any]:
                 }
                 await ws.send(json.dumps(answer))
 
-    ready = threading.Event()
-    box: dict[str, Any] = {}
-
-    async def main() -> None:
-        async with serve(handler, "127.0.0.1", 0, compression=None) as server:
-            box["port"] = server.sockets[0].getsockname()[1]
-            box["loop"] = asyncio.get_running_loop()
-            box["stop"] = stop = asyncio.Event()
-            ready.set()
-            await stop.wait()
-
-    thread = threading.Thread(target=asyncio.run, args=(main(),), daemon=True)
-    thread.start()
-    ready.wait()
-    try:
+    with websockets_thread(handler) as (port, _):
         out = subprocess.run(
-            [sys.executable, str(LOADGEN), f"ws://127.0.0.1:{box['port']}", "--clients",
+            [sys.executable, str(LOADGEN), f"ws://127.0.0.1:{port}", "--clients",
              str(CLIENTS), "--rate", str(RATE), "--seconds", str(seconds),
              "--no-joint-states"],
             capture_output=True, text=True, check=True,
         ).stdout  # fmt: skip
-    finally:
-        box["loop"].call_soon_threadsafe(box["stop"].set)
-        thread.join()
     report: dict[str, Any] = json.loads(out)
     return report
 

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from areas import format_areas
-from common import Row
+from common import Row, websockets_thread
 
 from harness.models import LoadedRobot, load_robot
 from harness.session import Session
@@ -228,11 +228,9 @@ def _raw_server_loop(steps: int, carry: bool = False) -> tuple[float, float]:
     the session serves with) on a thread of this process, answering each ``call_service``
     with a ``service_response`` (the frames parsed as JSON, nothing else done). Steps/s and
     the server thread's CPU microseconds per step."""
-    import asyncio
     import json
-    import threading
 
-    from websockets.asyncio.server import ServerConnection, serve
+    from websockets.asyncio.server import ServerConnection
 
     decoder = json.JSONDecoder()
 
@@ -251,42 +249,16 @@ def _raw_server_loop(steps: int, carry: bool = False) -> tuple[float, float]:
                     )
                 )  # fmt: skip
 
-    ready = threading.Event()
-    box: dict[str, object] = {}
-
-    async def main() -> None:
-        async with serve(handler, "127.0.0.1", 0, compression=None) as server:
-            box["port"] = server.sockets[0].getsockname()[1]
-            box["loop"] = asyncio.get_running_loop()
-            box["stop"] = stop = asyncio.Event()
-            ready.set()
-            await stop.wait()
-
-    thread = threading.Thread(target=asyncio.run, args=(main(),), daemon=True)
-    thread.start()
-    ready.wait()
-    assert thread.ident is not None
-    clock = time.pthread_getcpuclockid(thread.ident)
-    cpu = time.clock_gettime(clock)
-    try:
+    with websockets_thread(handler) as (port, thread):
+        assert thread.ident is not None
+        clock = time.pthread_getcpuclockid(thread.ident)
+        cpu = time.clock_gettime(clock)
         out = subprocess.run(
-            [
-                sys.executable,
-                "-c",
-                _CLIENT,
-                f"ws://127.0.0.1:{box['port']}",
-                str(steps),
-                "1" if carry else "0",
-            ],
-            capture_output=True,
-            text=True,
-            check=True,
-        )
+            [sys.executable, "-c", _CLIENT, f"ws://127.0.0.1:{port}", str(steps),
+             "1" if carry else "0"],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
         cpu = time.clock_gettime(clock) - cpu
-    finally:
-        loop = box["loop"]
-        loop.call_soon_threadsafe(box["stop"].set)  # type: ignore[attr-defined]
-        thread.join()
     return steps / float(out.stdout.strip()), cpu / (steps + _WARM_UP) * 1e6
 
 

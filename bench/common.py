@@ -7,14 +7,26 @@ something on any machine. Each ``bench/bench_*.py`` exposes ``run(quick: bool) -
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import os
 import platform
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
-__all__ = ["Row", "best_of", "format_markdown", "format_table", "machine", "rss_mb"]
+__all__ = [
+    "Row",
+    "best_of",
+    "format_markdown",
+    "format_table",
+    "machine",
+    "rss_mb",
+    "websockets_thread",
+]
 
 
 @dataclass(frozen=True)
@@ -55,6 +67,37 @@ def best_of(fn: Callable[[], object], repeats: int = 5) -> float:
         fn()
         best = min(best, time.perf_counter() - start)
     return best
+
+
+@contextlib.contextmanager
+def websockets_thread(
+    handler: Callable[[Any], Awaitable[None]],
+) -> Iterator[tuple[int, threading.Thread]]:
+    """A bare ``websockets`` asyncio server (the library the session serves with, compression
+    off) serving ``handler`` on 127.0.0.1 from a thread of this process, as the session runs:
+    yields its port and thread (for its CPU clock), stopped on exit. The limit of the rows
+    that compare our server with the library alone."""
+    from websockets.asyncio.server import serve
+
+    ready = threading.Event()
+    box: dict[str, Any] = {}
+
+    async def main() -> None:
+        async with serve(handler, "127.0.0.1", 0, compression=None) as server:
+            box["port"] = server.sockets[0].getsockname()[1]
+            box["loop"] = asyncio.get_running_loop()
+            box["stop"] = stop = asyncio.Event()
+            ready.set()
+            await stop.wait()
+
+    thread = threading.Thread(target=asyncio.run, args=(main(),), daemon=True)
+    thread.start()
+    ready.wait()
+    try:
+        yield box["port"], thread
+    finally:
+        box["loop"].call_soon_threadsafe(box["stop"].set)
+        thread.join()
 
 
 def rss_mb(pid: int | None = None) -> float:
