@@ -119,8 +119,8 @@ class PollingSelector(selectors.DefaultSelector):
         blocks (that thread runs Python between its calls and would wait for our GIL)."""
         self.polled = 0
         """Waits that ended while polling (what the window won)."""
-        self._peers: dict[int, tuple[bool, Any]] = {}
-        """Registered fd -> (in this process, peer) for TCP connections."""
+        self._peers: dict[int, bool] = {}
+        """Registered fd -> in this process, for TCP connections."""
         self._local = 0
         self._known: dict[tuple[int, Any], bool] = {}
         """(fd, peer) -> in this process: looked up once per connection."""
@@ -185,13 +185,13 @@ class PollingSelector(selectors.DefaultSelector):
                 if len(self._known) >= _KNOWN_MAX:  # a long-running server's old peers
                     self._known.clear()
                 local = self._known[(fd, peer)] = peer_in_process(sock)
-        self._peers[fd] = (local, peer)
+        self._peers[fd] = local
         self._local += local
 
     def _untrack(self, fd: int) -> None:
-        entry = self._peers.pop(fd, None)
-        if entry is not None:
-            self._local -= entry[0]
+        local = self._peers.pop(fd, None)
+        if local is not None:
+            self._local -= local
 
     @property
     def polling(self) -> bool:

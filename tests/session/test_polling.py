@@ -43,80 +43,84 @@ def listener() -> Iterator[socket.socket]:
     server.close()
 
 
-def _remote(listener: socket.socket) -> tuple[socket.socket, subprocess.Popen[bytes]]:
+@pytest.fixture
+def remote(listener: socket.socket) -> Iterator[socket.socket]:
+    """Our end of a connection from a process of its own (an echo client)."""
     port = listener.getsockname()[1]
     proc = subprocess.Popen([sys.executable, "-c", _ECHO, str(port)])
     conn, _ = listener.accept()
-    return conn, proc
+    yield conn
+    conn.close()
+    proc.wait(timeout=30)
 
 
-def test_a_peer_of_this_process_is_told_from_one_in_another(listener: socket.socket) -> None:
-    mine = socket.create_connection(listener.getsockname())
+@pytest.fixture
+def mine(listener: socket.socket) -> Iterator[tuple[socket.socket, socket.socket]]:
+    """Both ends of a connection within this process (client end, accepted end)."""
+    client = socket.create_connection(listener.getsockname())
     accepted, _ = listener.accept()
-    conn, proc = _remote(listener)
-    try:
-        assert peer_in_process(accepted)
-        assert peer_in_process(mine)
-        assert not peer_in_process(conn)
-        assert peer_in_process(listener)  # no peer: unknown, taken as local
-    finally:
-        for s in (mine, accepted, conn):
-            s.close()
-        proc.wait(timeout=30)
+    yield client, accepted
+    client.close()
+    accepted.close()
+
+
+@pytest.fixture
+def selector() -> Iterator[PollingSelector]:
+    polling = PollingSelector()
+    polling.should_poll = lambda: True
+    yield polling
+    polling.close()
+
+
+def test_a_peer_of_this_process_is_told_from_one_in_another(
+    listener: socket.socket,
+    remote: socket.socket,
+    mine: tuple[socket.socket, socket.socket],
+) -> None:
+    client, accepted = mine
+    assert peer_in_process(accepted)
+    assert peer_in_process(client)
+    assert not peer_in_process(remote)
+    assert peer_in_process(listener)  # no peer: unknown, taken as local
 
 
 def test_polling_runs_only_for_peers_in_other_processes_when_asked(
     listener: socket.socket,
+    remote: socket.socket,
+    mine: tuple[socket.socket, socket.socket],
+    selector: PollingSelector,
 ) -> None:
-    selector = PollingSelector()
-    conn, proc = _remote(listener)
-    mine = socket.create_connection(listener.getsockname())
-    accepted, _ = listener.accept()
-    try:
-        selector.should_poll = lambda: True
-        assert not selector.polling  # no peer registered
-        selector.register(listener, selectors.EVENT_READ)
-        assert not selector.polling  # a listening socket is no peer
-        selector.register(conn, selectors.EVENT_READ)
-        assert selector.polling
-        selector.should_poll = lambda: False
-        assert not selector.polling  # the owner's clock runs
-        selector.should_poll = lambda: True
-        selector.register(accepted, selectors.EVENT_READ)
-        assert not selector.polling  # a client of this process would lose the GIL to us
-        selector.modify(accepted, selectors.EVENT_WRITE)
-        assert selector.polling  # not read from any more
-        selector.unregister(accepted)
-        selector.unregister(conn)
-        assert not selector.polling
-        assert PollingSelector(max_ns=0).polling is False
-    finally:
-        selector.close()
-        for s in (mine, accepted, conn):
-            s.close()
-        proc.wait(timeout=30)
+    _, accepted = mine
+    assert not selector.polling  # no peer registered
+    selector.register(listener, selectors.EVENT_READ)
+    assert not selector.polling  # a listening socket is no peer
+    selector.register(remote, selectors.EVENT_READ)
+    assert selector.polling
+    selector.should_poll = lambda: False
+    assert not selector.polling  # the owner's clock runs
+    selector.should_poll = lambda: True
+    selector.register(accepted, selectors.EVENT_READ)
+    assert not selector.polling  # a client of this process would lose the GIL to us
+    selector.modify(accepted, selectors.EVENT_WRITE)
+    assert selector.polling  # not read from any more
+    selector.unregister(accepted)
+    selector.unregister(remote)
+    assert not selector.polling
+    assert PollingSelector(max_ns=0).polling is False
 
 
 def test_a_quick_peer_grows_the_window_and_is_answered_while_polling(
-    listener: socket.socket,
+    remote: socket.socket, selector: PollingSelector
 ) -> None:
-    selector = PollingSelector()
-    selector.should_poll = lambda: True
     selector.cpu_free = lambda: True  # whatever else the machine runs now
-    conn, proc = _remote(listener)
-    try:
-        selector.register(conn, selectors.EVENT_READ)
-        for _ in range(200):
-            conn.sendall(b"x")
-            ready = selector.select(timeout=30)
-            assert [key.fileobj for key, _ in ready] == [conn]
-            assert conn.recv(1) == b"x"
-        assert selector.window_ns > 0
-        assert selector.polled > 0  # some echoes came while polling
-    finally:
-        selector.close()
-        conn.close()
-        proc.wait(timeout=30)
+    selector.register(remote, selectors.EVENT_READ)
+    for _ in range(200):
+        remote.sendall(b"x")
+        ready = selector.select(timeout=30)
+        assert [key.fileobj for key, _ in ready] == [remote]
+        assert remote.recv(1) == b"x"
+    assert selector.window_ns > 0
+    assert selector.polled > 0  # some echoes came while polling
 
 
 # a client in its own process that only listens (subscribed to /joint_states) until closed
@@ -153,8 +157,7 @@ def test_a_session_stepped_from_python_does_not_poll(demo_position: LoadedRobot)
 _SPIN = "while True: pass"
 
 
-def test_no_polling_while_more_tasks_are_runnable_than_cpus() -> None:
-    selector = PollingSelector()
+def test_no_polling_while_more_tasks_are_runnable_than_cpus(selector: PollingSelector) -> None:
     cpus = len(os.sched_getaffinity(0))
     spinners = [subprocess.Popen([sys.executable, "-c", _SPIN]) for _ in range(cpus + 1)]
     try:
@@ -163,7 +166,6 @@ def test_no_polling_while_more_tasks_are_runnable_than_cpus() -> None:
         for proc in spinners:
             proc.kill()
             proc.wait(timeout=30)
-        selector.close()
 
 
 @given(
