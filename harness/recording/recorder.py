@@ -554,8 +554,7 @@ class Recorder:
         start = time.perf_counter()
         try:
             if provisional:
-                self._writer.drain()  # the tail goes after every closed chunk
-                tail = self._writer.provisional()
+                tail = self._writer.provisional()  # after every closed chunk is written
                 if tail is not None:
                     self._stream.write_tail(tail)
             else:

@@ -21,7 +21,8 @@ in turn, at a lock and a few calls per ring instead of per message.
 
 Chunks still close by size alone (byte-reproducible files). :meth:`drain` waits until every
 closed chunk is on disk; :meth:`provisional` gives the open chunk as a complete chunk record
-plus its message indexes for the crash-safety tail (:mod:`harness.recording.tail`).
+plus its message indexes for the crash-safety tail (:mod:`harness.recording.tail`), after
+waiting for the chunks that settling the ring closed: one thread writes the file at a time.
 A write error of the chunk thread (disk full) is raised by the next :meth:`add` that closes a
 chunk, by :meth:`drain`, :meth:`flush` and :meth:`finish`.
 """
@@ -410,8 +411,13 @@ class ChunkWriter:
 
     def provisional(self) -> bytes | None:
         """The open chunk as the chunk record and message indexes it would be written as if it
-        closed now (``None``: no message in it); call after :meth:`drain`."""
+        closed now (``None``: no message in it), once every closed chunk is written: the tail
+        goes after them. Nothing may add to the writer until the tail is written."""
         self.settle()
+        # Settling the ring may have closed chunks. The chunk thread writes them at the
+        # committed end, where the tail goes too: written meanwhile, the tail would land on
+        # top of a committed chunk (a damaged file) or be cut off by it (a flush not on disk).
+        self.drain()
         if not self._open.indexes:
             return None
         data, _ = self._chunk_bytes(self._open, self._stream.tell())

@@ -5,17 +5,28 @@ from __future__ import annotations
 
 import re
 import shutil
+import threading
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from harness.recording import PhysicsState, Recorder, Recording, RecordingWriteError
+from harness.recording import (
+    PhysicsState,
+    Recorder,
+    Recording,
+    RecordingDamagedWarning,
+    RecordingWriteError,
+    recorder,
+)
 from harness.recording.recorder import STATE_RING
-from harness.recording.stateslot import forwarding_slot
+from harness.recording.stateslot import StateRecords, forwarding_slot
+from harness.recording.tail import TailFile
 from harness.recording.templates import clock_cdr
+from harness.recording.writer import ChunkWriter
 
 METADATA = {
     "timestep": "0.001",
@@ -113,6 +124,81 @@ def test_a_checkpoint_puts_the_states_of_an_unfinished_ring_on_disk(tmp_path: Pa
         shutil.copy(path, tmp_path / "killed.mcap")
     with Recording(tmp_path / "killed.mcap") as recording:
         assert [s.step for s in recording.physics_states()] == list(range(1, STATE_RING // 2))
+
+
+class _HeldChunks(TailFile):
+    """A recording file whose chunk writes (the writer's chunk thread) wait until the writer
+    waits for them (:meth:`ChunkWriter.drain`) or a tail has been written since they began:
+    the order a busy machine may give, every time."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__(path)
+        self.owner = threading.current_thread()
+        self.changed = threading.Condition()
+        self.tails = 0
+        self.draining = False
+
+    def write(self, data: bytes | bytearray | memoryview) -> int:
+        if threading.current_thread() is not self.owner:
+            with self.changed:
+                tails = self.tails
+                if not self.changed.wait_for(lambda: self.draining or self.tails > tails, 60):
+                    raise AssertionError("a chunk write was never waited for")  # hang guard
+        return super().write(data)
+
+    def write_tail(self, data: bytes) -> None:
+        super().write_tail(data)
+        with self.changed:
+            self.tails += 1
+            self.changed.notify_all()
+
+
+class _DrainingWriter(ChunkWriter):
+    def __init__(self, stream: _HeldChunks, **options: Any) -> None:
+        super().__init__(stream, **options)
+        self.held = stream
+
+    def drain(self) -> None:
+        with self.held.changed:
+            self.held.draining = True
+            self.held.changed.notify_all()
+        try:
+            super().drain()
+        finally:
+            self.held.draining = False
+
+
+def test_a_checkpoint_writes_its_tail_after_the_chunks_it_closed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Settling the ring at a checkpoint closes chunks, which the chunk thread writes; the
+    tail goes after them. Written before them (issue 35: on a busy machine), the tail was cut
+    off by them, and the file a killed process left lacked states; written while they were
+    (two identical runs then differed at byte 4497), over one of them."""
+    monkeypatch.setattr(recorder, "TailFile", _HeldChunks)
+    monkeypatch.setattr(recorder, "ChunkWriter", _DrainingWriter)
+    path = tmp_path / "run.mcap"
+    record = StateRecords(1, 0, SPEC, 5, slice(1, 3), slice(3, 5)).ring.record_size
+    steps = list(range(1, STATE_RING))
+    options = {"metadata": METADATA, "library": "test", "flush_interval_s": 3600.0}
+    with Recorder(path, chunk_size=10 * record, **options) as rec:  # type: ignore[arg-type]
+        slot = rec.physics_state_slot(SPEC, 5, slice(1, 3), slice(3, 5))
+        for k in steps:  # one fewer than a ring: only the checkpoint settles them
+            slot.state[:] = k
+            slot.write(k, k * 1000)
+        rec.checkpoint()
+        shutil.copy(path, tmp_path / "killed.mcap")
+    truncated = "truncated: the file ends before its summary"
+    with pytest.warns(RecordingDamagedWarning, match=truncated):
+        killed = Recording(tmp_path / "killed.mcap")
+    with killed as recording:
+        assert [s.step for s in recording.physics_states()] == steps
+        assert not recording.scan.skipped  # nothing written over
+        ends = [c.end_time for c in recording.scan.chunks if c.messages]
+        assert len(ends) > 1  # chunks the checkpoint closed, then its tail
+        assert ends[-1] == steps[-1] * 1000
+    with Recording(path) as recording:
+        assert [s.step for s in recording.physics_states()] == steps
 
 
 def test_bad_writes_are_refused_in_one_line(tmp_path: Path) -> None:
