@@ -387,11 +387,13 @@ class Recorder:
             to_qvel[:] = qvel_part
             times[i] = sim_time_ns
             channel.seq = seq + 1
+            i += 1
+            ring.count = i  # complete: a flush may move it from here on
+            # Marked after it: a flush clears _dirty before it settles, so a record it
+            # missed leaves _dirty set for the next one.
             self._last_time = sim_time_ns
             self._messages += 1
             self._dirty = True
-            i += 1
-            ring.count = i
             if i == STATE_RING:
                 with self._lock:
                     try:
@@ -551,6 +553,10 @@ class Recorder:
     def _flush_locked(self, *, provisional: bool) -> FlushInfo | None:
         if not self._dirty:
             return None
+        # Before the slot's ring is settled: a state slot writes without the lock, so a
+        # state written meanwhile sets _dirty again and is not counted as flushed.
+        self._dirty = False
+        last_time, messages = self._last_time, self._messages
         start = time.perf_counter()
         try:
             if provisional:
@@ -563,7 +569,6 @@ class Recorder:
             self._failure = exc
             raise RecordingWriteError(f"{self.path}: recording failed: {exc}") from exc
         seconds = time.perf_counter() - start
-        self._dirty = False
         self._flushes += 1
         self._flush_total += seconds
         self._flush_max = max(self._flush_max, seconds)
@@ -575,7 +580,7 @@ class Recorder:
                 f"{self.max_bytes / 2**20:g} MiB limit (max_bytes): recording stopped"
             )
             raise self._failure
-        return FlushInfo(self._last_time, self._messages, size, seconds)
+        return FlushInfo(last_time, messages, size, seconds)
 
     def _flush_loop(self, interval: float) -> None:
         while not self._stop.wait(interval):

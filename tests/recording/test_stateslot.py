@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import shutil
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ from harness.recording import (
     RecordingWriteError,
     recorder,
 )
-from harness.recording.recorder import STATE_RING
+from harness.recording.recorder import STATE_RING, FlushInfo
 from harness.recording.stateslot import StateRecords, forwarding_slot
 from harness.recording.tail import TailFile
 from harness.recording.templates import clock_cdr
@@ -199,6 +200,44 @@ def test_a_checkpoint_writes_its_tail_after_the_chunks_it_closed(
         assert ends[-1] == steps[-1] * 1000
     with Recording(path) as recording:
         assert [s.step for s in recording.physics_states()] == steps
+
+
+class _WriteDuringSettle(ChunkWriter):
+    """A writer that calls :attr:`during` (once) right after its next settle."""
+
+    during: Callable[[], None] | None = None
+
+    def settle(self) -> None:
+        super().settle()
+        during = type(self).during
+        type(self).during = None
+        if during is not None:
+            during()
+
+
+def test_a_state_written_while_a_flush_settles_goes_in_the_next_flush(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The slot writes without the recorder's lock: a state written while the flush thread
+    is flushing (after it settled the ring) is not in that flush; the flush neither claims
+    it nor marks the recorder clean, so the next flush puts it on disk."""
+    monkeypatch.setattr(recorder, "ChunkWriter", _WriteDuringSettle)
+    path = tmp_path / "run.mcap"
+    flushed: list[FlushInfo] = []
+    options = {"metadata": METADATA, "library": "test", "flush_interval_s": 3600.0}
+    with Recorder(path, on_flush=flushed.append, **options) as rec:  # type: ignore[arg-type]
+        slot = rec.physics_state_slot(SPEC, 5, slice(1, 3), slice(3, 5))
+        for k in (1, 2):
+            slot.write(k, k * 1000)
+        monkeypatch.setattr(_WriteDuringSettle, "during", lambda: slot.write(3, 3000))
+        rec.checkpoint()
+        rec.checkpoint()
+        shutil.copy(path, tmp_path / "killed.mcap")
+    assert [info.sim_time_ns for info in flushed] == [2000, 3000]
+    with pytest.warns(RecordingDamagedWarning, match="truncated"):
+        killed = Recording(tmp_path / "killed.mcap")
+    with killed as recording:
+        assert [s.step for s in recording.physics_states()] == [1, 2, 3]
 
 
 def test_bad_writes_are_refused_in_one_line(tmp_path: Path) -> None:
