@@ -10,11 +10,12 @@ time; the replay package loads when a golden is first checked.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shlex
 import shutil
 import tempfile
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -103,8 +104,8 @@ class Golden:
             )
         bounds: dict[str, Any] = dict(tolerances)
         report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
-        if not report.same:
-            first = _first(report.entries)
+        first = report.first_entry
+        if first is not None:
             run.divergence = _format_entry(first)
             raise GoldenMismatch(
                 f"this run differs from golden {shown}: first divergence: {run.divergence}\n"
@@ -150,15 +151,19 @@ def _shown(path: Path, rootdir: Path) -> str:
     return str(path)
 
 
-def _first(entries: Iterable[DiffEntry]) -> DiffEntry:
-    return min(entries, key=lambda e: (e.step < 0, e.step))
-
-
 def _format_entry(e: DiffEntry) -> str:
-    where = f" at step {e.step}" if e.step >= 0 else ""
+    """``joint_position joint3 at step 41: golden 0.1, this run 0.1002 (delta 0.0002 there >
+    tolerance 0; max delta 0.005 at step 90)``: each value says at which step it is."""
+    if e.step < 0:
+        return (
+            f"{e.quantity} {e.name}: golden {e.a!r}, this run {e.b!r} "
+            f"(delta {e.max_delta:.6g} > tolerance {e.tolerance:g})"
+        )
+    delta = "" if math.isnan(e.delta) else f"delta {e.delta:.6g} there > "
+    largest = f"; max delta {e.max_delta:.6g} at step {e.max_step}" if e.max_step >= 0 else ""
     return (
-        f"{e.quantity} {e.name}{where}: golden {e.a!r}, this run {e.b!r} "
-        f"(max delta {e.max_delta:.6g} > tolerance {e.tolerance:g})"
+        f"{e.quantity} {e.name} at step {e.step}: golden {e.a!r}, this run {e.b!r} "
+        f"({delta}tolerance {e.tolerance:g}{largest})"
     )
 
 

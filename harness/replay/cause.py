@@ -10,6 +10,7 @@ client reacting to a different state), not a cause.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
@@ -23,7 +24,7 @@ from harness.sim.inputs import ARRAY_FIELDS
 if TYPE_CHECKING:
     from harness.replay.diff import DiffEntry
 
-__all__ = ["Cause", "FirstDivergence", "first_cause", "first_divergence"]
+__all__ = ["Cause", "FirstDivergence", "divergence_order", "first_cause", "first_divergence"]
 
 _EXCERPT = 48
 
@@ -192,16 +193,12 @@ def first_cause(
 def first_divergence(
     entries: list[DiffEntry], cause: Cause | None, dt_ns: int
 ) -> FirstDivergence | None:
-    """The first-divergence line of a diff: the first state row (``entries`` sorted by step)
+    """The first-divergence line of a diff: the first state row (:func:`divergence_order`)
     and the cause, when it comes no later than that row."""
     rows = [e for e in entries if e.step >= 0]
     if not rows and cause is None:
         return None
-    first = None
-    if rows:
-        # At the first step: joints before links, the largest difference there first.
-        at_first = [e for e in rows if e.step == rows[0].step]
-        first = min(at_first, key=lambda e: (_RANK.get(e.quantity, 9), -_delta(e.a, e.b)))
+    first = min(rows, key=divergence_order) if rows else None
     if first is not None and cause is not None and cause.step > first.step:
         cause = None  # a consequence of the divergence, not its cause
     step = first.step if first is not None else cause.step if cause is not None else 0
@@ -217,8 +214,18 @@ def first_divergence(
 _RANK = {"joint_position": 0, "joint_velocity": 1, "link_position": 2, "link_rotation": 3}
 
 
+def divergence_order(entry: DiffEntry) -> tuple[bool, int, int, float, str, str]:
+    """The order of a diff's rows; the first is *the* first divergence (the golden failure's
+    headline, the FIRST DIVERGENCE line, the table's first row): by the step it is first
+    beyond its tolerance (rows without a step last), joints before links, then the largest
+    difference at that step first."""
+    delta = _delta(entry.a, entry.b) if math.isnan(entry.delta) else entry.delta
+    return (entry.step < 0, entry.step, _RANK.get(entry.quantity, 9), -delta, entry.quantity,
+            entry.name)  # fmt: skip
+
+
 def _delta(a: object, b: object) -> float:
-    """How far apart two shown values are (0 when not numbers)."""
+    """How far apart two shown values are (0 when not numbers): for rows without a delta."""
     if isinstance(a, float) and isinstance(b, float):
         return abs(b - a)
     if isinstance(a, tuple) and isinstance(b, tuple) and len(a) == len(b):

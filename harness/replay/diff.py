@@ -16,8 +16,10 @@ The engine of golden tests (the pytest plugin's ``golden.check(**tolerances)`` c
 
 Bytes are never compared (headers carry library versions). A quantity differs when
 ``|b - a| > tolerance``; every differing quantity is one :class:`DiffEntry` naming the first
-step it exceeded its tolerance, both values there and its largest delta; rows are sorted by
-step. The causes are compared too (:mod:`harness.replay.cause`): the applied inputs and the
+step it exceeded its tolerance, both values and their delta there, and its largest delta and
+the step of it; rows are in :func:`~harness.replay.cause.divergence_order` (by step; at one
+step joints first, the largest delta first), so the first row is the first divergence.
+The causes are compared too (:mod:`harness.replay.cause`): the applied inputs and the
 incoming bridge frames, exactly; the first one that differs at or before the first state
 divergence is its cause, in one :class:`~harness.replay.cause.FirstDivergence` line.
 """
@@ -35,7 +37,12 @@ import numpy.typing as npt
 
 from harness.recording import CollisionEvent, Recording
 from harness.recording.layout import TOPIC_BRIDGE
-from harness.replay.cause import FirstDivergence, first_cause, first_divergence
+from harness.replay.cause import (
+    FirstDivergence,
+    divergence_order,
+    first_cause,
+    first_divergence,
+)
 from harness.replay.layout import StateLayout, rotation_angle
 from harness.replay.source import open_recording, read_states, resolve_model
 
@@ -65,15 +72,19 @@ class Tolerances(NamedTuple):
 
 @dataclass(frozen=True)
 class DiffEntry:
-    """One quantity that differs beyond its tolerance."""
+    """One quantity that differs beyond its tolerance: ``a`` and ``b`` at ``step``, the first
+    step beyond it (-1: not step-based), ``delta`` between them there (NaN: not a number),
+    and the largest delta, ``max_delta``, at ``max_step`` (-1: not step-based)."""
 
     quantity: str
     name: str
-    step: int  # first step beyond tolerance (-1: not step-based)
+    step: int
     a: Any
     b: Any
     max_delta: float
     tolerance: float
+    delta: float = math.nan
+    max_step: int = -1
 
 
 @dataclass(frozen=True)
@@ -95,6 +106,12 @@ class DiffReport:
     def same(self) -> bool:
         """True when every quantity is within its tolerance."""
         return not self.entries
+
+    @property
+    def first_entry(self) -> DiffEntry | None:
+        """The first divergence: the row the FIRST DIVERGENCE line and the table begin with
+        (:func:`~harness.replay.cause.divergence_order`); ``None`` when nothing differs."""
+        return min(self.entries, key=divergence_order, default=None)
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict."""
@@ -120,14 +137,20 @@ class DiffReport:
         if first is not None:
             lines.append(first.format())
         lines.append(
-            f"{'step':>7} {'quantity':<16} {'name':<28} {'A':>24} {'B':>24} {'max delta':>11} "
-            f"{'tolerance':>10}"
+            "step: the first step beyond tolerance; A, B and delta at that step; "
+            "max delta: the largest over the run, at step 'max at'"
         )
-        for e in self.entries:
+        lines.append(
+            f"{'step':>7} {'quantity':<16} {'name':<28} {'A':>24} {'B':>24} {'delta':>11} "
+            f"{'max delta':>11} {'max at':>7} {'tolerance':>10}"
+        )
+        for e in sorted(self.entries, key=divergence_order):
             step = "-" if e.step < 0 else str(e.step)
+            delta = "-" if math.isnan(e.delta) else f"{e.delta:.4g}"
+            max_at = "-" if e.max_step < 0 else str(e.max_step)
             lines.append(
                 f"{step:>7} {e.quantity:<16} {e.name:<28} {_show(e.a):>24} {_show(e.b):>24} "
-                f"{e.max_delta:>11.4g} {e.tolerance:>10.3g}"
+                f"{delta:>11} {e.max_delta:>11.4g} {max_at:>7} {e.tolerance:>10.3g}"
             )
         lines.append(f"DIFFERENT: {len(self.entries)} quantities beyond tolerance")
         return "\n".join(lines)
@@ -161,6 +184,7 @@ def _compare_columns(
     for column in np.flatnonzero((delta > tolerance).any(axis=0)):
         rows = np.flatnonzero(delta[:, column] > tolerance)
         r = int(rows[0])
+        largest = int(np.argmax(delta[:, column]))
         if shown is None:
             value_a: Any = float(a[r, column])
             value_b: Any = float(b[r, column])
@@ -174,8 +198,10 @@ def _compare_columns(
                 int(steps[r]),
                 value_a,
                 value_b,
-                float(delta[:, column].max()),
+                float(delta[largest, column]),
                 tolerance,
+                float(delta[r, column]),
+                int(steps[largest]),
             )
         )
     return out
@@ -219,14 +245,15 @@ def _match_collisions(
             where = f"at {event.sim_time_ns} ns"
             out.append(
                 DiffEntry("collisions", f"{kind} {b1}|{b2}", event.step, where, "missing",
-                          math.inf, tolerance_ns)
+                          math.inf, tolerance_ns, math.inf, event.step)
             )  # fmt: skip
         else:
             unmatched_b.pop(best)
     for other in unmatched_b:
         kind, b1, b2 = key(other)
         out.append(DiffEntry("collisions", f"{kind} {b1}|{b2}", other.step, "missing",
-                             f"at {other.sim_time_ns} ns", math.inf, tolerance_ns))  # fmt: skip
+                             f"at {other.sim_time_ns} ns", math.inf, tolerance_ns, math.inf,
+                             other.step))  # fmt: skip
     return out
 
 
@@ -323,7 +350,7 @@ def diff(
         if abs(na - nb) > tol.message_count:
             entries.append(
                 DiffEntry("message_count", topic, -1, na, nb, float(abs(na - nb)),
-                          float(tol.message_count))
+                          float(tol.message_count), float(abs(na - nb)))
             )  # fmt: skip
     if epochs_a != epochs_b:
         pairs = zip(epochs_a, epochs_b, strict=False)
@@ -336,7 +363,7 @@ def diff(
                       ",".join(str(s) for s, _ in epochs_a) or "none",
                       ",".join(str(s) for s, _ in epochs_b) or "none", math.inf, 0.0)
         )  # fmt: skip
-    entries.sort(key=lambda e: (e.step < 0, e.step, e.quantity, e.name))
+    entries.sort(key=divergence_order)
     return DiffReport(
         str(a), str(b), dict(tol._asdict()), int(common.size), tuple(entries),
         first_divergence(entries, cause, ra.timestep_ns), inputs_compared, frames_compared,

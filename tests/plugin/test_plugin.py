@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import socket
 import subprocess
 import sys
@@ -195,6 +196,16 @@ def test_golden_update_then_match_then_mismatch(pytester, run):
     )
     kept = pytester.path / ".harness" / "recordings" / "test_golden" / "test_move.mcap"
     assert kept.is_file()
+    # The headline and the FIRST DIVERGENCE line name one row (issue 35: they named two
+    # joints), and the headline says at which step each value is.
+    out = mismatch.stdout.str()
+    headline = re.search(r"first divergence: (\S+ \S+ at step \d+): golden (.*)", out)
+    block = re.search(r"first state difference: (\S+ \S+ at step \d+) \(A", out)
+    assert headline is not None
+    assert block is not None
+    assert headline[1] == block[1]
+    assert headline[1].startswith("joint_position joint1 at step ")
+    assert re.search(r"\(delta \S+ there > tolerance 0; max delta \S+ at step \d+\)$", headline[2])
 
     # Per-quantity tolerances wide enough for the change make it pass.
     pytester.makepyfile(

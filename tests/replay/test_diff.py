@@ -196,3 +196,38 @@ def test_a_state_recorded_twice_is_noted(
         "epochs): the first is compared",
     )
     assert "note: B: the state of step 10" in report.format()
+
+
+def test_the_first_divergence_is_one_row_and_each_value_says_its_step(
+    helper: ModuleType, tmp_path: Path
+) -> None:
+    """Issue 35: the headline, the FIRST DIVERGENCE line and the table named different
+    joints (alphabetical vs largest), and the table's A and B (at the first step) stood next
+    to the run's largest delta. One row is first (the largest difference at the first step,
+    joints first), and each value says at which step it is."""
+    # joint1 commanded 0.1 mrad apart, joint3 10 mrad: both differ from step 1 on.
+    a = helper.record(tmp_path / "a.mcap", {0: {"joint1": 0.3, "joint3": 0.0}}, 60)
+    b = helper.record(tmp_path / "b.mcap", {0: {"joint1": 0.3001, "joint3": 0.01}}, 60)
+    report = diff(a, b)
+    first = report.first_entry
+    assert first is not None
+    assert (first.quantity, first.name, first.step) == ("joint_position", "joint3", 1)
+    assert report.entries[0] == first
+    assert report.first_divergence is not None
+    assert report.first_divergence.quantity.startswith("joint_position joint3 at step 1 (A ")
+    lines = report.format().splitlines()
+    header = next(i for i, line in enumerate(lines) if line.split()[:2] == ["step", "quantity"])
+    assert lines[header].split() == [
+        "step", "quantity", "name", "A", "B", "delta", "max", "delta", "max", "at", "tolerance"
+    ]  # fmt: skip
+    assert lines[header + 1].split()[:3] == ["1", "joint_position", "joint3"]
+    joints = [e for e in report.entries if e.quantity.startswith("joint_")]
+    assert len(joints) > 2
+    for e in joints:
+        assert e.delta == abs(e.b - e.a)  # A, B and delta: at the first step
+        assert e.delta <= e.max_delta
+        assert e.max_step >= e.step
+    assert any(e.max_step > e.step and e.max_delta > e.delta for e in joints)
+    at_one = [e.delta for e in joints if e.quantity == "joint_position" and e.step == 1]
+    assert at_one == sorted(at_one, reverse=True)
+    assert {"delta", "max_step"} <= set(report.to_json()["entries"][0])
