@@ -26,7 +26,7 @@ DOM edits cost, how deep elements and macro calls nest, and its time, and stops 
 count over its limit with one :class:`ModelLimitError` line. The real robots of
 ``tests/data`` (UR, Franka's arms with their hand, two of them on one base, a Clearpath base)
 process at most 1,300 elements, 1,500 expressions, 210 KB of text and 200,000 sibling scans,
-nested 15 deep: the defaults are 70 times that or more (the nesting 6 times).
+nested 15 deep: the defaults are 35 times that or more (the nesting 6 times).
 ``HARNESS_MAX_XACRO_*`` environment variables change them (:func:`xacro_limits`).
 """
 
@@ -96,7 +96,7 @@ class XacroLimits:
     - ``seconds``: wall time, the last guard (one ``${...}`` expression runs to its end).
     """
 
-    elements: int = 100_000
+    elements: int = 50_000
     expressions: int = 500_000
     text_bytes: int = 32 * 2**20
     dom_work: int = 50_000_000
