@@ -98,7 +98,7 @@ goldens: install
 fuzz: install
 	$(PY) -m pip install --quiet -c constraints.txt -e '.[fuzz]'
 	HARNESS_FUZZ_EXAMPLES=2000 $(PY) -m pytest tests/fuzz -n 2 -q
-	for t in frames urdf sdf scenario recording; do \
+	for t in frames urdf sdf scenario recording xacro; do \
 		$(PY) tests/fuzz/atheris_fuzz.py $$t -max_total_time=120 || exit 1; done
 
 clean:

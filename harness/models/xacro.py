@@ -22,6 +22,12 @@ portable.
   arguments, the packages found and the environment variables the files name; a test suite
   that loads one robot in 200 tests expands it once.
 
+- Expansion is bounded while it runs (:mod:`harness.models.xacro_meter`): elements, expressions,
+  text, DOM work, nesting and time are counted as xacro produces them, the first over its limit
+  (:class:`~harness.models.limits.XacroLimits`, ``HARNESS_MAX_XACRO_*``) is one
+  :class:`~harness.models.limits.ModelLimitError` naming the file; a 2 KB file of macros
+  that double at each of 22 levels is refused at 50,000 elements, in 2 to 3 s of CPU.
+
 xacro keeps its state in module globals, so expansions run one at a time (a lock).
 """
 
@@ -43,7 +49,9 @@ from urllib.parse import unquote
 
 from harness.errors import HarnessError
 from harness.models.errors import ResolveError, XacroError
+from harness.models.limits import xacro_limits
 from harness.models.resolve import PackageMap, find_package, owning_package, resolve_uri
+from harness.models.xacro_meter import XacroMeter, metered
 from harness.models.xmlsafe import MAX_XML_BYTES, check_size, parse_xml
 
 __all__ = [
@@ -247,6 +255,8 @@ def _error(
         )
     if isinstance(exc, ExpatError):
         return XacroError(f"{where}:{exc.lineno}: malformed XML: {exc}")
+    if isinstance(cause, RecursionError):
+        return XacroError(f"{where}: xacro: elements or macro calls nested too deep for Python")
     text = " ".join(str(exc).split())
     return XacroError(f"{where}: xacro: {text or type(exc).__name__}")
 
@@ -307,7 +317,8 @@ def _run_xacro(
     """Expand under the lock: (URDF text, files read after the entry, packages found).
 
     An undefined ``$(arg)`` is looked for again with that argument set to a placeholder, so
-    the error names every argument the user must give (up to the first other error)."""
+    the error names every argument the user must give (up to the first other error). One
+    meter counts every attempt against the limits."""
     import xacro
     from xacro import substitution_args
 
@@ -323,11 +334,12 @@ def _run_xacro(
     substitution_args._eval_find = find
     missing: list[str] = []
     first: tuple[Exception, str] | None = None
+    meter = XacroMeter(xacro_limits())
     try:
         while True:
             xacro.all_includes = []
             try:
-                with _c_yaml(xacro), _no_gc():
+                with _c_yaml(xacro), _no_gc(), metered(xacro, meter):
                     doc = xacro.process_file(
                         str(path), mappings={**args, **dict.fromkeys(missing, "0")}
                     )
