@@ -84,7 +84,8 @@ __all__ = [
 
 XACRO_NAMESPACE = b"http://www.ros.org/wiki/xacro"
 _XACRO_USE = re.compile(rb"<\s*xacro:|\$\{|\$\(")
-_XACRO_NAME = re.compile(rb"<\s*/?\s*xacro:|\bxmlns:xacro\b")
+_XACRO_NAME = re.compile(rb"<\s*/?\s*xacro:|xmlns:xacro", re.I)
+_COMMENT = re.compile(rb"<!--.*?-->", re.S)  # as harness.models.xacro.is_xacro strips them
 _XML_SUFFIXES = (".urdf", ".xml", ".sdf", ".world", ".mjcf", ".srdf", ".xacro", ".launch")
 
 MJB_CPU_SECONDS = 60
@@ -110,13 +111,15 @@ class RecordedSources(NamedTuple):
 def is_xacro_source(name: str, blob: bytes) -> bool:
     """Whether the attachment ``name`` is a xacro source: a ``.xacro`` file, or a file whose
     text names the xacro namespace (or a ``xacro:`` element) and uses xacro (an element or a
-    ``${...}``/``$(...)`` expression). A stricter test than the loader's (it looks at the
-    whole file, comments included), so what the loader would expand is always caught here; a
-    URDF xacro wrote (which may keep the namespace declaration) is not xacro."""
+    ``${...}``/``$(...)`` expression outside comments). A wider test than the loader's
+    (:func:`harness.models.xacro.is_xacro`: the whole file, any spelling of the namespace),
+    so what the loader would expand is always caught here; a URDF xacro wrote (which may keep
+    the namespace declaration) is not xacro. (While a rebuild is confined, the loader refuses
+    to expand xacro too: :func:`harness.models.urdf_source.read_urdf_source`.)"""
     if name.lower().endswith(".xacro"):
         return True
     named = XACRO_NAMESPACE in blob or _XACRO_NAME.search(blob) is not None
-    return named and _XACRO_USE.search(blob) is not None
+    return named and _XACRO_USE.search(_COMMENT.sub(b"", blob)) is not None
 
 
 def source_name(name: str) -> str | None:
@@ -197,10 +200,16 @@ def rebuild_folder(rec: Recording, files: Mapping[str, bytes]) -> Iterator[Path]
             if source_name(name) is None:
                 raise refused(rec, f"source attachment {name!r} is not a plain relative name")
             target = root.joinpath(*name.split("/"))
-            target.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
-            with os.fdopen(fd, "wb") as out:
-                out.write(blob)
+            try:
+                target.parent.mkdir(parents=True, exist_ok=True)
+                flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW
+                with os.fdopen(os.open(target, flags, 0o600), "wb") as out:
+                    out.write(blob)
+            except OSError as exc:  # a name that is also a folder, too long, a full disk
+                raise ModelAttachmentError(
+                    f"{rec.path}: source attachment {name!r} cannot be written for the "
+                    f"rebuild: {exc.strerror}"
+                ) from None
         with confined_to(root) as real:
             try:
                 yield real

@@ -10,18 +10,23 @@ project's recorder and rewritten with the mcap library:
 - outside references (absolute path, ``file://``, ``../..``, ``package://`` with the package
   on ``ROS_PACKAGE_PATH``, MJCF ``file``/``meshdir``/``<include>``, SDF ``<uri>`` and
   ``<include>``) point at a FIFO this test made: any open of it, from Python or from MuJoCo's
-  C code, blocks, and the child's timeout fails the test. The refusal names the reference
-  with the same text whether the path exists on this machine or not.
+  C code, blocks, and the child's timeout fails the test; or at a real file watched with
+  inotify (the kernel reports any open or read; main's loader skips a FIFO by ``is_file()``
+  but reads a real file). The refusal names the reference with the same text whether the
+  path is missing, a real file or a FIFO on this machine.
 """
 
 from __future__ import annotations
 
+import ctypes
 import importlib.util
 import json
 import os
+import re
+import struct
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -30,7 +35,7 @@ import pytest
 from harness.models import DEMO_URDF, load_robot
 from harness.recording import Recorder, Recording, describe_run
 from harness.replay import gate
-from harness.replay.errors import UnsafeRecordingError
+from harness.replay.errors import ModelAttachmentError, UnsafeRecordingError
 from harness.replay.source import rebuild_robot, resolve_model
 from harness.session import Session
 
@@ -187,14 +192,61 @@ def test_xacro_source_is_refused_by_the_python_api(
 # -- break 5: references outside the recording -------------------------------------------
 
 
-@pytest.fixture
-def fifo(tmp_path: Path) -> Path:
-    """A FIFO named like a mesh: opening it for reading blocks until a writer comes."""
+_IN_ACCESS, _IN_OPEN, _IN_NONBLOCK = 0x01, 0x20, 0o4000
+_MESH = (Path(__file__).resolve().parents[1] / "data/models/pkg_demo/meshes/tetra.stl").read_bytes()
+
+
+class OpenWatch:
+    """Every open or read of a file in ``folders`` (Linux inotify: the kernel reports it,
+    from Python or from MuJoCo's C code alike; looking at a file's status is not reported)."""
+
+    def __init__(self, *folders: Path) -> None:
+        libc = ctypes.CDLL(None, use_errno=True)
+        self.fd = libc.inotify_init1(_IN_NONBLOCK)
+        if self.fd < 0:
+            pytest.skip("no inotify here")
+        for folder in folders:
+            if libc.inotify_add_watch(self.fd, os.fsencode(folder), _IN_OPEN | _IN_ACCESS) < 0:
+                pytest.skip(f"cannot watch {folder}")
+
+    def opened(self) -> list[str]:
+        """Names of the files opened or read since the last call."""
+        names: list[str] = []
+        while True:
+            try:
+                data = os.read(self.fd, 65536)
+            except BlockingIOError:
+                return names
+            offset = 0
+            while offset < len(data):
+                _, _, _, size = struct.unpack_from("iIII", data, offset)
+                name = data[offset + 16 : offset + 16 + size].rstrip(b"\0").decode()
+                if name:  # not the folder itself being listed
+                    names.append(name)
+                offset += 16 + size
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
+@pytest.fixture(params=["fifo", "regular file"])
+def outside_mesh(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Path]:
+    """A mesh outside the recording: a FIFO (an open blocks until a writer comes, so the
+    child's timeout fails the test), or a real STL file watched for opens."""
     folder = tmp_path / "outside"
     folder.mkdir()
     path = folder / "mesh.stl"
-    os.mkfifo(path)
-    return path
+    if request.param == "fifo":
+        os.mkfifo(path)
+        yield path
+        return
+    path.write_bytes(_MESH)
+    watch = OpenWatch(folder)
+    yield path
+    try:
+        assert watch.opened() == [], "a file outside the recording was opened"
+    finally:
+        watch.close()
 
 
 def _outside(kind: str, target: Path) -> str:
@@ -216,12 +268,12 @@ def _urdf_with_mesh(reference: str) -> bytes:
 @pytest.mark.parametrize("kind", ["absolute", "file-uri", "dotdot"])
 @pytest.mark.parametrize("entry", REBUILDING)
 def test_outside_mesh_is_never_opened(
-    recordings: dict[str, Path], tmp_path: Path, fifo: Path, entry: str, kind: str
+    recordings: dict[str, Path], tmp_path: Path, outside_mesh: Path, entry: str, kind: str
 ) -> None:
-    """A URDF mesh outside the recording (absolute, ``file://``, ``../..``) pointing at a
-    FIFO: every rebuilding entry point refuses with one line naming the reference, without
-    opening it (an open would block past the timeout)."""
-    reference = _outside(kind, fifo)
+    """A URDF mesh outside the recording (absolute, ``file://``, ``../..``) naming a FIFO or
+    a watched STL file: every rebuilding entry point refuses with one line naming the
+    reference, without opening it."""
+    reference = _outside(kind, outside_mesh)
     source = recordings["session" if entry == "replay-full" else "base"]
     recording = _rewrite(
         source, tmp_path / "outside.mcap", {"model/robot.urdf": _urdf_with_mesh(reference)},
@@ -327,7 +379,9 @@ def _rebuild_all(paths: list[Path], env: dict[str, str]) -> list[list[str]]:
         last = (exc.stdout or b"").decode().strip().splitlines()[-1:] if exc.stdout else []
         pytest.fail(f"a rebuild opened an outside file and blocked (after {last})")
     assert done.returncode == 0, done.stderr
-    return [json.loads(line) for line in done.stdout.splitlines()]
+    # (a temporary folder's random name would differ between runs whatever they read)
+    text = re.sub(r"harness-replay-[A-Za-z0-9_]+", "harness-replay-X", done.stdout)
+    return [json.loads(line) for line in text.splitlines()]
 
 
 def test_no_reference_kind_reaches_outside_and_the_text_does_not_tell(
@@ -369,13 +423,25 @@ def test_no_reference_kind_reaches_outside_and_the_text_does_not_tell(
         "GZ_SIM_RESOURCE_PATH": str(outside.parent),
     }
     missing = _rebuild_all(paths, env)  # nothing outside exists yet
-    os.mkfifo(target)
-    os.mkfifo(outside.parent / "include.xml")
-    (outside / "model.config").write_text("<model><sdf version='1.9'>mesh.stl</sdf></model>")
-    present = _rebuild_all(paths, env)  # now each is a FIFO (or a folder holding one)
-    print("\n".join(f"{name}: {result}" for name, result in present))
-    assert present == missing
-    for name, result in present:
+    # real files, watched: a mesh, an MJCF include, a Gazebo model naming its SDF
+    include = outside.parent / "include.xml"
+    target.write_bytes(_MESH)
+    include.write_text("<mujoco/>")
+    (outside / "model.config").write_text("<model><sdf version='1.9'>model.sdf</sdf></model>")
+    (outside / "model.sdf").write_bytes(_sdf(""))
+    watch = OpenWatch(outside, outside.parent)
+    try:
+        regular = _rebuild_all(paths, env)
+        assert watch.opened() == [], "a file outside the recording was opened"
+    finally:
+        watch.close()
+    for path in (target, include, outside / "model.sdf"):  # FIFOs: an open blocks
+        path.unlink()
+        os.mkfifo(path)
+    fifos = _rebuild_all(paths, env)
+    assert regular == missing
+    assert fifos == missing
+    for name, result in missing:
         assert result.startswith("UnsafeRecordingError: "), (name, result)
         assert (
             "is outside the recording" in result
@@ -463,3 +529,14 @@ def test_nothing_recorded_is_unpickled_or_evaluated() -> None:
             if any(b in code for b in banned) or any(c in code for c in calls):
                 found.append(f"{path.relative_to(root)}:{number}: {line.strip()}")
     assert not found
+
+
+def test_a_source_name_that_is_also_a_folder_is_one_line(
+    recordings: dict[str, Path], tmp_path: Path
+) -> None:
+    path = _rewrite(
+        recordings["base"], tmp_path / "clash.mcap",
+        {"model/robot.urdf": DEMO_URDF.read_bytes(), "model/robot.urdf/mesh.stl": b"x"},
+    )  # fmt: skip
+    with Recording(path) as rec, pytest.raises(ModelAttachmentError, match="cannot be written"):
+        rebuild_robot(rec)
