@@ -9,7 +9,9 @@ inside the folder, decided on the path's text (``..`` folded, no file looked at)
 else is an :class:`~harness.models.errors.OutsideReferenceError` whose text names only the
 reference, so it is the same whether that path exists on this machine or not. Package and
 model searches use only the folder (no ``ROS_PACKAGE_PATH``, ``AMENT_PREFIX_PATH`` or Gazebo
-resource paths, no folder above it), and a xacro file is never expanded.
+resource paths, no folder above it), and a xacro file is never expanded. The harness's own
+data (its bundled scenes, demo robot and Gazebo models: part of the installed program, not
+of this machine's other files) stays readable.
 
 The folder must be one the caller wrote itself from bytes (no symbolic links in it): the
 containment test is textual, which is exact only then.
@@ -28,6 +30,8 @@ from harness.models.errors import OutsideReferenceError
 __all__ = ["check_confined", "confined_to", "confinement", "inside_confinement"]
 
 _ROOT: ContextVar[Path | None] = ContextVar("harness_models_confinement", default=None)
+_OWN_DATA = Path(os.path.abspath(Path(__file__).parent / "data"))
+_TRUSTED = tuple({_OWN_DATA, Path(os.path.realpath(_OWN_DATA))})
 
 
 @contextlib.contextmanager
@@ -53,9 +57,12 @@ def _folded(path: str | Path) -> Path:
 
 def inside_confinement(path: str | Path) -> bool:
     """Whether ``path`` (text only: ``..`` folded, nothing looked up) lies inside the
-    confinement folder; always True when loading is not confined."""
+    confinement folder (or the harness's own data); always True when not confined."""
     root = _ROOT.get()
-    return root is None or _folded(path).is_relative_to(root)
+    if root is None:
+        return True
+    folded = _folded(path)
+    return any(folded.is_relative_to(folder) for folder in (root, *_TRUSTED))
 
 
 def check_confined(

@@ -59,7 +59,7 @@ def mjcf_roots(path: str | Path) -> tuple[Path, ...]:
         return generated
     confined = confinement()
     if confined is not None:  # a rebuild from a recording: its own folder only
-        return (confined,)
+        return (confined, _OWN_DATA)
     folder = Path(path).resolve().parent
     for above in (folder, *folder.parents):
         if (above / "package.xml").is_file():

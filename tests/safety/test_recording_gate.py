@@ -36,7 +36,7 @@ from harness.models import DEMO_URDF, load_robot
 from harness.recording import Recorder, Recording, describe_run
 from harness.replay import gate
 from harness.replay.errors import ModelAttachmentError, UnsafeRecordingError
-from harness.replay.source import rebuild_robot, resolve_model
+from harness.replay.source import rebuild_robot, rebuild_run, resolve_model
 from harness.session import Session
 
 REPLAY_TESTS = Path(__file__).resolve().parents[1] / "replay"
@@ -291,7 +291,7 @@ import json, sys, warnings
 warnings.simplefilter("ignore")
 from harness.errors import HarnessError
 from harness.recording import Recording
-from harness.replay.source import rebuild_robot, resolve_model
+from harness.replay.source import rebuild_robot, rebuild_run, resolve_model
 for path in sys.argv[1:]:
     with Recording(path) as rec:
         try:
@@ -540,3 +540,17 @@ def test_a_source_name_that_is_also_a_folder_is_one_line(
     )  # fmt: skip
     with Recording(path) as rec, pytest.raises(ModelAttachmentError, match="cannot be written"):
         rebuild_robot(rec)
+
+
+def test_a_world_including_a_bundled_gazebo_model_still_rebuilds(tmp_path: Path) -> None:
+    """The harness's own data (here the bundled ``model://ground_plane`` a world includes)
+    is part of the program, not of the machine: a rebuild may read it."""
+    import harness.models.worldfile as worldfile
+
+    path = tmp_path / "world.mcap"
+    with Session("demo", scene=worldfile.BUNDLED_MODELS.parent / "worlds" / "mobile_room.world",
+                 record_to=path) as live:  # fmt: skip
+        live.step(5)
+    with Recording(path) as rec:
+        rebuilt = rebuild_run(rec)
+        assert rebuilt.sha256 == rec.metadata["model_sha256"]
