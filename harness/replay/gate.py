@@ -50,6 +50,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import NamedTuple
@@ -67,7 +68,11 @@ from harness.recording.layout import (
     ATTACHMENT_MODEL_BINARY,
     ATTACHMENT_SOURCE_PREFIX,
 )
-from harness.replay.errors import ModelAttachmentError, UnsafeRecordingError
+from harness.replay.errors import (
+    ModelAttachmentError,
+    SourceLeftOutWarning,
+    UnsafeRecordingError,
+)
 
 __all__ = [
     "MJB_CPU_SECONDS",
@@ -80,6 +85,7 @@ __all__ = [
     "recorded_sources",
     "refused",
     "source_name",
+    "warn_left_out",
 ]
 
 XACRO_NAMESPACE = b"http://www.ros.org/wiki/xacro"
@@ -162,6 +168,16 @@ def recorded_sources(rec: Recording) -> RecordedSources:
             continue
         files[name] = blob
     return RecordedSources(files, tuple(notes))
+
+
+def warn_left_out(rec: Recording, sources: RecordedSources) -> None:
+    """Say what :func:`recorded_sources` left out, as a
+    :class:`~harness.replay.errors.SourceLeftOutWarning` each; the files a xacro robot's
+    expansion read, recorded under ``source/xacro/`` beside its expanded URDF, go without
+    saying."""
+    for name, note in sources.notes:
+        if not name.startswith("xacro/"):
+            warnings.warn(f"{rec.path}: {note}", SourceLeftOutWarning, stacklevel=3)
 
 
 def check_model_source(rec: Recording, sources: RecordedSources, name: str) -> None:

@@ -61,18 +61,17 @@ from harness.recording.layout import (
 from harness.replay.errors import (
     ModelAttachmentError,
     RecordedDataError,
-    SourceLeftOutWarning,
     UnsafeRecordingError,
     VersionMismatchError,
 )
 from harness.replay.gate import (
-    RecordedSources,
     check_model_source,
     model_from_mjb,
     model_from_mjcf_text,
     rebuild_folder,
     recorded_sources,
     source_name,
+    warn_left_out,
 )
 from harness.sim.inputs import AppliedInput
 
@@ -165,15 +164,6 @@ def control_modes(rec: Recording) -> dict[str, ControlMode]:
             f"joint -> one of {', '.join(CONTROL_MODES)}"
         )
     return {str(k): v for k, v in modes.items()}
-
-
-def _note(rec: Recording, gated: RecordedSources) -> None:
-    """Say what the gate left out (:func:`harness.replay.gate.recorded_sources`), once per
-    rebuild, as a :class:`SourceLeftOutWarning`; the files a xacro robot's expansion read,
-    recorded under ``source/xacro/`` beside its expanded URDF, go without saying."""
-    for name, note in gated.notes:
-        if not name.startswith("xacro/"):
-            warnings.warn(f"{rec.path}: {note}", SourceLeftOutWarning, stacklevel=3)
 
 
 def _scene(sources: Mapping[str, bytes], root: Path) -> str | Path | None:
@@ -296,7 +286,7 @@ def rebuild_world(
     for entry in entries:
         if isinstance(entry.get("source"), str):
             check_model_source(rec, gated, entry["source"])
-    _note(rec, gated)
+    warn_left_out(rec, gated)
     with rebuild_folder(rec, sources) as root:
         try:
             specs = [
@@ -380,7 +370,7 @@ def rebuild_robot(
             n.removeprefix(ATTACHMENT_SOURCE_PREFIX) for n in rec.attachment_names
         ):
             check_model_source(rec, gated, name)
-    _note(rec, gated)
+    warn_left_out(rec, gated)
     if len(models) != 1:
         raise ModelAttachmentError(
             f"{rec.path}: expected one 'source/model/...' attachment to rebuild the robot, "

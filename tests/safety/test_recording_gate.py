@@ -35,7 +35,11 @@ import pytest
 from harness.models import DEMO_URDF, load_robot
 from harness.recording import Recorder, Recording, describe_run
 from harness.replay import gate
-from harness.replay.errors import ModelAttachmentError, UnsafeRecordingError
+from harness.replay.errors import (
+    ModelAttachmentError,
+    SourceLeftOutWarning,
+    UnsafeRecordingError,
+)
 from harness.replay.source import rebuild_robot, rebuild_run, resolve_model
 from harness.session import Session
 
@@ -554,3 +558,21 @@ def test_a_world_including_a_bundled_gazebo_model_still_rebuilds(tmp_path: Path)
     with Recording(path) as rec:
         rebuilt = rebuild_run(rec)
         assert rebuilt.sha256 == rec.metadata["model_sha256"]
+
+
+def test_a_xacro_source_beside_the_expanded_description_is_left_out_with_a_note(
+    recordings: dict[str, Path], tmp_path: Path
+) -> None:
+    """With the expanded URDF attached, a xacro source beside it is left out (a
+    ``SourceLeftOutWarning`` names it) and the robot rebuilds from the URDF."""
+    marker = tmp_path / "MARKER"
+    path = _rewrite(
+        recordings["base"], tmp_path / "both.mcap",
+        {"model/demo_arm.urdf": DEMO_URDF.read_bytes(),
+         "model/robot.urdf.xacro": _payload(marker)},
+    )  # fmt: skip
+    with Recording(path) as rec:
+        with pytest.warns(SourceLeftOutWarning, match="robot.urdf.xacro"):
+            rebuilt = rebuild_robot(rec)
+        assert rebuilt.sha256 == rec.metadata["model_sha256"]
+    assert not marker.exists()
