@@ -20,6 +20,7 @@ from typing import Any, NamedTuple
 
 import mujoco
 
+from harness.models.confine import check_confined
 from harness.models.errors import ResolveError
 from harness.models.meshes import CONVERTIBLE, PASS_THROUGH, prepare_mesh
 
@@ -124,6 +125,7 @@ def embed_files(spec: mujoco.MjSpec, *, source: str, cache_dir: str | Path | Non
         reference = Path(Path(file).name if spec.strippath else file)
         directory = spec.texturedir if kind == "texture" else spec.meshdir
         path = reference if reference.is_absolute() else _folder(spec, directory) / reference
+        check_confined(path, file, context=context, what=kind)
         if not path.is_file():
             raise ResolveError(f"{context}: {kind} not found: {str(path)!r} (from {file!r})")
         if kind == "mesh" and path.suffix.lower() in PASS_THROUGH | CONVERTIBLE:

@@ -11,6 +11,7 @@ __all__ = [
     "ModelError",
     "ModelStructureError",
     "ModelWarning",
+    "OutsideReferenceError",
     "ResolveError",
     "UnknownPackageError",
     "XMLError",
@@ -29,6 +30,11 @@ class XacroError(ModelError):
 
 class ResolveError(ModelError):
     """A referenced file (mesh, include, model) does not exist."""
+
+
+class OutsideReferenceError(ResolveError):
+    """A model rebuilt from a recording names a file outside the recording's attachments
+    (:mod:`harness.models.confine`)."""
 
 
 class UnknownPackageError(ResolveError):

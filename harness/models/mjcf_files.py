@@ -14,12 +14,14 @@ points there). Absolute references are refused unless they lie inside too.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from lxml import etree
 
-from harness.models.errors import ResolveError
+from harness.models.confine import confinement
+from harness.models.errors import OutsideReferenceError, ResolveError
 from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = ["MAX_INCLUDES", "check_mjcf_files", "generated_from", "mjcf_roots"]
@@ -55,6 +57,9 @@ def mjcf_roots(path: str | Path) -> tuple[Path, ...]:
     generated = _GENERATED.get(Path(path).resolve())
     if generated is not None:
         return generated
+    confined = confinement()
+    if confined is not None:  # a rebuild from a recording: its own folder only
+        return (confined, _OWN_DATA)
     folder = Path(path).resolve().parent
     for above in (folder, *folder.parents):
         if (above / "package.xml").is_file():
@@ -62,8 +67,16 @@ def mjcf_roots(path: str | Path) -> tuple[Path, ...]:
     return (folder, _OWN_DATA)
 
 
+def _real(path: Path) -> Path:
+    """``path`` with ``..`` and symbolic links resolved; in a rebuild from a recording
+    (:mod:`harness.models.confine`) on the text only: no file outside is looked at."""
+    if confinement() is not None:
+        return Path(os.path.normpath(os.path.join(os.getcwd(), path)))
+    return path.resolve()
+
+
 def _inside(path: Path, roots: Sequence[Path]) -> bool:
-    real = path.resolve()
+    real = _real(path)
     return any(real.is_relative_to(root) for root in roots)
 
 
@@ -125,7 +138,8 @@ def _check(
     for candidate in candidates:
         if not _inside(candidate, roots):
             where = " or ".join(repr(str(r)) for r in roots)
-            raise ResolveError(
+            error = OutsideReferenceError if confinement() is not None else ResolveError
+            raise error(
                 f"{source}: {describe(element)}: {attribute}={value!r} escapes the model's "
-                f"folder {where} (it leads to {str(candidate.resolve())!r})"
+                f"folder {where} (it leads to {str(_real(candidate))!r})"
             )

@@ -26,7 +26,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from urllib.parse import unquote
 
-from harness.models.errors import ResolveError, UnknownPackageError
+from harness.models.confine import check_confined, confinement, inside_confinement
+from harness.models.errors import OutsideReferenceError, ResolveError, UnknownPackageError
 from harness.names import package_problem
 
 __all__ = [
@@ -82,6 +83,8 @@ def _search(name: str, roots: Sequence[Path], start: Path | None) -> Path | None
             return root / name
     if start is not None:
         for folder in (start, *start.parents):
+            if not inside_confinement(folder):
+                break  # a rebuild from a recording searches its own folder only
             if folder.name == name or _declares_package(folder, name):
                 return folder
             if (folder / name).is_dir():
@@ -111,10 +114,13 @@ def find_package(
     explicit = dict(packages or {})
     if name in explicit:
         return Path(explicit[name])
-    roots = _env_paths(["ROS_PACKAGE_PATH"])
-    ament = _ament_shares()
+    confined = confinement() is not None  # only the recording's folder: no environment
+    roots = [] if confined else _env_paths(["ROS_PACKAGE_PATH"])
+    ament = [] if confined else _ament_shares()
     begin = Path(start).resolve() if start is not None else None
     found = _search(name, [*roots, *ament], begin)
+    if found is None and confined:
+        raise OutsideReferenceError(f"package {name!r} is not among the recording's attachments")
     if found is None:
         raise UnknownPackageError(
             f"unknown package {name!r} (tried {_tried(explicit, roots, begin, ament)})"
@@ -142,9 +148,15 @@ def find_model(
     name: str, *, search_paths: Sequence[str | Path] | None = None, start: str | Path | None = None
 ) -> Path:
     """The folder of Gazebo model ``name`` for ``model://name/...`` URIs."""
-    roots = [Path(p) for p in search_paths or ()] + _env_paths(MODEL_PATH_VARIABLES)
+    roots = [Path(p) for p in search_paths or ()]
+    if confinement() is None:
+        roots += _env_paths(MODEL_PATH_VARIABLES)
+    else:  # only the recording's folder
+        roots = [r for r in roots if inside_confinement(r)]
     begin = Path(start).resolve() if start is not None else None
     found = _search(name, roots, begin)
+    if found is None and confinement() is not None:
+        raise OutsideReferenceError(f"model {name!r} is not among the recording's attachments")
     if found is None:
         raise UnknownPackageError(f"unknown model {name!r} (tried {_tried({}, roots, begin)})")
     return found
@@ -195,6 +207,7 @@ def resolve_uri(
             name, _, rest = uri[len("package://") :].lstrip("/").partition("/")
             _check_name(name, "package")
             root = find_package(name, packages=packages, start=base)
+            check_confined(root / unquote(rest), uri, what=what)
             path = _confined(root, unquote(rest), "package", name)
         elif uri.startswith("model://"):
             name, _, rest = uri[len("model://") :].lstrip("/").partition("/")
@@ -203,6 +216,7 @@ def resolve_uri(
                 root = Path(packages[name])
             else:
                 root = find_model(name, search_paths=search_paths, start=base)
+            check_confined(root / unquote(rest), uri, what=what)
             path = _confined(root, unquote(rest), "model", name)
         elif uri.startswith("file://"):
             path = Path(unquote(uri[len("file://") :]))
@@ -214,8 +228,12 @@ def resolve_uri(
             path = Path(uri).expanduser()
             if not path.is_absolute():
                 path = base / path
+    except OutsideReferenceError as exc:  # confined (a rebuild from a recording)
+        suffix = "" if repr(uri) in str(exc) else f" in {uri!r}"
+        raise OutsideReferenceError(f"{prefix}{exc}{suffix}") from None
     except ResolveError as exc:
         raise type(exc)(f"{prefix}{exc} in {uri!r}") from None
+    check_confined(path, uri, context=context, what=what)
     if not path.is_file():
         raise ResolveError(f"{prefix}{what} not found: {str(path)!r} (from {uri!r})")
     return path

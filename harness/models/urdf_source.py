@@ -15,6 +15,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
+from harness.models.confine import confinement
 from harness.models.description import ControlMode, RobotModel
 from harness.models.errors import ModelStructureError, XacroError
 from harness.models.lenient import LoadNote, read_lenient_xml
@@ -82,6 +83,11 @@ def read_urdf_source(
             )
         root, data, notes = read_lenient_xml(path, strict=strict)
         return UrdfSource(path, root, data, MappingProxyType({}), None, notes)
+    if confinement() is not None:  # xacro runs code: never on a recording's files
+        raise XacroError(
+            f"{path.name}: a xacro source is never expanded when a model is rebuilt from a "
+            "recording"
+        )
     expansion = expand_xacro(path, robot_args, packages=packages, reference=reference)
     root = parse_xml(expansion.urdf, str(path))
     return UrdfSource(

@@ -14,6 +14,10 @@ Which model a recording is replayed with, in order of preference:
    exact only for models that were written at full precision (hand-written MJCF); its SHA-256
    must equal ``model_sha256``.
 
+Every rebuild goes through :mod:`harness.replay.gate`: xacro sources are never expanded, every
+file a rebuilt model names must be one of the recording's attachments, ``model.mjb`` is first
+loaded in a resource-limited child process.
+
 Recorded states are decoded in bulk, straight from the decompressed chunks
 (:meth:`harness.recording.Recording.physics_state_arrays`).
 """
@@ -22,9 +26,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-import tempfile
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -46,8 +49,8 @@ from harness.models import (
     load_world,
 )
 from harness.models.description import CONTROL_MODES, ControlMode
-from harness.models.limits import ModelLimitError, check_model, check_spec
-from harness.models.mjcf_files import check_mjcf_files
+from harness.models.errors import OutsideReferenceError, XacroError
+from harness.models.limits import ModelLimitError
 from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
@@ -58,7 +61,17 @@ from harness.recording.layout import (
 from harness.replay.errors import (
     ModelAttachmentError,
     RecordedDataError,
+    UnsafeRecordingError,
     VersionMismatchError,
+)
+from harness.replay.gate import (
+    check_model_source,
+    model_from_mjb,
+    model_from_mjcf_text,
+    rebuild_folder,
+    recorded_sources,
+    source_name,
+    warn_left_out,
 )
 from harness.sim.inputs import AppliedInput
 
@@ -153,26 +166,6 @@ def control_modes(rec: Recording) -> dict[str, ControlMode]:
     return {str(k): v for k, v in modes.items()}
 
 
-def _sources(rec: Recording) -> dict[str, bytes]:
-    try:
-        return {
-            name.removeprefix(ATTACHMENT_SOURCE_PREFIX): rec.attachment(name)
-            for name in rec.attachment_names
-            if name.startswith(ATTACHMENT_SOURCE_PREFIX)
-        }
-    except RecordingDamagedError as exc:
-        raise ModelAttachmentError(str(exc)) from None
-
-
-def _write_sources(sources: Mapping[str, bytes], root: Path) -> None:
-    for name, blob in sources.items():
-        target = (root / name).resolve()
-        if not target.is_relative_to(root.resolve()):
-            raise ModelAttachmentError(f"source attachment {name!r} leaves its folder")
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(blob)
-
-
 def _scene(sources: Mapping[str, bytes], root: Path) -> str | Path | None:
     scenes = [n for n in sources if n.startswith("scene/")]
     if not scenes:
@@ -229,6 +222,8 @@ def _robot_spec(
     namespace = str(entry["namespace"])
     prefix = f"{namespace}/" if namespace else ""
     source = entry["source"]
+    if not isinstance(source, str) or source_name(source) is None:
+        raise ModelAttachmentError(f"{where}: its source {source!r} is not an attachment name")
     if source not in sources:
         raise ModelAttachmentError(
             f"{where}: its source {source!r} is not attached (sources: {', '.join(sources)})"
@@ -240,6 +235,8 @@ def _robot_spec(
     elif control is not None:
         modes = {j: control.get(prefix + j, m) for j, m in recorded.items()}
     srdf = entry.get("srdf")
+    if srdf is not None and (not isinstance(srdf, str) or srdf not in sources):
+        raise ModelAttachmentError(f"{where}: its srdf {srdf!r} is not a source attachment")
     return RobotSpec(
         _model_source(sources, source, root),
         namespace=namespace,
@@ -281,13 +278,16 @@ def rebuild_world(
     source attachments with :func:`harness.models.load_world`. ``control``: one mode for
     every joint, or MuJoCo (prefixed) joint name -> mode (joints not named keep their
     recorded mode); default: the recorded modes."""
-    sources = _sources(rec)
+    gated = recorded_sources(rec)
+    sources = gated.files
     entries = _json_metadata(rec, "robots")
     if not entries:
         raise ModelAttachmentError(f"{rec.path}: metadata 'robots' lists no robot")
-    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
-        root = Path(tmp)
-        _write_sources(sources, root)
+    for entry in entries:
+        if isinstance(entry.get("source"), str):
+            check_model_source(rec, gated, entry["source"])
+    warn_left_out(rec, gated)
+    with rebuild_folder(rec, sources) as root:
         try:
             specs = [
                 _robot_spec(entry, f"{rec.path}: metadata robots[{i}]", sources, root, control)
@@ -316,6 +316,8 @@ def rebuild_world(
                 objects=objects,
                 timestep=float(timestep) if timestep else None,
             )
+        except (OutsideReferenceError, XacroError):
+            raise  # refused by the gate (harness.replay.gate.rebuild_folder)
         except HarnessError as exc:
             raise ModelAttachmentError(
                 f"{rec.path}: cannot rebuild the world from its source attachments: {exc}"
@@ -351,22 +353,31 @@ def rebuild_robot(
             f"{rec.path}: a recording of a world of several robots: rebuild it with "
             "rebuild_world() or rebuild_run()"
         )
-    sources = _sources(rec)
-    # The model file itself (meshes it references may be attached under model/ too).
-    models = [
-        n
-        for n in sources
-        if n.startswith("model/") and "/" not in n[6:] and n.lower().endswith(_MODEL_SUFFIXES)
-    ]
+    gated = recorded_sources(rec)
+    sources = gated.files
+
+    def model_files(names: Iterable[str]) -> list[str]:
+        # the model file itself (meshes it references may be attached under model/ too)
+        return [
+            n
+            for n in names
+            if n.startswith("model/") and "/" not in n[6:] and n.lower().endswith(_MODEL_SUFFIXES)
+        ]
+
+    models = model_files(sources)
+    if not models:  # every model source was xacro: refused, naming it
+        for name in model_files(
+            n.removeprefix(ATTACHMENT_SOURCE_PREFIX) for n in rec.attachment_names
+        ):
+            check_model_source(rec, gated, name)
+    warn_left_out(rec, gated)
     if len(models) != 1:
         raise ModelAttachmentError(
             f"{rec.path}: expected one 'source/model/...' attachment to rebuild the robot, "
             f"found {len(models)} (attachments: {', '.join(rec.attachment_names)})"
         )
     modes = control_modes(rec) if control is None else control
-    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
-        root = Path(tmp)
-        _write_sources(sources, root)
+    with rebuild_folder(rec, sources) as root:
         source = _model_source(sources, models[0], root)
         try:
             return load_robot(
@@ -380,32 +391,12 @@ def rebuild_robot(
                     srdf=False,
                 ),
             )
+        except (OutsideReferenceError, XacroError):
+            raise  # refused by the gate (harness.replay.gate.rebuild_folder)
         except HarnessError as exc:
             raise ModelAttachmentError(
                 f"{rec.path}: cannot rebuild the robot from its source attachments: {exc}"
             ) from None
-
-
-def _model_from_mjb(blob: bytes) -> mujoco.MjModel:
-    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
-        path = Path(tmp) / ATTACHMENT_MODEL_BINARY
-        path.write_bytes(blob)
-        model = mujoco.MjModel.from_binary_path(str(path))
-    check_model(model, ATTACHMENT_MODEL_BINARY)  # before MjData allocates what it declares
-    return model
-
-
-def _model_from_mjcf_text(text: bytes) -> mujoco.MjModel:
-    """A recording's MJCF text compiled with no file outside it readable (a recording is
-    data: its ``<include>`` or mesh paths must not open local files) and the model limits
-    checked before compiling."""
-    with tempfile.TemporaryDirectory(prefix="harness-replay-") as tmp:
-        path = Path(tmp) / ATTACHMENT_MODEL
-        path.write_bytes(text)
-        check_mjcf_files(path, roots=(Path(tmp).resolve(),))
-        spec = mujoco.MjSpec.from_file(str(path))
-        check_spec(spec, ATTACHMENT_MODEL)
-        return spec.compile()
 
 
 def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
@@ -415,7 +406,7 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
     problems: list[str] = []
     if ATTACHMENT_MODEL_BINARY in names:
         try:
-            return _model_from_mjb(rec.attachment(ATTACHMENT_MODEL_BINARY)), ATTACHMENT_MODEL_BINARY
+            return model_from_mjb(rec.attachment(ATTACHMENT_MODEL_BINARY)), ATTACHMENT_MODEL_BINARY
         except ModelLimitError as exc:
             raise ModelAttachmentError(f"{rec.path}: {exc}") from None
         except (ValueError, OSError, RecordingDamagedError) as exc:
@@ -425,6 +416,8 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
     if any(n.startswith(ATTACHMENT_SOURCE_PREFIX + "model/") for n in names):
         try:
             robot = rebuild_run(rec)
+        except UnsafeRecordingError:
+            raise  # refused, not a reason to try the next attachment
         except HarnessError as exc:
             problems.append(str(exc))
         else:
@@ -449,7 +442,7 @@ def resolve_model(rec: Recording) -> tuple[mujoco.MjModel, str]:
                 + (f" ({'; '.join(problems)})" if problems else "")
             )
         try:
-            model = _model_from_mjcf_text(text)
+            model = model_from_mjcf_text(rec, text)
         except ModelError as exc:
             raise ModelAttachmentError(f"{rec.path}: attachment {exc}") from None
         except (ValueError, UnicodeDecodeError) as exc:

@@ -20,6 +20,7 @@ import mujoco
 import numpy as np
 
 from harness.models.assets import mesh_asset
+from harness.models.confine import check_confined
 from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
 from harness.models.errors import ModelStructureError
 from harness.models.sdf.errors import SdfWarning
@@ -192,6 +193,7 @@ def _add_geom(
     geom = body.add_geom(name=name, type=_GEOM_TYPES[geometry.kind], pos=pos, quat=quat)
     if geometry.kind == "mesh":
         path = geometry.mesh_path or ""
+        check_confined(path, path, context=where, what="mesh")
         if not Path(path).is_file():
             raise ModelStructureError(f"{where}: mesh not found: {path!r}")
         mesh_name = f"mesh:{name}"

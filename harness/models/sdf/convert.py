@@ -33,7 +33,7 @@ from harness.models.description import (
     RobotModel,
     Shape,
 )
-from harness.models.errors import ResolveError
+from harness.models.errors import OutsideReferenceError, ResolveError
 from harness.models.resolve import resolve_uri
 from harness.models.sdf.build import spanning_tree
 from harness.models.sdf.document import (
@@ -218,6 +218,8 @@ class _Converter:
                     what="mesh",
                 )
             )
+        except OutsideReferenceError:
+            raise  # a rebuild from a recording: refused, never looked up later
         except ResolveError:
             # Kept as written: inspecting a model does not need its meshes; building does.
             return uri

@@ -23,8 +23,9 @@ import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.errors import ModelError
+from harness.models.confine import check_confined
 from harness.models.description import Pose
-from harness.models.errors import ModelWarning, ResolveError
+from harness.models.errors import ModelWarning, OutsideReferenceError, ResolveError
 from harness.models.resolve import find_model
 from harness.models.sdf.errors import (
     SdfCycleError,
@@ -604,8 +605,11 @@ class _Loader:
                 target = Path(uri.removeprefix("file://")).expanduser()
                 if not target.is_absolute():
                     target = source.parent / target
+        except OutsideReferenceError as exc:  # a rebuild from a recording: refused as it is
+            raise type(exc)(f"{where}: include {uri!r}: {exc}") from None
         except ResolveError as exc:
             raise SdfIncludeError(f"{where}: missing include {uri!r}: {exc}") from None
+        check_confined(target, uri, context=where, what="include")
         if target.is_dir():
             return self._model_config_sdf(target, uri, where)
         if not target.is_file():
