@@ -86,8 +86,9 @@ _VALID_NAMES_MAX = 4096
 
 @dataclass
 class Connection:
-    """One connection's protocol state: its ``set_level``, fragmentation and the
-    fragmented messages it is sending."""
+    """One connection's protocol state: its ``set_level``, fragmentation, the fragmented
+    messages it is sending, and its send budget (:mod:`harness.rosbridge.budget`): until when
+    its budget is spent, and the subscription messages it was not sent, by topic."""
 
     id: int
     peer: str
@@ -96,6 +97,10 @@ class Connection:
     fragments: dict[Any, tuple[int, dict[int, str]]] = field(default_factory=dict)
     fragment_bytes: int = 0
     fragment_count: int = 0
+    spent_until_ns: int | None = None
+    throttled: dict[str, int] = field(default_factory=dict)
+    unreported: dict[str, int] = field(default_factory=dict)
+    report_after_ns: int | None = None
 
 
 class Deadline(NamedTuple):

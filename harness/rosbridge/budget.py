@@ -1,0 +1,72 @@
+"""Per-client send budgets (a room of :class:`~harness.rosbridge.Bridge`, mixed into it).
+
+Every frame the bridge sends a client costs that client budget
+(:meth:`harness.rosbridge.limits.SendBudget.cost_ns`: a share per frame plus a share per
+byte), counted as a point on the bridge's clock up to which the client's budget is spent
+(a generic cell rate algorithm: no timers, one integer per client). A client whose budget is
+spent past the bridge's time has its subscription messages dropped, before they are built,
+fragmented, recorded or queued, so the work one client causes per second of simulation time
+is bounded whatever it subscribes to and however it asks for it; answers (service responses,
+action results, statuses) are charged but always sent. Drops are counted per topic
+(:meth:`BudgetOps.throttled`) and reported to the client in a ``warning`` status at most once
+per second of the bridge's clock. Everything is a function of the bridge's inputs and time:
+what is dropped is never sent nor recorded, the same in a replay.
+"""
+
+from __future__ import annotations
+
+from harness.rosbridge.frames import BridgeHost, Connection
+from harness.rosbridge.limits import SendBudget
+
+__all__ = ["REPORT_EVERY_NS", "BudgetOps"]
+
+REPORT_EVERY_NS = 1_000_000_000
+"""At most one throttling ``warning`` per client per this much of the bridge's clock."""
+
+
+class BudgetOps(BridgeHost):
+    """Charging frames to their client's :class:`SendBudget` and throttling clients over it."""
+
+    send_budget: SendBudget | None
+
+    def _over_budget(self, conn: Connection, now_ns: int) -> bool:
+        """Whether ``conn``'s budget is spent past ``now_ns`` (then its subscription messages
+        are dropped)."""
+        spent = conn.spent_until_ns
+        return spent is not None and spent > now_ns
+
+    def _charge(self, conn: Connection, frames: int, nbytes: int) -> None:
+        budget = self.send_budget
+        if budget is None:
+            return
+        now = self._now_ns
+        floor = now - budget.burst_ns
+        spent = conn.spent_until_ns
+        if spent is None or spent < floor:
+            spent = floor
+        conn.spent_until_ns = spent + budget.cost_ns(frames, nbytes)
+
+    def _throttle(self, conn: Connection, topic: str) -> None:
+        """Count a subscription message on ``topic`` not sent to ``conn``; tell the client
+        (at most once per :data:`REPORT_EVERY_NS`)."""
+        conn.throttled[topic] = conn.throttled.get(topic, 0) + 1
+        conn.unreported[topic] = conn.unreported.get(topic, 0) + 1
+        now = self._now_ns
+        if conn.report_after_ns is not None and now < conn.report_after_ns:
+            return
+        conn.report_after_ns = now + REPORT_EVERY_NS
+        counts = ", ".join(f"{n} on {t}" for t, n in sorted(conn.unreported.items()))
+        conn.unreported.clear()
+        assert self.send_budget is not None
+        self.status(
+            conn.id,
+            "warning",
+            f"dropped {counts}: this client is over its send budget of "
+            f"{self.send_budget.describe()} (subscribe with throttle_rate or fewer topics)",
+        )
+
+    def throttled(self, connection: int) -> dict[str, int]:
+        """How many subscription messages, by topic, ``connection`` was not sent because it
+        was over its send budget (empty for an unknown connection)."""
+        conn = self._conns.get(connection)
+        return {} if conn is None else dict(conn.throttled)
