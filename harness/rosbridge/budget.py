@@ -33,18 +33,26 @@ class BudgetOps(BridgeHost):
         """Whether ``conn``'s budget is spent past ``now_ns`` (then its subscription messages
         are dropped)."""
         spent = conn.spent_until_ns
-        return spent is not None and spent > now_ns
+        if spent is None:
+            return False
+        if now_ns < conn.budget_now_ns:  # the clock went back (a new epoch): so does the debt
+            spent = conn.spent_until_ns = spent - (conn.budget_now_ns - now_ns)
+            conn.budget_now_ns = now_ns
+        return spent > now_ns
 
-    def _charge(self, conn: Connection, frames: int, nbytes: int) -> None:
-        budget = self.send_budget
-        if budget is None:
-            return
-        now = self._now_ns
-        floor = now - budget.burst_ns
+    def _charge(self, conn: Connection, budget: SendBudget, nbytes: int, now_ns: int) -> None:
+        """Charge one frame of ``nbytes`` bytes sent at ``now_ns`` to ``conn``."""
         spent = conn.spent_until_ns
-        if spent is None or spent < floor:
-            spent = floor
-        conn.spent_until_ns = spent + budget.cost_ns(frames, nbytes)
+        if spent is None:
+            spent = now_ns - budget.burst_ns
+        else:
+            if now_ns < conn.budget_now_ns:
+                spent -= conn.budget_now_ns - now_ns
+            floor = now_ns - budget.burst_ns
+            if spent < floor:
+                spent = floor
+        conn.budget_now_ns = now_ns
+        conn.spent_until_ns = spent + budget.frame_ns + nbytes * 1_000_000_000 // budget.bytes_per_s
 
     def _throttle(self, conn: Connection, topic: str) -> None:
         """Count a subscription message on ``topic`` not sent to ``conn``; tell the client

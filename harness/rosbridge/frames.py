@@ -98,6 +98,7 @@ class Connection:
     fragment_bytes: int = 0
     fragment_count: int = 0
     spent_until_ns: int | None = None
+    budget_now_ns: int = 0
     throttled: dict[str, int] = field(default_factory=dict)
     unreported: dict[str, int] = field(default_factory=dict)
     report_after_ns: int | None = None

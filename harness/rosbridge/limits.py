@@ -16,7 +16,7 @@ messages dropped, as a slow subscriber's are, instead of the simulation waiting 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Final
 
 __all__ = [
@@ -80,6 +80,10 @@ class SendBudget:
     frames_per_s: int = SEND_FRAMES_PER_S
     bytes_per_s: int = SEND_BYTES_PER_S
     burst_s: float = BUDGET_BURST_S
+    frame_ns: int = field(init=False, repr=False, compare=False)
+    """Budget one frame costs, besides its bytes (ns)."""
+    burst_ns: int = field(init=False, repr=False, compare=False)
+    """How far ahead of the clock a client's spending may run (ns)."""
 
     def __post_init__(self) -> None:
         if self.frames_per_s <= 0 or self.bytes_per_s <= 0 or not self.burst_s >= 0:
@@ -87,16 +91,8 @@ class SendBudget:
                 f"SendBudget: frames_per_s and bytes_per_s must be > 0 and burst_s >= 0, "
                 f"got {self.frames_per_s}, {self.bytes_per_s}, {self.burst_s}"
             )
-
-    @property
-    def frame_ns(self) -> int:
-        """Budget one frame costs, besides its bytes (ns)."""
-        return 1_000_000_000 // self.frames_per_s
-
-    @property
-    def burst_ns(self) -> int:
-        """How far ahead of the clock a client's spending may run (ns)."""
-        return int(self.burst_s * 1e9)
+        object.__setattr__(self, "frame_ns", 1_000_000_000 // self.frames_per_s)
+        object.__setattr__(self, "burst_ns", int(self.burst_s * 1e9))
 
     def cost_ns(self, frames: int, nbytes: int) -> int:
         """Budget ``frames`` frames of ``nbytes`` bytes together cost (ns)."""

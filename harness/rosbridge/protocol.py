@@ -284,8 +284,9 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
         conn = self._conns.get(connection)
         if conn is None:
             return
-        if self.send_budget is not None:
-            self._charge(conn, 1, len(data))
+        budget = self.send_budget
+        if budget is not None:
+            self._charge(conn, budget, len(data), self._now_ns)
         if self._frames is None:
             self._seq += 1  # what _tap does when no frames are kept
         else:
@@ -539,7 +540,8 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
         conn = self._conns.get(cid)
         if conn is None:
             return
-        if self.send_budget is not None and self._over_budget(conn, now):
+        budget = self.send_budget
+        if budget is not None and self._over_budget(conn, now):
             self._throttle(conn, t.name)  # dropped before any work is done for it
             return
         sub.last_sent_ns = now
@@ -557,8 +559,8 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
             if size is not None and len(frame) > size:
                 self._send(cid, frame, "publish", t.name, None, size, limit)
                 return
-            if self.send_budget is not None:
-                self._charge(conn, 1, len(frame))
+            if budget is not None:
+                self._charge(conn, budget, len(frame), now)
             if self._frames is not None:
                 self._frames.append(
                     TapRecord(self._seq, cid, DIRECTION_OUT, frame, "publish", t.name, now)
