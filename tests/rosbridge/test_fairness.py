@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 from typing import Any
 
 import pytest
 
+from harness.recording import Recording
 from harness.rosbridge import Bridge, Output, TypeRegistry
 from harness.rosbridge.limits import (
     MAX_PENDING_CALLS,
@@ -19,8 +21,10 @@ from harness.rosbridge.limits import (
     MIN_FRAGMENT_SIZE,
     SendBudget,
 )
+from harness.session import Session
 from harness.session.bridge import SessionBridge
 from tests.rosbridge.helpers import install_test_graph
+from tests.session.session_helpers import Client
 
 REGISTRY = TypeRegistry()
 STRING = "std_msgs/msg/String"
@@ -361,3 +365,51 @@ def test_session_bridge_budget_is_on_and_replays_the_same() -> None:
 def test_send_budget_refuses_nonsense(kwargs: dict[str, Any]) -> None:
     with pytest.raises(ValueError, match="SendBudget: frames_per_s and bytes_per_s"):
         SendBudget(**kwargs)
+
+
+# -- live: a real session over a real socket, recorded -------------------------------------
+
+
+def test_live_session_raises_fragment_size_and_records_what_it_sent(tmp_path: Path) -> None:
+    """A lockstep demo session with a client asking for fragment_size 1 on /tf:
+    the client is warned, each message reaches it in ceil(len / MIN_FRAGMENT_SIZE) fragments
+    (not one per character), and the recording holds exactly the frames the client got."""
+    path = tmp_path / "fair.mcap"
+    with Session("demo", record_to=path) as session:
+        client = Client(session.url)
+        try:
+            client.send(WARNINGS)
+            client.send(
+                {
+                    "op": "subscribe",
+                    "topic": "/tf",
+                    "type": "tf2_msgs/msg/TFMessage",
+                    "fragment_size": 1,
+                }
+            )
+            client.step(50)  # /tf at 100 Hz, 2 ms steps: 10 messages of ~2 kB
+        finally:
+            client.close()
+    got = client.received
+    assert got[0]["op"] == "status"
+    assert got[0]["msg"] == (
+        f"subscribe: fragment_size 1 is below the minimum {MIN_FRAGMENT_SIZE}; "
+        f"raised to {MIN_FRAGMENT_SIZE}"
+    )
+    fragments = [f for f in got if f["op"] == "fragment"]
+    messages: dict[str, list[dict[str, Any]]] = {}
+    for f in fragments:
+        messages.setdefault(f["id"], []).append(f)
+    assert len(messages) == 10
+    for parts in messages.values():
+        whole = "".join(p["data"] for p in parts)
+        assert json.loads(whole)["topic"] == "/tf"
+        assert len(whole) > MIN_FRAGMENT_SIZE
+        assert len(parts) == math.ceil(len(whole) / MIN_FRAGMENT_SIZE)
+    with Recording(path) as recording:
+        out = [
+            json.loads(f.text)
+            for f in recording.bridge_frames()
+            if f.direction == 1 and f.connection == 1
+        ]
+    assert out == got
