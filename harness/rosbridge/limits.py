@@ -60,11 +60,15 @@ naming the limit)."""
 MAX_PENDING_GOALS: Final = 10_000
 """Action goals every client together may have active."""
 
-SEND_FRAMES_PER_S: Final = 10_000
+SEND_FRAMES_PER_S: Final = 5000
 """A session client's send budget in frames per second of the bridge's clock (each frame
-costs 1/10,000 s of budget, plus its bytes' share of :data:`SEND_BYTES_PER_S`)."""
-SEND_BYTES_PER_S: Final = 128 * 2**20
-"""A session client's send budget in bytes per second of the bridge's clock."""
+costs 1/5,000 s of budget, plus its bytes' share of :data:`SEND_BYTES_PER_S`). A frame costs
+the session thread some 15 to 40 us (built, recorded, queued, written): a client at this rate
+alone takes about a tenth of a core. Robot software subscribing to every topic of a robot
+needs well under it (the demo arm's /joint_states, /tf and /clock: 300 frames/s)."""
+SEND_BYTES_PER_S: Final = 64 * 2**20
+"""A session client's send budget in bytes per second of the bridge's clock: room for a
+320x240 RGB-D camera at 30 Hz in JSON (about 21 MB/s) and more."""
 BUDGET_BURST_S: Final = 0.1
 """How far (seconds of budget) a client may send ahead of its rate before it is throttled."""
 

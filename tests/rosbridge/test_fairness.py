@@ -273,7 +273,7 @@ def _run_steps(bridge: Bridge, greedy: int, polite: int, steps: int) -> list[Out
 
 def test_a_client_over_its_send_budget_is_throttled_not_waited_for() -> None:
     """100 kB per 2 ms step in 1 KiB fragments is ~50,000 frames/s: a client with a budget of
-    10,000 frames/s is sent what its budget allows (messages beyond it dropped whole, before
+    5,000 frames/s is sent what its budget allows (messages beyond it dropped whole, before
     any frame is made), told so once per second, and the frames sent are the frames
     recorded; another client's service calls are answered in the same step throughout."""
     budget = SendBudget()
@@ -298,7 +298,7 @@ def test_a_client_over_its_send_budget_is_throttled_not_waited_for() -> None:
     statuses = [json.loads(o.data) for o in to_greedy if o.op == "status"]
     assert len(statuses) == 2  # at most one per second of the bridge's clock
     assert all(s["level"] == "warning" and "over its send budget" in s["msg"] for s in statuses)
-    assert "10000 frames or 128 MiB per second" in statuses[0]["msg"]
+    assert "5000 frames or 64 MiB per second" in statuses[0]["msg"]
     # the recording holds exactly what was sent, nothing of what was dropped
     out_taps = [t for t in bridge.frames() if t.direction == 1]
     assert [(t.connection, t.data) for t in out_taps] == [(o.connection, o.data) for o in outputs]
