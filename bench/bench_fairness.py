@@ -9,6 +9,12 @@ limit: the realtime pace reached (simulated seconds per wall second, read on the
 thread), the observer's service-call latency, and the recording's bytes per step. The pace
 under attack must reach 0.95 of the unattacked pace (which is 1.0x real time on an idle
 machine); the recording must not grow more than 2x per step.
+
+The send budget (:mod:`harness.rosbridge.limits`), where the fragment_size floor is not
+enough: a client publishes 1 MB messages at 50 Hz and another subscribes to them with
+``fragment_size: 1`` (a thousand 1 KiB fragments per message); the session process's CPU
+seconds per simulated second (less sensitive to other load on a shared machine than the
+pace) must stay within 2x of the publisher's alone.
 """
 
 from __future__ import annotations
@@ -78,6 +84,74 @@ asyncio.run(main())
 """
 
 
+_BIG = r"""
+import asyncio, json, sys
+from websockets.asyncio.client import connect
+
+url, seconds, attack = sys.argv[1], float(sys.argv[2]), sys.argv[3] == "1"
+
+async def attacker(stop):
+    async with connect(url, max_size=None, compression=None) as ws:
+        await ws.send(json.dumps({"op": "subscribe", "topic": "/big",
+                                  "type": "std_msgs/msg/String", "fragment_size": 1}))
+        while not stop.is_set():
+            try:
+                await asyncio.wait_for(ws.recv(), 0.1)
+            except asyncio.TimeoutError:
+                pass
+
+async def publisher(stop):
+    async with connect(url, max_size=None, compression=None) as ws:
+        await ws.send(json.dumps({"op": "advertise", "topic": "/big",
+                                  "type": "std_msgs/msg/String"}))
+        frame = json.dumps({"op": "publish", "topic": "/big", "msg": {"data": "x" * 10**6}})
+        while not stop.is_set():
+            await ws.send(frame)
+            await asyncio.sleep(0.02)
+
+async def main():
+    stop = asyncio.Event()
+    tasks = [asyncio.create_task(publisher(stop))]
+    if attack:
+        tasks.append(asyncio.create_task(attacker(stop)))
+    await asyncio.sleep(0.5)
+    print("start", flush=True)
+    await asyncio.sleep(seconds)
+    print("end", flush=True)
+    stop.set()
+    for task in tasks:
+        await task
+
+asyncio.run(main())
+"""
+
+
+def _big_run(seconds: float, attack: bool) -> float:
+    """CPU seconds of this process (the session's thread, the recorder's) per simulated
+    second while a client publishes 1 MB messages at 50 Hz, with or without a client
+    subscribed to them in 1 KiB fragments."""
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        Session("demo", clock="realtime", record_to=Path(tmp) / "big.mcap") as session,
+    ):
+
+        def sim_s() -> float:
+            return float(session.core.sim.sim_time_ns) / 1e9
+
+        proc = subprocess.Popen(
+            [sys.executable, "-c", _BIG, session.url, str(seconds), "1" if attack else "0"],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "start"
+        cpu0, sim0 = time.process_time(), session.call(sim_s)
+        assert proc.stdout.readline().strip() == "end"
+        cpu1, sim1 = time.process_time(), session.call(sim_s)
+        proc.wait(timeout=60)
+    return (cpu1 - cpu0) / max(sim1 - sim0, 1e-9)
+
+
 def _run(seconds: float, attack: bool) -> dict[str, Any]:
     """One realtime session with the clients; the pace over the observer's run (simulated
     seconds per wall second), the observer's latencies and the recording's bytes per step."""
@@ -117,6 +191,9 @@ def run(quick: bool) -> list[Row]:
         f"{attacked['frames']} frames and {attacked['warnings']} warnings in {seconds:.0f} s; "
         f"pace {attacked['pace']:.3f}x vs {calm['pace']:.3f}x real time unattacked"
     )
+    big_calm = _big_run(seconds, attack=False)
+    big_attacked = _big_run(seconds, attack=True)
+    print(f"  1 MB at 50 Hz: {big_calm:.3f} CPU s per simulated s, {big_attacked:.3f} attacked")
     pace_ratio = attacked["pace"] / calm["pace"]
     growth = calm["bytes_per_step"] / attacked["bytes_per_step"]
     return [
@@ -131,4 +208,9 @@ def run(quick: bool) -> list[Row]:
             attacked["bytes_per_step"], calm["bytes_per_step"], "B/step",
             "ratio >= 0.5 (at most 2x the unattacked recording)", growth >= 0.5,
             higher_is_better=False),
+        Row("fairness: CPU per simulated second, 1 MB messages to a fragment_size-1 subscriber",
+            big_attacked, big_calm, "s/s", "ratio >= 0.5 (at most 2x the publisher alone)",
+            big_calm / big_attacked >= 0.5, higher_is_better=False,
+            note="a client publishes 1 MB at 50 Hz; another subscribes in 1 KiB fragments "
+            "(~50,000 frames/s asked; its send budget lets 5,000/s through)"),
     ]  # fmt: skip
