@@ -25,7 +25,8 @@ REPORT_EVERY_NS = 1_000_000_000
 
 
 class BudgetOps(BridgeHost):
-    """Charging frames to their client's :class:`SendBudget` and throttling clients over it."""
+    """Charging frames to their client's :class:`SendBudget` and throttling clients over it
+    (``send_budget``: every new connection's; None: no budget)."""
 
     send_budget: SendBudget | None
 
@@ -65,13 +66,21 @@ class BudgetOps(BridgeHost):
         conn.report_after_ns = now + REPORT_EVERY_NS
         counts = ", ".join(f"{n} on {t}" for t, n in sorted(conn.unreported.items()))
         conn.unreported.clear()
-        assert self.send_budget is not None
+        assert conn.budget is not None
         self.status(
             conn.id,
             "warning",
             f"dropped {counts}: this client is over its send budget of "
-            f"{self.send_budget.describe()} (subscribe with throttle_rate or fewer topics)",
+            f"{conn.budget.describe()} (subscribe with throttle_rate or fewer topics)",
         )
+
+    def exempt_from_budget(self, connection: int) -> None:
+        """Send ``connection`` everything, whatever it costs: for the harness's own links (a
+        client-mode session's connection to the external server carries every client's
+        traffic), never for a client."""
+        conn = self._conns.get(connection)
+        if conn is not None:
+            conn.budget = None
 
     def throttled(self, connection: int) -> dict[str, int]:
         """How many subscription messages, by topic, ``connection`` was not sent because it

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Final, NamedTuple
 from harness.names import name_problem
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
 from harness.rosbridge.graph import ActionEntry, ServiceEntry
+from harness.rosbridge.limits import SendBudget
 from harness.rosbridge.types import TypeRegistry
 
 __all__ = [
@@ -97,6 +98,7 @@ class Connection:
     fragments: dict[Any, tuple[int, dict[int, str]]] = field(default_factory=dict)
     fragment_bytes: int = 0
     fragment_count: int = 0
+    budget: SendBudget | None = None
     spent_until_ns: int | None = None
     budget_now_ns: int = 0
     throttled: dict[str, int] = field(default_factory=dict)

@@ -208,7 +208,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
         """Open a connection; returns its id (counting from 1 per bridge)."""
         cid = self._next_conn
         self._next_conn += 1
-        self._conns[cid] = Connection(cid, peer)
+        self._conns[cid] = Connection(cid, peer, budget=self.send_budget)
         return cid
 
     @property
@@ -284,9 +284,8 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
         conn = self._conns.get(connection)
         if conn is None:
             return
-        budget = self.send_budget
-        if budget is not None:
-            self._charge(conn, budget, len(data), self._now_ns)
+        if conn.budget is not None:
+            self._charge(conn, conn.budget, len(data), self._now_ns)
         if self._frames is None:
             self._seq += 1  # what _tap does when no frames are kept
         else:
@@ -540,7 +539,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
         conn = self._conns.get(cid)
         if conn is None:
             return
-        budget = self.send_budget
+        budget = conn.budget
         if budget is not None and self._over_budget(conn, now):
             self._throttle(conn, t.name)  # dropped before any work is done for it
             return

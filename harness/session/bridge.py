@@ -18,6 +18,7 @@ from harness.session.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_DISCONNECT,
     MARKER_TRANSPORT_STATUS,
+    MARKER_UNBUDGETED,
 )
 from harness.session.topics import HARNESS_NODE, TYPE_LOG, log_msg
 
@@ -87,7 +88,8 @@ class SessionBridge(Bridge):
     :data:`~harness.rosbridge.limits.SEND_FRAMES_PER_S` frames or
     :data:`~harness.rosbridge.limits.SEND_BYTES_PER_S` bytes per second of simulation time):
     a client over it has its subscription messages dropped rather than the simulation
-    slowed down by the work of sending them."""
+    slowed down by the work of sending them (the harness's own links are exempt:
+    :meth:`exempt_from_budget`)."""
 
     def __init__(
         self,
@@ -131,6 +133,12 @@ class SessionBridge(Bridge):
     def time_out_call(self, key: int) -> list[Output]:
         self.mark(MARKER_CALL_TIMEOUT, {"call": key})
         return super().time_out_call(key)
+
+    def exempt_from_budget(self, connection: int) -> None:
+        """The harness's own link, without a send budget; recorded as a marker first."""
+        if connection in self.connections:
+            self.mark(MARKER_UNBUDGETED, {"connection": connection})
+        super().exempt_from_budget(connection)
 
     def transport_status(self, connection: int, level: str, msg: str) -> None:
         """A status the transport sends by itself, recorded as a marker first."""

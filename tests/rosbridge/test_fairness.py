@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 
+from harness.models import load_robot
 from harness.recording import Recording
 from harness.rosbridge import Bridge, Output, TypeRegistry
 from harness.rosbridge.limits import (
@@ -23,6 +24,8 @@ from harness.rosbridge.limits import (
 )
 from harness.session import Session
 from harness.session.bridge import SessionBridge
+from harness.session.core import CoreOptions, SessionCore
+from harness.session.markers import MARKER_UNBUDGETED, replay_marker
 from tests.rosbridge.helpers import install_test_graph
 from tests.session.session_helpers import Client
 
@@ -413,3 +416,35 @@ def test_live_session_raises_fragment_size_and_records_what_it_sent(tmp_path: Pa
             if f.direction == 1 and f.connection == 1
         ]
     assert out == got
+
+
+def test_the_harness_own_link_is_exempt_and_a_replay_exempts_it_too() -> None:
+    """A client-mode session's connection to the external server carries every external
+    client's traffic: it is exempt from the send budget, recorded as a
+    ``harness/unbudgeted`` marker before anything is sent on it, and a replay applying that
+    marker exempts the same connection (so a full-level replay sends what the run sent)."""
+    clock = [0]
+    live = SessionBridge(lambda: clock[0], keep_frames=True)
+    live.advertise("/big", STRING)
+    link, client = live.connect(), live.connect()
+    live.exempt_from_budget(link)
+    for c in (link, client):
+        send(live, c, {"op": "subscribe", "topic": "/big", "fragment_size": 1})
+    for k in range(100):
+        clock[0] = k * STEP_NS
+        live.publish("/big", STRING, {"data": "y" * 100_000}, clock[0])
+    assert live.throttled(link) == {}
+    assert live.throttled(client)["/big"] > 50
+    taps = live.frames()
+    markers = [t for t in taps if t.name == MARKER_UNBUDGETED]
+    assert [(t.connection, t.direction, t.op, json.loads(t.data)) for t in markers] == [
+        (0, 0, "", {"connection": link})
+    ]
+    assert taps.index(markers[0]) < min(i for i, t in enumerate(taps) if t.connection == link)
+
+    core = SessionCore(load_robot("demo"), CoreOptions(joint_states_hz=0, tf_hz=0, clock_hz=0))
+    assert core.bridge is not None
+    replay_marker(core, MARKER_UNBUDGETED, markers[0].data)
+    assert core.bridge.connections == [1]
+    assert core.bridge._conns[link].budget is None
+    assert core.bridge._conns[link].id == link
