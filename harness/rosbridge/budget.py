@@ -8,8 +8,9 @@ spent past the bridge's time has its subscription messages dropped, before they 
 fragmented, recorded or queued, so the work one client causes per second of simulation time
 is bounded whatever it subscribes to and however it asks for it; answers (service responses,
 action results, statuses) are charged but always sent. Drops are counted per topic
-(:meth:`BudgetOps.throttled`) and reported to the client in a ``warning`` status at most once
-per second of the bridge's clock. Everything is a function of the bridge's inputs and time:
+(:meth:`BudgetOps.throttled`) and reported to the client in ``warning`` statuses (``dropped N
+messages on T: ...``, as the server reports drops for a slow reader) at most once per second
+of the bridge's clock. Everything is a function of the bridge's inputs and time:
 what is dropped is never sent nor recorded, the same in a replay.
 """
 
@@ -56,23 +57,25 @@ class BudgetOps(BridgeHost):
         conn.spent_until_ns = spent + budget.frame_ns + nbytes * 1_000_000_000 // budget.bytes_per_s
 
     def _throttle(self, conn: Connection, topic: str) -> None:
-        """Count a subscription message on ``topic`` not sent to ``conn``; tell the client
-        (at most once per :data:`REPORT_EVERY_NS`)."""
+        """Count a subscription message on ``topic`` not sent to ``conn``; tell the client,
+        a ``warning`` per topic, at most once per :data:`REPORT_EVERY_NS`."""
         conn.throttled[topic] = conn.throttled.get(topic, 0) + 1
         conn.unreported[topic] = conn.unreported.get(topic, 0) + 1
         now = self._now_ns
         if conn.report_after_ns is not None and now < conn.report_after_ns:
             return
         conn.report_after_ns = now + REPORT_EVERY_NS
-        counts = ", ".join(f"{n} on {t}" for t, n in sorted(conn.unreported.items()))
-        conn.unreported.clear()
         assert conn.budget is not None
-        self.status(
-            conn.id,
-            "warning",
-            f"dropped {counts}: this client is over its send budget of "
-            f"{conn.budget.describe()} (subscribe with throttle_rate or fewer topics)",
-        )
+        budget = conn.budget.describe()
+        for name, n in sorted(conn.unreported.items()):
+            # the text of the server's drops for a slow reader, the reason apart
+            self.status(
+                conn.id,
+                "warning",
+                f"dropped {n} messages on {name}: this client is over its send budget of "
+                f"{budget} (subscribe with throttle_rate or to fewer topics)",
+            )
+        conn.unreported.clear()
 
     def exempt_from_budget(self, connection: int) -> None:
         """Send ``connection`` everything, whatever it costs: for the harness's own links (a
