@@ -1,13 +1,17 @@
 """Per-client send budgets (a room of :class:`~harness.rosbridge.Bridge`, mixed into it).
 
-Every frame the bridge sends a client costs that client budget
-(:meth:`harness.rosbridge.limits.SendBudget.cost_ns`: a share per frame plus a share per
-byte), counted as a point on the bridge's clock up to which the client's budget is spent
-(a generic cell rate algorithm: no timers, one integer per client). A client whose budget is
+Every frame the bridge sends a client for its subscriptions (what one ``subscribe`` can make
+unbounded) costs that client budget (:meth:`harness.rosbridge.limits.SendBudget.cost_ns`: a
+share per frame plus a share per byte), counted as a point on the bridge's clock up to which
+the client's budget is spent (a generic cell rate algorithm: no timers, one integer per
+client). A client whose budget is
 spent past the bridge's time has its subscription messages dropped, before they are built,
 fragmented, recorded or queued, so the work one client causes per second of simulation time
-is bounded whatever it subscribes to and however it asks for it; answers (service responses,
-action results, statuses) are charged but always sent. Drops are counted per topic
+is bounded whatever it subscribes to and however it asks for it. Answers (service responses,
+action results and feedback, statuses) are neither charged nor dropped: they come one for
+each frame the client sends, which the session already paces (a lockstep client stepping a
+10 kHz simulation one step per call gets 10,000 answers per simulated second, and its
+subscriptions still flow). Drops are counted per topic
 (:meth:`BudgetOps.throttled`) and reported to the client in ``warning`` statuses (``dropped N
 messages on T: ...``, as the server reports drops for a slow reader) at most once per second
 of the bridge's clock. Everything is a function of the bridge's inputs and time:

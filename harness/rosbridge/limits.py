@@ -9,9 +9,10 @@ in total (:data:`MAX_PENDING_CALLS`, :data:`MAX_PENDING_GOALS`); their timeouts 
 
 Work: a ``fragment_size`` below :data:`MIN_FRAGMENT_SIZE` is raised to it (one frame per
 character made a client's messages cost thousands of frames each), and a session's bridge
-charges every frame it sends a client to that client's send budget (:class:`SendBudget`, on
-the bridge's clock: simulation time in a session): a client over it has its subscription
-messages dropped, as a slow subscriber's are, instead of the simulation waiting for them.
+charges every frame it sends a client for its subscriptions to that client's send budget
+(:class:`SendBudget`, on the bridge's clock: simulation time in a session): a client over it
+has its subscription messages dropped, as a slow subscriber's are, instead of the simulation
+waiting for them.
 """
 
 from __future__ import annotations
@@ -61,11 +62,11 @@ MAX_PENDING_GOALS: Final = 10_000
 """Action goals every client together may have active."""
 
 SEND_FRAMES_PER_S: Final = 5000
-"""A session client's send budget in frames per second of the bridge's clock (each frame
-costs 1/5,000 s of budget, plus its bytes' share of :data:`SEND_BYTES_PER_S`). A frame costs
-the session thread some 15 to 40 us (built, recorded, queued, written): a client at this rate
-alone takes about a tenth of a core. Robot software subscribing to every topic of a robot
-needs well under it (the demo arm's /joint_states, /tf and /clock: 300 frames/s)."""
+"""A session client's send budget in subscription frames per second of the bridge's clock
+(each frame costs 1/5,000 s of budget, plus its bytes' share of :data:`SEND_BYTES_PER_S`). A
+frame costs the session thread some 15 to 40 us (built, recorded, queued, written): a client
+at this rate alone takes about a tenth of a core. Robot software subscribing to every topic of
+a robot needs well under it (the demo arm's /joint_states, /tf and /clock: 300 frames/s)."""
 SEND_BYTES_PER_S: Final = 64 * 2**20
 """A session client's send budget in bytes per second of the bridge's clock: room for a
 320x240 RGB-D camera at 30 Hz in JSON (about 21 MB/s) and more."""

@@ -147,8 +147,9 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
     ``fragment_size`` below ``min_fragment_size`` is raised to it (with a ``warning``), pending
     service calls and action goals are capped per client and in total (one more is refused
     with a failed answer naming the limit), and with a ``send_budget`` every frame sent to a
-    client is charged to it: a client over its budget has its subscription messages dropped
-    (counted, :meth:`throttled`, and reported in a ``warning``) until its budget refills.
+    client for its subscriptions is charged to it: a client over its budget has its
+    subscription messages dropped (counted, :meth:`throttled`, and reported in a ``warning``)
+    until its budget refills.
     """
 
     def __init__(
@@ -284,7 +285,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
         conn = self._conns.get(connection)
         if conn is None:
             return
-        if conn.budget is not None:
+        if queue_limit and conn.budget is not None:  # a subscription's frame (see Output)
             self._charge(conn, conn.budget, len(data), self._now_ns)
         if self._frames is None:
             self._seq += 1  # what _tap does when no frames are kept

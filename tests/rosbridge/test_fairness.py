@@ -456,3 +456,24 @@ def test_the_harness_own_link_is_exempt_and_a_replay_exempts_it_too() -> None:
     assert core.bridge.connections == [1]
     assert core.bridge._conns[link].budget is None
     assert core.bridge._conns[link].id == link
+
+
+def test_answers_are_not_charged() -> None:
+    """A lockstep client stepping a 10 kHz simulation one step per call gets 10,000 answers
+    per simulated second, twice its frame budget: answers come one per frame it sends (paced
+    by the session), so they are not charged and its 1 kHz subscription still flows."""
+    bridge = Bridge(REGISTRY, send_budget=SendBudget())
+    install_test_graph(bridge)
+    bridge.advertise("/t", STRING)
+    c = bridge.connect()
+    send(bridge, c, {"op": "subscribe", "topic": "/t"})
+    published = 0
+    for k in range(10_000):  # one simulated second of 100 us steps
+        now = k * 100_000
+        call = {"op": "call_service", "service": "/add_two_ints", "args": {"a": k, "b": 0}}
+        assert parsed(send(bridge, c, {**call, "id": k}, now), c)[0]["result"] is True
+        if k % 10 == 0:
+            bridge.publish("/t", STRING, {"data": "hi"}, now)
+            published += len(bridge.drain())
+    assert published == 1000
+    assert bridge.throttled(c) == {}
