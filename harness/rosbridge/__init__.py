@@ -4,8 +4,10 @@ ROS 2 message validation and a client for external rosbridge servers. Knows noth
 - :class:`Bridge` (``protocol.py``): the shared graph and per-connection state;
   ``receive(connection, frame, now_ns) -> list[Output]``; in-process publishers,
   subscribers, service and action servers; the frames it saw (``frames()``).
-- its rooms: ``services.py``, ``actions.py``, ``fragments.py`` (ops of those concerns,
-  mixed into :class:`Bridge`), ``frames.py`` (frame fields, connection state);
+- its rooms: ``services.py``, ``actions.py``, ``fragments.py``, ``budget.py`` (ops of those
+  concerns, per-client send budgets: mixed into :class:`Bridge`), ``frames.py`` (frame
+  fields, connection state); ``limits.py``: every bound on what one client can make the
+  bridge hold or do;
 - ``graph.py``: the graph's records (topics, services, actions) and its queries;
   ``rosapi.py``: the ``/rosapi`` services over them (neither imports ``protocol.py``).
 - :class:`BridgeServer` (``server.py``): WebSocket I/O, immediate or queued ingestion.

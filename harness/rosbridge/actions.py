@@ -72,8 +72,28 @@ class ActionOps(BridgeHost):
     servers."""
 
     _goals: dict[int, _PendingGoal]
+    _goals_of: dict[int, int]
     _goal_by_provider: dict[tuple[int, str], int]
     _goal_by_caller: dict[tuple[int, Any, str], int]
+    max_pending_goals_per_client: int
+    max_pending_goals: int
+
+    def _goals_refused(self, c: int) -> str | None:
+        """Why client ``c`` may not send one more action goal (it, or every client together,
+        has as many active as the limit allows), or None."""
+        mine = self._goals_of.get(c, 0)
+        if mine >= self.max_pending_goals_per_client:
+            return (
+                f"{mine} goals of this client are active, the limit per client "
+                f"(MAX_PENDING_GOALS_PER_CLIENT {self.max_pending_goals_per_client})"
+            )
+        total = len(self._goals)
+        if total >= self.max_pending_goals:
+            return (
+                f"{total} goals are active, the limit for all clients together "
+                f"(MAX_PENDING_GOALS {self.max_pending_goals})"
+            )
+        return None
 
     def _cancel_orphaned_goal(self, pending: _PendingGoal) -> None:
         """Tell the action server to stop working on a goal whose client left (the goal is
@@ -119,6 +139,10 @@ class ActionOps(BridgeHost):
         if act is None:
             self._action_failure(c, spelled, f"Action {spelled} does not exist", msg_id)
             return
+        refused = self._goals_refused(c)
+        if refused is not None:
+            self._action_failure(c, spelled, f"Action {spelled} refused: {refused}", msg_id)
+            return
         try:
             if "action_type" in obj:
                 given = self.registry.resolve_action(obj["action_type"])
@@ -134,6 +158,7 @@ class ActionOps(BridgeHost):
         self._next_key += 1
         pending = _PendingGoal(c, msg_id, spelled, act, feedback, None)
         self._goals[key] = pending
+        self._goals_of[c] = self._goals_of.get(c, 0) + 1
         self._goal_by_caller[(c, msg_id, act.name)] = key
         if act.handler is not None:
             handle = ActionGoal(self, key, act.name, act.type, goal, c)
@@ -165,6 +190,11 @@ class ActionOps(BridgeHost):
     def _drop_goal(self, key: int) -> _PendingGoal | None:
         pending = self._goals.pop(key, None)
         if pending is not None:
+            left = self._goals_of[pending.caller] - 1
+            if left:
+                self._goals_of[pending.caller] = left
+            else:
+                del self._goals_of[pending.caller]
             self._call_ended(key)
             self._goal_by_caller.pop((pending.caller, pending.caller_id, pending.action.name), None)
             if pending.provider_id is not None:

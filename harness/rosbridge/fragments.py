@@ -1,5 +1,6 @@
 """Fragmented messages (rosbridge's ``fragment`` op): pieces collected per connection and
-message id, bounded in count and bytes, reassembled and processed as one frame (a room of
+message id, bounded in count and bytes, reassembled and processed as one frame; and the
+floor on the ``fragment_size`` a client asks for its outgoing frames (a room of
 :class:`~harness.rosbridge.Bridge`, mixed into it)."""
 
 from __future__ import annotations
@@ -15,10 +16,27 @@ __all__ = ["FragmentOps"]
 
 class FragmentOps(BridgeHost):
     """The ``fragment`` op: ``max_fragmented_messages`` incomplete messages and
-    ``max_fragment_bytes`` of pieces per connection at most."""
+    ``max_fragment_bytes`` of pieces per connection at most; outgoing fragments of
+    ``min_fragment_size`` characters at least."""
 
     max_fragment_bytes: int
     max_fragmented_messages: int
+    min_fragment_size: int
+
+    def _fragment_floor(self, c: int, op: str, size: int, msg_id: Any) -> int:
+        """The ``fragment_size`` to apply for a client's asked ``size`` (> 0): at least
+        ``min_fragment_size``; a smaller one is raised, with a ``warning`` status saying so
+        (a fragment per character costs a frame, its recording and its send per character)."""
+        floor = self.min_fragment_size
+        if size >= floor:
+            return size
+        self.status(
+            c,
+            "warning",
+            f"{op}: fragment_size {size} is below the minimum {floor}; raised to {floor}",
+            msg_id,
+        )
+        return floor
 
     def _op_fragment(self, c: int, obj: Mapping[str, Any]) -> None:
         conn = self._conns[c]

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Final, NamedTuple
 from harness.names import name_problem
 from harness.rosbridge.errors import ConversionError, FrameError, TypeNameError, UnknownTypeError
 from harness.rosbridge.graph import ActionEntry, ServiceEntry
+from harness.rosbridge.limits import SendBudget
 from harness.rosbridge.types import TypeRegistry
 
 __all__ = [
@@ -86,8 +87,9 @@ _VALID_NAMES_MAX = 4096
 
 @dataclass
 class Connection:
-    """One connection's protocol state: its ``set_level``, fragmentation and the
-    fragmented messages it is sending."""
+    """One connection's protocol state: its ``set_level``, fragmentation, the fragmented
+    messages it is sending, and its send budget (:mod:`harness.rosbridge.budget`): until when
+    its budget is spent, and the subscription messages it was not sent, by topic."""
 
     id: int
     peer: str
@@ -96,6 +98,12 @@ class Connection:
     fragments: dict[Any, tuple[int, dict[int, str]]] = field(default_factory=dict)
     fragment_bytes: int = 0
     fragment_count: int = 0
+    budget: SendBudget | None = None
+    spent_until_ns: int | None = None
+    budget_now_ns: int = 0
+    throttled: dict[str, int] = field(default_factory=dict)
+    unreported: dict[str, int] = field(default_factory=dict)
+    report_after_ns: int | None = None
 
 
 class Deadline(NamedTuple):

@@ -31,6 +31,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, Final, NamedTuple
 
 from harness.rosbridge.actions import ActionGoal, ActionOps, _PendingGoal
+from harness.rosbridge.budget import BudgetOps
 from harness.rosbridge.convert import dumps, from_json, publish_prefix, to_cbor, to_cdr
 from harness.rosbridge.deadlines import MAX_TIMEOUT_S
 from harness.rosbridge.errors import FrameError
@@ -54,6 +55,15 @@ from harness.rosbridge.graph import (
     Subscription,
     TopicEntry,
     normalize,
+)
+from harness.rosbridge.limits import (
+    MAX_FRAGMENT_BYTES,
+    MAX_PENDING_CALLS,
+    MAX_PENDING_CALLS_PER_CLIENT,
+    MAX_PENDING_GOALS,
+    MAX_PENDING_GOALS_PER_CLIENT,
+    MIN_FRAGMENT_SIZE,
+    SendBudget,
 )
 from harness.rosbridge.rosapi import install as install_rosapi
 from harness.rosbridge.services import DEFERRED, ServiceCall, ServiceOps, _PendingCall
@@ -123,7 +133,7 @@ def _png(text: str) -> str:
     return base64.b64encode(png).decode("ascii")
 
 
-class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
+class Bridge(ServiceOps, ActionOps, FragmentOps, BudgetOps, Graph):
     """The shared rosbridge graph and every connection's protocol state (sans-I/O).
 
     ``keep_frames``: keep every frame in and out for :meth:`frames`; ``call_timeout_s`` is
@@ -133,7 +143,13 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
     ``goal_timeout_s`` by default; a client's ``timeout`` is bounded by
     :func:`harness.rosbridge.deadlines.bounded_timeout`);
     ``default_queue_length`` bounds a subscription's unsent frames when the client asks for
-    ``queue_length`` 0.
+    ``queue_length`` 0. Bounds on each client (:mod:`harness.rosbridge.limits`): a
+    ``fragment_size`` below ``min_fragment_size`` is raised to it (with a ``warning``), pending
+    service calls and action goals are capped per client and in total (one more is refused
+    with a failed answer naming the limit), and with a ``send_budget`` every frame sent to a
+    client for its subscriptions is charged to it: a client over its budget has its
+    subscription messages dropped (counted, :meth:`throttled`, and reported in a ``warning``)
+    until its budget refills.
     """
 
     def __init__(
@@ -143,8 +159,14 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         keep_frames: bool = False,
         call_timeout_s: float = 30.0,
         default_queue_length: int = 1000,
-        max_fragment_bytes: int = 16 * 2**20,
+        max_fragment_bytes: int = MAX_FRAGMENT_BYTES,
         max_fragmented_messages: int = 64,
+        min_fragment_size: int = MIN_FRAGMENT_SIZE,
+        max_pending_calls_per_client: int = MAX_PENDING_CALLS_PER_CLIENT,
+        max_pending_calls: int = MAX_PENDING_CALLS,
+        max_pending_goals_per_client: int = MAX_PENDING_GOALS_PER_CLIENT,
+        max_pending_goals: int = MAX_PENDING_GOALS,
+        send_budget: SendBudget | None = None,
         rosapi: bool = True,
         distro: str = "humble",
     ) -> None:
@@ -155,6 +177,12 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         self.default_queue_length = default_queue_length
         self.max_fragment_bytes = max_fragment_bytes
         self.max_fragmented_messages = max_fragmented_messages
+        self.min_fragment_size = min_fragment_size
+        self.max_pending_calls_per_client = max_pending_calls_per_client
+        self.max_pending_calls = max_pending_calls
+        self.max_pending_goals_per_client = max_pending_goals_per_client
+        self.max_pending_goals = max_pending_goals
+        self.send_budget = send_budget
         self.distro = distro
         self.params: dict[str, str] = {}
         self._deadline_log: list[Deadline] | None = None
@@ -164,8 +192,10 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         self._next_key = 1
         self._conns: dict[int, Connection] = {}
         self._calls: dict[int, _PendingCall] = {}
+        self._calls_of: dict[int, int] = {}
         self._call_by_provider: dict[tuple[int, str], int] = {}
         self._goals: dict[int, _PendingGoal] = {}
+        self._goals_of: dict[int, int] = {}
         self._goal_by_provider: dict[tuple[int, str], int] = {}
         self._goal_by_caller: dict[tuple[int, Any, str], int] = {}
         self._outbox: list[Output] = []
@@ -179,7 +209,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         """Open a connection; returns its id (counting from 1 per bridge)."""
         cid = self._next_conn
         self._next_conn += 1
-        self._conns[cid] = Connection(cid, peer)
+        self._conns[cid] = Connection(cid, peer, budget=self.send_budget)
         return cid
 
     @property
@@ -252,8 +282,11 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
     def _emit(
         self, connection: int, data: str | bytes, op: str, name: str, queue_limit: int = 0
     ) -> None:
-        if connection not in self._conns:
+        conn = self._conns.get(connection)
+        if conn is None:
             return
+        if queue_limit and conn.budget is not None:  # a subscription's frame (see Output)
+            self._charge(conn, conn.budget, len(data), self._now_ns)
         if self._frames is None:
             self._seq += 1  # what _tap does when no frames are kept
         else:
@@ -415,6 +448,7 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             if "fragment_size" in obj and op != "subscribe":
                 size = obj["fragment_size"]
                 if isinstance(size, int) and not isinstance(size, bool) and size > 0:
+                    size = self._fragment_floor(connection, op, size, msg_id)
                     self._conns[connection].fragment_size = size
             handler(self, connection, obj)
         except BAD_INPUT as exc:
@@ -503,6 +537,13 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
             and now - sub.last_sent_ns < sub.throttle_ns
         ):
             return
+        conn = self._conns.get(cid)
+        if conn is None:
+            return
+        budget = conn.budget
+        if budget is not None and self._over_budget(conn, now):
+            self._throttle(conn, t.name)  # dropped before any work is done for it
+            return
         sub.last_sent_ns = now
         limit = sub.queue_length or self.default_queue_length
         compression = sub.compression
@@ -514,13 +555,12 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
                 frame = publish_prefix(sub.spelled) + dumps(msg) + "}"
                 if frames is not None:
                     frames[sub.spelled] = frame
-            conn = self._conns.get(cid)
-            if conn is None:
-                return
             size = sub.fragment_size if sub.fragment_size is not None else conn.fragment_size
             if size is not None and len(frame) > size:
                 self._send(cid, frame, "publish", t.name, None, size, limit)
                 return
+            if budget is not None:
+                self._charge(conn, budget, len(frame), now)
             if self._frames is not None:
                 self._frames.append(
                     TapRecord(self._seq, cid, DIRECTION_OUT, frame, "publish", t.name, now)
@@ -562,8 +602,10 @@ class Bridge(ServiceOps, ActionOps, FragmentOps, Graph):
         for key, value in (("throttle_rate", throttle), ("queue_length", queue_length)):
             if value < 0:
                 raise FrameError(f"subscribe: field {key} must be >= 0, got {value}")
-        if fragment_size is not None and fragment_size <= 0:
-            raise FrameError(f"subscribe: field fragment_size must be > 0, got {fragment_size}")
+        if fragment_size is not None:
+            if fragment_size <= 0:
+                raise FrameError(f"subscribe: field fragment_size must be > 0, got {fragment_size}")
+            fragment_size = self._fragment_floor(c, "subscribe", fragment_size, obj.get("id"))
         full = self.registry.resolve_message(type_str) if type_str is not None else None
         t = self._topic(topic)
         if full is not None:

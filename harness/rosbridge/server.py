@@ -47,6 +47,7 @@ from websockets.protocol import Event, State
 from harness.errors import ConfigError
 from harness.rosbridge.deadlines import Deadlines
 from harness.rosbridge.errors import ExposedServerWarning, FrameError
+from harness.rosbridge.limits import MAX_FRAME_BYTES, MAX_QUEUED_BYTES, SEND_QUEUE_BYTES
 from harness.rosbridge.protocol import Bridge, Output
 
 __all__ = ["BridgeServer", "ConnectionMetrics", "is_loopback"]
@@ -245,11 +246,11 @@ class BridgeServer:
         port: int = 0,
         queued: bool = False,
         clock: Callable[[], int] | None = None,
-        max_size: int = 16 * 2**20,
+        max_size: int = MAX_FRAME_BYTES,
         ping_interval: float | None = 20.0,
         ping_timeout: float | None = 20.0,
-        send_queue_bytes: int = 256 * 2**20,
-        max_queued_bytes: int = 512 * 2**20,
+        send_queue_bytes: int = SEND_QUEUE_BYTES,
+        max_queued_bytes: int = MAX_QUEUED_BYTES,
         max_pending: int = 100_000,
         token: str | None = None,
     ) -> None:

@@ -55,7 +55,7 @@ class ServiceCall:
         self._bridge._finish_call(self.key, False, message)
 
 
-@dataclass
+@dataclass(slots=True)
 class _PendingCall:
     caller: int
     caller_id: Any
@@ -73,7 +73,27 @@ class ServiceOps(BridgeHost):
     ``unadvertise_service``) and in-process services."""
 
     _calls: dict[int, _PendingCall]
+    _calls_of: dict[int, int]
     _call_by_provider: dict[tuple[int, str], int]
+    max_pending_calls_per_client: int
+    max_pending_calls: int
+
+    def _calls_refused(self, c: int) -> str | None:
+        """Why client ``c`` may not start one more service call (it, or every client
+        together, has as many pending as the limit allows), or None."""
+        mine = self._calls_of.get(c, 0)
+        if mine >= self.max_pending_calls_per_client:
+            return (
+                f"{mine} calls of this client are pending, the limit per client "
+                f"(MAX_PENDING_CALLS_PER_CLIENT {self.max_pending_calls_per_client})"
+            )
+        total = len(self._calls)
+        if total >= self.max_pending_calls:
+            return (
+                f"{total} calls are pending, the limit for all clients together "
+                f"(MAX_PENDING_CALLS {self.max_pending_calls})"
+            )
+        return None
 
     def _service_failure(self, c: int, spelled: str, values: Any, msg_id: Any) -> None:
         frame: dict[str, Any] = {
@@ -102,6 +122,10 @@ class ServiceOps(BridgeHost):
         svc = self._services.get(spelled) or self._services.get(normalize(spelled))
         if svc is None:
             self._service_failure(c, spelled, f"Service {spelled} does not exist", msg_id)
+            return
+        refused = self._calls_refused(c)
+        if refused is not None:
+            self._service_failure(c, spelled, f"Service {spelled} refused: {refused}", msg_id)
             return
         request_type = self.registry.service(svc.type).request
         try:
@@ -135,6 +159,8 @@ class ServiceOps(BridgeHost):
         self._next_key += 1
         pending = _PendingCall(caller, caller_id, spelled, svc, None, callback)
         self._calls[key] = pending
+        if caller:
+            self._calls_of[caller] = self._calls_of.get(caller, 0) + 1
         if svc.handler is not None:
             call = ServiceCall(self, key, svc.name, svc.type, request, caller)
             pending.call = call
@@ -170,6 +196,12 @@ class ServiceOps(BridgeHost):
 
     def _drop_call(self, key: int) -> _PendingCall | None:
         pending = self._calls.pop(key, None)
+        if pending is not None and pending.caller:
+            left = self._calls_of[pending.caller] - 1
+            if left:
+                self._calls_of[pending.caller] = left
+            else:
+                del self._calls_of[pending.caller]
         if pending is not None and pending.timed:  # answered at once: no deadline started
             self._call_ended(key)
         if pending is not None and pending.provider_id is not None:

@@ -13,10 +13,12 @@ from typing import Any, ClassVar, Protocol
 from harness.events import JointSample, LogMessage, SinkReport
 from harness.events.events import Event
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Message, Output, TapRecord
+from harness.rosbridge.limits import SendBudget
 from harness.session.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_DISCONNECT,
     MARKER_TRANSPORT_STATUS,
+    MARKER_UNBUDGETED,
 )
 from harness.session.topics import HARNESS_NODE, TYPE_LOG, log_msg
 
@@ -31,6 +33,7 @@ __all__ = [
 ]
 
 ROSOUT = "/rosout"
+DEFAULT_BUDGET = SendBudget()
 
 MessageCallback = Callable[[Mapping[str, Any], int], None]
 ServiceHandler = Callable[[Mapping[str, Any]], Mapping[str, Any]]
@@ -79,7 +82,14 @@ class SessionBridge(Bridge):
     (an external rosbridge server's answers in client mode, the ROS 2 gateway's warnings)
     while it is processed: the core turns them into events, live and in a replay alike (what
     such an event publishes must come out where the status came in, so it is not drained
-    later as the frames are)."""
+    later as the frames are).
+
+    Each client has a send budget (:class:`~harness.rosbridge.limits.SendBudget`, default
+    :data:`~harness.rosbridge.limits.SEND_FRAMES_PER_S` frames or
+    :data:`~harness.rosbridge.limits.SEND_BYTES_PER_S` bytes per second of simulation time):
+    a client over it has its subscription messages dropped rather than the simulation
+    slowed down by the work of sending them (the harness's own links are exempt:
+    :meth:`exempt_from_budget`)."""
 
     def __init__(
         self,
@@ -87,8 +97,9 @@ class SessionBridge(Bridge):
         *,
         keep_frames: bool = False,
         peer_status: Callable[[int, str, str], None] | None = None,
+        send_budget: SendBudget | None = DEFAULT_BUDGET,
     ) -> None:
-        super().__init__(keep_frames=keep_frames)
+        super().__init__(keep_frames=keep_frames, send_budget=send_budget)
         self._clock = clock
         self._peer_status = peer_status
 
@@ -122,6 +133,12 @@ class SessionBridge(Bridge):
     def time_out_call(self, key: int) -> list[Output]:
         self.mark(MARKER_CALL_TIMEOUT, {"call": key})
         return super().time_out_call(key)
+
+    def exempt_from_budget(self, connection: int) -> None:
+        """The harness's own link, without a send budget; recorded as a marker first."""
+        if connection in self.connections:
+            self.mark(MARKER_UNBUDGETED, {"connection": connection})
+        super().exempt_from_budget(connection)
 
     def transport_status(self, connection: int, level: str, msg: str) -> None:
         """A status the transport sends by itself, recorded as a marker first."""

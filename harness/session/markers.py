@@ -18,7 +18,10 @@ effect):
   client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
 - ``harness/close`` ``{"step": k}``: the session closed after step ``k``, once every frame
   it received was processed; only ``harness/disconnect`` markers of connections still open
-  follow it. It changes nothing (replay re-records it).
+  follow it. It changes nothing (replay re-records it);
+- ``harness/unbudgeted`` ``{"connection": c}``: connection ``c`` is the harness's own link
+  (client mode's connection to the external server), sent everything without a send budget
+  (:mod:`harness.rosbridge.budget`).
 
 A connection opening needs no marker: a connection has no effect until its first frame, and
 ids are given in order, so replay opens connection ``c`` when its first frame (or marker)
@@ -45,6 +48,7 @@ __all__ = [
     "MARKER_DISCONNECT",
     "MARKER_PYTHON",
     "MARKER_TRANSPORT_STATUS",
+    "MARKER_UNBUDGETED",
     "is_marker",
     "open_connection",
     "replay_marker",
@@ -55,12 +59,14 @@ MARKER_CALL_TIMEOUT = "harness/call_timeout"
 MARKER_TRANSPORT_STATUS = "harness/transport_status"
 MARKER_PYTHON = "harness/python"
 MARKER_CLOSE = "harness/close"
+MARKER_UNBUDGETED = "harness/unbudgeted"
 MARKERS = (
     MARKER_DISCONNECT,
     MARKER_CALL_TIMEOUT,
     MARKER_TRANSPORT_STATUS,
     MARKER_PYTHON,
     MARKER_CLOSE,
+    MARKER_UNBUDGETED,
 )
 """The ``topic`` of every marker frame (see the module docstring)."""
 
@@ -95,6 +101,9 @@ def replay_marker(core: SessionCore, topic: str, payload: str | bytes) -> None:
             bridge.transport_status(int(args["connection"]), str(args["level"]), str(args["msg"]))
         elif topic == MARKER_CLOSE:
             core.record_close()
+        elif topic == MARKER_UNBUDGETED:
+            open_connection(bridge, int(args["connection"]))
+            bridge.exempt_from_budget(int(args["connection"]))
         else:
             _replay_python(core, args)
     except (ValueError, TypeError, KeyError) as exc:

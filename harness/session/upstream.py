@@ -178,6 +178,8 @@ class UpstreamPort:
         self.stats.refused = tuple(refused)
         skip = {r.split(" ", 1)[0] for r in refused}
         self.connection = self.bridge.connect(f"upstream {redact(self.url)}")
+        # every external client's traffic goes through this one connection: no send budget
+        self.bridge.exempt_from_budget(self.connection)
         frames = [
             json.dumps({"op": "subscribe", "id": f"upstream:{t.name}", "topic": t.name,
                         "type": t.type})

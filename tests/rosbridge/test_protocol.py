@@ -875,8 +875,8 @@ def test_fragment_memory_is_bounded() -> None:
 
 def test_outgoing_fragments_have_integer_total(wire: Wire) -> None:
     a, b = pubsub(wire)
-    wire.send(a, {"op": "subscribe", "topic": "/t", "id": "f", "fragment_size": 20})
-    out = wire.send(b, {"op": "publish", "topic": "/t", "msg": {"data": "x" * 50}})
+    wire.send(a, {"op": "subscribe", "topic": "/t", "id": "f", "fragment_size": 1024})
+    out = wire.send(b, {"op": "publish", "topic": "/t", "msg": {"data": "x" * 2500}})
     frames = [f for _, f in out]
     assert all(
         f["op"] == "fragment" and isinstance(f["total"], int) and f["total"] == len(frames)
@@ -886,7 +886,7 @@ def test_outgoing_fragments_have_integer_total(wire: Wire) -> None:
         json.loads("".join(f["data"] for f in sorted(frames, key=lambda f: f["num"])))["msg"][
             "data"
         ]
-        == "x" * 50
+        == "x" * 2500
     )
 
 

@@ -23,23 +23,23 @@ def test_relay_frames_and_taps_per_subscription_kind() -> None:
     assert bridge.receive(pub, json.dumps(advertise), 0) == []
     sub = {"op": "subscribe", "topic": "/t"}
     bridge.receive(plain, json.dumps(sub), 0)
-    bridge.receive(by_sub, json.dumps({**sub, "fragment_size": 40}), 0)
+    bridge.receive(by_sub, json.dumps({**sub, "fragment_size": 1100}), 0)
     # a connection's fragment_size comes with any op but subscribe
     bridge.receive(
-        by_conn, json.dumps({"op": "set_level", "level": "error", "fragment_size": 30}), 0
+        by_conn, json.dumps({"op": "set_level", "level": "error", "fragment_size": 1030}), 0
     )
     bridge.receive(by_conn, json.dumps(sub), 0)
     bridge.receive(gone, json.dumps(sub), 0)
     bridge.disconnect(gone)
     bridge.frames()
 
-    text = json.dumps({"op": "publish", "topic": "/t", "msg": {"data": "x" * 50}})
+    text = json.dumps({"op": "publish", "topic": "/t", "msg": {"data": "x" * 2500}})
     out = bridge.receive(pub, text, 7)
-    expected = '{"op":"publish","topic":"/t","msg":{"data":"' + "x" * 50 + '"}}'
+    expected = '{"op":"publish","topic":"/t","msg":{"data":"' + "x" * 2500 + '"}}'
     assert [(o.connection, o.op, o.name) for o in out[:1]] == [(plain, "publish", "/t")]
     assert out[0].data == expected
     assert out[0].queue_limit == bridge.default_queue_length
-    for cid, size in ((by_sub, 40), (by_conn, 30)):
+    for cid, size in ((by_sub, 1100), (by_conn, 1030)):
         frags = [json.loads(o.data) for o in out if o.connection == cid]
         assert len(frags) == -(-len(expected) // size)
         assert all(f["op"] == "fragment" and f["total"] == len(frags) for f in frags)
