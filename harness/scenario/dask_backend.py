@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from harness.recording.tail import TailFile
 from harness.scenario import interrupt
 from harness.scenario.bundle import (
     BlobStore,
@@ -282,7 +283,16 @@ def receive(outcome: RemoteOutcome, spec: IterationSpec) -> IterationResult:
     for artifact in outcome.artifacts:
         target = _client_path(spec, outcome.recording, artifact.path)
         target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(artifact.data)
+        if artifact.path == outcome.recording:
+            # One writer per recording path, as for a session recording in this process:
+            # a run writing the same --out is refused before the file changes.
+            tail = TailFile(target)
+            try:
+                tail.write(artifact.data)
+            finally:
+                tail.close()
+        else:
+            target.write_bytes(artifact.data)
     out_dir = Path(outcome.out_dir)
     tree = Path(outcome.tree)
 

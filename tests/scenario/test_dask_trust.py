@@ -196,3 +196,31 @@ def test_a_missing_cache_folder_is_created_private_whatever_the_umask(tmp_path, 
     assert info.st_mode & 0o777 == 0o700
     assert info.st_uid == os.geteuid()
     assert worker_dir() == folder  # reused once it is private
+
+
+def test_a_recording_returned_into_a_path_another_writer_holds_is_refused(tmp_path, monkeypatch):
+    # Two runs sharing --out (break 3): the returned recording does not overwrite a recording
+    # another writer holds at that path; the iteration fails naming it and the holder.
+    from harness.recording import Recorder
+
+    monkeypatch.setenv("HARNESS_WORKER_DIR", str(tmp_path / "cache"))
+    spec = _spec(tmp_path / "client")
+    spec.recording_path.parent.mkdir(parents=True)
+    metadata = {
+        "timestep": "0.002",
+        "integrator": "IMPLICITFAST",
+        "seed": "0",
+        "model_sha256": "0" * 64,
+        "control_modes": "{}",
+    }
+    with Recorder(spec.recording_path, metadata=metadata) as holder:
+        before = spec.recording_path.read_bytes()
+        result, _ = _run(spec)
+        assert spec.recording_path.read_bytes() == before
+        holder.flush()
+    assert result.error is not None
+    assert f"{spec.recording_path}: another session is recording to this file" in result.error
+    assert f"(pid {os.getpid()}, this process)" in result.error
+    with Recording(spec.recording_path, strict=True) as rec:
+        assert rec.complete
+        assert rec.metadata["model_sha256"] == "0" * 64  # the holder's file, whole
