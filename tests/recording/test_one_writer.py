@@ -149,3 +149,18 @@ def test_a_second_session_recording_to_the_same_path_is_refused(tmp_path):
         assert rec.complete
         steps = [s.step for s in rec.physics_states()]
     assert steps == list(range(201))  # step 0 and every step of the first session
+
+
+def test_finishing_a_file_after_a_failed_write_refuses_a_path_another_writer_took(tmp_path):
+    # After a full disk the recorder closes its descriptor, then finishes the file at its last
+    # complete write; a writer that took the path in between must not be cut.
+    from harness.recording.salvage import close_prefix
+
+    path = tmp_path / "same.mcap"
+    with Recorder(path, metadata=METADATA, flush_interval_s=3600) as other:
+        _record(other, range(0, 100))
+        before = path.read_bytes()
+        with pytest.raises(RecordingBusyError, match=r"this process"):
+            close_prefix(path, 8)
+        assert path.read_bytes() == before
+    assert _steps(path) == list(range(100))
