@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
+from harness.recording.errors import RecordingBusyError
 from harness.scenario import interrupt
 from harness.scenario.errors import ScenarioError
 from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict
@@ -142,7 +143,8 @@ def run_one(runner: IterationRunner, spec: IterationSpec) -> IterationResult:
             spec,
             f"runner raised {type(exc).__name__}: {exc} "
             f"({Path(where.filename).name}:{where.lineno})",
-            _written(spec.recording_path, before),
+            # Refused because another writer holds the path: the file there is theirs.
+            None if isinstance(exc, RecordingBusyError) else _written(spec.recording_path, before),
         )
 
 

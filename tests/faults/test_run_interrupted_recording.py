@@ -13,10 +13,11 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
-from harness.recording import Recorder, Recording
+from harness.recording import PhysicsState, Recorder, Recording
 from harness.scenario.results import IterationSpec
 from harness.scenario.runfile import load_run_file
 from harness.scenario.runner import iteration_specs, run_one
@@ -133,3 +134,24 @@ def test_a_runner_exception_keeps_the_recording_it_wrote_but_not_a_stale_one(
     assert result.error.startswith("runner raised RuntimeError: the world did not load")
     assert result.recording is None
     assert spec.recording_path.is_file()  # left as it was
+
+
+def test_an_iteration_refused_by_another_writer_does_not_claim_its_recording(
+    tmp_path: Path,
+) -> None:
+    spec = _spec(tmp_path)
+    spec.recording_path.parent.mkdir(parents=True)
+    with Recorder(spec.recording_path, metadata=METADATA) as other:
+
+        def refused(spec: IterationSpec):
+            # the other writer goes on writing while this iteration fails
+            q = np.zeros(3)
+            other.write_physics_state(PhysicsState(0, 0, 1, q, q, q))
+            other.flush()
+            with Recorder(spec.recording_path, metadata=METADATA):
+                pass
+
+        result = run_one(refused, spec)
+    assert result.error is not None
+    assert "RecordingBusyError" in result.error
+    assert result.recording is None
