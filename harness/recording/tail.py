@@ -125,7 +125,7 @@ class TailFile:
         view = memoryview(data)
         if not view.nbytes:
             return 0
-        self._pwrite(view, self._end)
+        self._pwrite_or_note(view, self._end)
         self._end += view.nbytes
         if self._size > self._end:
             # What the provisional tail had beyond the committed bytes goes: the committed
@@ -136,10 +136,19 @@ class TailFile:
 
     def write_tail(self, data: bytes) -> None:
         """Write provisional bytes after the committed ones (replacing the last tail)."""
-        self._pwrite(memoryview(data), self._end)
+        self._pwrite_or_note(memoryview(data), self._end)
         if self._size > self._end + len(data):
             os.ftruncate(self._fd, self._end + len(data))
         self._size = self._end + len(data)
+
+    def _pwrite_or_note(self, view: memoryview, offset: int) -> None:
+        try:
+            self._pwrite(view, offset)
+        except OSError:
+            # A full disk can take part of the bytes before refusing the rest: the next
+            # committed write, or closing, cuts whatever reached the file beyond them.
+            self._size = max(self._size, offset + view.nbytes)
+            raise
 
     def _pwrite(self, view: memoryview, offset: int) -> None:
         while view.nbytes:

@@ -198,6 +198,8 @@ def what_was_kept(path: Path, reached: int, dt_ns: int) -> str:
     except (HarnessError, OSError) as exc:
         return f"recording {path} could not be read back ({exc}): steps 0..{reached} may be lost"
     state = "a valid file" if complete else "a damaged file (open it with --allow-damaged)"
+    if count == 0:
+        return f"recording {path} is {state} holding no messages; steps 0..{reached} were lost"
     kept = f"recording {path} is {state} keeping steps 0..{last} ({last * dt_ns / 1e9:g} s of "
     kept += f"sim time, {count} messages)"
     if reached <= last:
