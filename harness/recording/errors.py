@@ -5,6 +5,7 @@ from __future__ import annotations
 from harness.errors import RecordingError
 
 __all__ = [
+    "RecordingBusyError",
     "RecordingDamagedError",
     "RecordingDamagedWarning",
     "RecordingFormatError",
@@ -14,6 +15,17 @@ __all__ = [
 
 class RecordingWriteError(RecordingError):
     """A recording could not be written (file, arguments, time going backwards, writer failure)."""
+
+
+class RecordingBusyError(RecordingWriteError):
+    """Another writer (another session, in this process or another) holds the recording path:
+    refused before a byte of the file changed. ``pid`` is the holder's process id (None when it
+    could not be learnt)."""
+
+    def __init__(self, message: str, path: str, pid: int | None) -> None:
+        super().__init__(message)
+        self.path = path
+        self.pid = pid
 
 
 class RecordingFormatError(RecordingError):

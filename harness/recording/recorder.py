@@ -591,7 +591,9 @@ class Recorder:
                 try:
                     info = self._flush_locked(provisional=True)
                 except Exception as exc:
-                    self._failure = exc
+                    # _flush_locked keeps an OSError as the failure: close() finishes the
+                    # file at its last complete flush from it
+                    self._failure = self._failure or exc
                     return
             if info is not None and self._on_flush is not None:
                 self._on_flush(info)

@@ -37,6 +37,7 @@ from mcap.records import (
 
 from harness.recording.chunks import MAGIC
 from harness.recording.scan import scan
+from harness.recording.tail import lock_for_writing
 
 __all__ = ["close_prefix", "finish_after_failure"]
 
@@ -122,6 +123,9 @@ def close_prefix(path: str | os.PathLike[str], good: int) -> tuple[int, int]:
     Raises :class:`OSError` when the file cannot be finished."""
     target = Path(path)
     with open(target, "r+b") as f:
+        # The writer's descriptor (and its lock) is closed: another writer that took the path
+        # since is refused here (RecordingBusyError) rather than cut.
+        lock_for_writing(f.fileno(), target)
         f.truncate(good)
         with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
             buf = memoryview(mapped)

@@ -20,13 +20,23 @@ an iteration sets the package search variables of its process while it runs, so 
 in one process are serialised anyway). A worker's cache folder is ``$HARNESS_WORKER_DIR``,
 else ``<temp>/harness-worker-<uid>``. The worker needs the harness (same version) and the
 client's programs (``python``, ``ros2``), not its files.
+
+The worker trusts nothing it finds on its own disk: the cache folder is created private
+(mode 0700) and refused when it is a symbolic link, is owned by another user or grants any
+permission to group or others (another local user could otherwise plant files in it, the
+predictable name in a shared temporary folder being theirs to take first); every blob is
+hashed before use and every tree checked against the bundle's hashes, and what does not match
+is fetched or built again.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import importlib
 import os
 import shutil
+import stat
 import tempfile
 import threading
 import uuid
@@ -35,6 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from harness.recording.tail import TailFile
 from harness.scenario import interrupt
 from harness.scenario.bundle import (
     BlobStore,
@@ -43,6 +54,7 @@ from harness.scenario.bundle import (
     collect_bundle,
     localise_spec,
     materialise,
+    mirror,
     rewrite_paths,
 )
 from harness.scenario.errors import RunnerError
@@ -57,6 +69,8 @@ __all__ = [
     "RemoteOutcome",
     "TransferLog",
     "run_on_worker",
+    "unverified_blobs",
+    "verified_tree",
     "worker_dir",
 ]
 
@@ -68,11 +82,102 @@ _FETCH = threading.Lock()
 
 
 def worker_dir() -> Path:
-    """A worker's cache folder: ``$HARNESS_WORKER_DIR``, else ``<temp>/harness-worker-<uid>``."""
+    """A worker's cache folder: ``$HARNESS_WORKER_DIR``, else ``<temp>/harness-worker-<uid>``,
+    created private (mode 0700) when absent.
+
+    Raises :class:`RunnerError` (one line naming the folder) when it exists but is not a
+    folder of this process's user that only that user can read, write and enter.
+    """
     explicit = os.environ.get("HARNESS_WORKER_DIR")
-    if explicit:
-        return Path(explicit)
-    return Path(tempfile.gettempdir()) / f"harness-worker-{os.getuid()}"
+    folder = (
+        Path(explicit)
+        if explicit
+        else Path(tempfile.gettempdir()) / f"harness-worker-{os.getuid()}"
+    )
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with contextlib.suppress(FileExistsError):
+        folder.mkdir(mode=0o700)
+    _check_private(folder)
+    return folder
+
+
+def _check_private(folder: Path) -> None:
+    """Refuse ``folder`` unless it is a real folder owned by this user with mode ``0?00``."""
+    try:
+        info = folder.lstat()  # a symbolic link is judged itself, never followed
+    except OSError as exc:
+        raise RunnerError(f"worker cache {folder}: {exc.strerror}") from None
+    fix = "remove it or set HARNESS_WORKER_DIR to a folder of your own"
+    if stat.S_ISLNK(info.st_mode) or not stat.S_ISDIR(info.st_mode):
+        raise RunnerError(
+            f"worker cache {folder} is not a folder (a symbolic link or a file): refused; {fix}"
+        )
+    if info.st_uid != os.geteuid():
+        raise RunnerError(
+            f"worker cache {folder} is owned by uid {info.st_uid}, not by this worker's user "
+            f"(uid {os.geteuid()}): refused; {fix}"
+        )
+    if info.st_mode & 0o077:
+        raise RunnerError(
+            f"worker cache {folder} has mode {stat.S_IMODE(info.st_mode):04o}, group or others "
+            f"may use it: refused (it must be 0700; chmod 700 it after checking its content, "
+            f"or {fix})"
+        )
+
+
+def _sha256_file(path: Path) -> str | None:
+    """sha256 of the regular file at ``path`` (not through a symbolic link), None if none."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return None
+    h = hashlib.sha256()
+    with os.fdopen(fd, "rb") as f:
+        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+            return None
+        while chunk := f.read(1 << 20):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def unverified_blobs(store: BlobStore, digests: Sequence[str]) -> list[str]:
+    """The digests whose blob is absent from ``store`` or whose stored bytes hash to anything
+    else (each once, in the order given): what must be fetched before the blobs are used."""
+    out: list[str] = []
+    for d in digests:
+        if d not in out and _sha256_file(store.path(d)) != d:
+            out.append(d)
+    return out
+
+
+def _tree_matches(bundle: Bundle, root: Path) -> bool:
+    """True when the tree at ``root`` holds exactly the bundle's files with their hashes (and
+    nothing else but its folders)."""
+    expected = {mirror(f.path, root): f.sha256 for f in bundle.files}
+    for dirpath, dirnames, filenames in os.walk(root):
+        here = Path(dirpath)
+        for name in dirnames:
+            if (here / name).is_symlink():
+                return False
+        for name in filenames:
+            if (here / name) not in expected:
+                return False
+    return all(_sha256_file(path) == digest for path, digest in expected.items())
+
+
+def verified_tree(bundle: Bundle, store: BlobStore, folder: Path) -> Path:
+    """:func:`~harness.scenario.bundle.materialise` ``bundle`` from ``store`` (its blobs
+    verified already) into ``folder``; a tree found there that does not match the bundle's
+    hashes is removed and built again."""
+    root = folder / bundle.digest
+    if root.is_symlink() or (root.exists() and not root.is_dir()):
+        root.unlink()
+    elif root.is_dir() and not _tree_matches(bundle, root):
+        shutil.rmtree(root)
+    tree = materialise(bundle, store, folder)
+    if not _tree_matches(bundle, tree):  # another process changed it between build and check
+        raise RunnerError(f"worker cache tree {tree} does not match its bundle after building it")
+    return tree
 
 
 @dataclass(frozen=True)
@@ -131,13 +236,13 @@ def run_on_worker(
     base = worker_dir()
     store = BlobStore(base / "blobs")
     with _FETCH:
-        missing = store.missing(f.sha256 for f in bundle.files)
+        missing = unverified_blobs(store, [f.sha256 for f in bundle.files])
         fetched_bytes = 0
         if missing:
             for digest, data in zip(missing, _fetch(dataset, missing), strict=True):
-                store.put(digest, data)
+                store.put(digest, data)  # checks the bytes against the digest
                 fetched_bytes += len(data)
-        tree = materialise(bundle, store, base / "trees")
+        tree = verified_tree(bundle, store, base / "trees")
     run_dir = base / "runs" / uuid.uuid4().hex
     local = localise_spec(spec, bundle, tree, run_dir / "out")
     try:
@@ -178,7 +283,16 @@ def receive(outcome: RemoteOutcome, spec: IterationSpec) -> IterationResult:
     for artifact in outcome.artifacts:
         target = _client_path(spec, outcome.recording, artifact.path)
         target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(artifact.data)
+        if artifact.path == outcome.recording:
+            # One writer per recording path, as for a session recording in this process:
+            # a run writing the same --out is refused before the file changes.
+            tail = TailFile(target)
+            try:
+                tail.write(artifact.data)
+            finally:
+                tail.close()
+        else:
+            target.write_bytes(artifact.data)
     out_dir = Path(outcome.out_dir)
     tree = Path(outcome.tree)
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
+from harness.recording.errors import RecordingBusyError
 from harness.scenario import interrupt
 from harness.scenario.errors import ScenarioError
 from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict
@@ -91,33 +92,59 @@ def iteration_specs(
     return specs
 
 
-def _failed(spec: IterationSpec, error: str) -> IterationResult:
+def _failed(spec: IterationSpec, error: str, recording: Path | None = None) -> IterationResult:
     return IterationResult(
         simulation=spec.simulation,
         iteration=spec.iteration,
         verdicts=(),
         sim_time=0.0,
         steps=0,
+        recording=recording,
         error=error,
     )
 
 
+_FileState = tuple[int, int, int, int] | None
+
+
+def _file_state(path: Path) -> _FileState:
+    """What tells one file at ``path`` from another: device, inode, size, mtime (None: none)."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _written(path: Path, before: _FileState) -> Path | None:
+    """``path`` when this iteration wrote a file there (a stale file of an earlier run in the
+    same folder, left as it was, is not this iteration's recording)."""
+    now = _file_state(path)
+    return path if now is not None and now != before and path.is_file() else None
+
+
 def run_one(runner: IterationRunner, spec: IterationSpec) -> IterationResult:
-    """Run ``spec`` in this process; an exception becomes a failed result with its reason."""
+    """Run ``spec`` in this process; an exception becomes a failed result with its reason
+    (and the recording, when the iteration wrote one before it stopped: a session closes its
+    recording as a valid file while the exception unwinds it)."""
     if interrupt.worker_stopping():
         return _failed(spec, interrupt.NOT_RUN)
     spec.out_dir.mkdir(parents=True, exist_ok=True)
+    before = _file_state(spec.recording_path)
     try:
         with interrupt.worker_running():
             return runner(spec)
     except interrupt.Interrupted as exc:
-        return _failed(spec, f"{exc}: the iteration was stopped")
+        recording = _written(spec.recording_path, before)
+        return _failed(spec, f"{exc}: the iteration was stopped", recording)
     except Exception as exc:
         where = traceback.extract_tb(exc.__traceback__)[-1]
         return _failed(
             spec,
             f"runner raised {type(exc).__name__}: {exc} "
             f"({Path(where.filename).name}:{where.lineno})",
+            # Refused because another writer holds the path: the file there is theirs.
+            None if isinstance(exc, RecordingBusyError) else _written(spec.recording_path, before),
         )
 
 

@@ -18,10 +18,11 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from harness.errors import HarnessError, RecordingError
 from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
 from harness.vocabulary import CLOCK_MODES, CONTROL_MODE_INPUTS, LIMIT_POLICIES, ControlMode
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["add_arguments", "run", "what_was_kept"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -121,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
     # Installed once the robot is loaded: during the load SIGTERM ends the process and SIGINT
     # raises KeyboardInterrupt (exit 130) as they do by default, instead of waiting for it.
     previous: dict[int, Any] = {}
+    reached: tuple[int, int] | None = None  # step and dt once the session ran
     try:
         robot: Any = args.robot
         mode: ControlMode | None = ControlMode.parse(args.mode, "--mode")
@@ -156,16 +158,51 @@ def run(args: argparse.Namespace) -> int:
             while not stop.wait(0.5) and session.failure is None:
                 pass
             step = session.step_index
+            reached = step, session.dt_ns
             failure = session.failure
             upstream = session.upstream
         if upstream is not None:
             print(f"harness serve: upstream: {upstream.summary()}", flush=True)
         recorded = f", recording {args.record} closed" if args.record else ""
         if failure is not None:
+            if isinstance(failure, RecordingError) and args.record:
+                recorded = f"; {what_was_kept(Path(args.record), step, session.dt_ns)}"
             print(f"harness serve: error: {failure}{recorded}", file=sys.stderr)
             return 1
         print(f"harness serve: stopped at step {step}{recorded}", flush=True)
+    except RecordingError as exc:
+        if reached is None or not args.record:
+            raise  # the recording could not start: one line, exit 2 (harness.cli)
+        # The disk filled up (or the file hit a limit) mid-run: say what the file kept.
+        kept = what_was_kept(Path(args.record), *reached)
+        print(f"harness serve: error: {exc}; {kept}", file=sys.stderr)
+        return 2
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     return 0
+
+
+def what_was_kept(path: Path, reached: int, dt_ns: int) -> str:
+    """What the recording at ``path`` kept of a run that reached step ``reached`` (steps of
+    ``dt_ns``) and what was lost, read back from the file the recorder closed after a
+    write failed (a full disk: it ends at the last complete flush)."""
+    from harness.recording import Recording
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a damaged file is said so below
+            recording = Recording(path)
+        with recording:
+            last, count, complete = recording.last_step, recording.message_count, recording.complete
+    except (HarnessError, OSError) as exc:
+        return f"recording {path} could not be read back ({exc}): steps 0..{reached} may be lost"
+    state = "a valid file" if complete else "a damaged file (open it with --allow-damaged)"
+    if count == 0:
+        return f"recording {path} is {state} holding no messages; steps 0..{reached} were lost"
+    kept = f"recording {path} is {state} keeping steps 0..{last} ({last * dt_ns / 1e9:g} s of "
+    kept += f"sim time, {count} messages)"
+    if reached <= last:
+        return f"{kept}; nothing was lost"
+    lost = reached - last
+    return f"{kept}; steps {last + 1}..{reached} ({lost * dt_ns / 1e9:g} s of sim time) were lost"
