@@ -34,6 +34,7 @@ from harness.recording import Epoch, Recording, RecordingDamagedError
 from harness.recording.layout import TOPIC_STATE
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.layout import StateLayout, rotation_angle
+from harness.replay.platforms import check_platform
 from harness.replay.source import (
     RecordedStates,
     check_chunks,
@@ -247,6 +248,7 @@ def verify(
         path, allow_damaged=allow_damaged, defer_chunk_checks=not allow_damaged
     ) as rec:
         recorded_version = check_version(rec, tolerant=tolerant)
+        platform = check_platform(rec, tolerant=tolerant, level=level)
         model, model_source = resolve_model(rec)
         dt_ns = rec.timestep_ns
         if round(float(model.opt.timestep) * 1e9) != dt_ns:
@@ -260,7 +262,7 @@ def verify(
         blocks = state_blocks(rec, model, rows=_BLOCK_ROWS, stop_step=_stop(rec, 0))
         head = next(blocks)
         epochs = _epochs(rec, model, head.state_spec)
-        notes: list[str] = []
+        notes: list[str] = [platform] if platform else []
         if epochs:
             notes.append(
                 f"{len(epochs)} epoch(s) (resets) after step(s) "

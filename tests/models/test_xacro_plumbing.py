@@ -64,10 +64,10 @@ def test_marker_and_scenario_file_load_a_description_package(pytester):
     )
     result.assert_outcomes(passed=2)
     folder = pytester.path / ".harness" / "recordings" / "test_robot"
-    with Recording(folder / "test_marker.mcap") as rec:
+    with Recording(folder / "test_marker" / "test_marker.mcap") as rec:
         assert json.loads(rec.metadata["robot_args"])["ur_type"] == "ur3e"
         assert rec.metadata["robot_xacro"].endswith("ur_mocked.urdf.xacro")
-    with Recording(folder / "test_scenario.mcap") as rec:  # a scenario runs a world
+    with Recording(folder / "test_scenario" / "test_scenario.mcap") as rec:  # a world
         (entry,) = json.loads(rec.metadata["robots"])
         assert entry["robot_args"]["ur_type"] == "ur10e"
         assert entry["xacro"].endswith("ur_mocked.urdf.xacro")

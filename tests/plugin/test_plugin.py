@@ -130,13 +130,14 @@ def test_fixtures_and_marker(pytester, run):
     result = run("--harness-keep-recordings=always")
     result.assert_outcomes(passed=3)
     folder = pytester.path / ".harness" / "recordings" / "test_fixtures"
-    assert sorted(p.name for p in folder.iterdir()) == [
-        "test_factory-2.mcap",
-        "test_factory.mcap",
-        "test_marker.mcap",
-        "test_module_marker_applies.mcap",
+    # one folder per test (issue 35: what CI uploads of a failed test)
+    assert sorted(str(p.relative_to(folder)) for p in folder.rglob("*.mcap")) == [
+        "test_factory/test_factory-2.mcap",
+        "test_factory/test_factory.mcap",
+        "test_marker/test_marker.mcap",
+        "test_module_marker_applies/test_module_marker_applies.mcap",
     ]
-    with Recording(folder / "test_marker.mcap") as rec:
+    with Recording(folder / "test_marker" / "test_marker.mcap") as rec:
         assert [s.step for s in rec.physics_states()] == [0, 3, 6]
 
 
@@ -194,7 +195,7 @@ def test_golden_update_then_match_then_mismatch(pytester, run):
             "*golden:    first divergence: joint_position * at step *",
         ]
     )
-    kept = pytester.path / ".harness" / "recordings" / "test_golden" / "test_move.mcap"
+    kept = pytester.path / ".harness/recordings/test_golden/test_move/test_move.mcap"
     assert kept.is_file()
     # The headline and the FIRST DIVERGENCE line name one row (issue 35: they named two
     # joints), and the headline says at which step each value is.
@@ -236,8 +237,10 @@ def test_recordings_kept_or_removed_per_option(pytester, run, keep, kept):
     pytester.makepyfile(test_keep=FAIL_AND_PASS)
     run(f"--harness-keep-recordings={keep}").assert_outcomes(passed=1, failed=1)
     folder = pytester.path / ".harness" / "recordings" / "test_keep"
-    found = {p.stem for p in folder.glob("*.mcap")} if folder.exists() else set()
+    found = {p.stem for p in folder.rglob("*.mcap")} if folder.exists() else set()
     assert found == kept
+    # one folder per kept test, nothing else (empty folders of passed tests removed)
+    assert ({p.name for p in folder.iterdir()} if folder.exists() else set()) == kept
 
 
 def test_ini_twins_set_record_dir_and_keep(pytester, run):
@@ -250,7 +253,7 @@ def test_ini_twins_set_record_dir_and_keep(pytester, run):
     )
     pytester.makepyfile(test_keep=FAIL_AND_PASS)
     run().assert_outcomes(passed=1, failed=1)
-    assert {p.stem for p in (pytester.path / "recs" / "test_keep").glob("*.mcap")} == {
+    assert {p.stem for p in (pytester.path / "recs" / "test_keep").rglob("*.mcap")} == {
         "test_passes",
         "test_fails",
     }
@@ -313,18 +316,27 @@ def test_failure_report_section(pytester, run):
     )
     result = run()
     result.assert_outcomes(failed=1)
-    path = pytester.path / ".harness" / "recordings" / "test_report" / "test_fails.mcap"
+    path = pytester.path / ".harness/recordings/test_report/test_fails/test_fails.mcap"
     result.stdout.fnmatch_lines(
         [
             "*RuntimeError: the robot did something wrong*",
             "*-- harness --*",
             f"recording: {path} (kept: --harness-keep-recordings=failed)",
-            f"replay:    harness replay {path}",
             # The box resting on the table is a contact: the logger reports it.
             "events:    collision_begin: 1*",
             "*collision began between table (table_top) and box (box)*",
+            # the section ends with the commands (issue 35)
+            "reproduce: python -m pytest test_report.py::test_fails*",
+            f"replay:    harness replay {path}",
+            f"open:      foxglove-studio {path}  # Foxglove desktop*",
         ]
     )
+    section = result.stdout.str().split("-- harness --", 1)[1].split("short test summary")[0]
+    assert section.strip().splitlines()[-2].startswith("open:      foxglove-studio ")
+    # the failed test's folder explains itself (what CI uploads)
+    note = (path.parent / "failure.txt").read_text()
+    assert note.startswith("test_report.py::test_fails failed: RuntimeError: the robot did")
+    assert f"replay:    harness replay {path}" in note
     replay = subprocess.run(
         [sys.executable, "-m", "harness", "replay", str(path)], capture_output=True, text=True
     )
@@ -420,7 +432,10 @@ def test_scenario_marker(pytester, run):
         """
     )
     run("--harness-keep-recordings=always").assert_outcomes(passed=1)
-    path = pytester.path / ".harness" / "recordings" / "test_scenario" / "test_from_scenario.mcap"
+    path = (
+        pytester.path / ".harness/recordings/test_scenario/test_from_scenario"
+        / "test_from_scenario.mcap"
+    )  # fmt: skip
     with Recording(path) as rec:
         assert [s.step for s in rec.physics_states()] == [0, 4, 8]
         assert rec.metadata["seed"] == "7"
@@ -542,7 +557,7 @@ def test_golden_check_mid_test_keeps_the_session_running(pytester, run):
         assert rec.complete
         assert rec.last_step == 30
     run("--harness-keep-recordings=always").assert_outcomes(passed=1)
-    kept = pytester.path / ".harness" / "recordings" / "test_mid"
+    kept = pytester.path / ".harness" / "recordings" / "test_mid" / "test_mid"
     assert sorted(p.name for p in kept.glob("*.mcap")) == [
         "test_mid.mcap",
         "test_mid.snapshot.mcap",

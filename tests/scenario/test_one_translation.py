@@ -103,7 +103,7 @@ def _marker_route(pytester: pytest.Pytester) -> dict[str, str]:
     result.assert_outcomes(passed=1)
     events = pytester.path / "events.jsonl"
     assert events.read_text()  # the logging section's destination
-    return _metadata(pytester.path / ".harness/recordings/test_cell/test_cell.mcap")
+    return _metadata(pytester.path / ".harness/recordings/test_cell/test_cell/test_cell.mcap")
 
 
 def _run_route(file: Path, tmp: Path) -> dict[str, str]:
