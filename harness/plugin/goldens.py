@@ -73,6 +73,7 @@ class Golden:
         the golden (or write the golden under ``--harness-update-goldens``). ``tolerances``:
         per-quantity bounds (:class:`harness.replay.Tolerances` fields; default 0: exact).
         Raises :class:`GoldenMismatch` naming the first divergence."""
+        __tracebackhide__ = True  # the failure shows the test's line, not this method's
         from harness.recording.fingerprint import compare_fingerprints
         from harness.replay import PlatformMismatchError, Tolerances, diff
 
@@ -114,10 +115,13 @@ class Golden:
             report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
         except PlatformMismatchError as exc:
             parts = compare_fingerprints(*exc.fingerprints, ("in the golden", "here")).text
+        else:
+            parts = ""
+        if parts:  # failed outside the except block: the one line, no chained traceback
             run.golden_note = f"recorded on another platform ({parts})"
             pytest.fail(
-                f"golden {shown} was recorded on another platform ({parts}): "
-                "an exact golden check holds only on the same platform; give tolerances, e.g. "
+                f"golden {shown} was recorded on another platform ({parts}): an exact golden "
+                "check holds only on the same platform; give tolerances, e.g. "
                 "golden.check(joint_position=1e-9, joint_velocity=1e-7), or write the golden "
                 f"here: {update_command(run.item, run.settings)}",
                 pytrace=False,
