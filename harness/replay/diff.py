@@ -14,6 +14,9 @@ The engine of golden tests (the pytest plugin's ``golden.check(**tolerances)`` c
 
 - ``epochs``: the steps at which each run was reset.
 
+Recordings from two platforms (:mod:`harness.replay.platforms`) are compared only with
+tolerances: with every physics tolerance 0 the diff is refused in one line.
+
 Bytes are never compared (headers carry library versions). A quantity differs when
 ``|b - a| > tolerance``; every differing quantity is one :class:`DiffEntry` naming the first
 step it exceeded its tolerance, both values and their delta there, and its largest delta and
