@@ -231,7 +231,8 @@ def verify(
 
     ``atol``/``rtol``: 0 (default) compares bit patterns; otherwise ``|actual - expected| <=
     atol + rtol * |expected|``. A recording from another MuJoCo version or another platform
-    (:mod:`harness.replay.platforms`) is refused unless a tolerance is given. ``level="full"`` also re-runs the session's bridge pipeline and
+    (:mod:`harness.replay.platforms`) is refused unless a tolerance is given.
+    ``level="full"`` also re-runs the session's bridge pipeline and
     compares every frame, applied input and state bit for bit
     (:func:`harness.replay.pipeline.replay_pipeline`; refused on another MuJoCo version and
     for recordings it cannot re-run). ``allow_damaged``: replay
