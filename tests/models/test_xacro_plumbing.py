@@ -100,6 +100,7 @@ def test_scenario_names_a_missing_package_and_bad_arguments(tmp_path):
         Scenario.load(path)
 
 
+@pytest.mark.slow
 def test_serve_takes_robot_args(tmp_path):
     entry = DESCRIPTIONS / "ur_description" / "urdf" / "ur_mocked.urdf.xacro"
     process = subprocess.Popen(

@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from harness.recording import Recording
 from harness.recording.fingerprint import FINGERPRINT_KEY, platform_fingerprint
 from tests.plugin.test_plugin import MOVE
@@ -43,6 +45,7 @@ def _refingerprint(golden: Path, fingerprint: str | None) -> None:
     copy.replace(golden)
 
 
+@pytest.mark.slow  # three runs of the commands it prints
 def test_golden_mismatch_section_ends_with_the_commands(pytester, run):
     pytester.makepyfile(test_golden=MOVE)
     run("--harness-update-goldens").assert_outcomes(passed=1)

@@ -95,6 +95,7 @@ def test_every_option_has_an_ini_twin(pytester, run):
         assert ini in text
 
 
+@pytest.mark.slow
 def test_fixtures_and_marker(pytester, run):
     pytester.makepyfile(
         test_fixtures="""
@@ -170,6 +171,7 @@ def test_missing_golden_fails_with_the_command_to_create_it(pytester, run):
     assert not (pytester.path / "recordings").exists()
 
 
+@pytest.mark.slow
 def test_golden_update_then_match_then_mismatch(pytester, run):
     pytester.makepyfile(test_golden=MOVE)
     golden = pytester.path / "recordings" / "test_golden" / "test_move.mcap"
@@ -289,6 +291,7 @@ def test_talks_nonsense(rosbridge_url):
 """
 
 
+@pytest.mark.slow
 def test_strict_bridge_fails_a_test_whose_bridge_answered_errors(pytester, run):
     pytester.makepyfile(test_bogus=BOGUS)
     run().assert_outcomes(passed=1)
@@ -306,6 +309,7 @@ def test_strict_bridge_fails_a_test_whose_bridge_answered_errors(pytester, run):
     run().assert_outcomes(failed=1)
 
 
+@pytest.mark.slow
 def test_failure_report_section(pytester, run):
     pytester.makepyfile(
         test_report="""
@@ -383,6 +387,7 @@ def test_suite_mode_rules():
     }
 
 
+@pytest.mark.slow
 def test_harness_mode_option_and_ini(pytester, run):
     pytester.makepyfile(
         test_mode="""
@@ -461,6 +466,7 @@ def test_moves(rosbridge_url, golden, target):
 """
 
 
+@pytest.mark.slow
 def test_xdist_two_workers(pytester, plugin_args, run):
     pytester.makepyfile(test_par=XDIST)
     args = (*plugin_args, "-p", "no:cacheprovider", "-n", "2")
@@ -505,6 +511,7 @@ def test_per_joint(harness_session, rosbridge_url, golden):
 """
 
 
+@pytest.mark.slow
 def test_golden_names_carry_the_control_mode(pytester, run):
     pytester.makepyfile(test_modes=MODES)
     folder = pytester.path / "recordings" / "test_modes"

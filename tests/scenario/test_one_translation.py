@@ -114,6 +114,7 @@ def _run_route(file: Path, tmp: Path) -> dict[str, str]:
     return _metadata(recording)
 
 
+@pytest.mark.slow
 def test_one_file_one_world_through_run_marker_and_session(
     pytester: pytest.Pytester, tmp_path: Path
 ) -> None:
