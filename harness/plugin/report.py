@@ -80,12 +80,10 @@ def report_section(run: HarnessRun) -> str:
     lines.append(f"reproduce: {rerun_command(run.item, run.settings)}")
     if not kept:
         return "\n".join(lines)
-    if run.divergence and run.golden is not None and run.snapshots:
-        compared = shlex.join(["harness", "diff", str(run.golden), str(run.snapshots[-1])])
-        lines.append(f"diff:      {compared}")
-    elif run.divergence and run.golden is not None and run.recordings:
-        compared = shlex.join(["harness", "diff", str(run.golden), str(run.recordings[0])])
-        lines.append(f"diff:      {compared}")
+    compared = [*run.snapshots[-1:], *run.recordings][:1]  # what golden.check() compared
+    if run.divergence and run.golden is not None and compared:
+        command = shlex.join(["harness", "diff", str(run.golden), str(compared[0])])
+        lines.append(f"diff:      {command}")
     for path in run.recordings:
         lines.append(f"replay:    {shlex.join(['harness', 'replay', str(path)])}")
     for path in run.recordings:
