@@ -72,9 +72,17 @@ modes and turns kinematic ones into position control; :class:`harness.vocabulary
 :class:`harness.vocabulary.ControlMode`: ``kinematic | position | velocity | effort``, with
 ``dynamic`` accepted at every boundary (marker, scenario, ``Session``) as ``position``.
 
-On failure the report gets a ``harness`` section: the recording's path, the
-``harness replay`` command, the collision/joint-limit/log event summary, bridge errors and the
-first golden divergence.
+On failure the report gets a ``harness`` section: the recordings' paths, the
+collision/joint-limit/log event summary, bridge errors and the first golden divergence, ending
+with the commands that reproduce the test (``python -m pytest <test>``), compare it with its
+golden (``harness diff``), replay (``harness replay``) and open its recordings (Foxglove).
+
+Recordings are laid out one folder per test, ``<record dir>/<test file>/[<class>.]<test
+name>/``: its recordings (``<test name>.mcap``, ``<test name>-2.mcap`` for its second
+session), golden snapshots and generated worlds, and for a failed test ``failure.txt`` (its
+node id, the error and the ``harness`` section). With ``--harness-keep-recordings=failed``
+(the default) the record dir then holds exactly one folder per failed test: what CI uploads
+(the README's CI line).
 
 This module is the entry point: the options, the marker, the fixtures and the hooks. The work is
 done in :mod:`harness.plugin` (``settings``: the options and :class:`HarnessSettings`;
@@ -95,9 +103,15 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from harness.plugin.goldens import GOLDENS_WRITTEN, Golden, GoldenMismatch, mode_label
+from harness.plugin.goldens import (
+    GOLDENS_UNKNOWN_PLATFORM,
+    GOLDENS_WRITTEN,
+    Golden,
+    GoldenMismatch,
+    mode_label,
+)
 from harness.plugin.markers import marker_keys, parse_mode, suite_mode
-from harness.plugin.report import bridge_errors, report_section
+from harness.plugin.report import bridge_errors, report_section, write_failure_note
 from harness.plugin.run import RUN, SessionFactory, harness_run
 from harness.plugin.settings import (
     KEEP_CHOICES,
@@ -149,6 +163,7 @@ def pytest_configure(config: pytest.Config) -> None:
     )
     config.stash[SETTINGS] = resolve_settings(config)
     config.stash[GOLDENS_WRITTEN] = []
+    config.stash[GOLDENS_UNKNOWN_PLATFORM] = []
 
 
 # ----------------------------------------------------------------------------- fixtures
@@ -247,13 +262,30 @@ def pytest_runtest_makereport(
         text = report_section(run)
         if text:
             report.sections.append(("harness", text))
+            headline = ""
+            if call.excinfo is not None:
+                message = str(call.excinfo.value).strip().splitlines()
+                headline = f"{call.excinfo.typename}: {message[0] if message else ''}"
+            with contextlib.suppress(OSError):
+                write_failure_note(run, text, headline)
     return report
 
 
 def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
-    """List the goldens written by ``--harness-update-goldens``."""
+    """List the goldens written by ``--harness-update-goldens``, and once the goldens checked
+    that carry no platform fingerprint."""
     written = config.stash.get(GOLDENS_WRITTEN, [])
     if written:
         terminalreporter.section("harness goldens written")
         for path in written:
+            terminalreporter.write_line(str(path))
+    checked: list[Path] = config.stash.get(GOLDENS_UNKNOWN_PLATFORM, [])
+    unknown = sorted(set(checked))
+    if unknown:
+        terminalreporter.section("harness goldens without a platform fingerprint")
+        terminalreporter.write_line(
+            f"{len(unknown)} golden(s) written by an older harness: checked as if recorded on "
+            "this platform; --harness-update-goldens records it"
+        )
+        for path in unknown:
             terminalreporter.write_line(str(path))

@@ -29,11 +29,13 @@ if TYPE_CHECKING:
     from harness.replay import DiffEntry, DiffReport
 
 __all__ = [
+    "GOLDENS_UNKNOWN_PLATFORM",
     "GOLDENS_WRITTEN",
     "Golden",
     "GoldenMismatch",
     "golden_path",
     "mode_label",
+    "rerun_command",
     "update_command",
 ]
 
@@ -41,6 +43,9 @@ _DEFAULT_MODE = "position"  # harness.models.load_robot's control default
 
 GOLDENS_WRITTEN = pytest.StashKey[list[Path]]()
 """The goldens ``--harness-update-goldens`` wrote in this run: ``config.stash[GOLDENS_WRITTEN]``."""
+GOLDENS_UNKNOWN_PLATFORM = pytest.StashKey[list[Path]]()
+"""The goldens checked in this run that carry no platform fingerprint (written by an older
+harness): listed once at the end of the run."""
 
 
 class GoldenMismatch(AssertionError):
@@ -68,7 +73,9 @@ class Golden:
         the golden (or write the golden under ``--harness-update-goldens``). ``tolerances``:
         per-quantity bounds (:class:`harness.replay.Tolerances` fields; default 0: exact).
         Raises :class:`GoldenMismatch` naming the first divergence."""
-        from harness.replay import Tolerances, diff
+        __tracebackhide__ = True  # the failure shows the test's line, not this method's
+        from harness.recording.fingerprint import compare_fingerprints
+        from harness.replay import PlatformMismatchError, Tolerances, diff
 
         run = self._run
         unknown = sorted(set(tolerances) - set(Tolerances._fields))
@@ -90,6 +97,7 @@ class Golden:
                 run.snapshots.append(snapshot)
             recording = snapshot
         golden = self.path
+        run.golden = golden
         shown = _shown(golden, run.settings.rootdir)
         if run.settings.update_goldens:
             _write_atomically(recording, golden)
@@ -103,7 +111,23 @@ class Golden:
                 pytrace=False,
             )
         bounds: dict[str, Any] = dict(tolerances)
-        report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
+        try:
+            report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
+        except PlatformMismatchError as exc:
+            parts = compare_fingerprints(*exc.fingerprints, ("in the golden", "here")).text
+        else:
+            parts = ""
+        if parts:  # failed outside the except block: the one line, no chained traceback
+            run.golden_note = f"recorded on another platform ({parts})"
+            pytest.fail(
+                f"golden {shown} was recorded on another platform ({parts}): an exact golden "
+                "check holds only on the same platform; give tolerances, e.g. "
+                "golden.check(joint_position=1e-9, joint_velocity=1e-7), or write the golden "
+                f"here: {update_command(run.item, run.settings)}",
+                pytrace=False,
+            )
+        if any(note.startswith("no platform fingerprint in A") for note in report.notes):
+            run.item.config.stash[GOLDENS_UNKNOWN_PLATFORM].append(golden)
         first = report.first_entry
         if first is not None:
             run.divergence = _format_entry(first)
@@ -125,13 +149,21 @@ def golden_path(item: pytest.Item, settings: HarnessSettings, mode: Any) -> Path
     return settings.golden_dir / module / f"{name}{mode_label(mode)}.mcap"
 
 
-def update_command(item: pytest.Item, settings: HarnessSettings) -> str:
-    """The command that writes ``item``'s golden, run from the invocation directory."""
+def rerun_command(item: pytest.Item, settings: HarnessSettings, *extra: str) -> str:
+    """The command that runs ``item`` again as this run did (its suite switches: the
+    actuation), from the invocation directory, with ``extra`` arguments."""
     nodepath, _, rest = item.nodeid.partition("::")
     where = os.path.relpath(settings.rootdir / nodepath, item.config.invocation_params.dir)
     target = f"{where}::{rest}" if rest else where
-    args = ["python", "-m", "pytest", target, "--harness-update-goldens"]
+    args = ["python", "-m", "pytest", target, *extra]
+    if settings.actuation is not None:
+        args.append(f"--harness-actuation={settings.actuation.value}")
     return shlex.join([*args, *settings.plugin_args])
+
+
+def update_command(item: pytest.Item, settings: HarnessSettings) -> str:
+    """The command that writes ``item``'s golden, run from the invocation directory."""
+    return rerun_command(item, settings, "--harness-update-goldens")
 
 
 def mode_label(mode: Any) -> str:

@@ -1,6 +1,7 @@
 """What a failed test's report says about its harness: the ``harness`` section
-(:func:`report_section`: recordings, the ``harness replay`` command, events, bridge errors,
-the first golden divergence) and the bridge's error ``status`` frames
+(:func:`report_section`: recordings, events, bridge errors, the first golden divergence, then
+the commands that reproduce, replay and open the run), the note left in the failed test's
+folder for CI (:func:`write_failure_note`) and the bridge's error ``status`` frames
 (:func:`bridge_errors`, which ``--harness-strict-bridge`` fails a test on).
 
 This module imports only the standard library at import time; MCAP loads when the bridge
@@ -15,10 +16,13 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from harness.plugin.goldens import rerun_command
+from harness.plugin.run import FAILURE_NOTE
+
 if TYPE_CHECKING:
     from harness.plugin.run import HarnessRun
 
-__all__ = ["bridge_errors", "report_section"]
+__all__ = ["bridge_errors", "report_section", "write_failure_note"]
 
 
 def bridge_errors(recordings: Iterable[Path]) -> list[str]:
@@ -48,13 +52,15 @@ def bridge_errors(recordings: Iterable[Path]) -> list[str]:
 
 
 def report_section(run: HarnessRun) -> str:
-    """The ``harness`` section of a failed test's report (empty when there is nothing to say)."""
+    """The ``harness`` section of a failed test's report (empty when there is nothing to say).
+    It ends with the commands that reproduce the test, replay its recordings and open them
+    (``harness diff`` of the golden and what it was compared with when a golden differs)."""
     keep = run.settings.keep_recordings
+    kept = keep != "never"
     lines: list[str] = []
     for path in run.recordings:
-        fate = "removed after the test" if keep == "never" else "kept"
+        fate = "kept" if kept else "removed after the test"
         lines.append(f"recording: {path} ({fate}: --harness-keep-recordings={keep})")
-        lines.append(f"replay:    {shlex.join(['harness', 'replay', str(path)])}")
     for path in run.snapshots:
         lines.append(f"snapshot:  {path} (what golden.check() compared)")
     for sink in run.sinks:
@@ -69,4 +75,36 @@ def report_section(run: HarnessRun) -> str:
     elif run.golden_note:
         lines.append(f"golden:    {run.golden_note}")
     lines.extend(f"close:     {e}" for e in run.close_errors)
+    if not lines:
+        return ""
+    lines.append(f"reproduce: {rerun_command(run.item, run.settings)}")
+    if not kept:
+        return "\n".join(lines)
+    compared = [*run.snapshots[-1:], *run.recordings][:1]  # what golden.check() compared
+    if run.divergence and run.golden is not None and compared:
+        command = shlex.join(["harness", "diff", str(run.golden), str(compared[0])])
+        lines.append(f"diff:      {command}")
+    for path in run.recordings:
+        lines.append(f"replay:    {shlex.join(['harness', 'replay', str(path)])}")
+    for path in run.recordings:
+        lines.append(
+            f"open:      {shlex.join(['foxglove-studio', str(path)])}  # Foxglove desktop; "
+            "or drop the file on https://app.foxglove.dev"
+        )
     return "\n".join(lines)
+
+
+def write_failure_note(run: HarnessRun, section: str, headline: str) -> Path | None:
+    """Write :data:`~harness.plugin.run.FAILURE_NOTE` in the failed test's folder (its node
+    id, the failure's last line and ``section``): the folder then explains itself when CI
+    uploads it. ``None`` when the recordings are not kept or the folder does not exist."""
+    if run.settings.keep_recordings == "never" or not run.folder.is_dir():
+        return None
+    path = run.folder / FAILURE_NOTE
+    text = (
+        f"{run.item.nodeid} failed: {headline}\n\n{section}\n"
+        if headline
+        else (f"{run.item.nodeid} failed\n\n{section}\n")
+    )
+    path.write_text(text, encoding="utf-8")
+    return path

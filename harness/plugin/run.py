@@ -36,7 +36,10 @@ if TYPE_CHECKING:
     from harness.events import CollectingSink
     from harness.session import Session
 
-__all__ = ["RUN", "HarnessRun", "SessionFactory", "harness_run", "safe_name"]
+__all__ = ["FAILURE_NOTE", "RUN", "HarnessRun", "SessionFactory", "harness_run", "safe_name"]
+
+FAILURE_NOTE = "failure.txt"
+"""In a failed test's folder: its node id and the ``harness`` report section (the commands)."""
 
 
 def safe_name(name: str) -> str:
@@ -58,18 +61,30 @@ class HarnessRun:
     """The folders of the worlds generated for scenario sessions (a ``scene.xml``)."""
     sinks: list[CollectingSink] = field(default_factory=list)
     divergence: str | None = None
+    golden: Path | None = None
+    """The golden :meth:`~harness.plugin.goldens.Golden.check` compared with."""
     golden_note: str | None = None
     bridge_errors: list[str] = field(default_factory=list)
     close_errors: list[str] = field(default_factory=list)
     failed: bool = False
     closed: bool = False
 
-    def recording_path(self, index: int) -> Path:
-        """The recording of the test's session ``index`` (0: its first) under the record dir."""
+    @property
+    def folder(self) -> Path:
+        """This test's own folder under the record dir, ``<test file>/[<class>.]<test name>/``:
+        its recordings, snapshots and generated worlds (what a failed test leaves for CI to
+        upload, one folder per test)."""
         nodepath = self.item.nodeid.split("::", 1)[0]
-        folder = self.settings.record_dir / Path(nodepath).with_suffix("")
         name = safe_name(self.item.name)
-        return folder / (f"{name}.mcap" if index == 0 else f"{name}-{index + 1}.mcap")
+        cls = getattr(self.item, "cls", None)
+        if cls is not None:
+            name = f"{cls.__name__}.{name}"
+        return self.settings.record_dir / Path(nodepath).with_suffix("") / name
+
+    def recording_path(self, index: int) -> Path:
+        """The recording of the test's session ``index`` (0: its first) in :attr:`folder`."""
+        name = safe_name(self.item.name)
+        return self.folder / (f"{name}.mcap" if index == 0 else f"{name}-{index + 1}.mcap")
 
     def session_mode(self) -> Any:
         """The control mode of this test's (first) session, or the one it will get."""
@@ -218,10 +233,20 @@ class HarnessRun:
                 for path in [*self.snapshots, *self.recordings]:
                     with contextlib.suppress(OSError):
                         path.unlink()
-                    with contextlib.suppress(OSError):
-                        path.parent.rmdir()  # only when empty
                 for folder in self.folders:
                     shutil.rmtree(folder, ignore_errors=True)
+                with contextlib.suppress(OSError):
+                    (self.folder / FAILURE_NOTE).unlink()
+                # the test's folder, then its test file's folders, each only when empty
+                folder = self.folder
+                while folder != self.settings.record_dir and folder.is_relative_to(
+                    self.settings.record_dir
+                ):
+                    try:
+                        folder.rmdir()
+                    except OSError:
+                        break
+                    folder = folder.parent
 
 
 RUN = pytest.StashKey[HarnessRun]()

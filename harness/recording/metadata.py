@@ -13,6 +13,7 @@ import numpy as np
 
 from harness._version import __version__
 from harness.recording.errors import RecordingWriteError
+from harness.recording.fingerprint import FINGERPRINT_KEY, platform_fingerprint
 from harness.recording.layout import FORMAT_VERSION, METADATA_REQUIRED
 
 __all__ = ["build_metadata", "definitions_text", "media_type", "package_version"]
@@ -40,6 +41,7 @@ _RESERVED = (
     "platform",
     "state_every",
     "compression",
+    FINGERPRINT_KEY,
 )
 
 
@@ -54,7 +56,8 @@ def package_version(name: str) -> str:
 def build_metadata(
     metadata: Mapping[str, str], *, state_every: int, compression: str
 ) -> dict[str, str]:
-    """The ``harness`` metadata record: the caller's keys (validated) plus versions/platform."""
+    """The ``harness`` metadata record: the caller's keys (validated) plus versions, platform
+    and the platform fingerprint (:mod:`harness.recording.fingerprint`)."""
     for key, value in metadata.items():
         if not isinstance(key, str) or not isinstance(value, str):
             raise RecordingWriteError(
@@ -92,6 +95,7 @@ def build_metadata(
         platform=f"{sys.platform} {platform.machine()} {platform.platform()}",
         state_every=str(state_every),
         compression=compression,
+        **{FINGERPRINT_KEY: platform_fingerprint().to_json()},
     )
     return dict(sorted(out.items()))
 

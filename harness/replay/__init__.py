@@ -13,6 +13,7 @@ from harness.replay.diff import DiffEntry, DiffReport, Tolerances, diff
 from harness.replay.errors import (
     LevelUnavailableError,
     ModelAttachmentError,
+    PlatformMismatchError,
     RecordedDataError,
     VersionMismatchError,
 )
@@ -34,6 +35,7 @@ __all__ = [
     "Finding",
     "LevelUnavailableError",
     "ModelAttachmentError",
+    "PlatformMismatchError",
     "Player",
     "QuantityDelta",
     "RecordedDataError",

@@ -14,6 +14,9 @@ The engine of golden tests (the pytest plugin's ``golden.check(**tolerances)`` c
 
 - ``epochs``: the steps at which each run was reset.
 
+Recordings from two platforms (:mod:`harness.replay.platforms`) are compared only with
+tolerances: with every physics tolerance 0 the diff is refused in one line.
+
 Bytes are never compared (headers carry library versions). A quantity differs when
 ``|b - a| > tolerance``; every differing quantity is one :class:`DiffEntry` naming the first
 step it exceeded its tolerance, both values and their delta there, and its largest delta and
@@ -44,6 +47,7 @@ from harness.replay.cause import (
     first_divergence,
 )
 from harness.replay.layout import StateLayout, rotation_angle
+from harness.replay.platforms import check_platforms, platform_note
 from harness.replay.source import open_recording, read_states, resolve_model
 
 __all__ = [
@@ -298,6 +302,7 @@ def diff(
     tol = (tolerances or Tolerances())._replace(**overrides)  # type: ignore[arg-type]
     entries: list[DiffEntry] = []
     with open_recording(a) as ra, open_recording(b) as rb:
+        platforms = platform_note(check_platforms(ra, rb, tol._asdict()))
         model, _ = resolve_model(ra)
         sa, sb = read_states(ra), read_states(rb)
         counts_a = _counts(ra, ignore_after_last_step)
@@ -308,7 +313,8 @@ def diff(
         cause, inputs_compared, frames_compared = first_cause(
             ra, rb, model, ignore_after_last_step=ignore_after_last_step
         )
-    notes = [
+    notes = [platforms] if platforms else []
+    notes += [
         f"{label}: the state of step {int(steps[np.flatnonzero(np.diff(steps) <= 0)[0] + 1])} "
         "is recorded twice (a reset recorded before resets became epochs): the first is compared"
         for label, steps in (("A", sa.steps), ("B", sb.steps))

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from harness.errors import ReplayError
 
 __all__ = [
     "LevelUnavailableError",
     "ModelAttachmentError",
+    "PlatformMismatchError",
     "RecordedDataError",
     "SourceLeftOutWarning",
     "UnsafeRecordingError",
@@ -16,6 +19,16 @@ __all__ = [
 
 class VersionMismatchError(ReplayError):
     """The recording was made with another MuJoCo version and no tolerance was given."""
+
+
+class PlatformMismatchError(VersionMismatchError):
+    """The recording was made on another platform (its fingerprint differs: CPU features,
+    MuJoCo build, numpy/BLAS, C library) and an exact comparison was asked for."""
+
+    def __init__(self, message: str, fingerprints: tuple[Any, Any] = (None, None)) -> None:
+        super().__init__(message)
+        self.fingerprints = fingerprints
+        """The two :class:`~harness.recording.fingerprint.Fingerprint`\\ s compared."""
 
 
 class ModelAttachmentError(ReplayError):

@@ -34,6 +34,7 @@ from harness.recording import Epoch, Recording, RecordingDamagedError
 from harness.recording.layout import TOPIC_STATE
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.layout import StateLayout, rotation_angle
+from harness.replay.platforms import check_platform
 from harness.replay.source import (
     RecordedStates,
     check_chunks,
@@ -229,8 +230,9 @@ def verify(
     """Replay the recording at ``path`` and compare every recorded state.
 
     ``atol``/``rtol``: 0 (default) compares bit patterns; otherwise ``|actual - expected| <=
-    atol + rtol * |expected|``. A recording from another MuJoCo version is refused unless a
-    tolerance is given. ``level="full"`` also re-runs the session's bridge pipeline and
+    atol + rtol * |expected|``. A recording from another MuJoCo version or another platform
+    (:mod:`harness.replay.platforms`) is refused unless a tolerance is given.
+    ``level="full"`` also re-runs the session's bridge pipeline and
     compares every frame, applied input and state bit for bit
     (:func:`harness.replay.pipeline.replay_pipeline`; refused on another MuJoCo version and
     for recordings it cannot re-run). ``allow_damaged``: replay
@@ -247,6 +249,7 @@ def verify(
         path, allow_damaged=allow_damaged, defer_chunk_checks=not allow_damaged
     ) as rec:
         recorded_version = check_version(rec, tolerant=tolerant)
+        platform = check_platform(rec, tolerant=tolerant, level=level)
         model, model_source = resolve_model(rec)
         dt_ns = rec.timestep_ns
         if round(float(model.opt.timestep) * 1e9) != dt_ns:
@@ -260,7 +263,7 @@ def verify(
         blocks = state_blocks(rec, model, rows=_BLOCK_ROWS, stop_step=_stop(rec, 0))
         head = next(blocks)
         epochs = _epochs(rec, model, head.state_spec)
-        notes: list[str] = []
+        notes: list[str] = [platform] if platform else []
         if epochs:
             notes.append(
                 f"{len(epochs)} epoch(s) (resets) after step(s) "

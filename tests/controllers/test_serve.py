@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from harness.testing import connect
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "controllers"
@@ -35,6 +37,7 @@ def _serve(*args: str) -> subprocess.Popen[str]:
     )
 
 
+@pytest.mark.slow
 def test_serve_with_a_controllers_file(tmp_path: Path) -> None:
     path = tmp_path / "arm.yaml"
     path.write_text(ARM)
@@ -55,6 +58,7 @@ def test_serve_with_a_controllers_file(tmp_path: Path) -> None:
     assert proc.returncode == 0, err
 
 
+@pytest.mark.slow
 def test_serve_refuses_a_file_for_another_robot() -> None:
     proc = _serve("--controllers", str(DATA / "panda_ros2_controllers.yaml"))
     _, err = proc.communicate(timeout=60)

@@ -30,6 +30,7 @@ with Session("demo", clock="fast", record_to=path) as session:
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow
 def test_kill_9_mid_recording(tmp_path: Path) -> None:
     path = tmp_path / "killed.mcap"
     child = subprocess.Popen(

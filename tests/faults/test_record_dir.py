@@ -81,6 +81,7 @@ def test_full_disk_fails_the_session_before_it_runs(tiny_tmpfs: Path) -> None:
     assert not target.exists()  # no half-written file left behind
 
 
+@pytest.mark.slow
 def test_file_size_limit_fails_the_session_at_start(tmp_path: Path) -> None:
     """RLIMIT_FSIZE below the size of the header and attachments: EFBIG at construction."""
     target = tmp_path / "limited.mcap"
@@ -120,6 +121,7 @@ def test_missing_or_bad_record_dir(tmp_path: Path, parent: str) -> None:
     _one_line(info.value, str(target))
 
 
+@pytest.mark.slow
 def test_serve_reports_a_full_disk_in_one_line() -> None:
     proc = subprocess.run(
         [sys.executable, "-m", "harness", "serve", "--port", "0", "--record", "/dev/full"],

@@ -58,6 +58,7 @@ def _group_empty(pgid: int) -> bool:
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+@pytest.mark.slow
 def test_signal_stops_the_run_and_writes_what_finished(tmp_path: Path, sig: int) -> None:
     client = tmp_path / "client.py"
     client.write_text(CLIENT)

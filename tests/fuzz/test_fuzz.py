@@ -114,6 +114,7 @@ def _replace(doc: Any, path: list[int], value: Any) -> Any:
         max_size=6,
     )
 )
+@pytest.mark.slow
 def test_frame_json_subtrees(picks: list[tuple[int, list[int], Any]]) -> None:
     """Valid frames with subtrees replaced by arbitrary JSON, on one Bridge in sequence
     (state carries over: advertise, subscribe, calls, fragments)."""

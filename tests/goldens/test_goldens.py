@@ -12,6 +12,7 @@ from harness.scenario import goldens
 
 
 @pytest.mark.parametrize("name", goldens.BUNDLED)
+@pytest.mark.slow
 def test_bundled_scenario_matches_its_golden(name, tmp_path):
     golden = goldens.golden_path(name)
     assert golden.stat().st_size < 1_000_000, f"{golden} is too large to commit"
@@ -19,6 +20,7 @@ def test_bundled_scenario_matches_its_golden(name, tmp_path):
     assert result.same, result.message()
 
 
+@pytest.mark.slow
 def test_a_changed_command_fails_the_golden_check_with_the_step(tmp_path):
     # The demo's client commands every 13 steps instead of 10: the arm's motion changes
     # from the first command that differs.

@@ -17,6 +17,7 @@ RSS_GROWTH_LIMIT_MB = 200.0
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow
 def test_twenty_clients_at_1khz(tmp_path: Path, record_property: pytest.RecordProperty) -> None:
     result = load_run(tmp_path / "load.mcap", clients=20, rate=1000.0, seconds=1.0, timeout=90)
     c = result.clients

@@ -44,6 +44,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_replay_mode_kinematic_reports_the_path_difference(recorded: Path, tmp_path: Path) -> None:
     report_path = tmp_path / "report.json"
     code = main(["replay", str(recorded), "--actuation", "kinematic", "--report", str(report_path)])
@@ -65,6 +66,7 @@ def test_replay_mode_kinematic_reports_the_path_difference(recorded: Path, tmp_p
     assert report["collisions_appearing"] == report["collisions_disappearing"] == []
 
 
+@pytest.mark.slow
 def test_replay_mode_dynamic_re_runs_the_wheels_the_same(recorded: Path) -> None:
     report = resimulate_base(recorded, "servo")
     assert report.steps_compared >= 52 * 25
@@ -78,6 +80,7 @@ def test_replay_mode_dynamic_re_runs_the_wheels_the_same(recorded: Path) -> None
     )
 
 
+@pytest.mark.slow
 def test_a_planar_recording_has_no_wheels_for_the_dynamic_mode(tmp_path: Path) -> None:
     from tests.mobile.test_planar import PLANAR_YAML
 

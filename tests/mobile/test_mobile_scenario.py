@@ -10,9 +10,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_mobile_scenario_drives_a_square_back_to_its_start(tmp_path: Path) -> None:
     out = tmp_path / "results"
     run = subprocess.run(

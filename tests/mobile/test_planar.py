@@ -47,6 +47,7 @@ def _xy(msg: dict[str, Any]) -> tuple[float, float]:
     return p["x"], p["y"]
 
 
+@pytest.mark.slow
 def test_planar_base_moves_0_4_m_and_replays_bit_exactly(tmp_path: Path) -> None:
     controllers = tmp_path / "planar.yaml"
     controllers.write_text(PLANAR_YAML)

@@ -44,6 +44,7 @@ def test_corpus_is_complete():
 
 
 @pytest.mark.parametrize("path", URDFS, ids=_ids)
+@pytest.mark.slow
 def test_each_urdf_loads_and_holds_or_names_the_cause(path, mesh_cache):
     relative = _ids(path)
     expected = EXPECTED_LOAD_FAILURES.get(relative)

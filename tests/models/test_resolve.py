@@ -97,6 +97,7 @@ def test_dae_is_converted_once_into_a_content_hashed_cache(robots, tmp_path, mon
     assert prepare_mesh(stl) == stl
 
 
+@pytest.mark.slow
 def test_visual_dae_meshes_load_with_visuals(robots, mesh_cache):
     with_visuals = load_robot(
         robots / "panda_description/urdf/panda.urdf", visuals=True, cache_dir=mesh_cache

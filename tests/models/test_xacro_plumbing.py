@@ -64,10 +64,10 @@ def test_marker_and_scenario_file_load_a_description_package(pytester):
     )
     result.assert_outcomes(passed=2)
     folder = pytester.path / ".harness" / "recordings" / "test_robot"
-    with Recording(folder / "test_marker.mcap") as rec:
+    with Recording(folder / "test_marker" / "test_marker.mcap") as rec:
         assert json.loads(rec.metadata["robot_args"])["ur_type"] == "ur3e"
         assert rec.metadata["robot_xacro"].endswith("ur_mocked.urdf.xacro")
-    with Recording(folder / "test_scenario.mcap") as rec:  # a scenario runs a world
+    with Recording(folder / "test_scenario" / "test_scenario.mcap") as rec:  # a world
         (entry,) = json.loads(rec.metadata["robots"])
         assert entry["robot_args"]["ur_type"] == "ur10e"
         assert entry["xacro"].endswith("ur_mocked.urdf.xacro")
@@ -100,6 +100,7 @@ def test_scenario_names_a_missing_package_and_bad_arguments(tmp_path):
         Scenario.load(path)
 
 
+@pytest.mark.slow
 def test_serve_takes_robot_args(tmp_path):
     entry = DESCRIPTIONS / "ur_description" / "urdf" / "ur_mocked.urdf.xacro"
     process = subprocess.Popen(

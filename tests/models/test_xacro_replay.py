@@ -46,6 +46,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("packages", "entry", "args", "mode"), [c[1:] for c in CASES], ids=[c[0] for c in CASES]
 )
+@pytest.mark.slow
 def test_holds_records_and_replays_without_its_package(tmp_path, packages, entry, args, mode):
     for package in packages:
         shutil.copytree(DESCRIPTIONS / package, tmp_path / "src" / package)
@@ -85,6 +86,7 @@ def test_holds_records_and_replays_without_its_package(tmp_path, packages, entry
         assert rebuilt.sha256 == rec.metadata["model_sha256"]
 
 
+@pytest.mark.slow
 def test_replay_cli_with_the_package_deleted(tmp_path):
     shutil.copytree(DESCRIPTIONS / "ur_description", tmp_path / "ur_description")
     entry = tmp_path / "ur_description" / "urdf" / "ur_mocked.urdf.xacro"

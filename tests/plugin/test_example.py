@@ -6,9 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_pick_and_place_example_suite_passes(tmp_path, plugin_args):
     proc = subprocess.run(
         [

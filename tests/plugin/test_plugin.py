@@ -95,6 +95,7 @@ def test_every_option_has_an_ini_twin(pytester, run):
         assert ini in text
 
 
+@pytest.mark.slow
 def test_fixtures_and_marker(pytester, run):
     pytester.makepyfile(
         test_fixtures="""
@@ -130,13 +131,14 @@ def test_fixtures_and_marker(pytester, run):
     result = run("--harness-keep-recordings=always")
     result.assert_outcomes(passed=3)
     folder = pytester.path / ".harness" / "recordings" / "test_fixtures"
-    assert sorted(p.name for p in folder.iterdir()) == [
-        "test_factory-2.mcap",
-        "test_factory.mcap",
-        "test_marker.mcap",
-        "test_module_marker_applies.mcap",
+    # one folder per test (issue 35: what CI uploads of a failed test)
+    assert sorted(str(p.relative_to(folder)) for p in folder.rglob("*.mcap")) == [
+        "test_factory/test_factory-2.mcap",
+        "test_factory/test_factory.mcap",
+        "test_marker/test_marker.mcap",
+        "test_module_marker_applies/test_module_marker_applies.mcap",
     ]
-    with Recording(folder / "test_marker.mcap") as rec:
+    with Recording(folder / "test_marker" / "test_marker.mcap") as rec:
         assert [s.step for s in rec.physics_states()] == [0, 3, 6]
 
 
@@ -169,6 +171,7 @@ def test_missing_golden_fails_with_the_command_to_create_it(pytester, run):
     assert not (pytester.path / "recordings").exists()
 
 
+@pytest.mark.slow
 def test_golden_update_then_match_then_mismatch(pytester, run):
     pytester.makepyfile(test_golden=MOVE)
     golden = pytester.path / "recordings" / "test_golden" / "test_move.mcap"
@@ -194,7 +197,7 @@ def test_golden_update_then_match_then_mismatch(pytester, run):
             "*golden:    first divergence: joint_position * at step *",
         ]
     )
-    kept = pytester.path / ".harness" / "recordings" / "test_golden" / "test_move.mcap"
+    kept = pytester.path / ".harness/recordings/test_golden/test_move/test_move.mcap"
     assert kept.is_file()
     # The headline and the FIRST DIVERGENCE line name one row (issue 35: they named two
     # joints), and the headline says at which step each value is.
@@ -236,8 +239,10 @@ def test_recordings_kept_or_removed_per_option(pytester, run, keep, kept):
     pytester.makepyfile(test_keep=FAIL_AND_PASS)
     run(f"--harness-keep-recordings={keep}").assert_outcomes(passed=1, failed=1)
     folder = pytester.path / ".harness" / "recordings" / "test_keep"
-    found = {p.stem for p in folder.glob("*.mcap")} if folder.exists() else set()
+    found = {p.stem for p in folder.rglob("*.mcap")} if folder.exists() else set()
     assert found == kept
+    # one folder per kept test, nothing else (empty folders of passed tests removed)
+    assert ({p.name for p in folder.iterdir()} if folder.exists() else set()) == kept
 
 
 def test_ini_twins_set_record_dir_and_keep(pytester, run):
@@ -250,7 +255,7 @@ def test_ini_twins_set_record_dir_and_keep(pytester, run):
     )
     pytester.makepyfile(test_keep=FAIL_AND_PASS)
     run().assert_outcomes(passed=1, failed=1)
-    assert {p.stem for p in (pytester.path / "recs" / "test_keep").glob("*.mcap")} == {
+    assert {p.stem for p in (pytester.path / "recs" / "test_keep").rglob("*.mcap")} == {
         "test_passes",
         "test_fails",
     }
@@ -286,6 +291,7 @@ def test_talks_nonsense(rosbridge_url):
 """
 
 
+@pytest.mark.slow
 def test_strict_bridge_fails_a_test_whose_bridge_answered_errors(pytester, run):
     pytester.makepyfile(test_bogus=BOGUS)
     run().assert_outcomes(passed=1)
@@ -303,6 +309,7 @@ def test_strict_bridge_fails_a_test_whose_bridge_answered_errors(pytester, run):
     run().assert_outcomes(failed=1)
 
 
+@pytest.mark.slow
 def test_failure_report_section(pytester, run):
     pytester.makepyfile(
         test_report="""
@@ -313,18 +320,27 @@ def test_failure_report_section(pytester, run):
     )
     result = run()
     result.assert_outcomes(failed=1)
-    path = pytester.path / ".harness" / "recordings" / "test_report" / "test_fails.mcap"
+    path = pytester.path / ".harness/recordings/test_report/test_fails/test_fails.mcap"
     result.stdout.fnmatch_lines(
         [
             "*RuntimeError: the robot did something wrong*",
             "*-- harness --*",
             f"recording: {path} (kept: --harness-keep-recordings=failed)",
-            f"replay:    harness replay {path}",
             # The box resting on the table is a contact: the logger reports it.
             "events:    collision_begin: 1*",
             "*collision began between table (table_top) and box (box)*",
+            # the section ends with the commands (issue 35)
+            "reproduce: python -m pytest test_report.py::test_fails*",
+            f"replay:    harness replay {path}",
+            f"open:      foxglove-studio {path}  # Foxglove desktop*",
         ]
     )
+    section = result.stdout.str().split("-- harness --", 1)[1].split("short test summary")[0]
+    assert section.strip().splitlines()[-2].startswith("open:      foxglove-studio ")
+    # the failed test's folder explains itself (what CI uploads)
+    note = (path.parent / "failure.txt").read_text()
+    assert note.startswith("test_report.py::test_fails failed: RuntimeError: the robot did")
+    assert f"replay:    harness replay {path}" in note
     replay = subprocess.run(
         [sys.executable, "-m", "harness", "replay", str(path)], capture_output=True, text=True
     )
@@ -371,6 +387,7 @@ def test_suite_mode_rules():
     }
 
 
+@pytest.mark.slow
 def test_harness_mode_option_and_ini(pytester, run):
     pytester.makepyfile(
         test_mode="""
@@ -420,7 +437,10 @@ def test_scenario_marker(pytester, run):
         """
     )
     run("--harness-keep-recordings=always").assert_outcomes(passed=1)
-    path = pytester.path / ".harness" / "recordings" / "test_scenario" / "test_from_scenario.mcap"
+    path = (
+        pytester.path / ".harness/recordings/test_scenario/test_from_scenario"
+        / "test_from_scenario.mcap"
+    )  # fmt: skip
     with Recording(path) as rec:
         assert [s.step for s in rec.physics_states()] == [0, 4, 8]
         assert rec.metadata["seed"] == "7"
@@ -446,6 +466,7 @@ def test_moves(rosbridge_url, golden, target):
 """
 
 
+@pytest.mark.slow
 def test_xdist_two_workers(pytester, plugin_args, run):
     pytester.makepyfile(test_par=XDIST)
     args = (*plugin_args, "-p", "no:cacheprovider", "-n", "2")
@@ -490,6 +511,7 @@ def test_per_joint(harness_session, rosbridge_url, golden):
 """
 
 
+@pytest.mark.slow
 def test_golden_names_carry_the_control_mode(pytester, run):
     pytester.makepyfile(test_modes=MODES)
     folder = pytester.path / "recordings" / "test_modes"
@@ -542,7 +564,7 @@ def test_golden_check_mid_test_keeps_the_session_running(pytester, run):
         assert rec.complete
         assert rec.last_step == 30
     run("--harness-keep-recordings=always").assert_outcomes(passed=1)
-    kept = pytester.path / ".harness" / "recordings" / "test_mid"
+    kept = pytester.path / ".harness" / "recordings" / "test_mid" / "test_mid"
     assert sorted(p.name for p in kept.glob("*.mcap")) == [
         "test_mid.mcap",
         "test_mid.snapshot.mcap",

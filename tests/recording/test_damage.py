@@ -161,6 +161,7 @@ def test_wrong_profile_metadata_or_version(
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_kill_9_mid_run_keeps_everything_flushed(tmp_path: Path) -> None:
     path = tmp_path / "killed.mcap"
     child = subprocess.Popen(

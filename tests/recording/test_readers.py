@@ -96,6 +96,7 @@ def test_mcap_stream_reader_validates_crcs(run_recording: Path) -> None:
     assert dict(counts) == expected == dict(indexed)
 
 
+@pytest.mark.slow
 def test_rosbags_convert_to_sqlite3_and_back(run_recording: Path, tmp_path: Path) -> None:
     exe = Path(sys.executable).parent / "rosbags-convert"
     sqlite_dir, back_dir = tmp_path / "sqlite", tmp_path / "back"

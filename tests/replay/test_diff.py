@@ -153,6 +153,7 @@ def _client_run(path: Path, joint2: float, goodbye: bool) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_first_divergence_names_the_frame_and_goodbyes_can_be_ignored(
     tmp_path: Path, capsys: Any
 ) -> None:

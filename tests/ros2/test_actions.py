@@ -21,6 +21,7 @@ TARGET = [0.3, 0.2, 0.1, -1.4, 0.1, 1.8, -0.5]
 SUCCEEDED, CANCELED = 4, 5
 
 
+@pytest.mark.slow
 def test_follow_joint_trajectory_goal_from_an_rclpy_action_client(
     ros2: Ros2Install, tmp_path: Path
 ) -> None:

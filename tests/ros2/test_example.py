@@ -6,6 +6,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from harness.ros2 import Ros2Install
 from tests.ros2.ros2_paths import ROOT
 
@@ -17,6 +19,7 @@ def _plugin_args() -> tuple[str, ...]:
     return () if installed else ("-p", "harness.pytest_plugin")
 
 
+@pytest.mark.slow
 def test_ros2_node_example_suite_passes(ros2: Ros2Install, tmp_path) -> None:
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "examples/ros2_node", "-q", "-p", "no:cacheprovider",

@@ -46,6 +46,7 @@ def _texts(sink: CollectingSink, level: Level) -> list[str]:
     return [e.message() for e in sink.events if isinstance(e, LogMessage) and e.level == level]
 
 
+@pytest.mark.slow
 def test_lockstep_from_a_node_gives_identical_runs_that_replay(
     ros2: Ros2Install, tmp_path: Path
 ) -> None:
@@ -73,6 +74,7 @@ def test_lockstep_from_a_node_gives_identical_runs_that_replay(
         assert first.state.tobytes() == second.state.tobytes()
 
 
+@pytest.mark.slow
 def test_bad_input_from_a_node_is_reported_and_a_crash_leaves_the_run_going(
     ros2: Ros2Install, tmp_path: Path
 ) -> None:
@@ -109,6 +111,7 @@ def test_domain_id_honours_the_environment() -> None:
     assert choose_domain_id({}) in range(1, 102)
 
 
+@pytest.mark.slow
 def test_client_mode_survives_a_rosbridge_server_rs_restart(
     ros2: Ros2Install, tmp_path: Path
 ) -> None:

@@ -30,6 +30,7 @@ def external_server() -> Iterator[str]:
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow
 def test_serve_connect_runs_as_a_client_and_prints_the_link_summary(external_server: str) -> None:
     proc = subprocess.Popen(
         [sys.executable, "-m", "harness", "serve", "--clock", "lockstep", "--connect",
@@ -46,6 +47,7 @@ def test_serve_connect_runs_as_a_client_and_prints_the_link_summary(external_ser
     assert "harness serve: upstream: send failures 0, reconnects 0, refused 0" in out
 
 
+@pytest.mark.slow
 def test_serve_connect_to_nothing_is_one_line() -> None:
     done = subprocess.run(
         [sys.executable, "-m", "harness", "serve", "--connect", "ws://127.0.0.1:9"],
@@ -58,6 +60,7 @@ def test_serve_connect_to_nothing_is_one_line() -> None:
     ]
 
 
+@pytest.mark.slow
 def test_a_session_without_ros2_imports_nothing_of_it() -> None:
     code = (
         "import sys; from harness.session import Session\n"

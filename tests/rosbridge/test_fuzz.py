@@ -8,6 +8,7 @@ import asyncio
 import json
 from typing import Any
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
@@ -164,11 +165,12 @@ class BridgeMachine(RuleBasedStateMachine):
 
 
 BridgeMachine.TestCase.settings = settings(max_examples=60, stateful_step_count=30, deadline=None)
-TestBridgeMachine = BridgeMachine.TestCase
+TestBridgeMachine = pytest.mark.slow(BridgeMachine.TestCase)
 
 
 @settings(max_examples=15, deadline=None)
 @given(frames=st.lists(FRAMES, min_size=1, max_size=8))
+@pytest.mark.slow
 def test_server_survives_malformed_frames_over_websocket(frames: list[str | bytes]) -> None:
     async def main() -> None:
         async with (

@@ -55,6 +55,7 @@ async def _drive(transport: str) -> list[str]:
 
 
 @pytest.mark.parametrize("transport", ["twisted", "asyncio"])
+@pytest.mark.slow
 def test_roslibpy_scenario(transport: str) -> None:
     lines = asyncio.run(_drive(transport))
     for step in ("pubsub hello", "rosapi ok", "services ok", "actions ok", "reconnect ok", "OK"):

@@ -107,6 +107,7 @@ def _serve_stderr(*extra: str) -> tuple[str, str]:
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow
 def test_serve_warns_only_for_an_explicit_exposed_host() -> None:
     first, err = _serve_stderr()
     assert "ws://127.0.0.1:" in first

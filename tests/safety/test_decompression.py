@@ -98,6 +98,7 @@ def _harness(*args: str, env: dict[str, str] | None = None) -> subprocess.Comple
     )
 
 
+@pytest.mark.slow
 def test_zstd_chunk_declaring_4_gib_is_refused_by_our_limit(tmp_path: Path) -> None:
     path = _bomb(tmp_path, "zstd", _zstd_zeros(8 * 2**20), 4 * 2**30)
     inspect = _harness("inspect", str(path))

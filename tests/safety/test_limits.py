@@ -144,6 +144,7 @@ def test_yaml_alias_bomb_is_refused_quickly(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("suffix", [".yaml", ".json"])
+@pytest.mark.slow
 def test_deeply_nested_scenario_is_refused(tmp_path: Path, suffix: str) -> None:
     path = tmp_path / f"deep{suffix}"
     path.write_text('{"robots": ' + "[" * 100_000 + "]" * 100_000 + "}")

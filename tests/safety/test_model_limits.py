@@ -149,6 +149,7 @@ with Recording(path) as rec:
     ],
     ids=["size-bomb", "include-outside"],
 )
+@pytest.mark.slow
 def test_a_recordings_model_attachment_is_data(tmp_path: Path, text: str, expected: str) -> None:
     done = subprocess.run(
         [sys.executable, "-c", REPLAY_CHILD, str(tmp_path / "r.mcap"), text],

@@ -96,6 +96,7 @@ async def _in_subprocess(cmd: list[str], cwd: Path | None = None) -> str:
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow
 def test_roslibpy_presents_the_token_in_the_url() -> None:
     out = asyncio.run(_in_subprocess([sys.executable, "-c", ROSLIBPY]))
     with_token, wrong = out.splitlines()[0], out.splitlines()[-1]
@@ -126,6 +127,7 @@ ROSLIBJS = textwrap.dedent(
     not (NODE_DIR / "node_modules" / "roslib").is_dir(),
     reason="tests/node/node_modules lacks roslib (run `make node-deps`)",
 )
+@pytest.mark.slow
 def test_roslibjs_presents_the_token_in_the_url() -> None:
     assert NODE is not None
     # --eval resolves "roslib" from the working directory: tests/node
@@ -172,6 +174,7 @@ def test_session_token_with_an_external_server_is_refused() -> None:
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow
 def test_serve_with_a_token_from_the_environment() -> None:
     proc = subprocess.Popen(
         [sys.executable, "-m", "harness", "serve", "--port", "0", "--clock", "lockstep"],

@@ -205,6 +205,7 @@ def isolated_worker(tmp_path, tmp_path_factory):
                 worker.wait()
 
 
+@pytest.mark.slow
 def test_a_worker_without_the_clients_files_gives_the_same_results_as_local_workers(
     tmp_path, isolated_worker
 ):

@@ -49,6 +49,7 @@ def original(tmp_path):
     return folder
 
 
+@pytest.mark.slow
 def test_original_runner_config_on_the_table_passes_both_iterations(original):
     results = _run(original)
     assert len(results) == 2
@@ -68,6 +69,7 @@ def test_original_runner_config_on_the_table_passes_both_iterations(original):
     assert "criteria.joint_limit_tolerance" in page
 
 
+@pytest.mark.slow
 def test_hitting_the_box_fails_naming_the_arm_link(original):
     (result,) = _run(original, f"python move_arm.py {ONTO_THE_BOX}", iterations=1)
     assert not result.passed

@@ -6,7 +6,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 
+
+@pytest.mark.slow
 def test_harness_demo_showcase(tmp_path):
     out = tmp_path / "demo"
     result = subprocess.run(

@@ -76,6 +76,7 @@ def test_the_world_plan_places_each_robot_through_load_world(tmp_path):
     assert data_x[0] == pytest.approx(0.5)
 
 
+@pytest.mark.slow
 def test_harness_run_drives_one_of_two_robots_over_its_namespace(tmp_path):
     client = [sys.executable, str(LOCKSTEP), "0.5", "shoulder", "/two_link_1/arm/cmd"]
     path = _original_two_robots(tmp_path, client={"command": client, "readiness_timeout": 20})

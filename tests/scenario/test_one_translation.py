@@ -103,7 +103,7 @@ def _marker_route(pytester: pytest.Pytester) -> dict[str, str]:
     result.assert_outcomes(passed=1)
     events = pytester.path / "events.jsonl"
     assert events.read_text()  # the logging section's destination
-    return _metadata(pytester.path / ".harness/recordings/test_cell/test_cell.mcap")
+    return _metadata(pytester.path / ".harness/recordings/test_cell/test_cell/test_cell.mcap")
 
 
 def _run_route(file: Path, tmp: Path) -> dict[str, str]:
@@ -114,6 +114,7 @@ def _run_route(file: Path, tmp: Path) -> dict[str, str]:
     return _metadata(recording)
 
 
+@pytest.mark.slow
 def test_one_file_one_world_through_run_marker_and_session(
     pytester: pytest.Pytester, tmp_path: Path
 ) -> None:

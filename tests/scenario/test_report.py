@@ -64,6 +64,7 @@ def _png_size(path: Path) -> tuple[int, int]:
 @pytest.mark.skipif(
     not CHROMIUM.exists(), reason="needs Debian's chromium (/usr/bin/chromium; make system-deps)"
 )
+@pytest.mark.slow
 def test_report_renders_in_headless_chromium(results, tmp_path):
     rs, tmp = results
     report = tmp_path / "report.html"

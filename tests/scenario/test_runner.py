@@ -65,6 +65,7 @@ def test_iteration_specs_give_each_iteration_its_own_folder_recording_and_free_p
     assert [len(iteration_specs(config, tmp_path, iterations=4))] == [8]
 
 
+@pytest.mark.slow
 def test_local_workers_run_deterministic_iterations_and_judge_determinism(tmp_path):
     config = _write_run(
         tmp_path,
@@ -103,6 +104,7 @@ def test_determinism_failure_is_reported(tmp_path):
     assert not single.passed
 
 
+@pytest.mark.slow
 def test_failures_are_results_and_reports_count_them(tmp_path):
     config = _write_run(
         tmp_path,
@@ -147,6 +149,7 @@ def test_failures_are_results_and_reports_count_them(tmp_path):
     assert "PASS" in text
 
 
+@pytest.mark.slow
 def test_runner_exception_and_dead_worker_become_errors(tmp_path):
     config = _write_run(tmp_path, [{"name": "e", "scenario": "pass.yaml"}], {"pass.yaml": PASSING})
     (spec,) = iteration_specs(config, tmp_path / "out")
@@ -158,6 +161,7 @@ def test_runner_exception_and_dead_worker_become_errors(tmp_path):
     assert dead.error == "the worker process running it died"
 
 
+@pytest.mark.slow
 def test_clients_in_worker_processes_fail_with_reasons_and_leave_nothing(tmp_path):
     scenarios, simulations = {}, []
     for mode in ("crash", "noconnect", "ok"):
@@ -184,6 +188,7 @@ def test_clients_in_worker_processes_fail_with_reasons_and_leave_nothing(tmp_pat
         assert all(process_gone(p) for p in pids)
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_results_as_local_workers(tmp_path):
     distributed = pytest.importorskip("distributed", reason="optional Dask backend not installed")
     from harness.scenario import DaskBackend
@@ -223,6 +228,7 @@ def test_harness_run_reports_config_errors_first(tmp_path, capsys):
     assert "--backend dask needs --scheduler ADDRESS" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_harness_run_prints_notices_for_ignored_original_keys(tmp_path, capsys):
     # The original runner config starts `ros2 launch ...`, not installed here: every iteration
     # fails with that reason (quickly), after the notices about the ignored keys.

@@ -50,6 +50,7 @@ def _pids(path: Path) -> list[int]:
     return [int(p) for p in path.read_text().split()]
 
 
+@pytest.mark.slow
 def test_harness_run_with_a_client_two_workers_and_determinism(tmp_path):
     client = [sys.executable, str(LOCKSTEP), "0.5", "shoulder", "/arm/cmd"]
     scenario = _scenario(tmp_path, client={"command": client, "readiness_timeout": 20})
@@ -90,6 +91,7 @@ def test_harness_run_with_a_client_two_workers_and_determinism(tmp_path):
     assert verify(recording).reproduced
 
 
+@pytest.mark.slow
 def test_clients_that_crash_hang_or_never_connect_fail_on_time_and_leave_nothing(tmp_path):
     runner = dataclasses.replace(session_iteration_runner(), grace=1.0)
     plans = []
@@ -124,6 +126,7 @@ def test_clients_that_crash_hang_or_never_connect_fail_on_time_and_leave_nothing
         assert all(process_gone(p) for p in _pids(tmp_path / f"{mode}.pids")), mode
 
 
+@pytest.mark.slow
 def test_fast_clock_steps_only_once_a_client_connected_and_stops_at_the_limit(tmp_path):
     runner = session_iteration_runner()
     results = {}
@@ -183,6 +186,7 @@ def test_without_a_client_the_duration_is_stepped_and_the_world_is_built(tmp_pat
     assert verify(result.recording).reproduced
 
 
+@pytest.mark.slow
 def test_original_framework_configs_run_end_to_end(tmp_path):
     runner = session_iteration_runner()
     config = load_run_file(DATA / "runner.json")
@@ -259,6 +263,7 @@ def _comparable(result):
     return dataclasses.replace(result, wall_seconds=0.0, port=None)
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_results_as_local_workers(tmp_path):
     distributed = pytest.importorskip("distributed", reason="optional Dask backend not installed")
     from harness.scenario import DaskBackend

@@ -28,6 +28,7 @@ GREEN = [0, 255, 0]
     not (NODE_DIR / "node_modules" / "roslib").is_dir(),
     reason="tests/node/node_modules lacks roslib (run `make node-deps`)",
 )
+@pytest.mark.slow
 def test_roslibjs_receives_an_image_with_cbor_and_png() -> None:
     assert NODE is not None
     with Session(RIG, sensors=CAMERA) as session:
@@ -83,6 +84,7 @@ ros.terminate()
 """
 
 
+@pytest.mark.slow
 def test_roslibpy_receives_an_image_with_png() -> None:
     pytest.importorskip("PIL", reason="Pillow decodes rosbridge's png op (an independent decoder)")
     with Session(RIG, sensors=CAMERA) as session:

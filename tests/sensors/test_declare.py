@@ -31,6 +31,7 @@ def _recorded(robot: Path, tmp_path: Path, steps: int) -> dict[str, tuple[str, s
     return out
 
 
+@pytest.mark.slow
 def test_urdf_gazebo_sensors_on_their_topics_and_frames(tmp_path: Path) -> None:
     seen = _recorded(DATA / "sensor_bot.urdf", tmp_path, 100)
     assert seen["/wrist_camera/image_raw"] == (

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import cbor2
 import numpy as np
+import pytest
 import websockets
 
 from harness.recording import Recording
@@ -43,6 +44,7 @@ async def _client(url: str, frames: list[bytes | str]) -> None:
                 return
 
 
+@pytest.mark.slow
 def test_recording_with_images_replays_at_level_full(tmp_path: Path) -> None:
     path = tmp_path / "images.mcap"
     frames: list[bytes | str] = []
@@ -104,6 +106,7 @@ def _large_change(pixels: np.ndarray) -> None:
     pixels[:] = 255 - pixels
 
 
+@pytest.mark.slow
 def test_images_from_another_renderer_compare_with_a_tolerance_and_a_note(tmp_path: Path) -> None:
     path = tmp_path / "cam.mcap"
     camera = [{"name": "cam", "type": "camera", "parent": "mount", "width": 32, "height": 24}]

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from harness.session import Session
 from tests.sensors.sensor_helpers import RIG
 
@@ -36,6 +38,7 @@ def _probe(robot: str, sensors: list[dict], record_to: Path) -> dict:
     return result
 
 
+@pytest.mark.slow
 def test_a_session_without_sensors_never_initialises_gl(tmp_path: Path) -> None:
     assert _probe("demo", [], tmp_path / "a.mcap") == {"contexts": 0, "gl_modules": []}
     # a camera does start it (so the probe above could have failed)
@@ -70,6 +73,7 @@ print(count, digest.hexdigest())
 """
 
 
+@pytest.mark.slow
 def test_two_processes_give_byte_identical_sensor_streams(tmp_path: Path) -> None:
     outs = []
     for i in range(2):
@@ -118,6 +122,7 @@ except RenderBackendError as exc:
 """
 
 
+@pytest.mark.slow
 def test_no_offscreen_gl_is_a_clear_error_naming_the_packages(tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items() if k != "PYOPENGL_PLATFORM"}
     env["MUJOCO_GL"] = "egl"  # the only back-end allowed...

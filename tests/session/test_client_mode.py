@@ -105,6 +105,7 @@ def _wait_service(client: Client, service: str) -> None:
     raise AssertionError(f"{service} never appeared")
 
 
+@pytest.mark.slow
 def test_client_mode_records_every_frame_and_replays_at_full_level(
     demo_position: LoadedRobot,
     restartable: _External,

@@ -86,6 +86,7 @@ def test_close_processes_every_received_frame_then_records_close_and_disconnects
     assert report.reproduced, report.mismatch
 
 
+@pytest.mark.slow
 def test_the_same_client_behaviour_ends_the_recording_the_same_way(
     demo_position: LoadedRobot, tmp_path: Path
 ) -> None:

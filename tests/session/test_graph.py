@@ -128,6 +128,7 @@ def _check_graph(out: dict[str, Any]) -> None:
     assert static == {"link0": "world", "hand": "link7"}
 
 
+@pytest.mark.slow
 def test_roslibpy_sees_the_robot_graph(demo_position: LoadedRobot) -> None:
     with Session(demo_position) as session:
         port = session.url.rsplit(":", 1)[1]
@@ -273,6 +274,7 @@ def test_tf_follows_the_urdf_tree_and_composes_to_the_simulation(
         assert len(first_tf.msg.transforms) == len(moving)
 
 
+@pytest.mark.slow
 def test_harness_serve_survives_a_client_retyping_joint_states() -> None:
     """The report's reproduction: before the fix, `harness serve` exited with "Tried to
     register topic /joint_states with type sensor_msgs/msg/JointState but it is already

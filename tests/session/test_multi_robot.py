@@ -148,6 +148,7 @@ def test_topics_names_and_frames_of_a_two_robot_session():
         assert session.joint_commands("right")[0] == 0.0  # nothing changed
 
 
+@pytest.mark.slow
 def test_two_arms_collide_and_the_recording_replays_bit_exactly(tmp_path):
     path = tmp_path / "two-arms.mcap"
     sink = CollectingSink()

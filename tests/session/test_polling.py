@@ -213,6 +213,7 @@ def _recorded(robot: LoadedRobot, path: Path, max_ns: int) -> tuple[str, int]:
     return hashlib.sha256(path.read_bytes()).hexdigest(), polled
 
 
+@pytest.mark.slow
 def test_polling_changes_nothing_recorded(demo_position: LoadedRobot, tmp_path: Path) -> None:
     polling, polled = _recorded(demo_position, tmp_path / "polling.mcap", MAX_NS)
     blocking, none = _recorded(demo_position, tmp_path / "blocking.mcap", 0)

@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from harness.events import CollisionLogger
 from harness.models import LoadedRobot
@@ -93,6 +94,7 @@ def _touch_box_trajectory() -> dict[str, object]:
     }
 
 
+@pytest.mark.slow
 def test_collision_logger_events_in_the_recording(
     demo_kinematic: LoadedRobot, client_factory: Callable[[str], Client], tmp_path: Path
 ) -> None:
@@ -123,6 +125,7 @@ def test_collision_logger_events_in_the_recording(
         assert any("collision began" in text and "box" in text for text in rosout)
 
 
+@pytest.mark.slow
 def test_serve_record_then_sigint_leaves_a_valid_file(tmp_path: Path) -> None:
     path = tmp_path / "serve.mcap"
     proc = subprocess.Popen(

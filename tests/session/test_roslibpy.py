@@ -10,6 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from harness.models import LoadedRobot
 from harness.session import Session
 
@@ -29,6 +31,7 @@ def _run(robot: LoadedRobot) -> dict[str, Any]:
     return result
 
 
+@pytest.mark.slow
 def test_trajectory_in_lockstep_is_identical_across_runs(demo_position: LoadedRobot) -> None:
     first, second = _run(demo_position), _run(demo_position)
     states = first["states"]

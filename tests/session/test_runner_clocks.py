@@ -43,6 +43,7 @@ def _scenario(tmp_path: Path, **overrides: Any) -> Path:
 
 
 @pytest.mark.parametrize("clock", [{"mode": "fast"}, {"mode": "realtime", "rate": 5.0}])
+@pytest.mark.slow
 def test_free_clock_scenarios_run_in_their_own_clock_from_the_client_to_the_limit(
     tmp_path: Path, clock: dict[str, Any]
 ) -> None:

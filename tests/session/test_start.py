@@ -19,6 +19,7 @@ from harness.session import (
 from tests.session.session_helpers import Client
 
 
+@pytest.mark.slow
 def test_on_client_clock_starts_at_step_zero_when_the_first_client_connects(
     demo_position: LoadedRobot, client_factory: Callable[[str], Client], tmp_path: Path
 ) -> None:

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from harness.models import LoadedRobot
 from harness.recording import Recording
@@ -43,6 +44,7 @@ def _drive(session: Session, client: Client, steps: int, carry: bool) -> list[in
     return answered
 
 
+@pytest.mark.slow
 def test_a_step_request_carrying_its_command_acts_like_two_messages(
     demo_position: LoadedRobot, client_factory: Callable[[str], Client], tmp_path: Path
 ) -> None:

@@ -23,6 +23,7 @@ print(json.dumps([r.steps, r.sha256, len(r.contacts)]))
 """
 
 
+@pytest.mark.slow
 def test_two_processes_hash_the_same_10000_steps_with_contacts():
     procs = [
         subprocess.Popen([sys.executable, "-c", CHILD], stdout=subprocess.PIPE, text=True)
