@@ -198,6 +198,11 @@ class SensorInterfaces(Protocol):
     @property
     def names(self) -> tuple[str, ...]: ...
 
+    def claim(self, names: Sequence[str]) -> None:
+        """A controller will read ``names`` (the manager claims each controller's
+        ``state_interfaces`` that are sensors')."""
+        ...
+
     def values(self) -> Mapping[str, float]: ...
 
 

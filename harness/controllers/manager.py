@@ -98,6 +98,10 @@ class ControllerManager:
             for spec in config.controllers
         }
         """Every controller of the configuration (whether loaded or not)."""
+        for controller in self.built.values():
+            reads = [i for i in controller.state_interfaces if i in sensors.names]
+            if reads:
+                sensors.claim(reads)
         self.loaded: dict[str, LoadedController] = {}
         self.update_period_ns = round(1e9 / config.update_rate)
 

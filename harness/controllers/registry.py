@@ -33,6 +33,9 @@ class _NoSensors:
 
     names: tuple[str, ...] = ()
 
+    def claim(self, names: Sequence[str]) -> None:
+        pass
+
     def values(self) -> Mapping[str, float]:
         return {}
 

@@ -172,8 +172,9 @@ class View:
 
 @dataclass(frozen=True)
 class Output:
-    """One topic of a sensor: ``key`` (see :data:`harness.sensors.spec.OUTPUTS`), resolved
-    ``topic``, message type, and whether it goes into the recording."""
+    """One topic of a sensor: ``key`` (one of its kind's outputs,
+    :attr:`~harness.sensors.registry.SensorKind.outputs`), resolved ``topic``, message type,
+    and whether it goes into the recording."""
 
     key: str
     topic: str
