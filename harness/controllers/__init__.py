@@ -16,8 +16,8 @@ ros2_controllers type string with :func:`~harness.controllers.registry.controlle
 manager finds it by walking this package (:mod:`~harness.controllers.registry`), lists it in
 ``list_controller_types`` and builds it from a controllers YAML. A type no module registers
 is one line naming it and the known types. A controller that reads a sensor is built with the
-robot's sensors as state interfaces (:class:`SensorInterfaces`, ``<sensor>/<interface>``):
-:mod:`~harness.controllers.imu_sensor_broadcaster` is such a module and nothing else.
+robot's sensors as state interfaces (:class:`SensorInterfaces`, ``<sensor>/<interface>``), so
+a broadcaster of a sensor is one more such module.
 """
 
 from harness.controllers.base import (
