@@ -183,7 +183,10 @@ class Output:
 
 
 class Sensor(Protocol):
-    """One sensor kind's reader."""
+    """One sensor kind's reader. A kind that feeds controllers also has ``state_interfaces``
+    (interface names without the sensor's, e.g. ``orientation.x``) and
+    ``interface_values(view)`` (their values at a step, in that order): see
+    :meth:`harness.sensors.SensorSuite.interfaces`."""
 
     spec: SensorSpec
     outputs: tuple[Output, ...]
