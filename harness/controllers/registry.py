@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -63,6 +64,7 @@ F = TypeVar("F", bound=Factory)
 
 _FACTORIES: dict[str, Factory] = {}
 _found = False
+_lock = threading.RLock()
 
 
 def controller_type(*types: str) -> Callable[[F], F]:
@@ -83,11 +85,14 @@ def _discover() -> None:
     global _found
     if _found:
         return
-    _found = True
-    package = importlib.import_module(__name__.rpartition(".")[0])
-    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        if not info.name.startswith("_"):
-            importlib.import_module(f"{package.__name__}.{info.name}")
+    with _lock:  # two sessions started at once in threads: the second waits for the whole set
+        if _found:
+            return
+        package = importlib.import_module(__name__.rpartition(".")[0])
+        for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+            if not info.name.startswith("_"):
+                importlib.import_module(f"{package.__name__}.{info.name}")
+        _found = True
 
 
 def known_types() -> tuple[str, ...]:
