@@ -9,6 +9,15 @@ FollowJointTrajectory action, interpolation and tolerances in :mod:`~harness.con
 :mod:`~harness.controllers.broadcaster`; the controllers YAML (:mod:`~harness.controllers.config`)
 and the controller manager with its services (:mod:`~harness.controllers.manager`). The session
 binds them to the bridge (:mod:`harness.session.control`).
+
+The room's rule: **a new controller is one module in this room and touches no core file.** The
+module subclasses :class:`ControllerBase` (the no-op defaults) and registers a factory for its
+ros2_controllers type string with :func:`~harness.controllers.registry.controller_type`; the
+manager finds it by walking this package (:mod:`~harness.controllers.registry`), lists it in
+``list_controller_types`` and builds it from a controllers YAML. A type no module registers
+is one line naming it and the known types. A controller that reads a sensor is built with the
+robot's sensors as state interfaces (:class:`SensorInterfaces`, ``<sensor>/<interface>``), so
+a broadcaster of a sensor is one more such module.
 """
 
 from harness.controllers.base import (
@@ -19,12 +28,14 @@ from harness.controllers.base import (
     BaseVelocity,
     Command,
     Controller,
+    ControllerBase,
     Feedback,
     JointReadings,
     LogLine,
     Output,
     Publication,
     Result,
+    SensorInterfaces,
     TopicEndpoint,
 )
 from harness.controllers.config import (
@@ -33,8 +44,13 @@ from harness.controllers.config import (
     default_controllers,
     load_controllers,
 )
-from harness.controllers.errors import ControllerError, ControllersConfigError
+from harness.controllers.errors import (
+    ControllerError,
+    ControllersConfigError,
+    UnknownControllerType,
+)
 from harness.controllers.manager import SERVICES, ControllerManager, make_controller
+from harness.controllers.registry import RobotInterfaces, controller_type, known_types
 
 __all__ = [
     "GOAL_ABORTED",
@@ -45,6 +61,7 @@ __all__ = [
     "BaseVelocity",
     "Command",
     "Controller",
+    "ControllerBase",
     "ControllerError",
     "ControllerManager",
     "ControllerSpec",
@@ -56,8 +73,13 @@ __all__ = [
     "Output",
     "Publication",
     "Result",
+    "RobotInterfaces",
+    "SensorInterfaces",
     "TopicEndpoint",
+    "UnknownControllerType",
+    "controller_type",
     "default_controllers",
+    "known_types",
     "load_controllers",
     "make_controller",
 ]

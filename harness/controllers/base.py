@@ -3,7 +3,8 @@
 A controller never touches a socket, a clock or the simulation: the session hands it the joints'
 :class:`JointReadings` and the simulation time at a step boundary (a message, a goal, a cancel,
 an update) and applies the :class:`Output` it returns: joint commands, messages to publish,
-action feedback and results, log lines.
+action feedback and results, log lines. A controller that reads a sensor (a broadcaster) is
+given the robot's :class:`SensorInterfaces` when it is built.
 """
 
 from __future__ import annotations
@@ -20,12 +21,14 @@ __all__ = [
     "BaseVelocity",
     "Command",
     "Controller",
+    "ControllerBase",
     "Feedback",
     "JointReadings",
     "LogLine",
     "Output",
     "Publication",
     "Result",
+    "SensorInterfaces",
     "TopicEndpoint",
 ]
 
@@ -185,3 +188,66 @@ class Controller(Protocol):
     def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output: ...
 
     def update(self, state: JointReadings, period_ns: int) -> Output: ...
+
+
+class SensorInterfaces(Protocol):
+    """A robot's sensors as ros2_control state interfaces (``<sensor>/<interface>``, e.g.
+    ``imu/orientation.x``): their :attr:`names` and their latest :meth:`values` (what each
+    sensor measured at its last update, in simulation time)."""
+
+    @property
+    def names(self) -> tuple[str, ...]: ...
+
+    def claim(self, names: Sequence[str]) -> None:
+        """A controller will read ``names`` (the manager claims each controller's
+        ``state_interfaces`` that are sensors')."""
+        ...
+
+    def values(self) -> Mapping[str, float]: ...
+
+
+class ControllerBase:
+    """The no-op defaults every controller shares: no endpoints, no interfaces, lifecycle
+    calls that only flip :attr:`active`, and inputs that produce nothing. A controller
+    subclasses it and overrides what it does."""
+
+    subscriptions: Sequence[TopicEndpoint] = ()
+    publishers: Sequence[TopicEndpoint] = ()
+    actions: Sequence[ActionEndpoint] = ()
+    command_interfaces: tuple[str, ...] = ()
+    state_interfaces: tuple[str, ...] = ()
+
+    def __init__(self, name: str, type: str) -> None:
+        self.name = name
+        self.type = type
+        self.active = False
+
+    def activate(self, state: JointReadings) -> Output:
+        """Become active."""
+        self.active = True
+        return Output()
+
+    def deactivate(self, state: JointReadings) -> Output:
+        """Become inactive."""
+        self.active = False
+        return Output()
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> Output:
+        """No topics: nothing."""
+        return Output()
+
+    def on_goal(
+        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
+    ) -> Output:
+        """No actions: nothing."""
+        return Output()
+
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+        """No actions: nothing."""
+        return Output()
+
+    def update(self, state: JointReadings, period_ns: int) -> Output:
+        """Nothing to do per cycle."""
+        return Output()

@@ -9,67 +9,34 @@ activated: a robot's YAML with, say, a vendor's IO controller still configures t
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
 
-from harness.controllers.base import (
-    ActionEndpoint,
-    JointReadings,
-    Output,
-    TopicEndpoint,
-)
-from harness.controllers.config import ControllerSpec
+from harness.controllers.base import Controller, ControllerBase
+from harness.controllers.config import TYPE_JOINT_STATE_BROADCASTER, ControllerSpec
+from harness.controllers.registry import RobotInterfaces, controller_type
 
 __all__ = ["JointStateBroadcaster", "Unsupported"]
 
 
-class _Passive:
-    subscriptions: tuple[TopicEndpoint, ...] = ()
-    publishers: tuple[TopicEndpoint, ...] = ()
-    actions: tuple[ActionEndpoint, ...] = ()
-    command_interfaces: tuple[str, ...] = ()
-
-    def __init__(self, spec: ControllerSpec) -> None:
-        self.name = spec.name
-        self.type = spec.type
-        self.active = False
-
-    def activate(self, state: JointReadings) -> Output:
-        self.active = True
-        return Output()
-
-    def deactivate(self, state: JointReadings) -> Output:
-        self.active = False
-        return Output()
-
-    def on_message(
-        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
-        return Output()
-
-    def on_goal(
-        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
-        return Output()
-
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
-        return Output()
-
-    def update(self, state: JointReadings, period_ns: int) -> Output:
-        return Output()
-
-
-class JointStateBroadcaster(_Passive):
+class JointStateBroadcaster(ControllerBase):
     """Lists the session's ``/joint_states`` publisher as a controller."""
 
     def __init__(self, spec: ControllerSpec, joints: Sequence[str]) -> None:
-        super().__init__(spec)
+        super().__init__(spec.name, spec.type)
         self.state_interfaces = tuple(
             f"{j}/{i}" for j in joints for i in ("position", "velocity", "effort")
         )
 
 
-class Unsupported(_Passive):
-    """A controller type the harness does not implement: listed, never configured."""
+@controller_type(TYPE_JOINT_STATE_BROADCASTER)
+def _joint_state_broadcaster(spec: ControllerSpec, robot: RobotInterfaces) -> Controller:
+    return JointStateBroadcaster(spec, robot.joints)
 
-    state_interfaces: tuple[str, ...] = ()
+
+class Unsupported(ControllerBase):
+    """A controller type the harness does not implement: listed, never configured.
+    ``reason``: the one line saying so (the type and the known ones)."""
+
+    def __init__(self, spec: ControllerSpec, reason: str = "") -> None:
+        super().__init__(spec.name, spec.type)
+        self.reason = reason or f"type {spec.type} is not implemented by the harness"

@@ -26,8 +26,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from harness.controllers.base import (
-    ActionEndpoint,
     Command,
+    Controller,
+    ControllerBase,
     JointReadings,
     LogLine,
     Output,
@@ -36,6 +37,7 @@ from harness.controllers.base import (
 from harness.controllers.config import ControllerSpec
 from harness.controllers.odometry import BaseSettings, odometry_publications, read_twist
 from harness.controllers.params import Params
+from harness.controllers.registry import RobotInterfaces, controller_type
 
 __all__ = ["TYPE_DIFF_DRIVE", "DiffDriveController", "Odometry", "SpeedLimits"]
 
@@ -124,15 +126,12 @@ class Odometry:
             self.angular = rotation / dt
 
 
-class DiffDriveController:
+class DiffDriveController(ControllerBase):
     """One diff drive controller (see the module docstring)."""
 
-    actions: tuple[ActionEndpoint, ...] = ()
-
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        super().__init__(spec.name, spec.type)
         p = Params(spec, source)
-        self.name = spec.name
-        self.type = spec.type
         self.left = p.joints(p.strings("left_wheel_names"), controllable)
         self.right = p.joints(p.strings("right_wheel_names"), controllable)
         if set(self.left) & set(self.right):
@@ -153,7 +152,6 @@ class DiffDriveController:
         self.publishers = self.settings.publishers
         self.command_interfaces = tuple(f"{j}/velocity" for j in (*self.left, *self.right))
         self.state_interfaces = tuple(f"{j}/position" for j in (*self.left, *self.right))
-        self.active = False
         self.odometry = Odometry()
         self.wanted = (0.0, 0.0)
         self.applied = (0.0, 0.0)
@@ -243,12 +241,7 @@ class DiffDriveController:
         pose, velocity = (o.x, o.y, o.heading), (o.linear, 0.0, o.angular)
         return odometry_publications(self.settings.frames, now, pose, velocity)
 
-    def on_goal(
-        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
-        """No actions."""
-        return Output()
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
-        """No actions."""
-        return Output()
+@controller_type(TYPE_DIFF_DRIVE)
+def _diff_drive(spec: ControllerSpec, robot: RobotInterfaces) -> Controller:
+    return DiffDriveController(spec, robot.source, robot.controllable)

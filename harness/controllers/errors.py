@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from harness.errors import ConfigError, HarnessError
 
-__all__ = ["CommandRefused", "ControllerError", "ControllersConfigError"]
+__all__ = ["CommandRefused", "ControllerError", "ControllersConfigError", "UnknownControllerType"]
 
 
 class ControllerError(HarnessError):
@@ -17,3 +17,8 @@ class ControllersConfigError(ControllerError, ConfigError):
 
 class CommandRefused(ControllerError):
     """A command message was refused; the message is the status text sent to its client."""
+
+
+class UnknownControllerType(ControllerError):
+    """A controller type no module of the controllers room registers; the message names it
+    and the known types."""

@@ -11,8 +11,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from harness.controllers.base import (
-    ActionEndpoint,
     Command,
+    Controller,
+    ControllerBase,
     JointReadings,
     LogLine,
     Output,
@@ -20,6 +21,7 @@ from harness.controllers.base import (
 )
 from harness.controllers.config import TYPE_FORWARD, ControllerSpec
 from harness.controllers.params import Params
+from harness.controllers.registry import RobotInterfaces, controller_type
 
 __all__ = ["FORWARD_TYPES", "ForwardCommandController"]
 
@@ -33,20 +35,17 @@ FORWARD_TYPES: Mapping[str, str | None] = {
 _INTERFACES = ("position", "velocity", "effort")
 
 
-class ForwardCommandController:
+class ForwardCommandController(ControllerBase):
     """One forward command controller (see the module docstring)."""
 
-    actions: tuple[ActionEndpoint, ...] = ()
-    publishers: tuple[TopicEndpoint, ...] = ()
     reads_state = False
     """Its methods never look at the :class:`JointReadings` they are given (the session then
     copies no joint arrays for it: a command may come every step). A subclass that reads them
     sets this True."""
 
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        super().__init__(spec.name, spec.type)
         p = Params(spec, source)
-        self.name = spec.name
-        self.type = spec.type
         self.joints = p.joints(p.strings("joints"), controllable)
         fixed = FORWARD_TYPES.get(spec.type)
         self.interface = fixed if fixed is not None else p.string("interface_name")
@@ -55,19 +54,7 @@ class ForwardCommandController:
                 f"interface_name must be one of {', '.join(_INTERFACES)}, not {self.interface!r}"
             )
         self.command_interfaces = tuple(f"{j}/{self.interface}" for j in self.joints)
-        self.state_interfaces: tuple[str, ...] = ()
         self.subscriptions = (TopicEndpoint("~/commands", "std_msgs/msg/Float64MultiArray"),)
-        self.active = False
-
-    def activate(self, state: JointReadings) -> Output:
-        """Start taking commands."""
-        self.active = True
-        return Output()
-
-    def deactivate(self, state: JointReadings) -> Output:
-        """Stop taking commands."""
-        self.active = False
-        return Output()
 
     def commands(self, msg: Mapping[str, Any]) -> list[Command]:
         """The joint commands of one ``Float64MultiArray``; ``ValueError`` when refused (the
@@ -109,16 +96,7 @@ class ForwardCommandController:
             out.logs.append(LogLine(40, f"command refused: {exc}", connection))
         return out
 
-    def on_goal(
-        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
-        """No actions."""
-        return Output()
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
-        """No actions."""
-        return Output()
-
-    def update(self, state: JointReadings, period_ns: int) -> Output:
-        """Nothing to do per cycle: the simulation holds the last command."""
-        return Output()
+@controller_type(*FORWARD_TYPES)
+def _forward(spec: ControllerSpec, robot: RobotInterfaces) -> Controller:
+    return ForwardCommandController(spec, robot.source, robot.controllable)

@@ -21,14 +21,16 @@ from harness.controllers.base import (
     GOAL_SUCCEEDED,
     ActionEndpoint,
     Command,
+    Controller,
+    ControllerBase,
     JointReadings,
     LogLine,
     Output,
     Result,
-    TopicEndpoint,
 )
 from harness.controllers.config import TYPE_GRIPPER, ControllerSpec
 from harness.controllers.params import Params
+from harness.controllers.registry import RobotInterfaces, controller_type
 
 __all__ = ["ACTION_TYPE", "GRIPPER_TYPES", "GripperActionController"]
 
@@ -41,16 +43,12 @@ GRIPPER_TYPES = (
 """Plugin names served by :class:`GripperActionController`."""
 
 
-class GripperActionController:
+class GripperActionController(ControllerBase):
     """One gripper action controller (see the module docstring)."""
 
-    subscriptions: tuple[TopicEndpoint, ...] = ()
-    publishers: tuple[TopicEndpoint, ...] = ()
-
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        super().__init__(spec.name, spec.type)
         p = Params(spec, source)
-        self.name = spec.name
-        self.type = spec.type
         (self.joint,) = p.joints([p.string("joint")], controllable)
         self.goal_tolerance = p.number("goal_tolerance", 0.01, minimum=0.0)
         self.stall_velocity = p.number("stall_velocity_threshold", 0.001)
@@ -59,7 +57,6 @@ class GripperActionController:
         self.command_interfaces = (f"{self.joint}/position",)
         self.state_interfaces = (f"{self.joint}/position", f"{self.joint}/velocity")
         self.actions = (ActionEndpoint("~/gripper_cmd", ACTION_TYPE),)
-        self.active = False
         self.goal: int | None = None
         self.target = 0.0
         self._last_movement = 0
@@ -78,12 +75,6 @@ class GripperActionController:
             self.goal = None
         self.active = False
         return out
-
-    def on_message(
-        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
-        """No topics."""
-        return Output()
 
     def _values(self, state: JointReadings, stalled: bool, reached: bool) -> dict[str, Any]:
         return {
@@ -140,3 +131,8 @@ class GripperActionController:
             out.results.append(Result(goal, self._values(state, True, False), status))
             self.goal = None
         return out
+
+
+@controller_type(*GRIPPER_TYPES)
+def _gripper(spec: ControllerSpec, robot: RobotInterfaces) -> Controller:
+    return GripperActionController(spec, robot.source, robot.controllable)

@@ -40,6 +40,8 @@ from harness.controllers.base import (
     GOAL_SUCCEEDED,
     ActionEndpoint,
     Command,
+    Controller,
+    ControllerBase,
     Feedback,
     JointReadings,
     LogLine,
@@ -50,6 +52,7 @@ from harness.controllers.base import (
 )
 from harness.controllers.config import TYPE_JOINT_TRAJECTORY, ControllerSpec
 from harness.controllers.params import Params, duration_ns, point_msg, stamp
+from harness.controllers.registry import RobotInterfaces, controller_type
 from harness.controllers.spline import (
     Point,
     Sample,
@@ -108,14 +111,12 @@ def _values(
     return tuple(float(v) for v in values)
 
 
-class JointTrajectoryController:
+class JointTrajectoryController(ControllerBase):
     """One joint_trajectory_controller over ``joints`` (see the module docstring)."""
 
-    type = TYPE_JOINT_TRAJECTORY
-
     def __init__(self, spec: ControllerSpec, source: str, controllable: Mapping[str, str]) -> None:
+        super().__init__(spec.name, TYPE_JOINT_TRAJECTORY)
         p = Params(spec, source)
-        self.name = spec.name
         self.joints = p.joints(p.strings("joints"), controllable)
         self.command = p.strings("command_interfaces", ["position"])
         self.state = p.strings("state_interfaces", ["position", "velocity"])
@@ -150,7 +151,6 @@ class JointTrajectoryController:
         self.subscriptions = (TopicEndpoint("~/joint_trajectory", TRAJECTORY_TYPE),)
         self.publishers = (TopicEndpoint("~/controller_state", STATE_TYPE),)
         self.actions = (ActionEndpoint("~/follow_joint_trajectory", ACTION_TYPE),)
-        self.active = False
         self.trajectory: SampledTrajectory | None = None
         self.tolerances: SegmentTolerances = self.default_tolerances
         self.goal: int | None = None
@@ -521,3 +521,8 @@ class JointTrajectoryController:
             "actual": actual_msg,
         }
         return Publication("~/controller_state", STATE_TYPE, msg)
+
+
+@controller_type(TYPE_JOINT_TRAJECTORY)
+def _joint_trajectory(spec: ControllerSpec, robot: RobotInterfaces) -> Controller:
+    return JointTrajectoryController(spec, robot.source, robot.controllable)

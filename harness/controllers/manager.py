@@ -15,19 +15,11 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from harness.controllers.base import Controller, JointReadings, LogLine, Output
-from harness.controllers.broadcaster import JointStateBroadcaster, Unsupported
-from harness.controllers.config import (
-    TYPE_JOINT_STATE_BROADCASTER,
-    TYPE_JOINT_TRAJECTORY,
-    ControllersConfig,
-    ControllerSpec,
-)
-from harness.controllers.diff_drive import TYPE_DIFF_DRIVE, DiffDriveController
-from harness.controllers.forward_command import FORWARD_TYPES, ForwardCommandController
-from harness.controllers.gripper_action import GRIPPER_TYPES, GripperActionController
-from harness.controllers.joint_trajectory import JointTrajectoryController
-from harness.controllers.planar import TYPE_PLANAR, PlanarController
+from harness.controllers.base import Controller, JointReadings, LogLine, Output, SensorInterfaces
+from harness.controllers.broadcaster import Unsupported
+from harness.controllers.config import ControllersConfig, ControllerSpec
+from harness.controllers.errors import UnknownControllerType
+from harness.controllers.registry import NO_SENSORS, RobotInterfaces, factory_of, known_types
 
 __all__ = ["SERVICES", "ControllerManager", "LoadedController", "make_controller"]
 
@@ -50,24 +42,22 @@ SERVICES: Mapping[str, str] = {
 
 
 def make_controller(
-    spec: ControllerSpec, source: str, controllable: Mapping[str, str], joints: Sequence[str]
+    spec: ControllerSpec,
+    source: str,
+    controllable: Mapping[str, str],
+    joints: Sequence[str],
+    sensors: SensorInterfaces = NO_SENSORS,
 ) -> Controller:
-    """The controller of ``spec`` (:class:`Unsupported` for a type not implemented);
+    """The controller of ``spec``, built by the factory its type registers
+    (:mod:`harness.controllers.registry`); :class:`Unsupported` for a type no module registers
+    (its reason names the type and the known ones);
     :class:`~harness.controllers.errors.ControllersConfigError` when its parameters do not fit
     the robot."""
-    if spec.type == TYPE_JOINT_TRAJECTORY:
-        return JointTrajectoryController(spec, source, controllable)
-    if spec.type in FORWARD_TYPES:
-        return ForwardCommandController(spec, source, controllable)
-    if spec.type in GRIPPER_TYPES:
-        return GripperActionController(spec, source, controllable)
-    if spec.type == TYPE_DIFF_DRIVE:
-        return DiffDriveController(spec, source, controllable)
-    if spec.type == TYPE_PLANAR:
-        return PlanarController(spec, source)
-    if spec.type == TYPE_JOINT_STATE_BROADCASTER:
-        return JointStateBroadcaster(spec, joints)
-    return Unsupported(spec)
+    try:
+        factory = factory_of(spec.type)
+    except UnknownControllerType as exc:
+        return Unsupported(spec, str(exc))
+    return factory(spec, RobotInterfaces(source, controllable, tuple(joints), sensors))
 
 
 @dataclass
@@ -85,7 +75,8 @@ class LoadedController:
 
 class ControllerManager:
     """The controllers of one robot. ``controllable``: its controllable joints -> control mode;
-    ``joints``: every joint its ``joint_states`` hold; ``read``: the joints' state now."""
+    ``joints``: every joint its ``joint_states`` hold; ``read``: the joints' state now;
+    ``sensors``: its sensors' state interfaces (what a sensor broadcaster reads)."""
 
     def __init__(
         self,
@@ -94,6 +85,7 @@ class ControllerManager:
         joints: Sequence[str],
         read: Callable[[], JointReadings],
         robot: str = "robot",
+        sensors: SensorInterfaces = NO_SENSORS,
     ) -> None:
         self.config = config
         self.controllable = dict(controllable)
@@ -102,10 +94,14 @@ class ControllerManager:
         self._read = read
         self.specs = {spec.name: spec for spec in config.controllers}
         self.built: dict[str, Controller] = {
-            spec.name: make_controller(spec, config.source, controllable, joints)
+            spec.name: make_controller(spec, config.source, controllable, joints, sensors)
             for spec in config.controllers
         }
         """Every controller of the configuration (whether loaded or not)."""
+        for controller in self.built.values():
+            reads = [i for i in controller.state_interfaces if i in sensors.names]
+            if reads:
+                sensors.claim(reads)
         self.loaded: dict[str, LoadedController] = {}
         self.update_period_ns = round(1e9 / config.update_rate)
 
@@ -117,12 +113,10 @@ class ControllerManager:
         for name, controller in self.built.items():
             entry = LoadedController(controller, "unconfigured")
             self.loaded[name] = entry
-            if not entry.supported:
+            if isinstance(controller, Unsupported):
                 out.logs.append(
                     LogLine(
-                        30,
-                        f"controller {name!r}: type {controller.type} is not implemented by "
-                        "the harness: loaded, left unconfigured",
+                        30, f"controller {name!r}: {controller.reason}: loaded, left unconfigured"
                     )
                 )
                 continue
@@ -210,16 +204,7 @@ class ControllerManager:
     def _srv_list_controller_types(
         self, request: Mapping[str, Any]
     ) -> tuple[dict[str, Any], Output]:
-        types = sorted(
-            {
-                TYPE_JOINT_TRAJECTORY,
-                TYPE_JOINT_STATE_BROADCASTER,
-                TYPE_DIFF_DRIVE,
-                TYPE_PLANAR,
-                *FORWARD_TYPES,
-                *GRIPPER_TYPES,
-            }
-        )
+        types = list(known_types())
         return {"types": types, "base_classes": [_BASE_CLASS] * len(types)}, Output()
 
     def _interfaces(self) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:

@@ -19,8 +19,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from harness.controllers.base import (
-    ActionEndpoint,
     BaseVelocity,
+    Controller,
+    ControllerBase,
     JointReadings,
     LogLine,
     Output,
@@ -30,6 +31,7 @@ from harness.controllers.config import ControllerSpec
 from harness.controllers.diff_drive import SpeedLimits
 from harness.controllers.odometry import BaseSettings, odometry_publications, read_twist
 from harness.controllers.params import Params
+from harness.controllers.registry import RobotInterfaces, controller_type
 
 __all__ = ["TYPE_PLANAR", "PlanarController"]
 
@@ -38,17 +40,12 @@ _NS = 1_000_000_000
 _FREE = "::__free__"
 
 
-class PlanarController:
+class PlanarController(ControllerBase):
     """One planar base controller (see the module docstring)."""
 
-    actions: tuple[ActionEndpoint, ...] = ()
-    command_interfaces: tuple[str, ...] = ()
-    state_interfaces: tuple[str, ...] = ()
-
     def __init__(self, spec: ControllerSpec, source: str) -> None:
+        super().__init__(spec.name, spec.type)
         p = Params(spec, source)
-        self.name = spec.name
-        self.type = spec.type
         self.settings = BaseSettings.read(p)
         self.base_joint = p.string("base_joint", self.settings.frames.base_frame + _FREE)
         self.limits = (
@@ -58,7 +55,6 @@ class PlanarController:
         )
         self.subscriptions = self.settings.subscriptions
         self.publishers = self.settings.publishers
-        self.active = False
         self.wanted = (0.0, 0.0, 0.0)
         self.applied = (0.0, 0.0, 0.0)
         self.pose = [0.0, 0.0, 0.0]  # x, y, heading in the odometry frame
@@ -132,12 +128,7 @@ class PlanarController:
         x, y, heading = self.pose
         return odometry_publications(self.settings.frames, now, (x, y, heading), self.applied)
 
-    def on_goal(
-        self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
-        """No actions."""
-        return Output()
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
-        """No actions."""
-        return Output()
+@controller_type(TYPE_PLANAR)
+def _planar(spec: ControllerSpec, robot: RobotInterfaces) -> Controller:
+    return PlanarController(spec, robot.source)

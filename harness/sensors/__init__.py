@@ -3,25 +3,42 @@ declared in the robot and world files (URDF ``<gazebo>``, SDF ``<sensor>``, MJCF
 sites by name) or in a ``sensors:`` list, producing ROS messages at steps of simulation time.
 
 Each sensor kind has its own module; :class:`SensorSuite` is the session's interface (what is
-due at a step, ``/tf_static``, metadata). Knows nothing of sockets or MCAP.
+due at a step, ``/tf_static``, metadata, state interfaces for controllers). Knows nothing of
+sockets or MCAP.
+
+The room's rule: **a new sensor is one module in this room and touches no core file.** The
+module registers a :class:`SensorKind` (:func:`register_kind`: its type, the Gazebo/SDF
+``<sensor type>`` spellings, outputs, default rate and topics, what it reads from a
+``<sensor>`` element, how it is built on a mount); the declaration readers and the suite find
+it by walking this package (:mod:`~harness.sensors.registry`). A type no module registers is
+one line naming it and the known types. A kind whose sensors declare ``state_interfaces``
+(and ``interface_values(view)``) feeds controllers, as the IMU feeds
+``imu_sensor_broadcaster``.
 """
 
 from harness.sensors.base import Output, Sensor, View
 from harness.sensors.camera import CameraSensor
 from harness.sensors.contact import ContactSensor
 from harness.sensors.declare import declared_in_sources, sensors_from_sdf, sensors_from_urdf
-from harness.sensors.errors import RenderBackendError, SensorConfigError, SensorError
+from harness.sensors.errors import (
+    RenderBackendError,
+    SensorConfigError,
+    SensorError,
+    UnknownSensorType,
+)
 from harness.sensors.force_torque import ForceTorqueSensor
 from harness.sensors.imu import ImuSensor
 from harness.sensors.lidar import LidarSensor
 from harness.sensors.messages import TYPE_TF
+from harness.sensors.registry import Mounted, SensorKind, known_types, register_kind
 from harness.sensors.render import OffscreenRenderer, RendererInfo, contexts_created
-from harness.sensors.spec import SENSOR_TYPES, SensorSpec
+from harness.sensors.spec import SensorSpec
 from harness.sensors.suite import (
     METADATA_RECORD,
     TOPIC_TF_STATIC,
     Due,
     RobotMount,
+    SensorStateInterfaces,
     SensorSuite,
 )
 
@@ -36,6 +53,7 @@ __all__ = [
     "ForceTorqueSensor",
     "ImuSensor",
     "LidarSensor",
+    "Mounted",
     "OffscreenRenderer",
     "Output",
     "RenderBackendError",
@@ -44,11 +62,22 @@ __all__ = [
     "Sensor",
     "SensorConfigError",
     "SensorError",
+    "SensorKind",
     "SensorSpec",
+    "SensorStateInterfaces",
     "SensorSuite",
+    "UnknownSensorType",
     "View",
     "contexts_created",
     "declared_in_sources",
+    "known_types",
+    "register_kind",
     "sensors_from_sdf",
     "sensors_from_urdf",
 ]
+
+
+def __getattr__(name: str) -> object:
+    if name == "SENSOR_TYPES":  # the registered types, found on first use
+        return known_types()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

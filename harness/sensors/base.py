@@ -172,8 +172,9 @@ class View:
 
 @dataclass(frozen=True)
 class Output:
-    """One topic of a sensor: ``key`` (see :data:`harness.sensors.spec.OUTPUTS`), resolved
-    ``topic``, message type, and whether it goes into the recording."""
+    """One topic of a sensor: ``key`` (one of its kind's outputs,
+    :attr:`~harness.sensors.registry.SensorKind.outputs`), resolved ``topic``, message type,
+    and whether it goes into the recording."""
 
     key: str
     topic: str
@@ -182,7 +183,10 @@ class Output:
 
 
 class Sensor(Protocol):
-    """One sensor kind's reader."""
+    """One sensor kind's reader. A kind that feeds controllers also has ``state_interfaces``
+    (interface names without the sensor's, e.g. ``orientation.x``) and
+    ``interface_values(view)`` (their values at a step, in that order): see
+    :meth:`harness.sensors.SensorSuite.interfaces`."""
 
     spec: SensorSpec
     outputs: tuple[Output, ...]

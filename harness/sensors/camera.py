@@ -17,6 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 import numpy.typing as npt
+from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, Output, View, noise_rng, quat_of
 from harness.sensors.messages import (
@@ -31,7 +32,9 @@ from harness.sensors.messages import (
     point_cloud_msg,
     rgb_image_msg,
 )
+from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.render import OffscreenRenderer
+from harness.sensors.sdf_values import element_int, element_noise, element_number
 from harness.sensors.spec import SensorSpec
 
 __all__ = ["OPTICAL", "CameraSensor"]
@@ -51,6 +54,9 @@ _TYPES = {
 class CameraSensor:
     """A camera of ``spec`` at ``mount``; ``renderer`` gives the shared renderer (made on the
     first frame, so that a session without cameras never starts OpenGL)."""
+
+    uses_renderer = True
+    """It draws with the suite's shared offscreen renderer (sized to the largest camera)."""
 
     def __init__(
         self,
@@ -176,3 +182,100 @@ class CameraSensor:
         if not self._sensor_frame or self._sensor_frame == self.frame_id:
             return [optical]
         return [(self._sensor_frame, self.mount.position, quat_of(rotation)), optical]
+
+
+def _camera_params(el: etree._Element | None, where: str) -> dict[str, Any]:
+    if el is None:
+        return {}
+    out: dict[str, Any] = {}
+    for key, path in (("hfov", "horizontal_fov"), ("near", "clip/near"), ("far", "clip/far")):
+        value = element_number(el, path, where)
+        if value is not None:
+            out[key] = value
+    for key, path in (("width", "image/width"), ("height", "image/height")):
+        size = element_int(el, path, where)
+        if size is not None:
+            out[key] = size
+    out.update(element_noise(el, where))
+    return out
+
+
+def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
+    return _camera_params(sensor.find("camera"), where)
+
+
+def _build(spec: SensorSpec, at: Mounted) -> CameraSensor:
+    sensor_frame = at.prefix + spec.name
+    return CameraSensor(spec, at.model, at.mount, at.topics, at.frame_id, at.renderer, sensor_frame)
+
+
+def _info(topic: str) -> str:
+    parent = topic.rsplit("/", 1)[0] if "/" in topic.strip("/") else ""
+    return f"{parent}/camera_info" if parent else "camera_info"
+
+
+def _camera_topics(topic: str, base: str) -> dict[str, str]:
+    if topic:
+        return {"image": topic, "camera_info": _info(topic), "compressed": f"{topic}/compressed"}
+    return {
+        "image": f"{base}/image_raw",
+        "camera_info": f"{base}/camera_info",
+        "compressed": f"{base}/image_raw/compressed",
+    }
+
+
+def _depth_topics(topic: str, base: str) -> dict[str, str]:
+    if topic:
+        return {"depth": topic, "camera_info": _info(topic), "points": f"{topic}/points"}
+    return {
+        "camera_info": f"{base}/camera_info",
+        "depth": f"{base}/depth/image_raw",
+        "points": f"{base}/points",
+    }
+
+
+def _rgbd_topics(topic: str, base: str) -> dict[str, str]:
+    if topic:
+        return {
+            "image": f"{topic}/image",
+            "camera_info": f"{topic}/camera_info",
+            "compressed": f"{topic}/image/compressed",
+            "depth": f"{topic}/depth_image",
+            "points": f"{topic}/points",
+        }
+    return {**_camera_topics("", base), **_depth_topics("", base)}
+
+
+register_kind(
+    SensorKind(
+        "camera",
+        ("image", "camera_info", "compressed"),
+        10.0,
+        _build,
+        gazebo=("camera",),
+        topics=_camera_topics,
+        params=_params,
+    )
+)
+register_kind(
+    SensorKind(
+        "depth",
+        ("depth", "camera_info", "points"),
+        10.0,
+        _build,
+        gazebo=("depth_camera",),
+        topics=_depth_topics,
+        params=_params,
+    )
+)
+register_kind(
+    SensorKind(
+        "rgbd",
+        ("image", "camera_info", "compressed", "depth", "points"),
+        10.0,
+        _build,
+        gazebo=("depth", "rgbd_camera", "rgbd"),
+        topics=_rgbd_topics,
+        params=_params,
+    )
+)

@@ -10,10 +10,13 @@ from typing import Any
 
 import mujoco
 import numpy as np
+from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, Output, View, find_object, quat_of
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import TYPE_CONTACTS, contact_state, header
+from harness.sensors.registry import Mounted, SensorKind, register_kind
+from harness.sensors.sdf_values import element_text
 from harness.sensors.spec import SensorSpec
 
 __all__ = ["ContactSensor"]
@@ -87,3 +90,17 @@ class ContactSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """The sensor frame in the mount link."""
         return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]
+
+
+def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
+    collision = element_text(sensor, "contact/collision")
+    return {"collision": collision} if collision else {}
+
+
+def _build(spec: SensorSpec, at: Mounted) -> ContactSensor:
+    return ContactSensor(spec, at.model, at.mount, at.topics, at.frame_id, at.prefix)
+
+
+register_kind(
+    SensorKind("contact", ("contacts",), 100.0, _build, gazebo=("contact",), params=_params)
+)

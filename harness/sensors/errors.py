@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from harness.errors import ConfigError, HarnessError
 
-__all__ = ["RenderBackendError", "SensorConfigError", "SensorError"]
+__all__ = ["RenderBackendError", "SensorConfigError", "SensorError", "UnknownSensorType"]
 
 
 class SensorError(HarnessError):
@@ -17,3 +17,8 @@ class SensorConfigError(SensorError, ConfigError):
 
 class RenderBackendError(SensorError):
     """No offscreen OpenGL back-end (EGL or OSMesa) could be initialised for a camera."""
+
+
+class UnknownSensorType(SensorConfigError):
+    """A sensor type no module of the sensors room registers; the message names it and the
+    known types."""

@@ -12,9 +12,12 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import mujoco
+from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_WRENCH, header, wrench_msg
+from harness.sensors.registry import Mounted, SensorKind, register_kind
+from harness.sensors.sdf_values import element_noise, element_text
 from harness.sensors.spec import SensorSpec
 
 __all__ = ["ForceTorqueSensor"]
@@ -75,3 +78,25 @@ class ForceTorqueSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """The sensor frame in the mount link."""
         return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]
+
+
+def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
+    ft = sensor.find("force_torque")
+    params: dict[str, Any] = {}
+    frame = element_text(ft, "frame")
+    direction = element_text(ft, "measure_direction")
+    if frame:
+        params["ft_frame"] = frame
+    if direction:
+        params["ft_direction"] = direction
+    params.update(element_noise(ft, where))
+    return params
+
+
+def _build(spec: SensorSpec, at: Mounted) -> ForceTorqueSensor:
+    return ForceTorqueSensor(spec, at.model, at.mount, at.topics, at.frame_id)
+
+
+register_kind(
+    SensorKind("force_torque", ("wrench",), 100.0, _build, gazebo=("force_torque",), params=_params)
+)

@@ -15,6 +15,7 @@ import numpy as np
 
 from harness.sensors.base import F64, Mount, Output, View, cross, quat_of
 from harness.sensors.messages import header
+from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.spec import SensorSpec
 
 __all__ = ["TYPE_ODOMETRY", "GroundTruthSensor"]
@@ -75,3 +76,15 @@ class GroundTruthSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """None: the world frame is no child of the mount link."""
         return []
+
+
+def _topics(topic: str, base: str) -> dict[str, str]:
+    return {"odom": topic or "ground_truth/odom"}
+
+
+def _build(spec: SensorSpec, at: Mounted) -> GroundTruthSensor:
+    # stamped in the world (unprefixed), not in the sensor frame
+    return GroundTruthSensor(spec, at.mount, at.topics, spec.frame_id or "world")
+
+
+register_kind(SensorKind("ground_truth", ("odom",), 50.0, _build, topics=_topics))

@@ -1,5 +1,6 @@
-"""The few lines a session needs: its robots' sensors (:func:`session_sensors`) and where their
-configuration goes in a recording (:func:`record_metadata`)."""
+"""The few lines a session needs: its robots' sensors (:func:`session_sensors`), where their
+configuration goes in a recording (:func:`record_metadata`) and a robot's sensors as the state
+interfaces its controllers may read (:func:`sensor_interfaces`)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,14 @@ import mujoco
 from harness.models import LoadedRobot, LoadedWorld
 from harness.sensors.render import RendererInfo
 from harness.sensors.spec import SensorSpec
-from harness.sensors.suite import METADATA_RECORD, RobotMount, SensorSuite
+from harness.sensors.suite import (
+    METADATA_RECORD,
+    RobotMount,
+    SensorStateInterfaces,
+    SensorSuite,
+)
 
-__all__ = ["record_metadata", "session_sensors"]
+__all__ = ["record_metadata", "sensor_interfaces", "session_sensors"]
 
 
 def session_sensors(
@@ -51,3 +57,24 @@ def record_metadata(suite: SensorSuite, recorder: object) -> None:
         write(METADATA_RECORD + ".renderer", info.to_metadata())
 
     suite.on_renderer = renderer
+
+
+class _NoInterfaces:
+    """The state interfaces of a session without sensors."""
+
+    names: tuple[str, ...] = ()
+
+    def claim(self, names: Iterable[str]) -> None:
+        """Nothing to keep."""
+
+    def values(self) -> dict[str, float]:
+        """None."""
+        return {}
+
+
+def sensor_interfaces(
+    suite: SensorSuite | None, namespace: str
+) -> SensorStateInterfaces | _NoInterfaces:
+    """The sensors of the robot with ``namespace`` as ros2_control state interfaces
+    (``<sensor>/<interface>``), for its controller manager."""
+    return _NoInterfaces() if suite is None else suite.interfaces(namespace)

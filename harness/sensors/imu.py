@@ -3,7 +3,11 @@ velocity and its linear acceleration *including gravity* (at rest, +9.81 m/s^2 a
 that points up), both in the sensor frame. Gaussian noise (``noise_mean``/``noise_stddev``) is
 added to each angular rate axis, and (``accel_noise_*``, default the same) to each acceleration
 axis; the covariances are the variances. Gazebo's per-axis ``<imu>`` noise is read from the x
-axes of ``angular_velocity`` and ``linear_acceleration``."""
+axes of ``angular_velocity`` and ``linear_acceleration``.
+
+As ros2_control hardware, an IMU has the state interfaces of ``semantic_components::IMUSensor``
+(``<name>/orientation.x`` ... ``<name>/linear_acceleration.z``): the values of its last
+message, which a controller (``imu_sensor_broadcaster``) reads."""
 
 from __future__ import annotations
 
@@ -12,12 +16,29 @@ from typing import Any
 
 import mujoco
 import numpy as np
+from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_IMU, header, imu_msg
+from harness.sensors.registry import Mounted, SensorKind, register_kind
+from harness.sensors.sdf_values import element_noise
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["ImuSensor", "body_motion"]
+__all__ = ["IMU_INTERFACES", "ImuSensor", "body_motion"]
+
+IMU_INTERFACES = (
+    "orientation.x",
+    "orientation.y",
+    "orientation.z",
+    "orientation.w",
+    "angular_velocity.x",
+    "angular_velocity.y",
+    "angular_velocity.z",
+    "linear_acceleration.x",
+    "linear_acceleration.y",
+    "linear_acceleration.z",
+)
+"""An IMU's state interfaces, in ros2_control's order."""
 
 
 def body_motion(view: View, mount: Mount) -> tuple[F64, F64, F64, F64]:
@@ -47,6 +68,7 @@ class ImuSensor:
         self.mount = mount
         self.frame_id = frame_id
         self.outputs: tuple[Output, ...] = (Output("imu", topics["imu"], TYPE_IMU),)
+        self.state_interfaces = IMU_INTERFACES
 
     def values(self, view: View) -> tuple[F64, F64, F64]:
         """(orientation w-x-y-z, angular velocity, linear acceleration) in the sensor frame."""
@@ -63,6 +85,12 @@ class ImuSensor:
             angular = angular + spec.noise_mean + spec.noise_stddev * unit[:3]
             accel = accel + accel_mean + accel_std * unit[3:]
         return quat_of(rotation), angular, accel
+
+    def interface_values(self, view: View) -> tuple[float, ...]:
+        """The values of :data:`IMU_INTERFACES` at this step (those of its message)."""
+        quat, angular, accel = self.values(view)
+        w, x, y, z = (float(v) for v in quat)
+        return (x, y, z, w, *map(float, angular), *map(float, accel))
 
     def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
         """The ``Imu`` builder at this step."""
@@ -81,3 +109,20 @@ class ImuSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """The sensor frame in the mount link."""
         return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]
+
+
+def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
+    imu = sensor.find("imu")
+    gyro = imu.find("angular_velocity") if imu is not None else None
+    accel = imu.find("linear_acceleration") if imu is not None else None
+    params = element_noise(gyro if gyro is not None else imu, where)
+    if accel is not None:
+        params.update({f"accel_{k}": v for k, v in element_noise(accel, where).items()})
+    return dict(params)
+
+
+def _build(spec: SensorSpec, at: Mounted) -> ImuSensor:
+    return ImuSensor(spec, at.mount, at.topics, at.frame_id)
+
+
+register_kind(SensorKind("imu", ("imu",), 100.0, _build, gazebo=("imu",), params=_params))

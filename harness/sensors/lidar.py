@@ -15,6 +15,7 @@ from typing import Any
 import mujoco
 import numpy as np
 import numpy.typing as npt
+from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, Output, View, noise_rng, quat_of
 from harness.sensors.messages import (
@@ -24,6 +25,8 @@ from harness.sensors.messages import (
     laser_scan_msg,
     point_cloud_msg,
 )
+from harness.sensors.registry import Mounted, SensorKind, register_kind
+from harness.sensors.sdf_values import element_int, element_noise, element_number
 from harness.sensors.spec import SensorSpec
 
 __all__ = ["LidarSensor"]
@@ -117,3 +120,51 @@ class LidarSensor:
     def static_frames(self) -> list[tuple[str, F64, F64]]:
         """The sensor frame in the mount link."""
         return [(self.frame_id, self.mount.position, quat_of(self.mount.rotation))]
+
+
+def _ray_params(el: etree._Element | None, where: str) -> dict[str, Any]:
+    if el is None:
+        return {}
+    out: dict[str, Any] = {}
+    for prefix, key in (("scan/horizontal", ""), ("scan/vertical", "vertical_")):
+        samples = element_int(el, f"{prefix}/samples", where)
+        if samples is not None:
+            out[f"{key}samples"] = samples
+        for name in ("min_angle", "max_angle"):
+            value = element_number(el, f"{prefix}/{name}", where)
+            if value is not None:
+                out[f"{key}{name}"] = value
+    for name in ("min", "max", "resolution"):
+        value = element_number(el, f"range/{name}", where)
+        if value is not None:
+            out[f"range_{name}"] = value
+    out.update(element_noise(el, where))
+    return out
+
+
+def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
+    ray = sensor.find("ray")
+    return _ray_params(ray if ray is not None else sensor.find("lidar"), where)
+
+
+def _topics(topic: str, base: str) -> dict[str, str]:
+    if topic:
+        return {"scan": topic, "points": f"{topic}/points"}
+    return {"scan": f"{base}/scan", "points": f"{base}/points"}
+
+
+def _build(spec: SensorSpec, at: Mounted) -> LidarSensor:
+    return LidarSensor(spec, at.model, at.mount, at.topics, at.frame_id)
+
+
+register_kind(
+    SensorKind(
+        "lidar",
+        ("scan", "points"),
+        10.0,
+        _build,
+        gazebo=("ray", "gpu_ray", "lidar", "gpu_lidar"),
+        topics=_topics,
+        params=_params,
+    )
+)

@@ -13,50 +13,15 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Literal, get_args
 
-from harness.sensors.errors import SensorConfigError
+from harness.sensors.errors import SensorConfigError, UnknownSensorType
+from harness.sensors.registry import kind_of, known_types
 
-__all__ = [
-    "DEFAULT_RATES",
-    "OUTPUTS",
-    "SENSOR_TYPES",
-    "SensorSpec",
-    "SensorType",
-]
+__all__ = ["SensorSpec", "SensorType"]
 
-SensorType = Literal[
-    "camera", "depth", "rgbd", "lidar", "imu", "force_torque", "contact", "ground_truth"
-]
-SENSOR_TYPES: tuple[SensorType, ...] = get_args(SensorType)
+SensorType = str
+"""A sensor type: one a module of the sensors room registers (:mod:`harness.sensors.registry`)."""
 FtFrame = Literal["child", "parent", "sensor"]
 FtDirection = Literal["child_to_parent", "parent_to_child"]
-
-DEFAULT_RATES: Mapping[SensorType, float] = MappingProxyType(
-    {
-        "camera": 10.0,
-        "depth": 10.0,
-        "rgbd": 10.0,
-        "lidar": 10.0,
-        "imu": 100.0,
-        "force_torque": 100.0,
-        "contact": 100.0,
-        "ground_truth": 50.0,
-    }
-)
-"""Update rate (Hz of simulation time) of a declaration that gives none."""
-
-OUTPUTS: Mapping[SensorType, tuple[str, ...]] = MappingProxyType(
-    {
-        "camera": ("image", "camera_info", "compressed"),
-        "depth": ("depth", "camera_info", "points"),
-        "rgbd": ("image", "camera_info", "compressed", "depth", "points"),
-        "lidar": ("scan", "points"),
-        "imu": ("imu",),
-        "force_torque": ("wrench",),
-        "contact": ("contacts",),
-        "ground_truth": ("odom",),
-    }
-)
-"""The outputs of each sensor type (the keys of :attr:`SensorSpec.topics`)."""
 
 
 @dataclass(frozen=True)
@@ -68,9 +33,10 @@ class SensorSpec:
     sensor's joint (its child link is ``parent``); ``camera``/``site``: an MJCF camera or site
     whose pose (and for a camera its field of view) the sensor takes instead of ``pose``.
     ``update_rate``: Hz of simulation time (0: every step). ``topic``: the base topic name
-    (relative names go under the robot's namespace); ``topics``: per-output overrides (see
-    :data:`OUTPUTS`). ``frame_id``: the sensor frame (default: the sensor name); cameras publish
-    in ``<frame_id>_optical`` (z forward, x right, y down). Camera: ``width``, ``height``,
+    (relative names go under the robot's namespace); ``topics``: per-output overrides (the
+    outputs of its kind, :attr:`harness.sensors.registry.SensorKind.outputs`). ``frame_id``:
+    the sensor frame (default: the sensor name); cameras publish in ``<frame_id>_optical``
+    (z forward, x right, y down). Camera: ``width``, ``height``,
     ``hfov`` (rad), ``near``/``far`` clip (m), ``record``: ``"raw"`` records ``Image``,
     ``"compressed"`` records the PNG ``CompressedImage`` instead. Lidar: horizontal ``samples``
     from ``min_angle`` to ``max_angle`` (rad), ``vertical_samples`` from ``vertical_min_angle``
@@ -127,10 +93,12 @@ class SensorSpec:
             or not all(c.isalnum() or c in "_-/" for c in self.name)
         ):
             raise SensorConfigError(f"{where}: the name must be letters, digits, _ - or /")
-        if self.type not in SENSOR_TYPES:
-            raise SensorConfigError(
-                f"{where}: type {self.type!r} is not one of {', '.join(SENSOR_TYPES)}"
-            )
+        try:
+            kind = kind_of(self.type)
+        except UnknownSensorType:
+            raise UnknownSensorType(
+                f"{where}: type {self.type!r} is not one of {', '.join(known_types())}"
+            ) from None
         if not (self.parent or self.joint or self.camera or self.site):
             raise SensorConfigError(f"{where}: give the link (parent) it is mounted on")
         if self.type == "force_torque" and not (self.joint or self.site or self.parent):
@@ -145,7 +113,7 @@ class SensorSpec:
             )
         object.__setattr__(self, "pose", pose)
         if self.update_rate is None:
-            object.__setattr__(self, "update_rate", DEFAULT_RATES[self.type])
+            object.__setattr__(self, "update_rate", kind.rate)
         self._positive(where, "update_rate", self.update_rate, zero=True)
         for name in ("width", "height", "samples", "vertical_samples"):
             value = getattr(self, name)
@@ -186,10 +154,9 @@ class SensorSpec:
             )
         topics = dict(self.topics)
         for key, value in topics.items():
-            if key not in OUTPUTS[self.type]:
+            if key not in kind.outputs:
                 raise SensorConfigError(
-                    f"{where}: topics has {key!r}; a {self.type} has "
-                    f"{', '.join(OUTPUTS[self.type])}"
+                    f"{where}: topics has {key!r}; a {self.type} has {', '.join(kind.outputs)}"
                 )
             if not isinstance(value, str) or not value:
                 raise SensorConfigError(f"{where}: topics[{key!r}] must be a topic name")

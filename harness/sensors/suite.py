@@ -10,6 +10,12 @@ Sensors read a private copy of the simulation state (``mj_getState``/``mj_setSta
 ``mjSTATE_INTEGRATION`` + ``mj_forward``), so the poses, velocities, accelerations, contacts and
 forces they see are those of the state recorded at that step, and the simulation's own data is
 never touched: a session with sensors steps bit-for-bit as one without.
+
+A sensor kind with ros2_control state interfaces (an IMU's ``orientation.x``...) can feed a
+controller: :meth:`SensorSuite.interfaces` gives a robot's sensors as ``<sensor>/<interface>``
+names and values; once a controller claims some, the suite keeps the values of each claimed
+sensor's last update (read at its due steps from the same copy of the state its messages are
+built from), so a broadcaster publishes exactly what the sensor measured.
 """
 
 from __future__ import annotations
@@ -24,19 +30,21 @@ import mujoco
 import numpy as np
 
 from harness.sensors.base import Output, Sensor, View, mount_of
-from harness.sensors.camera import CameraSensor
-from harness.sensors.contact import ContactSensor
-from harness.sensors.declare import declared_in_sources, default_topics
+from harness.sensors.declare import declared_in_sources
 from harness.sensors.errors import SensorConfigError
-from harness.sensors.force_torque import ForceTorqueSensor
-from harness.sensors.ground_truth import GroundTruthSensor
-from harness.sensors.imu import ImuSensor
-from harness.sensors.lidar import LidarSensor
 from harness.sensors.messages import static_tf_msg
+from harness.sensors.registry import Mounted, kind_of
 from harness.sensors.render import OffscreenRenderer, RendererInfo
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["METADATA_RECORD", "TOPIC_TF_STATIC", "Due", "RobotMount", "SensorSuite"]
+__all__ = [
+    "METADATA_RECORD",
+    "TOPIC_TF_STATIC",
+    "Due",
+    "RobotMount",
+    "SensorStateInterfaces",
+    "SensorSuite",
+]
 
 TOPIC_TF_STATIC = "/tf_static"
 METADATA_RECORD = "harness.sensors"
@@ -124,29 +132,24 @@ class SensorSuite:
         self._state = np.zeros(mujoco.mj_stateSize(model, spec_int))
         self._view_step = -1
         self._view: View | None = None
+        self._claimed: set[int] = set()
+        """The sensors whose state interfaces a controller reads."""
+        self._held: dict[int, tuple[float, ...]] = {}
+        """Their values at their last update."""
 
     def _make(self, spec: SensorSpec, robot: RobotMount) -> Sensor:
-        model = self.model
-        mount = mount_of(model, spec, robot.prefix)
-        defaults = default_topics(spec.type, spec.topic, spec.name)
+        kind = kind_of(spec.type)
+        mount = mount_of(self.model, spec, robot.prefix)
+        defaults = kind.default_topics(spec.topic, spec.name)
         topics = {
             key: _resolve(spec.topics.get(key, value), robot.namespace)
             for key, value in defaults.items()
         }
         frame_id = robot.prefix + (spec.frame_id or spec.name)
         self._parents.append(mount.body_name)
-        if spec.type in ("camera", "depth", "rgbd"):
-            sensor_frame = robot.prefix + spec.name
-            return CameraSensor(spec, model, mount, topics, frame_id, self.renderer, sensor_frame)
-        if spec.type == "lidar":
-            return LidarSensor(spec, model, mount, topics, frame_id)
-        if spec.type == "imu":
-            return ImuSensor(spec, mount, topics, frame_id)
-        if spec.type == "force_torque":
-            return ForceTorqueSensor(spec, model, mount, topics, frame_id)
-        if spec.type == "ground_truth":
-            return GroundTruthSensor(spec, mount, topics, spec.frame_id or "world")
-        return ContactSensor(spec, model, mount, topics, frame_id, robot.prefix)
+        return kind.build(
+            spec, Mounted(self.model, mount, topics, frame_id, robot.prefix, self.renderer)
+        )
 
     @classmethod
     def for_robots(
@@ -190,7 +193,7 @@ class SensorSuite:
     def renderer(self) -> OffscreenRenderer:
         """The shared offscreen renderer (OpenGL starts here, on the first camera frame)."""
         if self._renderer is None:
-            cameras = [s.spec for s in self.sensors if isinstance(s, CameraSensor)]
+            cameras = [s.spec for s in self.sensors if getattr(s, "uses_renderer", False)]
             width = max(s.width for s in cameras)
             height = max(s.height for s in cameras)
             self._renderer = OffscreenRenderer(self.model, width, height)
@@ -217,6 +220,12 @@ class SensorSuite:
         """The messages due at ``step`` (built only when called)."""
         out: list[Due] = []
         self._view = None  # a reset may repeat a step number: never reuse an older copy
+        for i in self._claimed:
+            if not step % self._every[i]:
+                sensor = self.sensors[i]
+                self._held[i] = sensor.interface_values(  # type: ignore[attr-defined]
+                    self.view(data, step, sim_time_ns)
+                )
         for sensor, every in zip(self.sensors, self._every, strict=True):
             if step % every:
                 continue
@@ -224,6 +233,23 @@ class SensorSuite:
             for output in sensor.outputs:
                 out.append(Due(output, functools.partial(reading.message, output.key)))
         return out
+
+    def interfaces(self, namespace: str) -> SensorStateInterfaces:
+        """The state interfaces of the sensors of the robot with ``namespace`` (what
+        :class:`harness.controllers.SensorInterfaces` asks)."""
+        own = [i for i, spec in enumerate(self.specs) if spec.namespace == namespace]
+        return SensorStateInterfaces(self, own)
+
+    def claim(self, sensors: Iterable[int]) -> None:
+        """Keep the state interface values of ``sensors`` (indices) from now on."""
+        for i in sensors:
+            self._claimed.add(i)
+            names = getattr(self.sensors[i], "state_interfaces", ())
+            self._held.setdefault(i, (0.0,) * len(names))
+
+    def held(self, i: int) -> tuple[float, ...]:
+        """The state interface values of sensor ``i`` at its last update."""
+        return self._held[i]
 
     def static_tf(self, sim_time_ns: int = 0) -> dict[str, Any]:
         """The ``tf2_msgs/TFMessage`` of every sensor frame in its link (for ``/tf_static``)."""
@@ -254,3 +280,34 @@ class SensorSuite:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+class SensorStateInterfaces:
+    """Some sensors of a suite as ros2_control state interfaces ``<sensor>/<interface>``
+    (the kinds that declare ``state_interfaces``)."""
+
+    def __init__(self, suite: SensorSuite, sensors: Sequence[int]) -> None:
+        self._suite = suite
+        self._names: dict[int, tuple[str, ...]] = {}
+        for i in sensors:
+            own = tuple(getattr(suite.sensors[i], "state_interfaces", ()))
+            if own:
+                self._names[i] = tuple(f"{suite.specs[i].name}/{n}" for n in own)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every state interface, sensor by sensor."""
+        return tuple(n for names in self._names.values() for n in names)
+
+    def claim(self, names: Iterable[str]) -> None:
+        """A controller reads ``names``: their sensors keep their values from now on."""
+        wanted = set(names)
+        self._suite.claim(i for i, own in self._names.items() if wanted.intersection(own))
+
+    def values(self) -> dict[str, float]:
+        """Interface -> value at its sensor's last update (claimed sensors only)."""
+        out: dict[str, float] = {}
+        for i, names in self._names.items():
+            if i in self._suite._claimed:
+                out.update(zip(names, self._suite.held(i), strict=True))
+        return out

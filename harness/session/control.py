@@ -38,6 +38,7 @@ from harness.controllers.forward_command import ForwardCommandController
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
+from harness.sensors.hook import sensor_interfaces
 from harness.session.bridge import Publisher
 from harness.session.topics import node_name
 from harness.sim import CommandError, ControlConfigError, Notice
@@ -140,6 +141,7 @@ class _RobotControl:
             channels.js_names,
             self.read,
             robot=channels.namespace or host.core.robot_name,
+            sensors=sensor_interfaces(getattr(host.core, "sensors", None), channels.namespace),
         )
         self.every = max(1, round(self.manager.update_period_ns / host.core.sim.dt_ns))
         self.goals: dict[int, ActionGoal] = {}

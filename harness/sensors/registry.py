@@ -1,0 +1,143 @@
+"""The sensor room's mapping: a sensor type -> its kind record (:class:`SensorKind`).
+
+Each sensor module registers the kinds it implements (:func:`register_kind`): the harness type
+(``imu``), the Gazebo/SDF ``<sensor type>`` spellings that mean it, its outputs and default
+rate, its default topics, what it reads from a ``<sensor>`` element and how it is built on a
+mount. The suite and the declaration readers look kinds up here and never name a sensor class.
+The room's modules are found by walking the package on first use, so a new sensor is one
+module in ``harness/sensors/`` and touches no other file.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from harness.sensors.errors import UnknownSensorType
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from harness.sensors.base import Mount, Sensor
+    from harness.sensors.render import OffscreenRenderer
+    from harness.sensors.spec import SensorSpec
+
+__all__ = [
+    "Mounted",
+    "SensorKind",
+    "gazebo_kind",
+    "kind_of",
+    "known_types",
+    "register_kind",
+]
+
+
+@dataclass(frozen=True)
+class Mounted:
+    """Where a sensor is built: the ``model``, its ``mount``, its resolved ``topics`` (output
+    key -> topic), its ``frame_id`` (with the robot's prefix), the robot's name ``prefix`` and
+    the session's shared offscreen ``renderer`` (started on first call)."""
+
+    model: mujoco.MjModel
+    mount: Mount
+    topics: Mapping[str, str]
+    frame_id: str
+    prefix: str
+    renderer: Callable[[], OffscreenRenderer]
+
+
+def _no_params(element: Any, where: str) -> dict[str, Any]:
+    return {}
+
+
+def _own_topics(outputs: tuple[str, ...]) -> Callable[[str, str], dict[str, str]]:
+    def topics(topic: str, base: str) -> dict[str, str]:
+        return {outputs[0]: topic or f"{base}/{outputs[0]}"}
+
+    return topics
+
+
+@dataclass(frozen=True)
+class SensorKind:
+    """One sensor kind. ``type``: the harness's name (a :class:`SensorSpec`'s ``type``);
+    ``gazebo``: the ``<sensor type>`` spellings of URDF/SDF files that declare it; ``outputs``:
+    its output keys (the keys of ``SensorSpec.topics``), the first the main one; ``rate``: the
+    default update rate (Hz of simulation time); ``build``: the sensor of a spec at a mount;
+    ``topics``: ``(topic, base)`` -> every output's default topic (``topic`` the declared
+    ``<topic>`` or "", ``base`` the plugin's camera name or the sensor name; relative names
+    stay relative); ``params``: the spec fields a ``<sensor>`` element gives (``(element,
+    where)``; noise, sizes, ...)."""
+
+    type: str
+    outputs: tuple[str, ...]
+    rate: float
+    build: Callable[[SensorSpec, Mounted], Sensor]
+    gazebo: tuple[str, ...] = ()
+    topics: Callable[[str, str], dict[str, str]] | None = None
+    params: Callable[[Any, str], dict[str, Any]] = field(default=_no_params)
+
+    def default_topics(self, topic: str, base: str) -> dict[str, str]:
+        """Every output's topic (see :attr:`topics`; by default ``<base>/<output>``)."""
+        make = self.topics if self.topics is not None else _own_topics(self.outputs)
+        return make(topic, base)
+
+
+_KINDS: dict[str, SensorKind] = {}
+_GAZEBO: dict[str, SensorKind] = {}
+_found = False
+_lock = threading.RLock()
+
+
+def register_kind(kind: SensorKind) -> SensorKind:
+    """Register ``kind`` (from its own module); a type or Gazebo spelling registered twice is
+    a programming error."""
+    if kind.type in _KINDS and _KINDS[kind.type] != kind:
+        raise ValueError(f"sensor type {kind.type!r} is registered twice")
+    _KINDS[kind.type] = kind
+    for spelling in kind.gazebo:
+        if spelling in _GAZEBO and _GAZEBO[spelling].type != kind.type:
+            raise ValueError(f"Gazebo sensor type {spelling!r} is registered twice")
+        _GAZEBO[spelling] = kind
+    return kind
+
+
+def _discover() -> None:
+    """Import every module of the room once (each registers its kinds)."""
+    global _found
+    if _found:
+        return
+    with _lock:  # two sessions started at once in threads: the second waits for the whole set
+        if _found:
+            return
+        package = importlib.import_module(__name__.rpartition(".")[0])
+        for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+            if not info.name.startswith("_"):
+                importlib.import_module(f"{package.__name__}.{info.name}")
+        _found = True
+
+
+def known_types() -> tuple[str, ...]:
+    """Every registered sensor type, sorted."""
+    _discover()
+    return tuple(sorted(_KINDS))
+
+
+def kind_of(type: str) -> SensorKind:
+    """The kind of ``type``; :class:`UnknownSensorType` (one line naming it and the known
+    types) when no module registers it."""
+    _discover()
+    kind = _KINDS.get(type) if isinstance(type, str) else None
+    if kind is None:
+        raise UnknownSensorType(f"unknown sensor type {type!r} (known: {', '.join(known_types())})")
+    return kind
+
+
+def gazebo_kind(spelling: str) -> SensorKind | None:
+    """The kind a URDF/SDF ``<sensor type>`` declares, None for one no module implements
+    (``gps``, ``altimeter``...: skipped, as a robot file may carry sensors the harness lacks)."""
+    _discover()
+    return _GAZEBO.get(spelling)
