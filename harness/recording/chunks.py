@@ -24,7 +24,7 @@ from mcap.records import Channel, ChunkIndex, Schema
 
 from harness.recording import inflate
 from harness.recording._crc import crc32
-from harness.recording.errors import RecordingDamagedError
+from harness.recording.errors import RecordingDamagedError, RecordingLimitError
 from harness.recording.scanned import I64, ChunkInfo, IndexEntries, Scan
 
 __all__ = [
@@ -34,8 +34,10 @@ __all__ = [
     "RECORD_HEAD",
     "U64",
     "ChunkHead",
+    "RecordCounter",
     "RecordDamage",
     "charge_declared",
+    "charge_records",
     "chunk_head",
     "chunk_index_entries",
     "chunk_messages",
@@ -112,11 +114,80 @@ def chunk_head(body: memoryview) -> ChunkHead:
     return ChunkHead(start, end, size, crc, compression, body[at + 8 : at + 8 + records_length])
 
 
-def _decompress(chunk: ChunkHead) -> bytes:
+def _decompress(chunk: ChunkHead, counter: RecordCounter | None = None) -> bytes:
     try:
-        return inflate.decompress(chunk.compression, chunk.data, chunk.uncompressed_size)
+        return inflate.decompress(
+            chunk.compression, chunk.data, chunk.uncompressed_size, watch=counter
+        )
     except inflate.InflateError as exc:
         raise RecordDamage(str(exc)) from None
+
+
+def _over_limit(limits: inflate.InflateLimits, before: int, count: int) -> str:
+    """What a chunk of ``count`` records, after ``before`` records of its file, is over."""
+    if count > limits.chunk_records:
+        return (
+            f"holds more than {limits.chunk_records} records, over the limit per chunk "
+            f"({inflate.CHUNK_RECORDS_ENV})"
+        )
+    return (
+        f"takes the file past {limits.file_records} records, over the limit per file "
+        f"({inflate.FILE_RECORDS_ENV})"
+    )
+
+
+class RecordCounter:
+    """Counts the records of one chunk as its decompressed bytes come out of the
+    decompressor (the ``watch`` of :func:`harness.recording.inflate.decompress`), by their
+    framing alone; raises :class:`~harness.recording.errors.RecordingLimitError` at the first
+    record over the chunk's limit or over the file's (``before``: the records of the file so
+    far), so a chunk of millions of records costs no more than the limit to refuse."""
+
+    def __init__(self, limits: inflate.InflateLimits, before: int) -> None:
+        self.count = 0
+        self._limits = limits
+        self._before = before
+        self._stop = min(limits.chunk_records, limits.file_records - before)
+        self._skip = 0  # bytes of the current record's body still to come
+        self._head = bytearray()  # a record header split between two pieces
+
+    def __call__(self, piece: bytes | memoryview) -> None:
+        size = len(piece)
+        pos = self._skip
+        count = self.count
+        if self._head:
+            need = 9 - len(self._head)
+            self._head += piece[:need]
+            if len(self._head) < 9:
+                return
+            (length,) = U64.unpack_from(self._head, 1)
+            self._head.clear()
+            count += 1
+            pos = need + length
+        unpack = RECORD_HEAD.unpack_from
+        stop = self._stop
+        while pos + 9 <= size and count <= stop:
+            _, length = unpack(piece, pos)
+            pos += 9 + length
+            count += 1
+        self.count = count
+        if count > stop:
+            raise RecordingLimitError(_over_limit(self._limits, self._before, count))
+        if pos < size:
+            self._head += piece[pos:]
+            self._skip = 0
+        else:
+            self._skip = pos - size
+
+
+def charge_records(result: Scan, count: int, limits: inflate.InflateLimits) -> None:
+    """Add ``count`` records (of one chunk, or one record of the data section) to
+    ``result.records``; raise :class:`~harness.recording.errors.RecordingLimitError` when
+    they are over the chunk's limit or take the file over its limit."""
+    before = result.records
+    result.records += count
+    if count > limits.chunk_records or result.records > limits.file_records:
+        raise RecordingLimitError(_over_limit(limits, before, count))
 
 
 def charge_declared(result: Scan, chunk: ChunkHead) -> None:
@@ -129,11 +200,12 @@ def charge_declared(result: Scan, chunk: ChunkHead) -> None:
         raise RecordDamage(str(exc)) from None
 
 
-def decode_chunk(body: memoryview) -> tuple[ChunkHead, bytes]:
+def decode_chunk(body: memoryview, counter: RecordCounter | None = None) -> tuple[ChunkHead, bytes]:
     """The chunk record ``body``'s fields and its records decompressed, their size and CRC
-    checked against the chunk's header; raises :class:`RecordDamage` naming what failed."""
+    checked against the chunk's header; raises :class:`RecordDamage` naming what failed.
+    ``counter`` counts the records as they are decompressed (and stops it at a limit)."""
     chunk = chunk_head(body)
-    data = _decompress(chunk)
+    data = _decompress(chunk, counter)
     if len(data) != chunk.uncompressed_size:
         raise RecordDamage(
             f"chunk decompresses to {len(data)} bytes, its header says {chunk.uncompressed_size}"

@@ -54,7 +54,7 @@ from harness.recording.records import (
     PhysicsStateArrays,
     RecordedMessage,
 )
-from harness.recording.scan import index_scan, scan
+from harness.recording.scan import Expected, index_scan, scan
 from harness.recording.scanned import I64, ChunkInfo, Problem, Scan
 
 __all__ = ["LostRange", "Recording", "TopicInfo"]
@@ -126,8 +126,14 @@ class Recording:
             raise RecordingFormatError(f"{self.path}: cannot open: {exc.strerror}") from None
         self._buf = memoryview(self._mmap) if self._mmap is not None else memoryview(b"")
         try:
-            found = index_scan(self._buf, str(self.path), check_chunks=not defer_chunk_checks)
-            self._scan = found if found is not None else scan(self._buf, str(self.path))
+            # Not a harness recording: refused before a chunk is decompressed.
+            expect = Expected(PROFILE, METADATA_NAME)
+            found = index_scan(
+                self._buf, str(self.path), check_chunks=not defer_chunk_checks, expect=expect
+            )
+            self._scan = (
+                found if found is not None else scan(self._buf, str(self.path), expect=expect)
+            )
             self._check()
         except BaseException:
             self.close()

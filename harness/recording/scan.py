@@ -16,6 +16,12 @@ decompresses again, which costs less than holding a whole file's chunks in fresh
 ``index_scan(check_chunks=False)`` leaves that to the first :func:`read_chunk_data` of each
 chunk, for readers that read everything once anyway.
 
+Neither pass costs more than the file's limits allow (:mod:`harness.recording.inflate`): bytes
+decompressed, and records walked, per chunk and per file; a file over a record limit is
+refused (:class:`~harness.recording.errors.RecordingLimitError`) at the first record over
+it. A reader that wants only some files (:class:`Expected`: a profile, a metadata record) has
+the others refused before their first chunk is decompressed.
+
 This module holds the two passes; what they find is in :mod:`harness.recording.scanned`, the
 chunks are decoded and checked in :mod:`harness.recording.chunks` and the summary section is
 read and checked against the data in :mod:`harness.recording.summary`.
@@ -25,11 +31,13 @@ from __future__ import annotations
 
 import struct
 from io import BytesIO
+from typing import NamedTuple
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import ChunkIndex, Header, Metadata
 
+from harness.recording import inflate
 from harness.recording._crc import crc32
 from harness.recording.chunks import (
     MAGIC,
@@ -37,8 +45,10 @@ from harness.recording.chunks import (
     MESSAGE_HEADER_SIZE,
     RECORD_HEAD,
     U64,
+    RecordCounter,
     RecordDamage,
     charge_declared,
+    charge_records,
     chunk_head,
     chunk_index_entries,
     chunk_messages,
@@ -52,7 +62,7 @@ from harness.recording.chunks import (
     record_spans,
     take_definition,
 )
-from harness.recording.errors import RecordingFormatError
+from harness.recording.errors import RecordingFormatError, RecordingLimitError
 from harness.recording.scanned import (
     AttachmentInfo,
     ChunkInfo,
@@ -73,6 +83,7 @@ __all__ = [
     "MAGIC",
     "MESSAGE_HEADER_SIZE",
     "ChunkInfo",
+    "Expected",
     "IndexEntries",
     "Problem",
     "Scan",
@@ -87,6 +98,40 @@ __all__ = [
 ]
 
 _KNOWN = {int(op) for op in Opcode}
+
+
+class Expected(NamedTuple):
+    """What a file must be for a pass to walk it: the profile its header names, and a
+    metadata record of this name before its first chunk (where the recorder writes it).
+    Anything else raises :class:`RecordingFormatError` before a chunk is decompressed."""
+
+    profile: str
+    metadata: str
+
+    def check_header(self, header: Header, where: str) -> None:
+        """Raise when ``header`` names another profile."""
+        if header.profile != self.profile:
+            raise RecordingFormatError(
+                f"{where}: MCAP profile is {header.profile!r}, not {self.profile!r}: "
+                "not a harness recording"
+            )
+
+    def check_metadata(self, result: Scan, pos: int, where: str) -> None:
+        """Raise when no metadata record of :attr:`metadata` came before byte ``pos``, the
+        first chunk (or message) of the file."""
+        if not any(m.name == self.metadata for m in result.metadata):
+            raise RecordingFormatError(
+                f"{where}: no {self.metadata!r} metadata record before the first chunk "
+                f"(byte {pos}): not a harness recording"
+            )
+
+
+class _Walk(NamedTuple):
+    """What a pass needs besides the file: its name, the limits, what it must be."""
+
+    where: str
+    limits: inflate.InflateLimits
+    expect: Expected | None
 
 
 def _header(buf: memoryview, where: str) -> tuple[Header, int]:
@@ -107,18 +152,32 @@ def _header(buf: memoryview, where: str) -> tuple[Header, int]:
     return header, 17 + length
 
 
-def scan(buf: memoryview, where: str) -> Scan:
+def _limits(where: str) -> inflate.InflateLimits:
+    try:
+        return inflate.current_limits()
+    except inflate.InflateError as exc:
+        raise RecordingFormatError(f"{where}: {exc}") from None
+
+
+def scan(buf: memoryview, where: str, *, expect: Expected | None = None) -> Scan:
     """Walk ``buf`` (a whole MCAP file); raise :class:`RecordingFormatError` only when nothing
-    can be read (empty, not MCAP, no header). ``where`` names the file in messages."""
+    can be read (empty, not MCAP, no header), when the file is not what ``expect`` says
+    (checked before the first chunk), and (:class:`RecordingLimitError`) at the first
+    record over a limit of :mod:`harness.recording.inflate`. ``where`` names the file in
+    messages."""
     header, pos = _header(buf, where)
+    if expect is not None:
+        expect.check_header(header, where)
     result = Scan(size=len(buf), header=header)
-    data_end = _scan_data(buf, pos, result)
+    data_end = _scan_data(buf, pos, result, _Walk(where, _limits(where), expect))
     if data_end is not None:
         check_summary(buf, data_end, result)
     return result
 
 
-def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Scan | None:
+def index_scan(
+    buf: memoryview, where: str, *, check_chunks: bool = True, expect: Expected | None = None
+) -> Scan | None:
     """The opening pass of a complete file, through its summary and message indexes; ``None``
     when the file is not complete and consistent (then :func:`scan` names what is wrong).
 
@@ -130,8 +189,14 @@ def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Sca
     ``check_chunks=False`` leaves what needs a chunk's decompressed bytes (its CRC, its index
     entries against its records) to :func:`read_chunk_data`, the first time the chunk is
     read: :attr:`Scan.unchecked` lists them. The data-section CRC, checked here, already
-    covers the compressed bytes and the indexes."""
+    covers the compressed bytes and the indexes.
+
+    Refuses like :func:`scan`: a file that is not what ``expect`` says, before its first
+    chunk; a chunk whose message index lists more messages than a limit allows."""
     header, pos = _header(buf, where)
+    if expect is not None:
+        expect.check_header(header, where)
+    walk = _Walk(where, _limits(where), expect)
     size = len(buf)
     footer_pos = size - 8 - FOOTER_SIZE
     if footer_pos < pos or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
@@ -144,7 +209,9 @@ def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Sca
     result = Scan(size=size, header=header)
     try:
         indexes = summary_chunk_indexes(buf[summary_start:footer_pos], result)
-        data_end = _index_data(buf, pos, summary_start, indexes, result, check_chunks)
+        data_end = _index_data(buf, pos, summary_start, indexes, result, check_chunks, walk)
+    except RecordingFormatError:  # a refusal, not an inconsistency
+        raise
     except Exception:  # any inconsistency at all: the full walk finds it and names it
         return None
     if data_end is None:
@@ -163,10 +230,12 @@ def _index_data(
     indexes: dict[int, ChunkIndex],
     result: Scan,
     check_chunks: bool,
+    walk: _Walk,
 ) -> int | None:
     """Walk the data section's top-level records (chunks, not their contents) up to
     ``limit``; return the end of the DataEnd record, or ``None`` on anything irregular."""
     last_time = -1
+    admitted = walk.expect is None
     while True:
         if pos + 9 > limit:
             return None
@@ -175,6 +244,11 @@ def _index_data(
         if end > limit or (opcode not in _KNOWN and opcode < 0x80):
             return None
         body = buf[pos + 9 : end]
+        if not admitted and opcode in (Opcode.CHUNK, Opcode.MESSAGE):
+            assert walk.expect is not None
+            walk.expect.check_metadata(result, pos, walk.where)
+            admitted = True
+        _charge(result, 1, walk, pos, "record")
         if opcode == Opcode.CHUNK:
             index = indexes.get(pos)
             if index is None or index.chunk_length != end - pos:
@@ -190,6 +264,7 @@ def _index_data(
             entries = chunk_index_entries(buf, limit, chunk.uncompressed_size, index, result)
             if entries is None:
                 return None
+            _charge(result, int(entries.where.size), walk, pos, "chunk")
             if check_chunks:
                 _, data = decode_chunk(body)
                 if not entries_match(data, entries):
@@ -228,13 +303,21 @@ def _index_data(
             result.data_crc_checked = True
             return end
         elif opcode in (Opcode.METADATA, Opcode.ATTACHMENT, Opcode.SCHEMA, Opcode.CHANNEL):
-            _data_record(opcode, pos, body, result, last_time)
+            _data_record(opcode, pos, body, result, last_time, walk.limits)
         elif opcode == Opcode.MESSAGE:
             return None
         pos = end
 
 
-def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
+def _charge(result: Scan, count: int, walk: _Walk, pos: int, what: str) -> None:
+    """:func:`charge_records`, its refusal naming the file and the record at ``pos``."""
+    try:
+        charge_records(result, count, walk.limits)
+    except RecordingLimitError as exc:
+        raise RecordingLimitError(f"{walk.where}: {what} at byte {pos} {exc}") from None
+
+
+def _scan_data(buf: memoryview, pos: int, result: Scan, walk: _Walk) -> int | None:
     """Scan the data section from ``pos``; return the end of the DataEnd record, or ``None``.
 
     A damaged record whose framing is intact (a chunk whose CRC or compression fails, an
@@ -245,6 +328,7 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
     last_time = -1
     end: int
     resync: list[int] | None = None  # chunk offsets from the summary, read on first need
+    admitted = walk.expect is None
     while True:
         if pos >= size:
             result.problems.append(Problem(pos, "truncated: the file ends before its summary"))
@@ -277,8 +361,15 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
             pos = following[0]
             continue
         body = buf[pos + 9 : end]
+        if not admitted and opcode in (Opcode.CHUNK, Opcode.MESSAGE):
+            assert walk.expect is not None
+            walk.expect.check_metadata(result, pos, walk.where)
+            admitted = True
+        _charge(result, 1, walk, pos, "record")
         try:
-            last_time = _data_record(opcode, pos, body, result, last_time)
+            last_time = _data_record(opcode, pos, body, result, last_time, walk.limits)
+        except RecordingLimitError as exc:
+            raise RecordingLimitError(f"{walk.where}: chunk at byte {pos} {exc}") from None
         except RecordDamage as exc:
             what = Opcode(opcode).name.lower()
             result.problems.append(Problem(pos, f"corrupt: {exc}; {what} record skipped"))
@@ -297,11 +388,22 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
         pos = end
 
 
-def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_time: int) -> int:
+def _data_record(
+    opcode: int,
+    pos: int,
+    body: memoryview,
+    result: Scan,
+    last_time: int,
+    limits: inflate.InflateLimits,
+) -> int:
     """Take in one data-section record; return the log time of the last message seen."""
     if opcode == Opcode.CHUNK:
         charge_declared(result, chunk_head(body))
-        chunk, data = decode_chunk(body)
+        counter = RecordCounter(limits, result.records)
+        try:
+            chunk, data = decode_chunk(body, counter)
+        finally:
+            result.records += counter.count
         channels: set[int] = set()
         messages = 0
         view = memoryview(data)

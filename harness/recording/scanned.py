@@ -117,6 +117,8 @@ class Scan:
     unchecked: dict[int, IndexEntries] = field(default_factory=dict)
     # What the chunks read so far declare they decompress to (bounded: harness.recording.inflate).
     declared_bytes: int = 0
+    # Records walked or indexed so far, in the data section and its chunks (bounded likewise).
+    records: int = 0
 
     @property
     def message_count(self) -> int:
