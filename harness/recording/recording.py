@@ -55,7 +55,7 @@ from harness.recording.records import (
     RecordedMessage,
 )
 from harness.recording.scan import Expected, index_scan, scan
-from harness.recording.scanned import I64, ChunkInfo, Problem, Scan
+from harness.recording.scanned import I64, ChunkInfo, Problem, Scan, problems_text
 
 __all__ = ["LostRange", "Recording", "TopicInfo"]
 
@@ -140,7 +140,7 @@ class Recording:
             raise
         self._store: Typestore | None = None
         if self._scan.problems:
-            text = "; ".join(str(p) for p in self._scan.problems)
+            text = self.problem_text()
             if strict:
                 self.close()
                 raise RecordingFormatError(f"{self.path}: damaged: {text}")
@@ -281,6 +281,11 @@ class Recording:
     def problems(self) -> list[Problem]:
         """Damage found when opening (empty for a sound file)."""
         return list(self._scan.problems)
+
+    def problem_text(self, limit: int = 5) -> str:
+        """The damage found when opening, on one line: the first ``limit`` problems, then
+        how many more there are ("" for a sound file)."""
+        return problems_text(self._scan.problems, limit)
 
     @property
     def complete(self) -> bool:

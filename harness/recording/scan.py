@@ -170,6 +170,12 @@ def scan(buf: memoryview, where: str, *, expect: Expected | None = None) -> Scan
         expect.check_header(header, where)
     result = Scan(size=len(buf), header=header)
     data_end = _scan_data(buf, pos, result, _Walk(where, _limits(where), expect))
+    if result.time_back > 1:
+        first = result.problems[result.time_back_problem]
+        result.problems[result.time_back_problem] = Problem(
+            first.offset,
+            f"{first.message}, and {result.time_back - 1} more messages go back in time",
+        )
     if data_end is not None:
         check_summary(buf, data_end, result)
     return result
@@ -416,9 +422,12 @@ def _data_record(
                 if channel_id not in result.channels:
                     raise RecordDamage(f"message on unknown channel {channel_id}")
                 if log_time < last_time:
-                    result.problems.append(
-                        Problem(pos, f"log time {log_time} goes back (after {last_time})")
-                    )
+                    if not result.time_back:  # the first only: scan() adds how many in all
+                        result.time_back_problem = len(result.problems)
+                        result.problems.append(
+                            Problem(pos, f"log time {log_time} goes back (after {last_time})")
+                        )
+                    result.time_back += 1
                 last_time = log_time
                 channels.add(channel_id)
                 messages += 1

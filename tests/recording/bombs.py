@@ -63,9 +63,7 @@ def write_bomb(
             _record(Metadata(name="harness", metadata={"format_version": "1", "timestep_ns": "1"}))
         )
     out.append(_record(Schema(id=1, name="std_msgs/msg/Empty", encoding="ros2msg", data=b"")))
-    out.append(
-        _record(Channel(id=1, schema_id=1, topic="/b", message_encoding="cdr", metadata={}))
-    )
+    out.append(_record(Channel(id=1, schema_id=1, topic="/b", message_encoding="cdr", metadata={})))
     chunk = _chunk(messages)
     out += [chunk] * chunks
     out.append(_record(DataEnd(data_section_crc=0)))
