@@ -74,6 +74,12 @@ def _typestore_for(schemas: tuple[tuple[str, bytes], ...]) -> Typestore:
     return store
 
 
+def _brief(exc: BaseException) -> str:
+    """``exc``'s message on one line, at most 200 characters."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
 class LostRange(NamedTuple):
     """A damaged stretch ``[offset, end)`` of the file that was passed over: the messages of
     steps ``first_step..last_step`` (``None``: to the end) may be missing."""
@@ -376,14 +382,29 @@ class Recording:
                     raise RecordingFormatError(
                         f"{self.path}: schema {schema.name!r} is {schema.encoding!r}, not ros2msg"
                     )
-            self._store = _typestore_for(
-                tuple(sorted((str(x.name), bytes(x.data)) for x in self._scan.schemas.values()))
-            )
+            try:
+                self._store = _typestore_for(
+                    tuple(sorted((str(x.name), bytes(x.data)) for x in self._scan.schemas.values()))
+                )
+            except Exception as exc:  # the file's schemas are data: any failure is the file's
+                raise RecordingFormatError(
+                    f"{self.path}: the file's schemas do not define message types: {_brief(exc)}"
+                ) from None
         return self._store
+
+    def _deserialize(self, store: Typestore, raw: bytes, msgtype: str, log_time: int) -> Any:
+        try:
+            return store.deserialize_cdr(raw, msgtype)
+        except Exception as exc:  # a message of the file, typed by the file's own schemas
+            raise RecordingFormatError(
+                f"{self.path}: message of log time {log_time} does not decode as "
+                f"{msgtype!r}: {_brief(exc)}"
+            ) from None
 
     def decode(self, message: RecordedMessage) -> Any:
         """The rosbags object of ``message`` (typed by the file's own schema)."""
-        return self._typestore().deserialize_cdr(message.data, message.msgtype)
+        store = self._typestore()
+        return self._deserialize(store, message.data, message.msgtype, message.sim_time_ns)
 
     def messages(
         self,
@@ -422,7 +443,9 @@ class Recording:
                     continue
                 topic, msgtype = channels[cid]
                 raw = bytes(data)
-                msg = store.deserialize_cdr(raw, msgtype) if store is not None else None
+                msg = (
+                    self._deserialize(store, raw, msgtype, log_time) if store is not None else None
+                )
                 yield RecordedMessage(topic, msgtype, log_time, seq, raw, msg)
 
     def physics_state_arrays(
