@@ -103,8 +103,10 @@ class Recording:
     """A recording opened for reading (a context manager; ``close()`` releases the file).
 
     Raises :class:`~harness.recording.errors.RecordingFormatError` for an empty or non-MCAP
-    file, a profile other than ``ros2``, a missing ``harness`` metadata record or a format
-    version newer than this harness reads. Damage warns (or raises with ``strict=True``).
+    file, a profile other than ``ros2``, a missing ``harness`` metadata record (both checked
+    before any chunk is decompressed) or a format version newer than this harness reads, and
+    :class:`~harness.recording.errors.RecordingLimitError` for a file over a record limit
+    (:mod:`harness.recording.inflate`). Damage warns (or raises with ``strict=True``).
 
     ``defer_chunk_checks``: for a complete file, check each chunk's CRC and message index
     when the chunk is first read instead of when opening (opening then decompresses
