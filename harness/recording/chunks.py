@@ -12,6 +12,7 @@ and pass over.
 from __future__ import annotations
 
 import struct
+from array import array
 from collections.abc import Iterator
 from io import BytesIO
 from typing import Any, NamedTuple
@@ -141,18 +142,26 @@ class RecordCounter:
     decompressor (the ``watch`` of :func:`harness.recording.inflate.decompress`), by their
     framing alone; raises :class:`~harness.recording.errors.RecordingLimitError` at the first
     record over the chunk's limit or over the file's (``before``: the records of the file so
-    far), so a chunk of millions of records costs no more than the limit to refuse."""
+    far), so a chunk of millions of records costs no more than the limit to refuse.
+
+    :attr:`starts` is where each record starts in the decompressed chunk (the walk of the
+    chunk's records needs no second pass); :meth:`check_end` says whether the last one ends
+    with the chunk."""
 
     def __init__(self, limits: inflate.InflateLimits, before: int) -> None:
         self.count = 0
+        self.starts = array("q")
         self._limits = limits
         self._before = before
         self._stop = min(limits.chunk_records, limits.file_records - before)
+        self._base = 0  # where the current piece starts in the decompressed chunk
         self._skip = 0  # bytes of the current record's body still to come
         self._head = bytearray()  # a record header split between two pieces
 
     def __call__(self, piece: bytes | memoryview) -> None:
         size = len(piece)
+        base = self._base
+        self._base += size
         pos = self._skip
         count = self.count
         if self._head:
@@ -162,22 +171,33 @@ class RecordCounter:
                 return
             (length,) = U64.unpack_from(self._head, 1)
             self._head.clear()
-            count += 1
             pos = need + length
         unpack = RECORD_HEAD.unpack_from
+        add = self.starts.append
         stop = self._stop
-        while pos + 9 <= size and count <= stop:
+        while pos + 9 <= size and count < stop:
             _, length = unpack(piece, pos)
+            add(base + pos)
             pos += 9 + length
             count += 1
+        if pos + 9 <= size:  # one more record: over the limit
+            self.count = count + 1
+            raise RecordingLimitError(_over_limit(self._limits, self._before, count + 1))
         self.count = count
-        if count > stop:
-            raise RecordingLimitError(_over_limit(self._limits, self._before, count))
         if pos < size:
+            self.starts.append(base + pos)
+            self.count += 1
             self._head += piece[pos:]
             self._skip = 0
+            if self.count > stop:
+                raise RecordingLimitError(_over_limit(self._limits, self._before, self.count))
         else:
             self._skip = pos - size
+
+    def check_end(self) -> None:
+        """Raise :class:`RecordDamage` when the last record overruns the chunk."""
+        if self._skip or self._head:
+            raise RecordDamage(f"record at {self.starts[-1]} overruns its container")
 
 
 def charge_records(result: Scan, count: int, limits: inflate.InflateLimits) -> None:

@@ -11,8 +11,10 @@ Two passes give the same :class:`Scan`: :func:`index_scan`, for a complete file 
 summary and data-section CRC present and right), takes the messages of each chunk from the
 chunk's message indexes (numpy over the decompressed chunk, checked against it) instead of
 walking every record in Python; :func:`scan` walks everything and is the one that finds and
-names damage. Both decompress and CRC-check every chunk (and keep none of it: reading
-decompresses again, which costs less than holding a whole file's chunks in fresh memory);
+names damage (the framing of a chunk's records is walked once, as it decompresses, by the
+counter of the record limits; its messages are then taken in all at once, with numpy).
+Both decompress and CRC-check every chunk (and keep none of it: reading decompresses again,
+which costs less than holding a whole file's chunks in fresh memory);
 ``index_scan(check_chunks=False)`` leaves that to the first :func:`read_chunk_data` of each
 chunk, for readers that read everything once anyway.
 
@@ -33,6 +35,7 @@ import struct
 from io import BytesIO
 from typing import NamedTuple
 
+import numpy as np
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import ChunkIndex, Header, Metadata
@@ -41,7 +44,6 @@ from harness.recording import inflate
 from harness.recording._crc import crc32
 from harness.recording.chunks import (
     MAGIC,
-    MESSAGE_HEAD,
     MESSAGE_HEADER_SIZE,
     RECORD_HEAD,
     U64,
@@ -59,11 +61,11 @@ from harness.recording.chunks import (
     offsets_by_channel,
     parse_record,
     read_chunk_data,
-    record_spans,
     take_definition,
 )
 from harness.recording.errors import RecordingFormatError, RecordingLimitError
 from harness.recording.scanned import (
+    I64,
     AttachmentInfo,
     ChunkInfo,
     IndexEntries,
@@ -410,30 +412,9 @@ def _data_record(
             chunk, data = decode_chunk(body, counter)
         finally:
             result.records += counter.count
-        channels: set[int] = set()
-        messages = 0
-        view = memoryview(data)
-        for inner, start, end in record_spans(view):
-            if take_definition(result, inner, view[start:end]):
-                continue
-            if inner == Opcode.MESSAGE:
-                channel_id, _, log_time, _ = MESSAGE_HEAD.unpack_from(view, start)
-                log_time = int(log_time)
-                if channel_id not in result.channels:
-                    raise RecordDamage(f"message on unknown channel {channel_id}")
-                if log_time < last_time:
-                    if not result.time_back:  # the first only: scan() adds how many in all
-                        result.time_back_problem = len(result.problems)
-                        result.problems.append(
-                            Problem(pos, f"log time {log_time} goes back (after {last_time})")
-                        )
-                    result.time_back += 1
-                last_time = log_time
-                channels.add(channel_id)
-                messages += 1
-                result.counts[channel_id] = result.counts.get(channel_id, 0) + 1
-                first = result.time_ranges.get(channel_id, (log_time, 0))[0]
-                result.time_ranges[channel_id] = (first, log_time)
+        counter.check_end()
+        starts = np.frombuffer(counter.starts, dtype=np.int64)
+        channels, messages, last_time = _chunk_records(result, pos, data, starts, last_time)
         if messages:
             if result.start_time < 0:
                 result.start_time = chunk.message_start_time
@@ -459,6 +440,80 @@ def _data_record(
     else:
         take_definition(result, opcode, body)
     return last_time
+
+
+def _chunk_records(
+    result: Scan, pos: int, data: bytes, starts: I64, last_time: int
+) -> tuple[set[int], int, int]:
+    """Take in the records of the chunk at ``pos`` (decompressed ``data``, its records
+    starting at ``starts``): definitions in order, then its messages all at once (numpy);
+    return the channels of its messages, how many there are and the last one's log time.
+    Raises :class:`RecordDamage` for a message on a channel not defined before it, or one
+    shorter than a message's header."""
+    if not starts.size:
+        return set(), 0, last_time
+    view = np.frombuffer(data, dtype=np.uint8)
+    opcodes = view[starts]
+    lengths = gather(view, starts + 1, "<u8")
+    known = set(result.channels)
+    saved = dict(result.schemas), dict(result.channels)
+    definitions = np.flatnonzero((opcodes == Opcode.SCHEMA) | (opcodes == Opcode.CHANNEL))
+    defined_at: dict[int, int] = {}
+    for i in definitions.tolist():
+        start = int(starts[i]) + 9
+        before = set(result.channels)
+        take_definition(result, int(opcodes[i]), data[start : start + int(lengths[i])])
+        for channel_id in result.channels.keys() - before:
+            defined_at.setdefault(channel_id, start)
+
+    def damaged(at: int, why: str) -> RecordDamage:
+        # As a walk in record order would leave it: the definitions before ``at`` taken in.
+        result.schemas, result.channels = saved
+        for i in definitions[starts[definitions] < at].tolist():
+            start = int(starts[i]) + 9
+            take_definition(result, int(opcodes[i]), data[start : start + int(lengths[i])])
+        return RecordDamage(why)
+
+    is_message = opcodes == Opcode.MESSAGE
+    at = starts[is_message]
+    if not at.size:
+        return set(), 0, last_time
+    short = np.flatnonzero(lengths[is_message] < MESSAGE_HEADER_SIZE - 9)
+    if short.size:
+        where = int(at[short[0]])
+        raise damaged(where, f"message record at {where} is shorter than its header")
+    channel_ids = gather(view, at + 9, "<u2").astype(np.int64)
+    times = gather(view, at + 15, "<u8")
+    found, first, count = np.unique(channel_ids, return_index=True, return_counts=True)
+    unknown = [
+        (i, channel_id)
+        for channel_id, i in zip(found.tolist(), first.tolist(), strict=True)
+        if channel_id not in known and defined_at.get(channel_id, len(data)) > int(at[i])
+    ]
+    if unknown:  # the first in the chunk (a later definition does not make it known)
+        i, channel_id = min(unknown)
+        raise damaged(int(at[i]), f"message on unknown channel {channel_id}")
+    previous = np.empty_like(times)
+    previous[0] = max(last_time, 0)
+    previous[1:] = times[:-1]
+    back = np.flatnonzero(times < previous)
+    if back.size:
+        if not result.time_back:  # the first only: scan() adds how many in all
+            i = int(back[0])
+            after = last_time if i == 0 else int(times[i - 1])
+            result.time_back_problem = len(result.problems)
+            result.problems.append(
+                Problem(pos, f"log time {int(times[i])} goes back (after {after})")
+            )
+        result.time_back += int(back.size)
+    last = channel_ids.size - 1 - np.unique(channel_ids[::-1], return_index=True)[1]
+    for channel_id, i, j, n in zip(
+        found.tolist(), first.tolist(), last.tolist(), count.tolist(), strict=True
+    ):
+        result.counts[channel_id] = result.counts.get(channel_id, 0) + n
+        start = result.time_ranges.get(channel_id, (int(times[i]), 0))[0]
+        result.time_ranges[channel_id] = (start, int(times[j]))
+    return set(found.tolist()), int(at.size), int(times[-1])
 
 
 def _attachment(pos: int, body: memoryview) -> AttachmentInfo:

@@ -14,7 +14,6 @@ import random
 import subprocess
 import sys
 import warnings
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +32,7 @@ from harness.recording import (
 )
 from harness.recording import chunks as chunks_module
 from harness.recording import scan as scan_module
-from harness.recording.chunks import RecordCounter, record_spans
+from harness.recording.chunks import RecordCounter, RecordDamage, record_spans
 from harness.replay.errors import RecordedDataError
 from harness.replay.source import open_recording
 from tests.recording.bombs import MESSAGE_RECORD, write_bomb
@@ -57,7 +56,7 @@ def bomb(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 class Spent:
-    """How much the readers decompressed and how many records they walked one by one."""
+    """How much the readers decompressed, and how many records of chunks they took in."""
 
     def __init__(self) -> None:
         self.decompressed = 0
@@ -67,10 +66,11 @@ class Spent:
 
 @pytest.fixture
 def spent(monkeypatch: pytest.MonkeyPatch) -> Spent:
-    """Count the bytes coming out of the decompressor and the records the scan walks."""
+    """Count the bytes coming out of the decompressor and the records of the chunks the
+    scan takes in (those its counter let through)."""
     found = Spent()
     decompress = inflate.decompress
-    spans = record_spans
+    take_in = scan_module._chunk_records
 
     def counting_decompress(*args: Any, **kwargs: Any) -> bytes:
         found.calls += 1
@@ -82,16 +82,14 @@ def spent(monkeypatch: pytest.MonkeyPatch) -> Spent:
                 watch(piece)
 
         kwargs["watch"] = watching
-        out = decompress(*args, **kwargs)
-        return out
+        return decompress(*args, **kwargs)
 
-    def counting_spans(data: bytes | memoryview, start: int = 0) -> Iterator[tuple[int, int, int]]:
-        for span in spans(data, start):
-            found.walked += 1
-            yield span
+    def counting_take_in(result: Any, pos: int, data: bytes, starts: Any, last: int) -> Any:
+        found.walked += int(starts.size)
+        return take_in(result, pos, data, starts, last)
 
     monkeypatch.setattr(chunks_module.inflate, "decompress", counting_decompress)
-    monkeypatch.setattr(scan_module, "record_spans", counting_spans)
+    monkeypatch.setattr(scan_module, "_chunk_records", counting_take_in)
     return found
 
 
@@ -256,6 +254,13 @@ def test_the_counter_counts_records_split_anywhere(sizes: list[int], cuts: list[
     for a, b in itertools.pairwise(points):
         counter(memoryview(data)[a:b])
     assert counter.count == sum(1 for _ in record_spans(data)) == len(sizes)
+    assert list(counter.starts) == [start - 9 for _, start, _ in record_spans(data)]
+    counter.check_end()
+    if sizes and sizes[-1]:  # the last record cut short: it overruns the chunk
+        cut = RecordCounter(inflate.InflateLimits(), 0)
+        cut(data[:-1])
+        with pytest.raises(RecordDamage, match="overruns its container"):
+            cut.check_end()
 
 
 def test_the_counter_stops_at_the_first_record_over_the_limit() -> None:
