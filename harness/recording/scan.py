@@ -78,6 +78,7 @@ from harness.recording.summary import (
     check_summary,
     summary_chunk_indexes,
     summary_chunk_offsets,
+    summary_metadata_names,
 )
 
 # The two passes, and (from scanned, chunks) the names readers have imported from here.
@@ -104,8 +105,11 @@ _KNOWN = {int(op) for op in Opcode}
 
 class Expected(NamedTuple):
     """What a file must be for a pass to walk it: the profile its header names, and a
-    metadata record of this name before its first chunk (where the recorder writes it).
-    Anything else raises :class:`RecordingFormatError` before a chunk is decompressed."""
+    metadata record of this name: listed by the summary's metadata indexes, or (a file
+    without a summary, e.g. a killed recorder's) before its first chunk, where the recorder
+    writes it. Anything else raises :class:`RecordingFormatError` before a chunk is
+    decompressed. (A summary that indexes no metadata at all decides nothing: such a file is
+    walked, within the limits, and judged after.)"""
 
     profile: str
     metadata: str
@@ -118,6 +122,19 @@ class Expected(NamedTuple):
                 "not a harness recording"
             )
 
+    def metadata_first(self, buf: memoryview, where: str) -> bool:
+        """Must the metadata record come before the first chunk? Raises when the summary
+        lists metadata records, none of this name."""
+        names = summary_metadata_names(buf)
+        if names is None:
+            return True
+        if names and self.metadata not in names:
+            raise RecordingFormatError(
+                f"{where}: no {self.metadata!r} metadata record (the summary indexes "
+                f"{', '.join(repr(n) for n in sorted(names)[:5])}): not a harness recording"
+            )
+        return False
+
     def check_metadata(self, result: Scan, pos: int, where: str) -> None:
         """Raise when no metadata record of :attr:`metadata` came before byte ``pos``, the
         first chunk (or message) of the file."""
@@ -129,11 +146,22 @@ class Expected(NamedTuple):
 
 
 class _Walk(NamedTuple):
-    """What a pass needs besides the file: its name, the limits, what it must be."""
+    """What a pass needs besides the file: its name, the limits, what it must be, and
+    whether ``expect``'s metadata record must come before the first chunk."""
 
     where: str
     limits: inflate.InflateLimits
     expect: Expected | None
+    metadata_first: bool
+
+
+def _walk(buf: memoryview, where: str, header: Header, expect: Expected | None) -> _Walk:
+    """What a pass of ``buf`` needs; raises when it is not what ``expect`` says, as far as
+    its header and summary tell."""
+    if expect is None:
+        return _Walk(where, _limits(where), None, False)
+    expect.check_header(header, where)
+    return _Walk(where, _limits(where), expect, expect.metadata_first(buf, where))
 
 
 def _header(buf: memoryview, where: str) -> tuple[Header, int]:
@@ -168,10 +196,9 @@ def scan(buf: memoryview, where: str, *, expect: Expected | None = None) -> Scan
     record over a limit of :mod:`harness.recording.inflate`. ``where`` names the file in
     messages."""
     header, pos = _header(buf, where)
-    if expect is not None:
-        expect.check_header(header, where)
+    walk = _walk(buf, where, header, expect)
     result = Scan(size=len(buf), header=header)
-    data_end = _scan_data(buf, pos, result, _Walk(where, _limits(where), expect))
+    data_end = _scan_data(buf, pos, result, walk)
     if result.time_back > 1:
         first = result.problems[result.time_back_problem]
         result.problems[result.time_back_problem] = Problem(
@@ -202,9 +229,7 @@ def index_scan(
     Refuses like :func:`scan`: a file that is not what ``expect`` says, before its first
     chunk; a chunk whose message index lists more messages than a limit allows."""
     header, pos = _header(buf, where)
-    if expect is not None:
-        expect.check_header(header, where)
-    walk = _Walk(where, _limits(where), expect)
+    walk = _walk(buf, where, header, expect)
     size = len(buf)
     footer_pos = size - 8 - FOOTER_SIZE
     if footer_pos < pos or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
@@ -243,7 +268,7 @@ def _index_data(
     """Walk the data section's top-level records (chunks, not their contents) up to
     ``limit``; return the end of the DataEnd record, or ``None`` on anything irregular."""
     last_time = -1
-    admitted = walk.expect is None
+    admitted = not walk.metadata_first
     while True:
         if pos + 9 > limit:
             return None
@@ -336,7 +361,7 @@ def _scan_data(buf: memoryview, pos: int, result: Scan, walk: _Walk) -> int | No
     last_time = -1
     end: int
     resync: list[int] | None = None  # chunk offsets from the summary, read on first need
-    admitted = walk.expect is None
+    admitted = not walk.metadata_first
     while True:
         if pos >= size:
             result.problems.append(Problem(pos, "truncated: the file ends before its summary"))

@@ -209,7 +209,7 @@ def test_not_a_harness_recording_is_refused_before_any_chunk(
     _one_line_refusal(result, needle)
 
 
-def test_a_complete_foreign_file_is_refused_before_its_chunks(tmp_path: Path, spent: Spent) -> None:
+def test_a_complete_foreign_file_is_refused_from_its_summary(tmp_path: Path, spent: Spent) -> None:
     path = tmp_path / "other.mcap"
     with open(path, "wb") as f:
         writer = Writer(f)
@@ -219,11 +219,27 @@ def test_a_complete_foreign_file_is_refused_before_its_chunks(tmp_path: Path, sp
         for k in range(100):
             writer.add_message(channel, k, b"", k)
         writer.flush()  # type: ignore[no-untyped-call]
-        writer.add_metadata("harness", {"format_version": "1"})  # after the chunk: not ours
+        writer.add_metadata("rosbag2", {"x": "1"})
         writer.finish()
-    with pytest.raises(RecordingFormatError, match="no 'harness' metadata record before"):
+    with pytest.raises(RecordingFormatError) as caught:
         Recording(path)
+    assert str(caught.value) == (
+        f"{path}: no 'harness' metadata record (the summary indexes 'rosbag2'): "
+        "not a harness recording"
+    )
     assert spent.calls == 0
+
+
+def test_a_golden_with_its_metadata_after_the_chunks_opens(tmp_path: Path) -> None:
+    # write_golden copies a run with mcap's Writer: metadata and attachments after the chunks.
+    golden = Path(__file__).resolve().parents[2] / "recordings" / "scenarios" / "demo.mcap"
+    with Recording(golden, strict=True) as rec:
+        assert rec.scan.chunks[0].offset < min(a.offset for a in rec.scan.attachments)
+        assert rec.metadata["format_version"] == "1"
+    cut = tmp_path / "cut.mcap"  # no summary: the metadata must come before the first chunk
+    cut.write_bytes(golden.read_bytes()[: golden.stat().st_size // 2])
+    with pytest.raises(RecordingFormatError, match="no 'harness' metadata record before"):
+        Recording(cut)
 
 
 @pytest.mark.parametrize("value", ["0", "-5", "many"])
