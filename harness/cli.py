@@ -3,13 +3,19 @@
 Each subcommand lives next to the code it drives, in a module exposing
 ``add_arguments(parser)`` and ``run(args) -> int``; this module only dispatches, importing a
 subcommand's module when that subcommand runs, so ``harness --version`` stays instant.
-Any :class:`~harness.errors.HarnessError` becomes one line on stderr and exit code 2.
+Any :class:`~harness.errors.HarnessError` becomes one line on stderr and exit code 2; output
+into a closed pipe (``harness inspect FILE | head``) ends quietly with exit code 141, as a
+shell reports SIGPIPE.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
+import os
+import signal
 import sys
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -70,12 +76,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     module = importlib.import_module(COMMANDS[args.command].module)
     try:
-        return int(module.run(args))
+        code = int(module.run(args))
+        sys.stdout.flush()  # a closed pipe raises here, not at exit
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return 128 + signal.SIGPIPE
     except HarnessError as exc:
         print(f"harness {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130
+
+
+def _silence_stdout() -> None:
+    """The reader of stdout went away: what is still buffered goes to /dev/null, so that
+    Python's flush at exit does not raise BrokenPipeError again (the recipe of the
+    :mod:`signal` documentation)."""
+    with contextlib.suppress(OSError, io.UnsupportedOperation, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ from harness.recording.errors import (
     RecordingDamagedError,
     RecordingDamagedWarning,
     RecordingFormatError,
+    RecordingLimitError,
     RecordingWriteError,
 )
 from harness.recording.layout import FORMAT_VERSION
@@ -46,6 +47,7 @@ __all__ = [
     "RecordingDamagedError",
     "RecordingDamagedWarning",
     "RecordingFormatError",
+    "RecordingLimitError",
     "RecordingWriteError",
     "RosoutRecord",
     "RunDescription",

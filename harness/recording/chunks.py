@@ -12,6 +12,7 @@ and pass over.
 from __future__ import annotations
 
 import struct
+from array import array
 from collections.abc import Iterator
 from io import BytesIO
 from typing import Any, NamedTuple
@@ -24,7 +25,7 @@ from mcap.records import Channel, ChunkIndex, Schema
 
 from harness.recording import inflate
 from harness.recording._crc import crc32
-from harness.recording.errors import RecordingDamagedError
+from harness.recording.errors import RecordingDamagedError, RecordingLimitError
 from harness.recording.scanned import I64, ChunkInfo, IndexEntries, Scan
 
 __all__ = [
@@ -34,8 +35,10 @@ __all__ = [
     "RECORD_HEAD",
     "U64",
     "ChunkHead",
+    "RecordCounter",
     "RecordDamage",
     "charge_declared",
+    "charge_records",
     "chunk_head",
     "chunk_index_entries",
     "chunk_messages",
@@ -112,11 +115,99 @@ def chunk_head(body: memoryview) -> ChunkHead:
     return ChunkHead(start, end, size, crc, compression, body[at + 8 : at + 8 + records_length])
 
 
-def _decompress(chunk: ChunkHead) -> bytes:
+def _decompress(chunk: ChunkHead, counter: RecordCounter | None = None) -> bytes:
     try:
-        return inflate.decompress(chunk.compression, chunk.data, chunk.uncompressed_size)
+        return inflate.decompress(
+            chunk.compression, chunk.data, chunk.uncompressed_size, watch=counter
+        )
     except inflate.InflateError as exc:
         raise RecordDamage(str(exc)) from None
+
+
+def _over_limit(limits: inflate.InflateLimits, before: int, count: int) -> str:
+    """What a chunk of ``count`` records, after ``before`` records of its file, is over."""
+    if count > limits.chunk_records:
+        return (
+            f"holds more than {limits.chunk_records} records, over the limit per chunk "
+            f"({inflate.CHUNK_RECORDS_ENV})"
+        )
+    return (
+        f"takes the file past {limits.file_records} records, over the limit per file "
+        f"({inflate.FILE_RECORDS_ENV})"
+    )
+
+
+class RecordCounter:
+    """Counts the records of one chunk as its decompressed bytes come out of the
+    decompressor (the ``watch`` of :func:`harness.recording.inflate.decompress`), by their
+    framing alone; raises :class:`~harness.recording.errors.RecordingLimitError` at the first
+    record over the chunk's limit or over the file's (``before``: the records of the file so
+    far), so a chunk of millions of records costs no more than the limit to refuse.
+
+    :attr:`starts` is where each record starts in the decompressed chunk (the walk of the
+    chunk's records needs no second pass); :meth:`check_end` says whether the last one ends
+    with the chunk."""
+
+    def __init__(self, limits: inflate.InflateLimits, before: int) -> None:
+        self.count = 0
+        self.starts = array("q")
+        self._limits = limits
+        self._before = before
+        self._stop = min(limits.chunk_records, limits.file_records - before)
+        self._base = 0  # where the current piece starts in the decompressed chunk
+        self._skip = 0  # bytes of the current record's body still to come
+        self._head = bytearray()  # a record header split between two pieces
+
+    def __call__(self, piece: bytes | memoryview) -> None:
+        size = len(piece)
+        base = self._base
+        self._base += size
+        pos = self._skip
+        count = self.count
+        if self._head:
+            need = 9 - len(self._head)
+            self._head += piece[:need]
+            if len(self._head) < 9:
+                return
+            (length,) = U64.unpack_from(self._head, 1)
+            self._head.clear()
+            pos = need + length
+        unpack = RECORD_HEAD.unpack_from
+        add = self.starts.append
+        stop = self._stop
+        while pos + 9 <= size and count < stop:
+            _, length = unpack(piece, pos)
+            add(base + pos)
+            pos += 9 + length
+            count += 1
+        if pos + 9 <= size:  # one more record: over the limit
+            self.count = count + 1
+            raise RecordingLimitError(_over_limit(self._limits, self._before, count + 1))
+        self.count = count
+        if pos < size:
+            self.starts.append(base + pos)
+            self.count += 1
+            self._head += piece[pos:]
+            self._skip = 0
+            if self.count > stop:
+                raise RecordingLimitError(_over_limit(self._limits, self._before, self.count))
+        else:
+            self._skip = pos - size
+
+    def check_end(self) -> None:
+        """Raise :class:`RecordDamage` when the last record overruns the chunk."""
+        if self._skip or self._head:
+            raise RecordDamage(f"record at {self.starts[-1]} overruns its container")
+
+
+def charge_records(result: Scan, count: int, limits: inflate.InflateLimits) -> None:
+    """Add ``count`` records (of one chunk, or one record of the data section) to
+    ``result.records``; raise :class:`~harness.recording.errors.RecordingLimitError` when
+    they are over the chunk's limit or take the file over its limit."""
+    before = result.records
+    result.records += count
+    if count > limits.chunk_records or result.records > limits.file_records:
+        raise RecordingLimitError(_over_limit(limits, before, count))
 
 
 def charge_declared(result: Scan, chunk: ChunkHead) -> None:
@@ -129,11 +220,12 @@ def charge_declared(result: Scan, chunk: ChunkHead) -> None:
         raise RecordDamage(str(exc)) from None
 
 
-def decode_chunk(body: memoryview) -> tuple[ChunkHead, bytes]:
+def decode_chunk(body: memoryview, counter: RecordCounter | None = None) -> tuple[ChunkHead, bytes]:
     """The chunk record ``body``'s fields and its records decompressed, their size and CRC
-    checked against the chunk's header; raises :class:`RecordDamage` naming what failed."""
+    checked against the chunk's header; raises :class:`RecordDamage` naming what failed.
+    ``counter`` counts the records as they are decompressed (and stops it at a limit)."""
     chunk = chunk_head(body)
-    data = _decompress(chunk)
+    data = _decompress(chunk, counter)
     if len(data) != chunk.uncompressed_size:
         raise RecordDamage(
             f"chunk decompresses to {len(data)} bytes, its header says {chunk.uncompressed_size}"

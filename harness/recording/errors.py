@@ -9,6 +9,7 @@ __all__ = [
     "RecordingDamagedError",
     "RecordingDamagedWarning",
     "RecordingFormatError",
+    "RecordingLimitError",
     "RecordingWriteError",
 ]
 
@@ -31,6 +32,11 @@ class RecordingBusyError(RecordingWriteError):
 class RecordingFormatError(RecordingError):
     """A file is not a recording this harness can read (empty, not MCAP, wrong profile,
     missing ``harness`` metadata, newer format version, unusable damage)."""
+
+
+class RecordingLimitError(RecordingFormatError):
+    """A file holds more records than a reader walks (per chunk or per file, limits of
+    :mod:`harness.recording.inflate`): refused as soon as a walk passes the limit."""
 
 
 class RecordingDamagedError(RecordingFormatError):

@@ -54,8 +54,8 @@ from harness.recording.records import (
     PhysicsStateArrays,
     RecordedMessage,
 )
-from harness.recording.scan import index_scan, scan
-from harness.recording.scanned import I64, ChunkInfo, Problem, Scan
+from harness.recording.scan import Expected, index_scan, scan
+from harness.recording.scanned import I64, ChunkInfo, Problem, Scan, problems_text
 
 __all__ = ["LostRange", "Recording", "TopicInfo"]
 
@@ -72,6 +72,12 @@ def _typestore_for(schemas: tuple[tuple[str, bytes], ...]) -> Typestore:
     for name, text in schemas:
         store.register(get_types_from_msg(text.decode("utf-8"), name))
     return store
+
+
+def _brief(exc: BaseException) -> str:
+    """``exc``'s message on one line, at most 200 characters."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 200 else text[:197] + "..."
 
 
 class LostRange(NamedTuple):
@@ -97,8 +103,10 @@ class Recording:
     """A recording opened for reading (a context manager; ``close()`` releases the file).
 
     Raises :class:`~harness.recording.errors.RecordingFormatError` for an empty or non-MCAP
-    file, a profile other than ``ros2``, a missing ``harness`` metadata record or a format
-    version newer than this harness reads. Damage warns (or raises with ``strict=True``).
+    file, a profile other than ``ros2``, a missing ``harness`` metadata record (both checked
+    before any chunk is decompressed) or a format version newer than this harness reads, and
+    :class:`~harness.recording.errors.RecordingLimitError` for a file over a record limit
+    (:mod:`harness.recording.inflate`). Damage warns (or raises with ``strict=True``).
 
     ``defer_chunk_checks``: for a complete file, check each chunk's CRC and message index
     when the chunk is first read instead of when opening (opening then decompresses
@@ -126,15 +134,21 @@ class Recording:
             raise RecordingFormatError(f"{self.path}: cannot open: {exc.strerror}") from None
         self._buf = memoryview(self._mmap) if self._mmap is not None else memoryview(b"")
         try:
-            found = index_scan(self._buf, str(self.path), check_chunks=not defer_chunk_checks)
-            self._scan = found if found is not None else scan(self._buf, str(self.path))
+            # Not a harness recording: refused before a chunk is decompressed.
+            expect = Expected(PROFILE, METADATA_NAME)
+            found = index_scan(
+                self._buf, str(self.path), check_chunks=not defer_chunk_checks, expect=expect
+            )
+            self._scan = (
+                found if found is not None else scan(self._buf, str(self.path), expect=expect)
+            )
             self._check()
         except BaseException:
             self.close()
             raise
         self._store: Typestore | None = None
         if self._scan.problems:
-            text = "; ".join(str(p) for p in self._scan.problems)
+            text = self.problem_text()
             if strict:
                 self.close()
                 raise RecordingFormatError(f"{self.path}: damaged: {text}")
@@ -276,6 +290,11 @@ class Recording:
         """Damage found when opening (empty for a sound file)."""
         return list(self._scan.problems)
 
+    def problem_text(self, limit: int = 5) -> str:
+        """The damage found when opening, on one line: the first ``limit`` problems, then
+        how many more there are ("" for a sound file)."""
+        return problems_text(self._scan.problems, limit)
+
     @property
     def complete(self) -> bool:
         """True when the file was closed properly and nothing is damaged (with
@@ -365,14 +384,29 @@ class Recording:
                     raise RecordingFormatError(
                         f"{self.path}: schema {schema.name!r} is {schema.encoding!r}, not ros2msg"
                     )
-            self._store = _typestore_for(
-                tuple(sorted((str(x.name), bytes(x.data)) for x in self._scan.schemas.values()))
-            )
+            try:
+                self._store = _typestore_for(
+                    tuple(sorted((str(x.name), bytes(x.data)) for x in self._scan.schemas.values()))
+                )
+            except Exception as exc:  # the file's schemas are data: any failure is the file's
+                raise RecordingFormatError(
+                    f"{self.path}: the file's schemas do not define message types: {_brief(exc)}"
+                ) from None
         return self._store
+
+    def _deserialize(self, store: Typestore, raw: bytes, msgtype: str, log_time: int) -> Any:
+        try:
+            return store.deserialize_cdr(raw, msgtype)
+        except Exception as exc:  # a message of the file, typed by the file's own schemas
+            raise RecordingFormatError(
+                f"{self.path}: message of log time {log_time} does not decode as "
+                f"{msgtype!r}: {_brief(exc)}"
+            ) from None
 
     def decode(self, message: RecordedMessage) -> Any:
         """The rosbags object of ``message`` (typed by the file's own schema)."""
-        return self._typestore().deserialize_cdr(message.data, message.msgtype)
+        store = self._typestore()
+        return self._deserialize(store, message.data, message.msgtype, message.sim_time_ns)
 
     def messages(
         self,
@@ -411,7 +445,9 @@ class Recording:
                     continue
                 topic, msgtype = channels[cid]
                 raw = bytes(data)
-                msg = store.deserialize_cdr(raw, msgtype) if store is not None else None
+                msg = (
+                    self._deserialize(store, raw, msgtype, log_time) if store is not None else None
+                )
                 yield RecordedMessage(topic, msgtype, log_time, seq, raw, msg)
 
     def physics_state_arrays(

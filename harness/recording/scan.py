@@ -11,10 +11,18 @@ Two passes give the same :class:`Scan`: :func:`index_scan`, for a complete file 
 summary and data-section CRC present and right), takes the messages of each chunk from the
 chunk's message indexes (numpy over the decompressed chunk, checked against it) instead of
 walking every record in Python; :func:`scan` walks everything and is the one that finds and
-names damage. Both decompress and CRC-check every chunk (and keep none of it: reading
-decompresses again, which costs less than holding a whole file's chunks in fresh memory);
+names damage (the framing of a chunk's records is walked once, as it decompresses, by the
+counter of the record limits; its messages are then taken in all at once, with numpy).
+Both decompress and CRC-check every chunk (and keep none of it: reading decompresses again,
+which costs less than holding a whole file's chunks in fresh memory);
 ``index_scan(check_chunks=False)`` leaves that to the first :func:`read_chunk_data` of each
 chunk, for readers that read everything once anyway.
+
+Neither pass costs more than the file's limits allow (:mod:`harness.recording.inflate`): bytes
+decompressed, and records walked, per chunk and per file; a file over a record limit is
+refused (:class:`~harness.recording.errors.RecordingLimitError`) at the first record over
+it. A reader that wants only some files (:class:`Expected`: a profile, a metadata record) has
+the others refused before their first chunk is decompressed.
 
 This module holds the two passes; what they find is in :mod:`harness.recording.scanned`, the
 chunks are decoded and checked in :mod:`harness.recording.chunks` and the summary section is
@@ -25,20 +33,24 @@ from __future__ import annotations
 
 import struct
 from io import BytesIO
+from typing import NamedTuple
 
+import numpy as np
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import ChunkIndex, Header, Metadata
 
+from harness.recording import inflate
 from harness.recording._crc import crc32
 from harness.recording.chunks import (
     MAGIC,
-    MESSAGE_HEAD,
     MESSAGE_HEADER_SIZE,
     RECORD_HEAD,
     U64,
+    RecordCounter,
     RecordDamage,
     charge_declared,
+    charge_records,
     chunk_head,
     chunk_index_entries,
     chunk_messages,
@@ -49,11 +61,11 @@ from harness.recording.chunks import (
     offsets_by_channel,
     parse_record,
     read_chunk_data,
-    record_spans,
     take_definition,
 )
-from harness.recording.errors import RecordingFormatError
+from harness.recording.errors import RecordingFormatError, RecordingLimitError
 from harness.recording.scanned import (
+    I64,
     AttachmentInfo,
     ChunkInfo,
     IndexEntries,
@@ -66,6 +78,7 @@ from harness.recording.summary import (
     check_summary,
     summary_chunk_indexes,
     summary_chunk_offsets,
+    summary_metadata_names,
 )
 
 # The two passes, and (from scanned, chunks) the names readers have imported from here.
@@ -73,6 +86,7 @@ __all__ = [
     "MAGIC",
     "MESSAGE_HEADER_SIZE",
     "ChunkInfo",
+    "Expected",
     "IndexEntries",
     "Problem",
     "Scan",
@@ -87,6 +101,67 @@ __all__ = [
 ]
 
 _KNOWN = {int(op) for op in Opcode}
+
+
+class Expected(NamedTuple):
+    """What a file must be for a pass to walk it: the profile its header names, and a
+    metadata record of this name: listed by the summary's metadata indexes, or (a file
+    without a summary, e.g. a killed recorder's) before its first chunk, where the recorder
+    writes it. Anything else raises :class:`RecordingFormatError` before a chunk is
+    decompressed. (A summary that indexes no metadata at all decides nothing: such a file is
+    walked, within the limits, and judged after.)"""
+
+    profile: str
+    metadata: str
+
+    def check_header(self, header: Header, where: str) -> None:
+        """Raise when ``header`` names another profile."""
+        if header.profile != self.profile:
+            raise RecordingFormatError(
+                f"{where}: MCAP profile is {header.profile!r}, not {self.profile!r}: "
+                "not a harness recording"
+            )
+
+    def metadata_first(self, buf: memoryview, where: str) -> bool:
+        """Must the metadata record come before the first chunk? Raises when the summary
+        lists metadata records, none of this name."""
+        names = summary_metadata_names(buf)
+        if names is None:
+            return True
+        if names and self.metadata not in names:
+            raise RecordingFormatError(
+                f"{where}: no {self.metadata!r} metadata record (the summary indexes "
+                f"{', '.join(repr(n) for n in sorted(names)[:5])}): not a harness recording"
+            )
+        return False
+
+    def check_metadata(self, result: Scan, pos: int, where: str) -> None:
+        """Raise when no metadata record of :attr:`metadata` came before byte ``pos``, the
+        first chunk (or message) of the file."""
+        if not any(m.name == self.metadata for m in result.metadata):
+            raise RecordingFormatError(
+                f"{where}: no {self.metadata!r} metadata record before the first chunk "
+                f"(byte {pos}): not a harness recording"
+            )
+
+
+class _Walk(NamedTuple):
+    """What a pass needs besides the file: its name, the limits, what it must be, and
+    whether ``expect``'s metadata record must come before the first chunk."""
+
+    where: str
+    limits: inflate.InflateLimits
+    expect: Expected | None
+    metadata_first: bool
+
+
+def _walk(buf: memoryview, where: str, header: Header, expect: Expected | None) -> _Walk:
+    """What a pass of ``buf`` needs; raises when it is not what ``expect`` says, as far as
+    its header and summary tell."""
+    if expect is None:
+        return _Walk(where, _limits(where), None, False)
+    expect.check_header(header, where)
+    return _Walk(where, _limits(where), expect, expect.metadata_first(buf, where))
 
 
 def _header(buf: memoryview, where: str) -> tuple[Header, int]:
@@ -107,18 +182,37 @@ def _header(buf: memoryview, where: str) -> tuple[Header, int]:
     return header, 17 + length
 
 
-def scan(buf: memoryview, where: str) -> Scan:
+def _limits(where: str) -> inflate.InflateLimits:
+    try:
+        return inflate.current_limits()
+    except inflate.InflateError as exc:
+        raise RecordingFormatError(f"{where}: {exc}") from None
+
+
+def scan(buf: memoryview, where: str, *, expect: Expected | None = None) -> Scan:
     """Walk ``buf`` (a whole MCAP file); raise :class:`RecordingFormatError` only when nothing
-    can be read (empty, not MCAP, no header). ``where`` names the file in messages."""
+    can be read (empty, not MCAP, no header), when the file is not what ``expect`` says
+    (checked before the first chunk), and (:class:`RecordingLimitError`) at the first
+    record over a limit of :mod:`harness.recording.inflate`. ``where`` names the file in
+    messages."""
     header, pos = _header(buf, where)
+    walk = _walk(buf, where, header, expect)
     result = Scan(size=len(buf), header=header)
-    data_end = _scan_data(buf, pos, result)
+    data_end = _scan_data(buf, pos, result, walk)
+    if result.time_back > 1:
+        first = result.problems[result.time_back_problem]
+        result.problems[result.time_back_problem] = Problem(
+            first.offset,
+            f"{first.message}, and {result.time_back - 1} more messages go back in time",
+        )
     if data_end is not None:
         check_summary(buf, data_end, result)
     return result
 
 
-def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Scan | None:
+def index_scan(
+    buf: memoryview, where: str, *, check_chunks: bool = True, expect: Expected | None = None
+) -> Scan | None:
     """The opening pass of a complete file, through its summary and message indexes; ``None``
     when the file is not complete and consistent (then :func:`scan` names what is wrong).
 
@@ -130,8 +224,12 @@ def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Sca
     ``check_chunks=False`` leaves what needs a chunk's decompressed bytes (its CRC, its index
     entries against its records) to :func:`read_chunk_data`, the first time the chunk is
     read: :attr:`Scan.unchecked` lists them. The data-section CRC, checked here, already
-    covers the compressed bytes and the indexes."""
+    covers the compressed bytes and the indexes.
+
+    Refuses like :func:`scan`: a file that is not what ``expect`` says, before its first
+    chunk; a chunk whose message index lists more messages than a limit allows."""
     header, pos = _header(buf, where)
+    walk = _walk(buf, where, header, expect)
     size = len(buf)
     footer_pos = size - 8 - FOOTER_SIZE
     if footer_pos < pos or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
@@ -144,7 +242,9 @@ def index_scan(buf: memoryview, where: str, *, check_chunks: bool = True) -> Sca
     result = Scan(size=size, header=header)
     try:
         indexes = summary_chunk_indexes(buf[summary_start:footer_pos], result)
-        data_end = _index_data(buf, pos, summary_start, indexes, result, check_chunks)
+        data_end = _index_data(buf, pos, summary_start, indexes, result, check_chunks, walk)
+    except RecordingFormatError:  # a refusal, not an inconsistency
+        raise
     except Exception:  # any inconsistency at all: the full walk finds it and names it
         return None
     if data_end is None:
@@ -163,10 +263,12 @@ def _index_data(
     indexes: dict[int, ChunkIndex],
     result: Scan,
     check_chunks: bool,
+    walk: _Walk,
 ) -> int | None:
     """Walk the data section's top-level records (chunks, not their contents) up to
     ``limit``; return the end of the DataEnd record, or ``None`` on anything irregular."""
     last_time = -1
+    admitted = not walk.metadata_first
     while True:
         if pos + 9 > limit:
             return None
@@ -175,6 +277,11 @@ def _index_data(
         if end > limit or (opcode not in _KNOWN and opcode < 0x80):
             return None
         body = buf[pos + 9 : end]
+        if not admitted and opcode in (Opcode.CHUNK, Opcode.MESSAGE):
+            assert walk.expect is not None
+            walk.expect.check_metadata(result, pos, walk.where)
+            admitted = True
+        _charge(result, 1, walk, pos, "record")
         if opcode == Opcode.CHUNK:
             index = indexes.get(pos)
             if index is None or index.chunk_length != end - pos:
@@ -190,6 +297,7 @@ def _index_data(
             entries = chunk_index_entries(buf, limit, chunk.uncompressed_size, index, result)
             if entries is None:
                 return None
+            _charge(result, int(entries.where.size), walk, pos, "chunk")
             if check_chunks:
                 _, data = decode_chunk(body)
                 if not entries_match(data, entries):
@@ -228,13 +336,21 @@ def _index_data(
             result.data_crc_checked = True
             return end
         elif opcode in (Opcode.METADATA, Opcode.ATTACHMENT, Opcode.SCHEMA, Opcode.CHANNEL):
-            _data_record(opcode, pos, body, result, last_time)
+            _data_record(opcode, pos, body, result, last_time, walk.limits)
         elif opcode == Opcode.MESSAGE:
             return None
         pos = end
 
 
-def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
+def _charge(result: Scan, count: int, walk: _Walk, pos: int, what: str) -> None:
+    """:func:`charge_records`, its refusal naming the file and the record at ``pos``."""
+    try:
+        charge_records(result, count, walk.limits)
+    except RecordingLimitError as exc:
+        raise RecordingLimitError(f"{walk.where}: {what} at byte {pos} {exc}") from None
+
+
+def _scan_data(buf: memoryview, pos: int, result: Scan, walk: _Walk) -> int | None:
     """Scan the data section from ``pos``; return the end of the DataEnd record, or ``None``.
 
     A damaged record whose framing is intact (a chunk whose CRC or compression fails, an
@@ -245,6 +361,7 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
     last_time = -1
     end: int
     resync: list[int] | None = None  # chunk offsets from the summary, read on first need
+    admitted = not walk.metadata_first
     while True:
         if pos >= size:
             result.problems.append(Problem(pos, "truncated: the file ends before its summary"))
@@ -277,8 +394,15 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
             pos = following[0]
             continue
         body = buf[pos + 9 : end]
+        if not admitted and opcode in (Opcode.CHUNK, Opcode.MESSAGE):
+            assert walk.expect is not None
+            walk.expect.check_metadata(result, pos, walk.where)
+            admitted = True
+        _charge(result, 1, walk, pos, "record")
         try:
-            last_time = _data_record(opcode, pos, body, result, last_time)
+            last_time = _data_record(opcode, pos, body, result, last_time, walk.limits)
+        except RecordingLimitError as exc:
+            raise RecordingLimitError(f"{walk.where}: chunk at byte {pos} {exc}") from None
         except RecordDamage as exc:
             what = Opcode(opcode).name.lower()
             result.problems.append(Problem(pos, f"corrupt: {exc}; {what} record skipped"))
@@ -297,32 +421,25 @@ def _scan_data(buf: memoryview, pos: int, result: Scan) -> int | None:
         pos = end
 
 
-def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_time: int) -> int:
+def _data_record(
+    opcode: int,
+    pos: int,
+    body: memoryview,
+    result: Scan,
+    last_time: int,
+    limits: inflate.InflateLimits,
+) -> int:
     """Take in one data-section record; return the log time of the last message seen."""
     if opcode == Opcode.CHUNK:
         charge_declared(result, chunk_head(body))
-        chunk, data = decode_chunk(body)
-        channels: set[int] = set()
-        messages = 0
-        view = memoryview(data)
-        for inner, start, end in record_spans(view):
-            if take_definition(result, inner, view[start:end]):
-                continue
-            if inner == Opcode.MESSAGE:
-                channel_id, _, log_time, _ = MESSAGE_HEAD.unpack_from(view, start)
-                log_time = int(log_time)
-                if channel_id not in result.channels:
-                    raise RecordDamage(f"message on unknown channel {channel_id}")
-                if log_time < last_time:
-                    result.problems.append(
-                        Problem(pos, f"log time {log_time} goes back (after {last_time})")
-                    )
-                last_time = log_time
-                channels.add(channel_id)
-                messages += 1
-                result.counts[channel_id] = result.counts.get(channel_id, 0) + 1
-                first = result.time_ranges.get(channel_id, (log_time, 0))[0]
-                result.time_ranges[channel_id] = (first, log_time)
+        counter = RecordCounter(limits, result.records)
+        try:
+            chunk, data = decode_chunk(body, counter)
+        finally:
+            result.records += counter.count
+        counter.check_end()
+        starts = np.frombuffer(counter.starts, dtype=np.int64)
+        channels, messages, last_time = _chunk_records(result, pos, data, starts, last_time)
         if messages:
             if result.start_time < 0:
                 result.start_time = chunk.message_start_time
@@ -348,6 +465,80 @@ def _data_record(opcode: int, pos: int, body: memoryview, result: Scan, last_tim
     else:
         take_definition(result, opcode, body)
     return last_time
+
+
+def _chunk_records(
+    result: Scan, pos: int, data: bytes, starts: I64, last_time: int
+) -> tuple[set[int], int, int]:
+    """Take in the records of the chunk at ``pos`` (decompressed ``data``, its records
+    starting at ``starts``): definitions in order, then its messages all at once (numpy);
+    return the channels of its messages, how many there are and the last one's log time.
+    Raises :class:`RecordDamage` for a message on a channel not defined before it, or one
+    shorter than a message's header."""
+    if not starts.size:
+        return set(), 0, last_time
+    view = np.frombuffer(data, dtype=np.uint8)
+    opcodes = view[starts]
+    lengths = gather(view, starts + 1, "<u8")
+    known = set(result.channels)
+    saved = dict(result.schemas), dict(result.channels)
+    definitions = np.flatnonzero((opcodes == Opcode.SCHEMA) | (opcodes == Opcode.CHANNEL))
+    defined_at: dict[int, int] = {}
+    for i in definitions.tolist():
+        start = int(starts[i]) + 9
+        before = set(result.channels)
+        take_definition(result, int(opcodes[i]), data[start : start + int(lengths[i])])
+        for channel_id in result.channels.keys() - before:
+            defined_at.setdefault(channel_id, start)
+
+    def damaged(at: int, why: str) -> RecordDamage:
+        # As a walk in record order would leave it: the definitions before ``at`` taken in.
+        result.schemas, result.channels = saved
+        for i in definitions[starts[definitions] < at].tolist():
+            start = int(starts[i]) + 9
+            take_definition(result, int(opcodes[i]), data[start : start + int(lengths[i])])
+        return RecordDamage(why)
+
+    is_message = opcodes == Opcode.MESSAGE
+    at = starts[is_message]
+    if not at.size:
+        return set(), 0, last_time
+    short = np.flatnonzero(lengths[is_message] < MESSAGE_HEADER_SIZE - 9)
+    if short.size:
+        where = int(at[short[0]])
+        raise damaged(where, f"message record at {where} is shorter than its header")
+    channel_ids = gather(view, at + 9, "<u2").astype(np.int64)
+    times = gather(view, at + 15, "<u8")
+    found, first, count = np.unique(channel_ids, return_index=True, return_counts=True)
+    unknown = [
+        (i, channel_id)
+        for channel_id, i in zip(found.tolist(), first.tolist(), strict=True)
+        if channel_id not in known and defined_at.get(channel_id, len(data)) > int(at[i])
+    ]
+    if unknown:  # the first in the chunk (a later definition does not make it known)
+        i, channel_id = min(unknown)
+        raise damaged(int(at[i]), f"message on unknown channel {channel_id}")
+    previous = np.empty_like(times)
+    previous[0] = max(last_time, 0)
+    previous[1:] = times[:-1]
+    back = np.flatnonzero(times < previous)
+    if back.size:
+        if not result.time_back:  # the first only: scan() adds how many in all
+            i = int(back[0])
+            after = last_time if i == 0 else int(times[i - 1])
+            result.time_back_problem = len(result.problems)
+            result.problems.append(
+                Problem(pos, f"log time {int(times[i])} goes back (after {after})")
+            )
+        result.time_back += int(back.size)
+    last = channel_ids.size - 1 - np.unique(channel_ids[::-1], return_index=True)[1]
+    for channel_id, i, j, n in zip(
+        found.tolist(), first.tolist(), last.tolist(), count.tolist(), strict=True
+    ):
+        result.counts[channel_id] = result.counts.get(channel_id, 0) + n
+        start = result.time_ranges.get(channel_id, (int(times[i]), 0))[0]
+        result.time_ranges[channel_id] = (start, int(times[j]))
+    return set(found.tolist()), int(at.size), int(times[-1])
 
 
 def _attachment(pos: int, body: memoryview) -> AttachmentInfo:

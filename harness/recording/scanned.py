@@ -8,6 +8,7 @@ message index entries of chunks still to be checked (:class:`IndexEntries`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -23,6 +24,7 @@ __all__ = [
     "Problem",
     "Scan",
     "Skipped",
+    "problems_text",
 ]
 
 I64 = npt.NDArray[np.int64]
@@ -37,6 +39,14 @@ class Problem:
 
     def __str__(self) -> str:
         return f"byte {self.offset}: {self.message}"
+
+
+def problems_text(problems: Sequence[Problem], limit: int = 5) -> str:
+    """``problems`` on one line: the first ``limit``, then how many more there are."""
+    text = "; ".join(str(p) for p in problems[:limit])
+    if len(problems) > limit:
+        text += f"; and {len(problems) - limit} more problems (harness inspect lists them)"
+    return text
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +127,11 @@ class Scan:
     unchecked: dict[int, IndexEntries] = field(default_factory=dict)
     # What the chunks read so far declare they decompress to (bounded: harness.recording.inflate).
     declared_bytes: int = 0
+    # Records walked or indexed so far, in the data section and its chunks (bounded likewise).
+    records: int = 0
+    # Messages whose log time goes back: one problem names the first, with how many in all.
+    time_back: int = 0
+    time_back_problem: int = -1
 
     @property
     def message_count(self) -> int:

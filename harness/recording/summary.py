@@ -12,7 +12,7 @@ from __future__ import annotations
 import struct
 
 from mcap.opcode import Opcode
-from mcap.records import Channel, ChunkIndex, Statistics
+from mcap.records import Channel, ChunkIndex, MetadataIndex, Statistics
 
 from harness.recording._crc import crc32
 from harness.recording.chunks import (
@@ -25,7 +25,13 @@ from harness.recording.chunks import (
 )
 from harness.recording.scanned import Problem, Scan
 
-__all__ = ["FOOTER_SIZE", "check_summary", "summary_chunk_indexes", "summary_chunk_offsets"]
+__all__ = [
+    "FOOTER_SIZE",
+    "check_summary",
+    "summary_chunk_indexes",
+    "summary_chunk_offsets",
+    "summary_metadata_names",
+]
 
 FOOTER_SIZE = 1 + 8 + 20
 """A footer record: opcode, length, summary start, summary offset start, summary CRC."""
@@ -43,22 +49,47 @@ def summary_chunk_indexes(section: memoryview, result: Scan) -> dict[int, ChunkI
     return indexes
 
 
+def _summary_section(buf: memoryview) -> memoryview | None:
+    """The summary section (without the footer), when the file ends in a footer that points
+    at one whose CRC checks out."""
+    size = len(buf)
+    footer_pos = size - 8 - FOOTER_SIZE
+    if footer_pos < 8 or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
+        return None
+    summary_start, _, summary_crc = struct.unpack_from("<QQI", buf, footer_pos + 9)
+    if not summary_start or not 8 <= summary_start < footer_pos:
+        return None
+    if summary_crc and crc32(buf[summary_start : size - 12]) != summary_crc:
+        return None
+    return buf[summary_start:footer_pos]
+
+
+def summary_metadata_names(buf: memoryview) -> frozenset[str] | None:
+    """The names of the metadata records the summary's metadata indexes list; ``None``
+    without a summary whose CRC checks out (or one that cannot be read)."""
+    section = _summary_section(buf)
+    if section is None:
+        return None
+    names: set[str] = set()
+    try:
+        for opcode, start, end in record_spans(section):
+            if opcode == Opcode.METADATA_INDEX:
+                names.add(parse_record(MetadataIndex, section[start:end]).name)
+    except Exception:
+        return None
+    return frozenset(names)
+
+
 def summary_chunk_offsets(buf: memoryview, result: Scan) -> list[int]:
     """The chunk offsets the summary's chunk indexes list (ascending; empty without a summary
     whose CRC checks out); its schemas and channels go into ``result`` (chunks after a
     damaged one may use channels defined in it)."""
-    size = len(buf)
-    footer_pos = size - 8 - FOOTER_SIZE
-    if footer_pos < 8 or bytes(buf[size - 8 :]) != MAGIC or buf[footer_pos] != Opcode.FOOTER:
+    section = _summary_section(buf)
+    if section is None:
         return []
-    summary_start, _, summary_crc = struct.unpack_from("<QQI", buf, footer_pos + 9)
-    if not summary_start or not 8 <= summary_start < footer_pos:
-        return []
-    if summary_crc and crc32(buf[summary_start : size - 12]) != summary_crc:
-        return []
-    hint = Scan(size=size, header=result.header)
+    hint = Scan(size=len(buf), header=result.header)
     try:
-        indexes = summary_chunk_indexes(buf[summary_start:footer_pos], hint)
+        indexes = summary_chunk_indexes(section, hint)
     except Exception:
         return []
     for key, schema in hint.schemas.items():

@@ -108,20 +108,21 @@ def open_recording(
         warnings.simplefilter("ignore")
         rec = Recording(path, defer_chunk_checks=defer_chunk_checks)
     if rec.problems and not allow_damaged:
-        text = "; ".join(str(p) for p in rec.problems)
+        text = rec.problem_text()
         rec.close()
-        raise RecordedDataError(
-            f"{path}: the recording is damaged ({text}); pass --allow-damaged "
-            "(allow_damaged=True) to replay what precedes the damage"
-        )
+        raise RecordedDataError(f"{path}: the recording is damaged ({text}){_DAMAGED_HINT}")
     return rec
 
 
+# Not every command that opens a recording has --allow-damaged (play, diff): say which does.
+_DAMAGED_HINT = (
+    "; harness replay --allow-damaged (allow_damaged=True) replays what is intact, "
+    "harness repair IN OUT rewrites it as a sound recording"
+)
+
+
 def _damaged(rec: Recording, exc: RecordingDamagedError) -> RecordedDataError:
-    return RecordedDataError(
-        f"{rec.path}: the recording is damaged ({exc}); pass --allow-damaged "
-        "(allow_damaged=True) to replay what precedes the damage"
-    )
+    return RecordedDataError(f"{rec.path}: the recording is damaged ({exc}){_DAMAGED_HINT}")
 
 
 def check_chunks(rec: Recording) -> None:

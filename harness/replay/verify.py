@@ -272,10 +272,7 @@ def verify(
                 + ": the replay continues from each recorded reset state"
             )
         if rec.problems:
-            notes.append(
-                "damaged recording, replayed what is intact: "
-                + "; ".join(str(p) for p in rec.problems)
-            )
+            notes.append("damaged recording, replayed what is intact: " + rec.problem_text())
         first_ns, last_ns = rec.time_range(TOPIC_STATE)
         total = max(last_ns - first_ns, 0) // dt_ns
         inputs = _Inputs(rec, model)

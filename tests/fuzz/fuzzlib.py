@@ -8,12 +8,14 @@ seed bytes)``.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import re
 import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -28,6 +30,7 @@ from harness.recording import (
     Recording,
     RosoutRecord,
 )
+from harness.recording.inspect import format_report, inspect
 from harness.rosbridge import Bridge, TypeRegistry
 from harness.scenario import Scenario
 
@@ -161,9 +164,8 @@ def _recording_seed() -> bytes:
     return path.read_bytes()
 
 
-def fuzz_recording(data: bytes) -> None:
+def _read_recording(path: Path) -> None:
     """Open a recording and read everything in it (metadata, attachments, typed records)."""
-    path = _write("fuzz.mcap", data)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # damage warnings are the documented behaviour
         with Recording(path) as rec:
@@ -178,6 +180,45 @@ def fuzz_recording(data: bytes) -> None:
                 pass
             for message in rec.messages(["/rosout"]):
                 rec.decode(message)
+
+
+_SHAPES: ModuleType | None = None
+
+
+def _shapes() -> ModuleType:
+    """recording_shapes.py beside this file (imported by path: atheris runs this file's
+    folder as a top-level one, pytest as the package tests.fuzz)."""
+    global _SHAPES
+    if _SHAPES is None:
+        spec = importlib.util.spec_from_file_location(
+            "recording_shapes", HERE / "recording_shapes.py"
+        )
+        assert spec is not None
+        assert spec.loader is not None
+        _SHAPES = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(_SHAPES)
+    return _SHAPES
+
+
+def fuzz_recording(data: bytes) -> None:
+    """``data`` as a recipe first: the recording it builds (attachments, metadata, chunk
+    shapes: recording_shapes.py) read and inspected under small limits, where a refusal
+    must be one line of at most 2000 characters; then ``data`` as a recording file, read."""
+    shapes = _shapes()
+    shaped = _write("shaped.mcap", shapes.build(data))
+    with shapes.small_limits():
+        try:
+            _read_recording(shaped)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                format_report(inspect(shaped))
+        except RecordingError as exc:
+            text = str(exc)
+            if "\n" in text or len(text) > 2000:
+                raise AssertionError(
+                    f"not a one-line refusal ({len(text)} chars): {text[:300]!r}"
+                ) from None
+    _read_recording(_write("fuzz.mcap", data))
 
 
 Target = tuple[

@@ -135,3 +135,11 @@ def test_seed_works(name: str) -> None:
     """The unmutated seeds are valid inputs (else the mutations would test little)."""
     function, _, seed = TARGETS[name]
     function(seed)
+
+
+@examples(60)
+@given(data=st.binary(max_size=400))
+def test_recording_shapes(data: bytes) -> None:
+    """Recordings built from a recipe: attachments, metadata, chunks of every shape (lying
+    sizes, CRCs, times, millions-of-records cousins of the bomb, no summary or a cut one)."""
+    check("recording", data)
