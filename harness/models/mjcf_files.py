@@ -102,9 +102,10 @@ def check_mjcf_files(path: str | Path, roots: Sequence[Path] | None = None) -> N
             for attribute in _DIR_ATTRIBUTES:
                 value = element.get(attribute)
                 if value:
-                    folder = base / value
-                    _check(source, element, attribute, value, [folder], allowed)
-                    folders.append(folder)
+                    # A compiler directory is checked through the files looked up in it: one
+                    # no file uses opens nothing (a generated scene's absolute meshdir, recorded
+                    # on another machine, names a folder that exists only there).
+                    folders.append(base / value)
         for element in elements:
             for attribute in _FILE_ATTRIBUTES:
                 value = element.get(attribute)

@@ -107,3 +107,15 @@ def test_include_cycle_is_refused(layout: Path) -> None:
     path = _model(layout, '<include file="m.xml"/>')
     with pytest.raises(ResolveError, match="include cycle"):
         check_mjcf_files(path)
+
+
+def test_a_compiler_folder_no_file_uses_is_not_a_reference(layout: Path) -> None:
+    """A generated scene keeps an absolute meshdir back at its map's folder; recorded, it
+    names a folder of another machine. Nothing is looked up in it unless a file asset is, so
+    it loads; a mesh looked up through it is still refused."""
+    elsewhere = layout / "secret"
+    path = _model(layout, f'<compiler meshdir="{elsewhere}" texturedir="{elsewhere}"/>' + BODY)
+    assert load_robot(path).model.nbody >= 2
+    used = _model(layout, f'<compiler meshdir="{elsewhere}"/>' + MESH.format("key.stl"), "u.xml")
+    with pytest.raises(ResolveError, match="escapes the model's folder"):
+        load_robot(used)
