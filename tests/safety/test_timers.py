@@ -12,6 +12,7 @@ from websockets.asyncio.client import connect
 
 from harness.rosbridge import Bridge, BridgeServer
 from harness.rosbridge.deadlines import MAX_TIMEOUT_S, Deadlines
+from harness.rosbridge.limits import MAX_PENDING_CALLS_PER_CLIENT
 
 
 def _frames(outputs: list[Any]) -> list[tuple[int, dict[str, Any]]]:
@@ -99,7 +100,7 @@ def test_timer_flood_uses_one_loop_timer_and_leaves_with_the_caller() -> None:
             await provider.send(json.dumps({"op": "call_service", "service": "/rosapi/topics"}))
             await provider.recv()  # the advertisement has been processed
             caller = await connect(server.url, compression=None)
-            n = 5000
+            n = MAX_PENDING_CALLS_PER_CLIENT - 1  # the fast call below is the last one allowed
             frames = "".join(
                 f'{{"op": "call_service", "service": "/s", "id": {i}, "timeout": 1e300}}'
                 for i in range(n)
