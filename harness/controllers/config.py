@@ -16,7 +16,10 @@ The format is the one robot packages ship (``config/ros2_controllers.yaml``)::
 
 Node keys may carry a namespace or wildcard (``/**/controller_manager``, ``/robot/arm_controller``:
 the last name counts); a ``/**`` section applies to every node. A controller's ``type`` may also
-sit in its own section. Parameters keep their YAML nesting (``constraints: {goal_time: ...}``).
+sit in its own section, and then the ``controller_manager:`` section may be left out (current
+ros2_control: ``spawner --param-file``). Several files merge in order; ``$(var NAME)`` launch
+substitutions are expanded from arguments (:mod:`harness.controllers.substitutions`).
+Parameters keep their YAML nesting (``constraints: {goal_time: ...}``).
 :func:`default_controllers` is the set every robot gets when no file is given.
 """
 
@@ -32,6 +35,7 @@ from typing import Any
 import yaml  # type: ignore[import-untyped,unused-ignore]
 
 from harness.controllers.errors import ControllersConfigError
+from harness.controllers.substitutions import check_args, substitute, substitute_tree
 
 __all__ = [
     "DEFAULT_UPDATE_RATE",
@@ -40,6 +44,7 @@ __all__ = [
     "TYPE_JOINT_STATE_BROADCASTER",
     "TYPE_JOINT_TRAJECTORY",
     "ControllerSpec",
+    "ControllersSource",
     "ControllersConfig",
     "default_controllers",
     "load_controllers",
@@ -131,52 +136,52 @@ def _node_name(key: object) -> str:
     return str(key).rstrip("/").rsplit("/", 1)[-1]
 
 
-def load_controllers(source: str | Path | Mapping[str, Any]) -> ControllersConfig:
+ControllersSource = str | Path | Mapping[str, Any]
+"""One controllers YAML: a file path, YAML text, or the parsed mapping."""
+
+
+def load_controllers(
+    source: ControllersSource | Sequence[ControllersSource],
+    args: Mapping[str, object] | None = None,
+) -> ControllersConfig:
     """Read a controllers YAML: a file path, YAML text, or the parsed mapping (a scenario's
-    ``controllers:`` key). :class:`ControllersConfigError` names the file and key at fault."""
-    where = "controllers"
-    data: Any
-    if isinstance(source, Mapping):
-        data = source
-    else:
-        text = str(source)
-        path = Path(text)
-        if isinstance(source, Path) or ("\n" not in text and ":" not in text):
-            where = str(path)
-            try:
-                text = path.read_text("utf-8")
-            except OSError as exc:
-                raise ControllersConfigError(
-                    f"{where}: cannot read the controllers file: {exc.strerror}"
-                ) from None
-        try:
-            data = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            at = f" (line {mark.line + 1})" if mark is not None else ""
-            raise ControllersConfigError(f"{where}: not valid YAML{at}") from None
-    if not isinstance(data, Mapping):
-        raise ControllersConfigError(f"{where}: expected a mapping of node names at the top level")
+    ``controllers:`` key), or several of them merged in order as ``ros2 run ... --params-file
+    A --params-file B`` merges them (a later file's parameter wins; nested mappings merge).
+    ``args`` expands ``$(var NAME)`` (see :mod:`harness.controllers.substitutions`).
+    :class:`ControllersConfigError` names the file and key at fault.
+
+    The controllers are those a ``controller_manager:`` section lists (``name: {type: ...}`` or
+    ``name.type: ...``) and every node section with its own ``type:`` (spawned with
+    ``spawner --param-file``, as current ros2_control examples do); a file without a
+    ``controller_manager:`` section is read so, with the manager's defaults."""
+    many = isinstance(source, list | tuple)
+    sources: Sequence[ControllersSource] = source if many else [source]  # type: ignore[assignment]
+    if not sources:
+        raise ControllersConfigError("controllers: no controllers file given")
+    values = check_args(args or {}, "controllers_args")
     sections: dict[str, dict[str, Any]] = {}
     common: dict[str, Any] = {}
-    for key, body in data.items():
-        if not isinstance(body, Mapping) or not isinstance(body.get(_PARAMS, {}), Mapping):
-            raise ControllersConfigError(
-                f"{where}: {key}: expected a mapping with '{_PARAMS}:' under it"
-            )
-        params = dict(body.get(_PARAMS) or {})
-        name = _node_name(key)
-        if name == "**":
-            common.update(params)
-        else:
-            sections.setdefault(name, {}).update(params)
+    names: list[str] = []
+    for one in sources:
+        where, data = _read(one, values)
+        names.append(where)
+        for key, body in data.items():
+            if not isinstance(body, Mapping) or not isinstance(body.get(_PARAMS, {}), Mapping):
+                raise ControllersConfigError(
+                    f"{where}: {key}: expected a mapping with '{_PARAMS}:' under it"
+                )
+            params = dict(body.get(_PARAMS) or {})
+            name = _node_name(key)
+            _merge(common if name == "**" else sections.setdefault(name, {}), params)
+    where = " + ".join(names)
     manager = sections.get(_MANAGER)
-    if manager is None:
+    typed = [n for n, p in sections.items() if n != _MANAGER and "type" in p]
+    if manager is None and not typed:
         raise ControllersConfigError(
-            f"{where}: no '{_MANAGER}: {_PARAMS}:' section (the controllers a robot loads are "
-            "listed there)"
+            f"{where}: no controllers: no node section has a 'type:' and there is no "
+            f"'{_MANAGER}: {_PARAMS}:' section listing them"
         )
-    manager = {**common, **manager}
+    manager = {**common, **(manager or {})}
     rate = manager.get("update_rate", DEFAULT_UPDATE_RATE)
     if isinstance(rate, bool) or not isinstance(rate, int | float) or not rate > 0:
         raise ControllersConfigError(
@@ -203,11 +208,61 @@ def load_controllers(source: str | Path | Mapping[str, Any]) -> ControllersConfi
             )
         own.pop("type", None)
         specs.append(ControllerSpec(str(name), ctype, own))
-    names = [s.name for s in specs]
-    for name in sections:
-        if name != _MANAGER and name not in names and "type" in sections[name]:
-            specs.append(ControllerSpec(name, str(sections[name]["type"]), sections[name]))
+    listed = {s.name for s in specs}
+    for name in typed:
+        if name in listed:
+            continue
+        own = {**common, **sections[name]}
+        ctype = own.pop("type")
+        if not isinstance(ctype, str) or "/" not in ctype:
+            raise ControllersConfigError(
+                f"{where}: {name}.type must be a plugin name like "
+                f"'{TYPE_JOINT_TRAJECTORY}', not {ctype!r}"
+            )
+        specs.append(ControllerSpec(name, ctype, own))
     return ControllersConfig(float(rate), tuple(specs), where)
+
+
+def _read(source: ControllersSource, args: Mapping[str, str]) -> tuple[str, Mapping[Any, Any]]:
+    """One source's name (for messages) and its top-level mapping, substitutions expanded."""
+    where = "controllers"
+    data: Any
+    if isinstance(source, Mapping):
+        data = substitute_tree(source, args, where)
+    else:
+        text = str(source)
+        path = Path(text)
+        if isinstance(source, Path) or ("\n" not in text and ":" not in text):
+            where = str(path)
+            try:
+                text = path.read_text("utf-8")
+            except OSError as exc:
+                raise ControllersConfigError(
+                    f"{where}: cannot read the controllers file: {exc.strerror}"
+                ) from None
+        text = substitute(text, args, where)
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            at = f" (line {mark.line + 1})" if mark is not None else ""
+            raise ControllersConfigError(f"{where}: not valid YAML{at}") from None
+    if not isinstance(data, Mapping):
+        raise ControllersConfigError(f"{where}: expected a mapping of node names at the top level")
+    return where, data
+
+
+def _merge(into: dict[str, Any], params: Mapping[Any, Any]) -> None:
+    """``params`` over ``into``: a later value wins, nested mappings merge key by key (ROS
+    parameters are flat dotted names; the nesting is only their YAML spelling)."""
+    for key, value in params.items():
+        old = into.get(key)
+        if isinstance(old, Mapping) and isinstance(value, Mapping):
+            merged = dict(old)
+            _merge(merged, value)
+            into[key] = merged
+        else:
+            into[key] = value
 
 
 def _is_finger(joint: str) -> bool:

@@ -8,14 +8,24 @@ was searched.
 Package search order: the explicit ``packages`` map, then ``ROS_PACKAGE_PATH``, then the
 ``share/`` folder of each prefix in ``AMENT_PREFIX_PATH`` (a sourced ROS 2 install works as
 is), then the folders above the referencing file (a folder named like the package, a child
-folder named like it, or a folder whose ``package.xml`` declares that name). xacro's
+folder named like it, or a folder whose ``package.xml`` declares that name). A package is
+known by the ``<name>`` its ``package.xml`` declares, as rospack and ament know it: a folder
+named like the package counts unless its ``package.xml`` declares another name, and when no
+folder is named so, ``ROS_PACKAGE_PATH`` and the share folders are crawled for the
+``package.xml`` that declares it (as rospack does: not into a package, a hidden folder or one
+holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE``; at most
+:data:`CRAWL_LIMIT` folders per root). xacro's
 ``$(find pkg)`` uses the same search (:mod:`harness.models.xacro`). ``model://`` searches the
 explicit ``search_paths``, then ``GZ_SIM_RESOURCE_PATH``, ``SDF_PATH``,
 ``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file.
 
 ``package://`` and ``model://`` references are confined to the folder of the package (model)
-they name: a reference whose real path (``..`` and symlinks resolved) lies outside that folder
-is refused, as is a package name that is not a plain folder name (``..``, empty).
+they name: a reference whose path leaves that folder (``..``) is refused, and so is one whose
+real path (symlinks resolved) lies outside it, except into the same colcon workspace: in a
+``colcon build --symlink-install`` tree the files of ``install/<pkg>/share/<pkg>`` are links
+into ``src/`` (and ``build/``), and a link from a package under an ``install`` folder colcon
+made may lead anywhere inside that workspace (the folder holding ``install``), never out of
+it. A package name that is not a plain folder name (``..``, empty) is refused.
 """
 
 from __future__ import annotations
@@ -31,6 +41,7 @@ from harness.models.errors import OutsideReferenceError, ResolveError, UnknownPa
 from harness.names import package_problem
 
 __all__ = [
+    "CRAWL_LIMIT",
     "MODEL_PATH_VARIABLES",
     "PackageMap",
     "find_model",
@@ -50,6 +61,12 @@ MODEL_PATH_VARIABLES: tuple[str, ...] = (
 )
 
 
+CRAWL_LIMIT = 20_000
+"""The most folders one search root's crawl for a ``package.xml`` visits."""
+_IGNORE_MARKERS = ("CATKIN_IGNORE", "COLCON_IGNORE", "AMENT_IGNORE")
+_COLCON_INSTALL_MARKERS = (".colcon_install_layout", "COLCON_IGNORE", "local_setup.sh")
+
+
 def _env_paths(variables: Iterable[str]) -> list[Path]:
     paths: list[Path] = []
     for var in variables:
@@ -63,24 +80,72 @@ def _ament_shares() -> list[Path]:
     return [prefix / "share" for prefix in _env_paths(["AMENT_PREFIX_PATH"])]
 
 
-def _declares_package(folder: Path, name: str) -> bool:
+def _declared_name(folder: Path) -> str | None:
+    """The ``<name>`` of ``folder/package.xml`` (None: no readable manifest with a name)."""
     manifest = folder / "package.xml"
     if not manifest.is_file():
-        return False
+        return None
     try:
         text = manifest.read_text(errors="replace")
     except OSError:
-        return False
+        return None
     match = re.search(r"<name>\s*([^<\s]+)\s*</name>", text)
-    return match is not None and match.group(1) == name
+    return match.group(1) if match else None
 
 
-def _search(name: str, roots: Sequence[Path], start: Path | None) -> Path | None:
+def _declares_package(folder: Path, name: str) -> bool:
+    return _declared_name(folder) == name
+
+
+def _named(folder: Path, name: str) -> bool:
+    """Whether ``folder`` (named ``name``) is package ``name``: a folder without a manifest
+    counts by its name (a Gazebo model, an install share folder); one whose ``package.xml``
+    declares another name is that other package."""
+    if not folder.is_dir():
+        return False
+    declared = _declared_name(folder)
+    return declared is None or declared == name
+
+
+def _crawl(root: Path, name: str) -> Path | None:
+    """The folder under ``root`` whose ``package.xml`` declares ``name``, found as rospack
+    crawls (see the module docstring); None when there is none."""
+    pending = [root]
+    visited = 0
+    while pending and visited < CRAWL_LIMIT:
+        folder = pending.pop(0)
+        visited += 1
+        declared = _declared_name(folder)
+        if declared is not None:
+            if declared == name:
+                return folder
+            continue  # a package: no packages inside it
+        try:
+            children = sorted(
+                (c for c in folder.iterdir() if c.is_dir() and not c.is_symlink()),
+                key=lambda c: c.name,
+            )
+        except OSError:
+            continue
+        if any((folder / marker).exists() for marker in _IGNORE_MARKERS) and folder != root:
+            continue
+        pending.extend(c for c in children if not c.name.startswith("."))
+    return None
+
+
+def _search(
+    name: str, roots: Sequence[Path], start: Path | None, *, crawl: bool = False
+) -> Path | None:
     for root in roots:
-        if root.name == name and root.is_dir():
+        if root.name == name and _named(root, name):
             return root
-        if (root / name).is_dir():
+        if _named(root / name, name):
             return root / name
+    if crawl:
+        for root in roots:
+            found = _crawl(root, name)
+            if found is not None:
+                return found
     if start is not None:
         for folder in (start, *start.parents):
             if not inside_confinement(folder):
@@ -118,7 +183,7 @@ def find_package(
     roots = [] if confined else _env_paths(["ROS_PACKAGE_PATH"])
     ament = [] if confined else _ament_shares()
     begin = Path(start).resolve() if start is not None else None
-    found = _search(name, [*roots, *ament], begin)
+    found = _search(name, [*roots, *ament], begin, crawl=not confined)
     if found is None and confined:
         raise OutsideReferenceError(f"package {name!r} is not among the recording's attachments")
     if found is None:
@@ -170,17 +235,35 @@ def _check_name(name: str, kind: str) -> None:
         raise ResolveError(f"invalid {kind} name {name!r}: it {problem}")
 
 
+def _workspace(root: Path) -> Path | None:
+    """The colcon workspace ``root`` (a package folder, links not followed) was installed
+    into: the folder holding the ``install`` folder above it that colcon made (None when
+    there is none)."""
+    for folder in root.absolute().parents:
+        if folder.name == "install" and folder.parent != folder.parent.parent:
+            if any((folder / marker).exists() for marker in _COLCON_INSTALL_MARKERS):
+                return folder.parent
+    return None
+
+
 def _confined(root: Path, rest: str, kind: str, name: str) -> Path:
-    """``root / rest``, refusing anything whose real path leaves ``root``."""
+    """``root / rest``, refusing a path that leaves ``root`` (``..``) and one whose real path
+    leaves ``root``'s real path, unless it stays inside the colcon workspace ``root`` was
+    installed into (a ``--symlink-install`` tree)."""
     path = root / rest
     real_root = root.resolve()
+    lexical = Path(os.path.normpath(root.absolute() / rest))
     real = path.resolve()
-    if not real.is_relative_to(real_root):
-        raise ResolveError(
-            f"reference escapes {kind} {name!r} (folder {str(real_root)!r}, "
-            f"the reference leads to {str(real)!r})"
-        )
-    return path
+    if lexical.is_relative_to(root.absolute()) and real.is_relative_to(real_root):
+        return path
+    workspace = _workspace(root) if lexical.is_relative_to(root.absolute()) else None
+    if workspace is not None and real.is_relative_to(workspace.resolve()):
+        return path
+    within = f" or its workspace {str(workspace.resolve())!r}" if workspace is not None else ""
+    raise ResolveError(
+        f"reference escapes {kind} {name!r} (folder {str(real_root)!r}{within}, "
+        f"the reference leads to {str(real)!r})"
+    )
 
 
 def resolve_uri(

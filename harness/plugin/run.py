@@ -135,7 +135,9 @@ class HarnessRun:
         default_robot = None if robots else "demo"
         robot = resolve_path(opts.pop("robot", default_robot), self.item, rootdir)
         scene = resolve_path(opts.pop("scene", None), self.item, rootdir)
-        if "controllers" in opts:
+        if isinstance(opts.get("controllers"), list | tuple):  # several files, merged in order
+            opts["controllers"] = [resolve_path(c, self.item, rootdir) for c in opts["controllers"]]
+        elif "controllers" in opts:
             opts["controllers"] = resolve_path(opts["controllers"], self.item, rootdir)
         mode = suite_mode(opts.pop("mode", None), self.settings.actuation)
         parse_load_options(opts, self.item.nodeid)

@@ -355,7 +355,9 @@ class _Builder:
             timestep=float(data.get("timestep", 0.002)),
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
-            controllers=self.controllers(data.get("controllers")),
+            controllers=self.controllers(
+                data.get("controllers"), data.get("controllers_args") or {}
+            ),
             sensors=self.sensors(data.get("sensors", [])),
             clock=None
             if clock is None
@@ -426,19 +428,27 @@ class _Builder:
                     [key, i, "name"], name, f"is already the name of {key}[{names.index(name)}]"
                 )
 
-    def controllers(self, value: str | Mapping[str, Any] | None) -> ControllersConfig | None:
+    def controllers(
+        self, value: str | Mapping[str, Any] | list[Any] | None, args: Mapping[str, Any]
+    ) -> ControllersConfig | None:
         if value is None:
             return None
-        source: str | Path | Mapping[str, Any] = value
-        if isinstance(value, str):
-            source = self.base / value
-            if not source.is_file():
-                self.problem(["controllers"], value, f"not found (looked for {source})")
-                return None
+        sources: list[str | Path | Mapping[str, Any]] = []
+        for i, one in enumerate(value if isinstance(value, list) else [value]):
+            path: list[str | int] = ["controllers", i] if isinstance(value, list) else ["controllers"]
+            if isinstance(one, str):
+                file = self.base / one
+                if not file.is_file():
+                    self.problem(path, one, f"not found (looked for {file})")
+                    return None
+                sources.append(file)
+            else:
+                sources.append(one)
         try:
-            return load_controllers(source)
+            return load_controllers(sources if isinstance(value, list) else sources[0], args)
         except ControllersConfigError as exc:
-            self.problem(["controllers"], value if isinstance(value, str) else "{...}", str(exc))
+            shown = value if isinstance(value, str) else "[...]" if isinstance(value, list) else "{...}"
+            self.problem(["controllers"], shown, str(exc))
             return None
 
     def map(self, value: str) -> str | Path:

@@ -62,9 +62,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--controllers",
         metavar="FILE",
+        action="append",
         default=None,
-        help="ros2_control controllers YAML (default: joint_state_broadcaster, "
-        "joint_trajectory_controller, a gripper controller where the robot has fingers)",
+        help="ros2_control controllers YAML; repeatable: the files merge in order, as "
+        "--params-file does (default: joint_state_broadcaster, joint_trajectory_controller, "
+        "a gripper controller where the robot has fingers)",
+    )
+    parser.add_argument(
+        "--controllers-arg",
+        dest="controllers_args",
+        metavar="NAME:=VALUE",
+        type=_controllers_arg,
+        action="append",
+        default=[],
+        help="the value of $(var NAME) in the controllers YAML, as a launch argument "
+        "(repeatable), e.g. --controllers-arg joint_prefix:=joint",
     )
     parser.add_argument(
         "--token",
@@ -90,6 +102,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="also put the simulation on DDS for ROS 2 nodes (rclpy gateway; see README)",
     )
+
+
+def _controllers_arg(text: str) -> tuple[str, str]:
+    """One ``--controllers-arg NAME:=VALUE``."""
+    from harness.controllers.substitutions import ARG_NAME
+
+    name, sep, value = text.partition(":=")
+    if not sep or not ARG_NAME.match(name):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not NAME:=VALUE (a launch argument of the controllers YAML)"
+        )
+    return name, value
 
 
 def run(args: argparse.Namespace) -> int:
@@ -143,7 +167,8 @@ def run(args: argparse.Namespace) -> int:
             scene=args.scene,
             robot_args=robot_args(args),
             **load_options(args),
-            controllers=Path(args.controllers) if args.controllers else None,
+            controllers=[Path(p) for p in args.controllers] if args.controllers else None,
+            controllers_args=dict(args.controllers_args),
         ) as session:
             previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
             clock = f"{args.clock} x{args.rate:g}" if args.clock == "realtime" else args.clock

@@ -56,13 +56,25 @@ _CONFIG_DEFAULT = "default"
 _CONFIG_NONE = "none"
 
 
-ControllersOption = ControllersConfig | str | Path | Mapping[str, Any] | bool | None
-"""What ``controllers=`` takes: a controllers YAML (path, text or parsed mapping), a
-:class:`ControllersConfig`, None/True (the default set) or False/``"none"`` (no controllers)."""
+ControllersOption = (
+    ControllersConfig
+    | str
+    | Path
+    | Mapping[str, Any]
+    | Sequence[str | Path | Mapping[str, Any]]
+    | bool
+    | None
+)
+"""What ``controllers=`` takes: a controllers YAML (path, text or parsed mapping) or several
+(merged in order), a :class:`ControllersConfig`, None/True (the default set) or
+False/``"none"`` (no controllers)."""
 
 
-def controllers_option(value: ControllersOption) -> ControllersConfig | str:
-    """The core's form of a ``controllers=`` value (a YAML is read here)."""
+def controllers_option(
+    value: ControllersOption, args: Mapping[str, Any] | None = None
+) -> ControllersConfig | str:
+    """The core's form of a ``controllers=`` value (a YAML is read here, its ``$(var NAME)``
+    expanded from ``args``: ``controllers_args=``)."""
     if value is None or value is True or value == _CONFIG_DEFAULT:
         return _CONFIG_DEFAULT
     if value is False or value == _CONFIG_NONE:
@@ -70,9 +82,12 @@ def controllers_option(value: ControllersOption) -> ControllersConfig | str:
     if isinstance(value, ControllersConfig):
         return value
     if isinstance(value, str | Path | Mapping):
-        return load_controllers(value)
+        return load_controllers(value, args)
+    if isinstance(value, list | tuple) and all(isinstance(v, str | Path | Mapping) for v in value):
+        return load_controllers(value, args)
     raise ControllersConfigError(
-        f"controllers must be a YAML file, YAML text, a mapping, True or False, not {value!r}"
+        "controllers must be a YAML file, YAML text, a mapping, a list of them, True or False, "
+        f"not {value!r}"
     )
 
 

@@ -353,7 +353,8 @@ class LoadOptions:
     ``mode`` (the control mode of ``robot``'s joints, or joint -> mode), ``scene`` (a built-in
     name, an MJCF scene or an SDF world; ``world=`` is the same keyword, as Gazebo users name
     it), ``robot_args`` (a xacro robot's arguments), ``self_collision``, ``base`` and
-    ``strict`` (as for :func:`harness.models.load_robot`)."""
+    ``strict`` (as for :func:`harness.models.load_robot`), ``controllers_args`` (the
+    controllers YAML's launch arguments)."""
 
     robots: Sequence[RobotSpec] | LoadedWorld | None = None
     objects: Sequence[WorldObject] = ()
@@ -363,6 +364,9 @@ class LoadOptions:
     self_collision: SelfCollision | None = None
     base: BaseKind | None = None
     strict: bool = False
+    controllers_args: Mapping[str, Any] | None = None
+    """The values of the controllers YAML's ``$(var NAME)`` launch substitutions (name ->
+    value; read with ``controllers=`` given as a keyword)."""
 
 
 class SessionKeywords(TypedDict, total=False):
@@ -401,6 +405,7 @@ class SessionKeywords(TypedDict, total=False):
     self_collision: SelfCollision | None
     base: BaseKind | None
     strict: bool
+    controllers_args: Mapping[str, Any] | None
 
 
 _GROUPS: dict[str, type[Any]] = {
@@ -431,10 +436,12 @@ def group_keywords(keywords: Mapping[str, Any], given: Mapping[str, Any]) -> dic
     if unknown:
         raise TypeError(f"Session() got an unexpected keyword argument {unknown[0]!r}")
     out: dict[str, Any] = {}
+    load = given.get("load")
+    args = keywords.get("controllers_args", getattr(load, "controllers_args", None))
     for group, cls in _GROUPS.items():
         mine = {k: v for k, v in keywords.items() if SESSION_KEYWORDS[k] == group}
         if "controllers" in mine:  # a YAML (file, text, mapping) or True/False/None
-            mine["controllers"] = controllers_option(mine["controllers"])
+            mine["controllers"] = controllers_option(mine["controllers"], args)
         obj = given.get(group)
         if obj is not None and mine:
             raise SessionConfigError(

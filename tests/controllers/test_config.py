@@ -77,7 +77,7 @@ def test_real_yaml_configures_the_session_from_the_marker(harness_session: Sessi
 @pytest.mark.parametrize(
     ("text", "words"),
     [
-        ("arm:\n  ros__parameters: {}\n", "no 'controller_manager: ros__parameters:' section"),
+        ("arm:\n  ros__parameters: {}\n", "no controllers: no node section has a 'type:'"),
         ("controller_manager:\n  ros__parameters:\n    update_rate: -1\n", "update_rate"),
         (
             "controller_manager:\n  ros__parameters:\n    arm:\n      type: 3\n",
