@@ -30,7 +30,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, cast
 
 import yaml  # type: ignore[import-untyped,unused-ignore]
 
@@ -44,8 +44,8 @@ __all__ = [
     "TYPE_JOINT_STATE_BROADCASTER",
     "TYPE_JOINT_TRAJECTORY",
     "ControllerSpec",
-    "ControllersSource",
     "ControllersConfig",
+    "ControllersSource",
     "default_controllers",
     "load_controllers",
 ]
@@ -154,8 +154,9 @@ def load_controllers(
     ``name.type: ...``) and every node section with its own ``type:`` (spawned with
     ``spawner --param-file``, as current ros2_control examples do); a file without a
     ``controller_manager:`` section is read so, with the manager's defaults."""
-    many = isinstance(source, list | tuple)
-    sources: Sequence[ControllersSource] = source if many else [source]  # type: ignore[assignment]
+    sources: Sequence[ControllersSource] = (
+        source if isinstance(source, list | tuple) else [cast(ControllersSource, source)]
+    )
     if not sources:
         raise ControllersConfigError("controllers: no controllers file given")
     values = check_args(args or {}, "controllers_args")

@@ -54,8 +54,7 @@ def substitute(text: str, args: Mapping[str, str], where: str, *, lines: bool = 
         at = f"line {text.count(chr(10), 0, match.start()) + 1}: " if lines else ""
         if kind != "var" or len(rest) != 1:
             raise ControllersConfigError(
-                f"{where}: {at}{match.group(0)} is not supported "
-                "(only $(var NAME) is expanded)"
+                f"{where}: {at}{match.group(0)} is not supported (only $(var NAME) is expanded)"
             )
         name = rest[0]
         if name not in args:

@@ -240,9 +240,12 @@ def _workspace(root: Path) -> Path | None:
     into: the folder holding the ``install`` folder above it that colcon made (None when
     there is none)."""
     for folder in root.absolute().parents:
-        if folder.name == "install" and folder.parent != folder.parent.parent:
-            if any((folder / marker).exists() for marker in _COLCON_INSTALL_MARKERS):
-                return folder.parent
+        if (
+            folder.name == "install"
+            and folder.parent != folder.parent.parent  # never the whole filesystem
+            and any((folder / marker).exists() for marker in _COLCON_INSTALL_MARKERS)
+        ):
+            return folder.parent
     return None
 
 

@@ -435,7 +435,9 @@ class _Builder:
             return None
         sources: list[str | Path | Mapping[str, Any]] = []
         for i, one in enumerate(value if isinstance(value, list) else [value]):
-            path: list[str | int] = ["controllers", i] if isinstance(value, list) else ["controllers"]
+            path: list[str | int] = (
+                ["controllers", i] if isinstance(value, list) else ["controllers"]
+            )
             if isinstance(one, str):
                 file = self.base / one
                 if not file.is_file():
@@ -447,7 +449,9 @@ class _Builder:
         try:
             return load_controllers(sources if isinstance(value, list) else sources[0], args)
         except ControllersConfigError as exc:
-            shown = value if isinstance(value, str) else "[...]" if isinstance(value, list) else "{...}"
+            shown = (
+                value if isinstance(value, str) else "[...]" if isinstance(value, list) else "{...}"
+            )
             self.problem(["controllers"], shown, str(exc))
             return None
 
