@@ -42,7 +42,8 @@ run``'s verdicts), ``connect`` (``connect_to``), and every other field of the se
 options objects (:mod:`harness.session.options`: ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``, ``start``, ``controllers`` (a ros2_control controllers YAML, relative
-to the test file's folder, or False), ``sensors``, ``robots``, ``objects``, ``robot_args`` (a
+to the test file's folder, a list of them merged in order, or False), ``controllers_args`` (its
+``$(var NAME)`` values), ``sensors``, ``robots``, ``objects``, ``robot_args`` (a
 xacro robot's arguments, recorded in the metadata), ``self_collision`` (``auto|off|on|srdf``),
 ``base`` (``fixed|floating``), ``strict``, ...) except ``host``, ``port``, ``token`` and
 ``record_to``, which the plugin chooses (a free port, the test's recording).

@@ -134,13 +134,17 @@ def _crawl(root: Path, name: str) -> Path | None:
 
 
 def _search(
-    name: str, roots: Sequence[Path], start: Path | None, *, crawl: bool = False
+    name: str, roots: Sequence[Path], start: Path | None, *, package: bool = False
 ) -> Path | None:
+    """``package``: a ROS package (known by its ``package.xml``, crawled for), else a Gazebo
+    model (known by its folder name)."""
+    named = _named if package else (lambda folder, _: folder.is_dir())
     for root in roots:
-        if root.name == name and _named(root, name):
+        if root.name == name and named(root, name):
             return root
-        if _named(root / name, name):
+        if named(root / name, name):
             return root / name
+    crawl = package and confinement() is None
     if crawl:
         for root in roots:
             found = _crawl(root, name)
@@ -183,7 +187,7 @@ def find_package(
     roots = [] if confined else _env_paths(["ROS_PACKAGE_PATH"])
     ament = [] if confined else _ament_shares()
     begin = Path(start).resolve() if start is not None else None
-    found = _search(name, [*roots, *ament], begin, crawl=not confined)
+    found = _search(name, [*roots, *ament], begin, package=True)
     if found is None and confined:
         raise OutsideReferenceError(f"package {name!r} is not among the recording's attachments")
     if found is None:
@@ -259,7 +263,9 @@ def _confined(root: Path, rest: str, kind: str, name: str) -> Path:
     real = path.resolve()
     if lexical.is_relative_to(root.absolute()) and real.is_relative_to(real_root):
         return path
-    workspace = _workspace(root) if lexical.is_relative_to(root.absolute()) else None
+    # never while a rebuild from a recording is confined (its files are plain files anyway)
+    widen = lexical.is_relative_to(root.absolute()) and confinement() is None
+    workspace = _workspace(root) if widen else None
     if workspace is not None and real.is_relative_to(workspace.resolve()):
         return path
     within = f" or its workspace {str(workspace.resolve())!r}" if workspace is not None else ""

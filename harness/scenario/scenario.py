@@ -270,6 +270,9 @@ class Scenario:
     source: Path | None = None
     controllers: ControllersConfig | None = None
     """The ros2_control controllers (None: each robot's default set)."""
+    controllers_args: Mapping[str, str] = field(default_factory=dict)
+    """The values the controllers YAML's ``$(var NAME)`` took (already expanded in
+    ``controllers``)."""
 
     @classmethod
     def load(cls, path: str | Path) -> Scenario:
@@ -358,6 +361,9 @@ class _Builder:
             controllers=self.controllers(
                 data.get("controllers"), data.get("controllers_args") or {}
             ),
+            controllers_args={
+                str(k): _arg_text(v) for k, v in (data.get("controllers_args") or {}).items()
+            },
             sensors=self.sensors(data.get("sensors", [])),
             clock=None
             if clock is None
