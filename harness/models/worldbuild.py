@@ -25,6 +25,7 @@ from harness.models.compiler import (
     mujoco_warnings,
     spec_from_file,
 )
+from harness.models.decompose import MeshCollision, check_mesh_collision, decompose_spec
 from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.drive_plugins import plugin_modes
 from harness.models.errors import CompileError, ModelStructureError
@@ -56,6 +57,7 @@ def load_world(
     objects: Sequence[WorldObject] = (),
     timestep: float | None = None,
     cache_dir: str | Path | None = None,
+    mesh_collision: MeshCollision = "decompose",
 ) -> LoadedWorld:
     """Load several robots (and primitive ``objects``) into one world and compile it.
 
@@ -67,7 +69,9 @@ def load_world(
     the demo, a lone MJCF robot in the empty namespace its own world, else ``"floor"``.
     ``objects`` are added to the world body before the robots (free objects come first in
     ``qpos``, after the scene's). ``timestep`` overrides the scene's (the servo gains are
-    tuned for it).
+    tuned for it). ``mesh_collision``: ``"decompose"`` (default: a non-convex colliding mesh,
+    of the scene or a robot, collides as convex pieces within 2 cm of its triangles) or
+    ``"hull"`` (as its convex hull); see :mod:`harness.models.decompose`.
 
     Keyframes combine: each key name any robot has becomes one key whose robot part is that
     robot's key of that name (else its ``home``, else its zero configuration), whose rest is
@@ -79,11 +83,13 @@ def load_world(
     """
     if not robots:
         raise ModelStructureError("load_world: no robots given")
+    mesh_collision = check_mesh_collision(mesh_collision, "load_world")
     several = len(robots) > 1
     prepared: list[RobotBuild] = []
     namespaces: dict[str, int] = {}
     for index, request in enumerate(robots):
         robot = RobotBuild(index, request, cache_dir)
+        decompose_spec(robot.spec, mode=mesh_collision, source=robot.source, cache_dir=cache_dir)
         where = robot.where(several)
         if request.namespace is None:
             namespace = check_namespace(robot.description.name, where)
@@ -116,7 +122,8 @@ def load_world(
         for number, obj in enumerate(objects):
             add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
-        spec, _scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
+        spec, scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
+        decompose_spec(spec, mode=mesh_collision, source=str(scene_path), cache_dir=cache_dir)
         sources.update(scene_sources)
         for number, obj in enumerate(objects):
             add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
