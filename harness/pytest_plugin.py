@@ -45,8 +45,9 @@ options objects (:mod:`harness.session.options`: ``rate``, ``namespace``, ``stat
 to the test file's folder, a list of them merged in order, or False), ``controllers_args`` (its
 ``$(var NAME)`` values), ``sensors``, ``robots``, ``objects``, ``robot_args`` (a
 xacro robot's arguments, recorded in the metadata), ``self_collision`` (``auto|off|on|srdf``),
-``base`` (``fixed|floating``), ``strict``, ...) except ``host``, ``port``, ``token`` and
-``record_to``, which the plugin chooses (a free port, the test's recording).
+``base`` (``fixed|floating``), ``strict``, ``mesh_collision`` (``decompose|hull``), ...) except
+``host``, ``port``, ``token`` and ``record_to``, which the plugin chooses (a free port, the
+test's recording).
 
 ``scenario=``: the session ``harness run`` would start for the file
 (:func:`harness.scenario.session_options.scenario_session`: every robot with its pose, control

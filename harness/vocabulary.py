@@ -21,12 +21,14 @@ __all__ = [
     "LIMIT_POLICIES",
     "LIMIT_POLICY_KEY",
     "LIMIT_POLICY_OLD_KEY",
+    "MESH_COLLISION_MODES",
     "SCHEMA_ENUMS",
     "SELF_COLLISION_POLICIES",
     "Actuation",
     "ClockMode",
     "ControlMode",
     "LimitPolicy",
+    "MeshCollisionMode",
     "RobotBase",
     "SelfCollisionPolicy",
     "apply_schema_enums",
@@ -147,10 +149,33 @@ class RobotBase(_Vocabulary):
             ) from None
 
 
+class MeshCollisionMode(_Vocabulary):
+    """How a colliding non-convex mesh collides (option ``mesh_collision``, see
+    ``harness.models.decompose``): ``decompose`` (convex pieces within 2 cm of its
+    triangles, as Gazebo collides the triangles) or ``hull`` (MuJoCo's convex hull of the
+    whole mesh)."""
+
+    DECOMPOSE = "decompose"
+    HULL = "hull"
+
+    @classmethod
+    def parse(cls, value: object, where: str = "mesh_collision") -> MeshCollisionMode:
+        """``value`` as a member; a ValueError naming ``where`` and the spellings otherwise."""
+        try:
+            return cls(value)
+        except ValueError:
+            raise ValueError(
+                f"{where}: unknown mesh_collision {value!r} (one of "
+                f"{', '.join(MESH_COLLISION_MODES)})"
+            ) from None
+
+
 SELF_COLLISION_POLICIES: tuple[str, ...] = tuple(p.value for p in SelfCollisionPolicy)
 """Every spelling of ``self_collision`` (argparse ``choices``, schema ``enum``)."""
 BASE_KINDS: tuple[str, ...] = tuple(b.value for b in RobotBase)
 """Every spelling of ``base`` (argparse ``choices``, schema ``enum``)."""
+MESH_COLLISION_MODES: tuple[str, ...] = tuple(m.value for m in MeshCollisionMode)
+"""Every spelling of ``mesh_collision`` (argparse ``choices``, schema ``enum``)."""
 
 
 def _parse(cls: Any, value: object, where: str, concept: str, spellings: tuple[str, ...]) -> Any:
@@ -257,6 +282,7 @@ SCHEMA_ENUMS: Mapping[str, Mapping[tuple[str, ...], tuple[str, ...]]] = {
         ("properties", "clock", "properties", "mode"): CLOCK_MODES,
         ("$defs", "robot", "properties", "self_collision"): SELF_COLLISION_POLICIES,
         ("$defs", "robot", "properties", "base"): BASE_KINDS,
+        ("properties", "environment", "properties", "mesh_collision"): MESH_COLLISION_MODES,
         ("$defs", "controller", "properties", "mode"): CONTROL_MODE_INPUTS,
         ("$defs", "controller", "properties", LIMIT_POLICY_KEY): LIMIT_POLICIES,
         ("$defs", "controller", "properties", LIMIT_POLICY_OLD_KEY): LIMIT_POLICIES,

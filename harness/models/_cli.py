@@ -53,10 +53,11 @@ def robot_args(args: argparse.Namespace) -> dict[str, str]:
 
 
 def add_load_options(parser: argparse.ArgumentParser, *, strict_only: bool = False) -> None:
-    """``--self-collision``, ``--base`` and ``--strict`` (the ``self_collision``, ``base``
-    and ``strict`` options of :func:`harness.models.load_robot`); ``strict_only`` adds only
-    ``--strict`` (a command that reads a description without simulating it)."""
-    from harness.vocabulary import BASE_KINDS, SELF_COLLISION_POLICIES
+    """``--self-collision``, ``--base``, ``--mesh-collision`` and ``--strict`` (the
+    ``self_collision``, ``base``, ``mesh_collision`` and ``strict`` options of
+    :func:`harness.models.load_robot`); ``strict_only`` adds only ``--strict`` (a command
+    that reads a description without simulating it)."""
+    from harness.vocabulary import BASE_KINDS, MESH_COLLISION_MODES, SELF_COLLISION_POLICIES
 
     if not strict_only:
         parser.add_argument(
@@ -73,6 +74,14 @@ def add_load_options(parser: argparse.ArgumentParser, *, strict_only: bool = Fal
             default=None,
             help="fixed to the world or floating (default: as the file says; URDF: fixed)",
         )
+        parser.add_argument(
+            "--mesh-collision",
+            dest="mesh_collision",
+            choices=MESH_COLLISION_MODES,
+            default=None,
+            help="a non-convex collision mesh collides as convex pieces within 2 cm of its "
+            "triangles (decompose, default) or as its convex hull (hull)",
+        )
     parser.add_argument(
         "--strict",
         action="store_true",
@@ -84,7 +93,7 @@ def load_options(args: argparse.Namespace) -> dict[str, Any]:
     """The options of :func:`add_load_options` given on the command line, as keyword
     arguments of :func:`harness.models.load_robot` (those not given are left out)."""
     options: dict[str, Any] = {}
-    for name in ("self_collision", "base"):
+    for name in ("self_collision", "base", "mesh_collision"):
         value = getattr(args, name, None)
         if value is not None:
             options[name] = value

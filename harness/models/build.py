@@ -26,6 +26,7 @@ import mujoco
 
 from harness.models.bundled import DEMO_URDF, SCENES
 from harness.models.compiler import compile_spec, spec_from_file
+from harness.models.decompose import MeshCollision
 from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.lenient import lenient_urdf
 from harness.models.resolve import PackageMap
@@ -87,6 +88,7 @@ class LoadedRobot:
     self_collision: SelfCollisionReport | None = None
     base: BaseKind = "fixed"
     placement: Pose = field(default_factory=Pose)
+    mesh_collision: str = "decompose"
 
 
 def load_description(
@@ -132,6 +134,7 @@ def load_robot(
     strict: bool = False,
     self_collision: SelfCollision | None = None,
     base: BaseKind | None = None,
+    mesh_collision: MeshCollision = "decompose",
 ) -> LoadedRobot:
     """Load ``source`` into MuJoCo with one actuator per controllable joint.
 
@@ -149,7 +152,8 @@ def load_robot(
     ``"off"``, ``"on"`` or ``"srdf"`` (see :mod:`harness.models.selfcollision`). ``base``:
     ``"fixed"`` or ``"floating"`` (see :mod:`harness.models.placement`). ``gains``: joint ->
     kp (position) or kv (velocity) overriding the defaults. ``cache_dir``: converted-mesh
-    cache folder.
+    cache folder. ``mesh_collision``: ``"decompose"`` or ``"hull"`` (see
+    :mod:`harness.models.decompose`).
     ``pose``: where the robot's base (model frame) is in the world (see
     :data:`harness.models.world.PoseLike`). ``initial_positions``: joint -> position
     overriding the ``home`` keyframe (created if the robot has none). ``robot_args``: the
@@ -181,7 +185,7 @@ def load_robot(
         self_collision=self_collision,
         base=base,
     )
-    world = load_world([robot], scene=scene, cache_dir=cache_dir)
+    world = load_world([robot], scene=scene, cache_dir=cache_dir, mesh_collision=mesh_collision)
     view = world.robots[0]
     return LoadedRobot(
         name=view.description.name,
@@ -200,4 +204,5 @@ def load_robot(
         self_collision=view.self_collision,
         base=view.base,
         placement=view.placement,
+        mesh_collision=world.mesh_collision,
     )

@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import HarnessError
+from harness.models.decompose import MeshCollision
 from harness.models.errors import ModelWarning
 from harness.models.placement import floor_gap, start_contacts
 from harness.models.resolve import PackageMap
@@ -209,11 +210,12 @@ def check_model(
     self_collision: SelfCollision | None = None,
     robot_args: RobotArgs | None = None,
     packages: PackageMap | None = None,
+    mesh_collision: MeshCollision = "decompose",
 ) -> ModelCheck:
     """Load ``source`` with the defaults and check it (see the module docstring).
-    ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments) and
-    ``packages``: as for :func:`harness.models.load_robot`. Never raises for a robot that
-    does not load: the report says why in one line (exit code 2)."""
+    ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments),
+    ``packages`` and ``mesh_collision``: as for :func:`harness.models.load_robot`. Never
+    raises for a robot that does not load: the report says why in one line (exit code 2)."""
     from harness.models.build import load_robot
 
     try:
@@ -227,6 +229,7 @@ def check_model(
                 self_collision=self_collision,
                 robot_args=robot_args,
                 packages=packages,
+                mesh_collision=mesh_collision,
             )
     except HarnessError as exc:
         return ModelCheck(str(source), error=str(exc))

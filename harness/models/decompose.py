@@ -26,6 +26,7 @@ keeps MuJoCo's convex hull (the behaviour before decomposition).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
@@ -35,7 +36,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any, Literal, cast
 
 import mujoco
 import numpy as np
@@ -43,8 +44,11 @@ import numpy.typing as npt
 
 from harness.models.errors import MeshError, ModelStructureError, ModelWarning
 from harness.models.meshes import mesh_cache_dir
+from harness.vocabulary import MESH_COLLISION_MODES as _MODES
+from harness.vocabulary import MeshCollisionMode
 
 __all__ = [
+    "DECOMPOSITION_FOLDER",
     "MAX_DEVIATION",
     "MESH_COLLISION_MODES",
     "THRESHOLDS",
@@ -59,7 +63,11 @@ __all__ = [
 MeshCollision = Literal["decompose", "hull"]
 """How a colliding mesh collides: ``decompose`` (convex pieces, the default) or ``hull``
 (MuJoCo's convex hull of the whole mesh)."""
-MESH_COLLISION_MODES: tuple[str, ...] = get_args(MeshCollision)
+MESH_COLLISION_MODES: tuple[MeshCollision, ...] = cast("tuple[MeshCollision, ...]", _MODES)
+"""The spellings of :class:`harness.vocabulary.MeshCollisionMode`."""
+DECOMPOSITION_FOLDER = "decomposition"
+"""The sources role (``source/decomposition/...`` in a recording) of the cached pieces a
+load used: a rebuild reads them as its cache and never decomposes again."""
 
 MAX_DEVIATION = 0.02
 """Metres: the pieces stay this close to the mesh's triangles (one-sided Hausdorff)."""
@@ -73,11 +81,10 @@ _DECODABLE = frozenset({".obj", ".stl"})
 
 def check_mesh_collision(value: object, where: str) -> MeshCollision:
     """``value`` as a :data:`MeshCollision`, or one line naming ``where`` and the choices."""
-    if value not in MESH_COLLISION_MODES:
-        raise ModelStructureError(
-            f"{where}: mesh_collision {value!r} is not one of {', '.join(MESH_COLLISION_MODES)}"
-        )
-    return value  # type: ignore[return-value]
+    try:
+        return MeshCollisionMode.parse(value, where).value
+    except ValueError as exc:
+        raise ModelStructureError(str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -89,6 +96,11 @@ class Decomposition:
     """Metres: the measured one-sided Hausdorff distance of the pieces (or the hull)."""
     threshold: float
     """The CoACD threshold that gave the pieces (0: none ran)."""
+    cache_file: str = ""
+    """The name of its cache file (``decompose-<digest>.npz``)."""
+
+    def _replace_cache(self, name: str) -> Decomposition:
+        return Decomposition(self.pieces, self.deviation, self.threshold, name)
 
 
 def _coacd_version() -> str:
@@ -160,7 +172,7 @@ def decompose_mesh(
             return cached
     result = _decompose(_load(data, suffix, scale, where), where)
     _write_cache(folder, target, result)
-    return result
+    return result._replace_cache(target.name)
 
 
 def _decompose(mesh: Any, where: str) -> Decomposition:
@@ -203,7 +215,9 @@ def _read_cache(path: Path) -> Decomposition | None:
                 (np.asarray(npz[f"v{i}"], np.float64), np.asarray(npz[f"f{i}"], np.int32))
                 for i in range(count)
             )
-            return Decomposition(pieces, float(npz["deviation"]), float(npz["threshold"]))
+            return Decomposition(
+                pieces, float(npz["deviation"]), float(npz["threshold"]), path.name
+            )
     except (OSError, ValueError, KeyError):
         return None  # unreadable or partial: decompose again
 
@@ -243,28 +257,35 @@ def decompose_spec(
     mode: MeshCollision = "decompose",
     source: str,
     cache_dir: str | Path | None = None,
-) -> int:
+) -> dict[str, bytes]:
     """Replace each colliding non-convex mesh geom of ``spec`` by convex pieces (see the
-    module docstring); returns how many geoms were decomposed. ``mode="hull"`` changes
-    nothing. The meshes must be in ``spec.assets`` (as :mod:`harness.models.assets` puts
-    them); a mesh given by its vertices, in a format MuJoCo decodes alone (``.msh``) or with
-    a ``refpos``/``refquat`` is left as its hull."""
-    check_mesh_collision(mode, source)
+    module docstring); returns the cache files used, as sources
+    (``decomposition/<file>`` -> bytes: a recording attaches them, a rebuild reads them as
+    its cache). ``mode="hull"`` changes nothing. The meshes must be in ``spec.assets`` (as
+    :mod:`harness.models.assets` puts them); a mesh given by its vertices, in a format MuJoCo
+    decodes alone (``.msh``) or with a ``refpos``/``refquat`` is left as its hull."""
+    mode = check_mesh_collision(mode, source)
+    used: dict[str, bytes] = {}
     if mode == "hull":
-        return 0
+        return used
     geoms = _colliding_meshes(spec)
     if not geoms:
-        return 0
+        return used
     assets = dict(spec.assets)
     meshes = {mesh.name: mesh for mesh in spec.meshes}
     pieces_of: dict[str, list[str]] = {}
-    decomposed = 0
+    folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
     for geom in geoms:
         mesh = meshes.get(str(geom.meshname))
         if mesh is None:
             continue
         if mesh.name not in pieces_of:
-            pieces_of[mesh.name] = _piece_meshes(spec, mesh, assets, source, cache_dir)
+            pieces_of[mesh.name], cache_file = _piece_meshes(spec, mesh, assets, source, folder)
+            if cache_file:
+                with contextlib.suppress(OSError):  # removed meanwhile: replay uses model.mjb
+                    used[f"{DECOMPOSITION_FOLDER}/{cache_file}"] = (
+                        folder / cache_file
+                    ).read_bytes()
         names = pieces_of[mesh.name]
         if not names:
             continue
@@ -282,8 +303,7 @@ def decompose_spec(
             piece.mass = 0.0
         geom.contype = 0
         geom.conaffinity = 0
-        decomposed += 1
-    return decomposed
+    return used
 
 
 def _piece_meshes(
@@ -291,13 +311,14 @@ def _piece_meshes(
     mesh: mujoco.MjsMesh,
     assets: dict[str, bytes],
     source: str,
-    cache_dir: str | Path | None,
-) -> list[str]:
+    cache_dir: Path,
+) -> tuple[list[str], str]:
+    """The names of the piece meshes added for ``mesh`` and its cache file's name."""
     suffix = Path(str(mesh.file)).suffix.lower()
     data = assets.get(str(mesh.file))
     plain_ref = np.allclose(mesh.refpos, 0.0) and np.allclose(mesh.refquat, [1, 0, 0, 0])
     if data is None or suffix not in _DECODABLE or not plain_ref:
-        return []
+        return [], ""
     where = f'{source}: <mesh name="{mesh.name}">'
     result = decompose_mesh(data, suffix, tuple(mesh.scale), cache_dir=cache_dir, where=where)
     names = []
@@ -309,4 +330,4 @@ def _piece_meshes(
             userface=faces.reshape(-1).tolist(),
         )
         names.append(name)
-    return names
+    return names, result.cache_file

@@ -315,6 +315,9 @@ class LoadedWorld:
     mjb: bytes
     sources: Mapping[str, bytes]
     sha256: str
+    mesh_collision: str = "decompose"
+    """How non-convex collision meshes collide (:mod:`harness.models.decompose`); the cached
+    pieces used are among ``sources`` (role ``decomposition``)."""
 
     def combined_description(self) -> RobotModel:
         """One :class:`RobotModel` of every robot: MuJoCo (prefixed) names, poses and axes in

@@ -85,11 +85,15 @@ def load_world(
         raise ModelStructureError("load_world: no robots given")
     mesh_collision = check_mesh_collision(mesh_collision, "load_world")
     several = len(robots) > 1
+    decomposed: dict[str, bytes] = {}  # the cached pieces used: sources a rebuild reads
     prepared: list[RobotBuild] = []
     namespaces: dict[str, int] = {}
     for index, request in enumerate(robots):
         robot = RobotBuild(index, request, cache_dir)
-        decompose_spec(robot.spec, mode=mesh_collision, source=robot.source, cache_dir=cache_dir)
+        pieces = decompose_spec(
+            robot.spec, mode=mesh_collision, source=robot.source, cache_dir=cache_dir
+        )
+        decomposed.update(pieces)
         where = robot.where(several)
         if request.namespace is None:
             namespace = check_namespace(robot.description.name, where)
@@ -123,7 +127,9 @@ def load_world(
             add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
         spec, scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
-        decompose_spec(spec, mode=mesh_collision, source=str(scene_path), cache_dir=cache_dir)
+        decomposed.update(
+            decompose_spec(spec, mode=mesh_collision, source=str(scene_path), cache_dir=cache_dir)
+        )
         sources.update(scene_sources)
         for number, obj in enumerate(objects):
             add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
@@ -146,6 +152,7 @@ def load_world(
             raise ModelStructureError(f"{world_source}: timestep {timestep!r} is not positive")
         spec.option.timestep = timestep
     spec.modelname = first_robot.description.name if not several else "world"
+    sources.update(decomposed)
 
     first = compile_lenient(spec, world_source, prepared)
     joint_names = {first.joint(j).name for j in range(first.njnt)}
@@ -227,6 +234,7 @@ def load_world(
         mjb=buffer.tobytes(),
         sources=MappingProxyType(sources),
         sha256=hashlib.sha256(mjcf.encode()).hexdigest(),
+        mesh_collision=mesh_collision,
     )
 
 

@@ -114,13 +114,23 @@ def parse_mode(mode: Any, where: str = "harness option 'mode'") -> Any:
 
 
 def parse_load_options(opts: dict[str, Any], where: str) -> None:
-    """The marker's ``self_collision``, ``base``, ``clock`` and ``kinematic_limits`` parsed in
-    place (one spelling, from :mod:`harness.vocabulary`); a wrong value fails the test naming
-    it."""
-    from harness.vocabulary import ClockMode, LimitPolicy, RobotBase, SelfCollisionPolicy
+    """The marker's ``self_collision``, ``base``, ``clock``, ``kinematic_limits`` and
+    ``mesh_collision`` parsed in place (one spelling, from :mod:`harness.vocabulary`); a wrong
+    value fails the test naming it."""
+    from harness.vocabulary import (
+        ClockMode,
+        LimitPolicy,
+        MeshCollisionMode,
+        RobotBase,
+        SelfCollisionPolicy,
+    )
 
     try:
-        for key, vocabulary in (("clock", ClockMode), ("kinematic_limits", LimitPolicy)):
+        for key, vocabulary in (
+            ("clock", ClockMode),
+            ("kinematic_limits", LimitPolicy),
+            ("mesh_collision", MeshCollisionMode),
+        ):
             if opts.get(key) is not None:
                 opts[key] = vocabulary.parse(opts[key], f"{where}: harness option {key!r}")
         if opts.get("self_collision") is not None:

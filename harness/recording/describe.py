@@ -180,7 +180,8 @@ def describe_run(
     objects: Sequence[Any] = (),
 ) -> RunDescription:
     """The ``harness`` metadata (timestep, integrator, seed, model SHA-256, control modes,
-    robot name, a single robot's ``self_collision`` and ``base``; for a world its ``robots``
+    robot name, a single robot's ``self_collision`` and ``base``, ``mesh_collision``; for a
+    world its ``robots``
     and ``objects``, see :func:`world_metadata`) and the attachments (the exact compiled
     model as MJB, the compiled MJCF for reading, source files under ``source/``, with the
     meshes a URDF references (:func:`harness.recording.meshes.mesh_attachments`), the
@@ -199,6 +200,9 @@ def describe_run(
         **(world_metadata(robot, specs, objects) if hasattr(robot, "robots") else {}),
         **_xacro_metadata(robot),
         **_robot_metadata(robot),
+        # issue 33: how non-convex collision meshes collided (a recording without the key
+        # is older than decomposition: its meshes collided as their hulls)
+        "mesh_collision": str(getattr(robot, "mesh_collision", "hull")),
         **(extra or {}),
     }
     attachments = {

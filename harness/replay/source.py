@@ -48,6 +48,7 @@ from harness.models import (
     load_robot,
     load_world,
 )
+from harness.models.decompose import DECOMPOSITION_FOLDER, check_mesh_collision
 from harness.models.description import CONTROL_MODES, ControlMode
 from harness.models.errors import OutsideReferenceError, XacroError
 from harness.models.limits import ModelLimitError
@@ -272,6 +273,19 @@ def _collision_and_base(report: Any, base: Any, srdf: bool) -> dict[str, Any]:
     return options
 
 
+def _mesh_collision(rec: Recording, root: Path) -> dict[str, Any]:
+    """The recorded ``mesh_collision`` (``hull`` for a recording older than decomposition)
+    and the recorded pieces as the cache (``source/decomposition/``): a rebuild never
+    decomposes again."""
+    mode = rec.metadata.get("mesh_collision", "hull")
+    options: dict[str, Any] = {
+        "mesh_collision": check_mesh_collision(mode, f"{rec.path}: metadata 'mesh_collision'")
+    }
+    if (root / DECOMPOSITION_FOLDER).is_dir():
+        options["cache_dir"] = root / DECOMPOSITION_FOLDER
+    return options
+
+
 def rebuild_world(
     rec: Recording, control: ControlMode | Mapping[str, ControlMode] | None = None
 ) -> LoadedWorld:
@@ -316,6 +330,7 @@ def rebuild_world(
                 scene=_scene(sources, root),
                 objects=objects,
                 timestep=float(timestep) if timestep else None,
+                **_mesh_collision(rec, root),
             )
         except (OutsideReferenceError, XacroError):
             raise  # refused by the gate (harness.replay.gate.rebuild_folder)
@@ -386,6 +401,7 @@ def rebuild_robot(
                 control=modes,
                 scene=_scene(sources, root),
                 packages=_packages(sources, root) or None,
+                **_mesh_collision(rec, root),
                 **_collision_and_base(
                     json.loads(rec.metadata.get("self_collision", "null")),
                     rec.metadata.get("base"),

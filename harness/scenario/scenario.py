@@ -72,11 +72,14 @@ Vector3 = tuple[float, float, float]
 
 @dataclass(frozen=True)
 class Environment:
-    """``map`` is a built-in scene name or the resolved world file; the rest is metadata."""
+    """``map`` is a built-in scene name or the resolved world file; ``mesh_collision`` how
+    its (and the robots') non-convex collision meshes collide (``decompose`` or ``hull``, see
+    :mod:`harness.models.decompose`); the rest is metadata."""
 
     map: str | Path = "empty"
     weather: str | None = None
     time: str | None = None
+    mesh_collision: str = "decompose"
 
 
 @dataclass(frozen=True)
@@ -347,6 +350,7 @@ class _Builder:
                 map=self.map(env.get("map", "")),
                 weather=env.get("weather"),
                 time=env.get("time"),
+                mesh_collision=str(env.get("mesh_collision", "decompose")),
             ),
             bridge=ScenarioBridgeSection(
                 ip=ros_bridge.get("ip", "127.0.0.1"),

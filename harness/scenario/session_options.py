@@ -42,6 +42,7 @@ from harness.events import (
     velocity_limits,
 )
 from harness.models import LoadedWorld
+from harness.models.decompose import check_mesh_collision
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Clock, CollisionLoggerSpec, JointLoggerSpec, Scenario
@@ -133,7 +134,13 @@ def scenario_session(
     record = RecordOptions(
         scenario=scenario.source.read_bytes() if scenario.source is not None else None
     )
-    load = LoadOptions(robots=plan.robots, scene=plan.scene)
+    load = LoadOptions(
+        robots=plan.robots,
+        scene=plan.scene,
+        mesh_collision=check_mesh_collision(
+            scenario.environment.mesh_collision, "environment.mesh_collision"
+        ),
+    )
     return ScenarioSession(scenario, options, transport, record, load, plan.command_topics)
 
 

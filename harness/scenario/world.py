@@ -45,6 +45,7 @@ from harness.models import (
     load_world,
 )
 from harness.models import RobotSpec as WorldRobot
+from harness.models.decompose import check_mesh_collision
 from harness.models.description import RobotModel
 from harness.models.mjcf_files import check_mjcf_files, generated_from
 from harness.models.world import add_object
@@ -355,7 +356,13 @@ def build_world(scenario: Scenario, folder: Path) -> LoadedWorld:
     :func:`harness.models.load_world`); a model error names the scenario file."""
     plan = plan_world(scenario, folder)
     try:
-        return load_world(plan.robots, scene=plan.scene)
+        return load_world(
+            plan.robots,
+            scene=plan.scene,
+            mesh_collision=check_mesh_collision(
+                scenario.environment.mesh_collision, "environment.mesh_collision"
+            ),
+        )
     except ModelError as exc:
         raise ScenarioError([f"{_where(scenario)}: {exc}"]) from None
 

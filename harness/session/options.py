@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TypedDict
 
 from harness.controllers import ControllersConfig
 from harness.models import ControlMode, LoadedWorld, RobotSpec, WorldObject
+from harness.models.decompose import MeshCollision
 from harness.models.world import BaseKind, SelfCollision
 from harness.sensors import SensorSpec
 from harness.session.control import (
@@ -354,7 +355,8 @@ class LoadOptions:
     name, an MJCF scene or an SDF world; ``world=`` is the same keyword, as Gazebo users name
     it), ``robot_args`` (a xacro robot's arguments), ``self_collision``, ``base`` and
     ``strict`` (as for :func:`harness.models.load_robot`), ``controllers_args`` (the
-    controllers YAML's launch arguments)."""
+    controllers YAML's launch arguments), ``mesh_collision`` (``decompose`` or ``hull``, see
+    :mod:`harness.models.decompose`)."""
 
     robots: Sequence[RobotSpec] | LoadedWorld | None = None
     objects: Sequence[WorldObject] = ()
@@ -367,6 +369,7 @@ class LoadOptions:
     controllers_args: Mapping[str, Any] | None = None
     """The values of the controllers YAML's ``$(var NAME)`` launch substitutions (name ->
     value; read with ``controllers=`` given as a keyword)."""
+    mesh_collision: MeshCollision = "decompose"
 
 
 class SessionKeywords(TypedDict, total=False):
@@ -406,6 +409,7 @@ class SessionKeywords(TypedDict, total=False):
     base: BaseKind | None
     strict: bool
     controllers_args: Mapping[str, Any] | None
+    mesh_collision: MeshCollision
 
 
 _GROUPS: dict[str, type[Any]] = {

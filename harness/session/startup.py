@@ -20,6 +20,7 @@ from harness.models import (
     load_robot,
     load_world,
 )
+from harness.models.decompose import MeshCollision, check_mesh_collision
 from harness.models.world import BaseKind, SelfCollision
 from harness.recording import Recorder, describe_run
 from harness.session.bridge import SessionBridge
@@ -77,6 +78,7 @@ def load_run(
         namespace,
         load.robot_args,
         _load_options(load.self_collision, load.base, load.strict),
+        load.mesh_collision,
     )
 
 
@@ -151,8 +153,16 @@ def _load(
     namespace: str,
     robot_args: Mapping[str, Any] | None = None,
     load_options: Mapping[str, Any] | None = None,
+    mesh_collision: MeshCollision = "decompose",
 ) -> LoadedRobot | LoadedWorld:
     """What a session runs: ``robot`` loaded (or as given), or the world of ``robots``."""
+    mesh_collision = check_mesh_collision(mesh_collision, "Session: mesh_collision")
+    given = robots if isinstance(robots, LoadedWorld) else robot
+    if isinstance(given, LoadedRobot | LoadedWorld) and given.mesh_collision != mesh_collision:
+        raise SessionConfigError(
+            f"mesh_collision={mesh_collision!r} applies when the session loads the model: this "
+            f"one was loaded with {given.mesh_collision!r} (pass it to load_robot/load_world)"
+        )
     if robot_args and (robots is not None or isinstance(robot, LoadedRobot)):
         raise SessionConfigError(
             "robot_args apply when the session loads robot=; give each RobotSpec its "
@@ -180,6 +190,7 @@ def _load(
             control=mode or "position",
             scene=scene,
             robot_args=robot_args,
+            mesh_collision=mesh_collision,
             **(load_options or {}),
         )
     if robot is not None:
@@ -204,4 +215,4 @@ def _load(
         raise SessionConfigError(
             f"robots must be a non-empty list of RobotSpec or a LoadedWorld, not {robots!r}"
         )
-    return load_world(specs, scene=scene, objects=objects)
+    return load_world(specs, scene=scene, objects=objects, mesh_collision=mesh_collision)
