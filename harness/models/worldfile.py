@@ -30,7 +30,7 @@ from lxml import etree
 from harness.models.description import ModelFrame, RobotModel
 from harness.models.errors import ModelStructureError
 from harness.models.sdf.build import build_spec
-from harness.models.sdf.convert import PlacedModel, read_sdf_world
+from harness.models.sdf.convert import PlacedModel, read_sdf_world, sdf_world
 from harness.models.sdf.document import Entity, load_document
 from harness.models.xmlsafe import read_xml_file
 
@@ -161,10 +161,10 @@ def load_world_file(
     ``search_paths``: folders searched first for ``model://`` includes and meshes."""
     path = Path(path)
     paths = [*(search_paths or ()), BUNDLED_MODELS]
-    document = load_document(path, search_paths=paths)
+    document = load_document(path, search_paths=paths, strict=False)
     if document.root.kind != "world":
         raise ModelStructureError(f"{path}: not an SDF world (its top element is a <model>)")
-    world = read_sdf_world(path, search_paths=paths)
+    world = sdf_world(document, search_paths=paths)
     timestep, gravity = _physics(document.root.element, str(path))
     spec = mujoco.MjSpec()
     spec.modelname = world.name or path.stem

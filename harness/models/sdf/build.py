@@ -12,6 +12,7 @@ joints become joint equalities. The worldbody is the model frame.
 
 from __future__ import annotations
 
+import math
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -210,10 +211,15 @@ def _add_geom(
         geom.density = 0.0
 
 
-def _add_inertial(body: mujoco.MjsBody, link: Link) -> None:
+def _add_inertial(body: mujoco.MjsBody, link: Link, welded: bool) -> None:
+    """The link's ``<inertial>``. A link welded to the world (a static model's) never moves:
+    its inertia has no effect and is not judged (Gazebo ignores it), so a tensor MuJoCo would
+    refuse is handed over as valid principal moments instead."""
     inertial = link.inertial
     if inertial is None or inertial.mass == 0.0:
         return  # massless (static or welded) link: MuJoCo names it if it moves
+    if welded and not (math.isfinite(inertial.mass) and inertial.mass > 0.0):
+        return
     local = link.pose.inverse() * inertial.pose
     ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
@@ -222,6 +228,10 @@ def _add_inertial(body: mujoco.MjsBody, link: Link) -> None:
     body.explicitinertial = True
     body.mass = inertial.mass
     body.ipos = list(local.xyz)
+    principal = _principal(in_body, welded)
+    if principal is not None:
+        body.inertia, body.iquat = principal
+        return
     body.fullinertia = [
         in_body[0, 0],
         in_body[1, 1],
@@ -230,6 +240,43 @@ def _add_inertial(body: mujoco.MjsBody, link: Link) -> None:
         in_body[0, 2],
         in_body[1, 2],
     ]
+
+
+_EDGE = 1e-9  # relative margin above the triangle inequality's edge
+_MIN_MOMENT = 1e-8
+
+
+def _principal(tensor: np.ndarray, welded: bool) -> tuple[list[float], list[float]] | None:
+    """Principal moments and axes (a quaternion) to hand MuJoCo instead of ``tensor``, or
+    None to hand it over as it is.
+
+    A tensor whose moments meet the triangle inequality only to within rounding (a thin
+    disc: A + B = C, which the reader's check accepts) gets its largest moment lowered to the
+    sum of the other two (a change at the rounding level), so MuJoCo's exact check never
+    refuses what the reader accepted. A ``welded`` link's invalid tensor gets valid moments
+    (raised as the reader's repair raises them)."""
+    if not np.all(np.isfinite(tensor)):
+        return None
+    moments, axes = np.linalg.eigh(tensor)
+    slack = moments[0] + moments[1] - moments[2]
+    edge = _EDGE * abs(moments[2])
+    if moments[0] > 0.0 and slack > edge:
+        return None  # clearly valid
+    if welded:
+        fixed = np.maximum(moments, _MIN_MOMENT)
+        if fixed[0] + fixed[1] < fixed[2]:
+            fixed[0] = max(fixed[0], fixed[2] / 2.0)
+            fixed[1] = max(fixed[1], fixed[2] / 2.0)
+    elif moments[0] > 0.0 and slack >= -edge:
+        fixed = moments.copy()
+    else:
+        return None  # clearly invalid: MuJoCo's error names the link
+    fixed[2] = min(fixed[2], fixed[0] + fixed[1])
+    if np.linalg.det(axes) < 0.0:
+        axes[:, 2] = -axes[:, 2]
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(axes).reshape(9))
+    return [float(m) for m in fixed], quat.tolist()
 
 
 def _add_loop(spec: mujoco.MjSpec, joint: Joint, parent_pose: Pose) -> None:
@@ -279,6 +326,7 @@ def build_spec(
     tree = spanning_tree(model)
     links = {link.name: link for link in model.links}
     bodies: dict[str, mujoco.MjsBody] = {"world": spec.worldbody}
+    welded: dict[str, bool] = {}
     assets: dict[str, bytes] = {}
     for name in tree.order:
         link = links[name]
@@ -289,7 +337,10 @@ def build_spec(
         bodies[name] = body
         for joint in tree.joints[name]:
             _add_joint(body, joint, link.pose, parent)
-        _add_inertial(body, link)
+        welded[name] = (parent == "world" or welded[parent]) and all(
+            j.type == "fixed" for j in tree.joints[name]
+        )
+        _add_inertial(body, link, welded[name])
         for shape in link.collisions:
             _add_geom(spec, body, link, shape, False, assets, cache_dir)
         if visuals:

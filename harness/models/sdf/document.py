@@ -26,6 +26,7 @@ from harness.errors import ModelError
 from harness.models.confine import check_confined
 from harness.models.description import Pose
 from harness.models.errors import ModelWarning, OutsideReferenceError, ResolveError
+from harness.models.fuel import LIGHT_ONLY_MODELS, FuelUri, find_fuel_model, parse_fuel_uri
 from harness.models.resolve import find_model
 from harness.models.sdf.errors import (
     SdfCycleError,
@@ -262,7 +263,7 @@ def _check_inertia(
         raise SdfInertiaError(f"{where}: invalid inertia: mass {mass} must be positive")
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     moments, axes = np.linalg.eigh(tensor)
-    tol = 1e-9 * max(1.0, float(np.max(np.abs(moments))))
+    tol = 1e-9 * float(np.max(np.abs(moments)))  # relative: rounding, not a tiny moment
     problem = None
     if float(moments[0]) <= 0.0:
         problem = f"principal moments {moments.tolist()} must be positive"
@@ -432,14 +433,18 @@ class _Loader:
         link.raw_pose = _parse_pose(element.find("pose"), source, version)
         inertial = element.find("inertial")
         if inertial is not None:
-            link.inertial = self._inertial(inertial, source, version)
+            link.inertial = self._inertial(inertial, source, version, _in_static(scope))
         link.collisions = tuple(
             self._shape(e, source, version) for e in element.findall("collision")
         )
         link.visuals = tuple(self._shape(e, source, version) for e in element.findall("visual"))
         return link
 
-    def _inertial(self, element: etree._Element, source: Path, version: Version) -> InertialSpec:
+    def _inertial(
+        self, element: etree._Element, source: Path, version: Version, static: bool
+    ) -> InertialSpec:
+        """The ``<inertial>``; a static model's is not judged (Gazebo ignores it: the link
+        never moves)."""
         mass = _child_float(element, "mass", 1.0, source)
         tensor = element.find("inertia")
         defaults = {"ixx": 1.0, "ixy": 0.0, "ixz": 0.0, "iyy": 1.0, "iyz": 0.0, "izz": 1.0}
@@ -448,7 +453,8 @@ class _Loader:
             for key, default in defaults.items()
         ]
         inertia = (values[0], values[1], values[2], values[3], values[4], values[5])
-        inertia = _check_inertia(mass, inertia, _where(source, element), self.strict)
+        if not static:
+            inertia = _check_inertia(mass, inertia, _where(source, element), self.strict)
         return InertialSpec(mass, _parse_pose(element.find("pose"), source, version), inertia)
 
     def _shape(self, element: etree._Element, source: Path, version: Version) -> ShapeSpec:
@@ -561,7 +567,10 @@ class _Loader:
         uri = (uri_el.text or "").strip() if uri_el is not None else ""
         if not uri:
             raise SdfIncludeError(f"{where}: <include> needs a <uri>")
-        path = self._include_file(uri, source, where).resolve()
+        found = self._include_file(uri, source, where, light_ok)
+        if found is None:
+            return None  # a light-only stock model (Gazebo's sun): no physics
+        path = found.resolve()
         if path in self.include_stack:
             chain = " -> ".join(str(p) for p in [*self.include_stack, path])
             raise SdfCycleError(f"{where}: include cycle: {chain}")
@@ -593,9 +602,15 @@ class _Loader:
         finally:
             self.include_stack.pop()
 
-    def _include_file(self, uri: str, source: Path, where: str) -> Path:
+    def _include_file(self, uri: str, source: Path, where: str, light_ok: bool) -> Path | None:
+        """The SDF file an include names, or None for a light-only stock model (``sun``)
+        that is nowhere to be found when ``light_ok``."""
+        fuel = parse_fuel_uri(uri)
         try:
-            if uri.startswith("model://"):
+            if fuel is not None:
+                target = find_fuel_model(fuel, uri)
+                target = target / fuel.rest if fuel.rest else target
+            elif uri.startswith("model://"):
                 name, _, rest = uri[len("model://") :].partition("/")
                 target = find_model(name, search_paths=self.search_paths, start=source.parent)
                 target = target / rest if rest else target
@@ -608,6 +623,8 @@ class _Loader:
         except OutsideReferenceError as exc:  # a rebuild from a recording: refused as it is
             raise type(exc)(f"{where}: include {uri!r}: {exc}") from None
         except ResolveError as exc:
+            if light_ok and _stock_light(uri, fuel):
+                return None
             raise SdfIncludeError(f"{where}: missing include {uri!r}: {exc}") from None
         check_confined(target, uri, context=where, what="include")
         if target.is_dir():
@@ -647,6 +664,24 @@ class _Loader:
         if not target.is_file():
             raise SdfIncludeError(f"{where}: missing include {uri!r}: {target} does not exist")
         return target
+
+
+def _in_static(scope: Entity | None) -> bool:
+    """Whether ``scope`` or a model around it is static (its links never move)."""
+    while scope is not None and scope.kind == "model":
+        if scope.static:
+            return True
+        scope = scope.scope
+    return False
+
+
+def _stock_light(uri: str, fuel: FuelUri | None) -> bool:
+    """Whether ``uri`` names a stock model that is only a light (``model://sun``, Fuel's
+    ``OpenRobotics/Sun``)."""
+    if fuel is not None:
+        return fuel.owner.lower() == "openrobotics" and fuel.name.lower() in LIGHT_ONLY_MODELS
+    name = uri.removeprefix("model://").strip("/").split("/")[0] if uri.startswith("model://") else ""
+    return name.lower() in LIGHT_ONLY_MODELS
 
 
 def _scoped(scope: Entity | None, name: str) -> str:
