@@ -41,6 +41,7 @@ __all__ = [
     "is_sdf_world",
     "load_world_file",
     "world_description",
+    "world_timestep",
 ]
 
 BUNDLED_MODELS = Path(__file__).parent / "data" / "gazebo_models"
@@ -69,6 +70,17 @@ def is_sdf_world(path: Path) -> bool:
         return False
     root, _ = read_xml_file(path)
     return any(isinstance(c.tag, str) and c.tag == "world" for c in root)
+
+
+def world_timestep(path: Path) -> float:
+    """The SDF world's ``<physics><max_step_size>`` (MuJoCo's default 0.002 when absent),
+    read without loading its models."""
+    root, _ = read_xml_file(path)
+    world = root.find("world")
+    if world is None:
+        raise ModelStructureError(f"{path}: not an SDF world (no <world> element)")
+    timestep, _ = _physics(world, str(path))
+    return timestep if timestep is not None else float(mujoco.MjOption().timestep)
 
 
 def _float_child(element: etree._Element, path: str, where: str) -> float | None:

@@ -330,7 +330,23 @@ class _Loader:
             elif child.tag == "frame":
                 world.children.append(self._frame(child, world, source, version))
         self._check_names(world)
+        self._apply_state(world, element, source, version)
         return world
+
+    def _apply_state(
+        self, world: Entity, element: etree._Element, source: Path, version: Version
+    ) -> None:
+        """A Gazebo Classic world's ``<state>``: each model's ``<pose>`` there (in the world
+        frame) is where the model is, as Gazebo places it on load."""
+        state = element.find("state")
+        if state is None:
+            return
+        models = {c.name: c for c in world.children if c.kind == "model"}
+        for entry in state.findall("model"):
+            target = models.get(entry.get("name", ""))
+            pose_el = entry.find("pose")
+            if target is not None and pose_el is not None and (pose_el.text or "").split():
+                target.raw_pose = RawPose(_parse_pose(pose_el, source, version).pose)
 
     def _model(
         self,
