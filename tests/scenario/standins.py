@@ -28,7 +28,6 @@ import numpy as np
 from websockets.sync.server import ServerConnection, serve
 
 from harness.scenario.client import run_client
-from harness.scenario.world import effective_timestep
 from harness.scenario.results import (
     ClientOutcome,
     CollisionSummary,
@@ -39,6 +38,7 @@ from harness.scenario.results import (
     Traces,
     judge,
 )
+from harness.scenario.world import effective_timestep
 from harness.sim.contacts import extract_contacts
 
 __all__ = ["ARM_MJCF", "ClientRunner", "StandInHost", "StepLoadRunner"]

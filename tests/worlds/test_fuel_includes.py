@@ -125,7 +125,10 @@ def test_a_missing_fuel_model_is_one_line_naming_the_uri_and_every_place(
     assert "\n" not in text
     assert repr(uri) in text
     for root in (cache, no_cache / ".gz" / "fuel", no_cache / ".ignition" / "fuel"):
-        assert str(root / "fuel.gazebosim.org" / "openrobotics" / "models" / "construction cone") in text
+        assert (
+            str(root / "fuel.gazebosim.org" / "openrobotics" / "models" / "construction cone")
+            in text
+        )
     assert "never downloaded" in text
 
 
@@ -221,4 +224,5 @@ def test_a_heightmap_is_refused_in_one_line(tmp_path: Path, no_cache: Path) -> N
         load_world_file(world)
     text = str(caught.value)
     assert "\n" not in text
-    assert "terrain.world" in text and "<heightmap> is not supported" in text
+    assert "terrain.world" in text
+    assert "<heightmap> is not supported" in text

@@ -696,7 +696,9 @@ def _stock_light(uri: str, fuel: FuelUri | None) -> bool:
     ``OpenRobotics/Sun``)."""
     if fuel is not None:
         return fuel.owner.lower() == "openrobotics" and fuel.name.lower() in LIGHT_ONLY_MODELS
-    name = uri.removeprefix("model://").strip("/").split("/")[0] if uri.startswith("model://") else ""
+    name = (
+        uri.removeprefix("model://").strip("/").split("/")[0] if uri.startswith("model://") else ""
+    )
     return name.lower() in LIGHT_ONLY_MODELS
 
 
