@@ -130,19 +130,13 @@ def find_fuel_model(fuel: FuelUri, uri: str) -> Path:
         hosts = [fuel.host, *(h for h in FUEL_HOSTS if h != fuel.host)]
         for root in fuel_cache_roots():
             for host in hosts:
-                owners = dict.fromkeys((fuel.owner.lower(), fuel.owner))
-                names = dict.fromkeys((fuel.name.lower(), fuel.name))
-                for owner in owners:
-                    for name in names:
-                        folder = root / host / owner / "models" / name
-                        if str(folder) in searched:
-                            continue
-                        searched.append(str(folder))
-                        versions = _versions(folder)
-                        if fuel.version is not None and fuel.version in versions:
-                            return folder / str(fuel.version)
-                        if fuel.version is None and versions:
-                            return folder / str(versions[-1])
+                folder = root / host / fuel.owner.lower() / "models" / fuel.name.lower()
+                searched.append(str(folder))
+                versions = _versions(folder)
+                if fuel.version is not None and fuel.version in versions:
+                    return folder / str(fuel.version)
+                if fuel.version is None and versions:
+                    return folder / str(versions[-1])
     if stock is not None:
         return STOCK_FOLDER / stock
     if confinement() is not None:
