@@ -41,11 +41,29 @@ WHEEL = """<?xml version="1.0"?><sdf version="1.8"><model name="disc">
 </model></sdf>"""
 
 
+WHEEL_URDF = """<robot name="disc">
+  <link name="base"><inertial><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="wheel"><inertial><origin rpy="-1.57 0 0"/><mass value="0.1"/>
+    <inertia ixx="5.445e-05" iyy="5.445e-05" izz="1.089e-04" ixy="0" ixz="0" iyz="0"/>
+    </inertial><collision><origin rpy="-1.57 0 0"/><geometry>
+    <cylinder radius="0.033" length="0.018"/></geometry></collision></link>
+  <joint name="axle" type="continuous"><parent link="base"/><child link="wheel"/>
+    <origin xyz="0 0.08 0.023" rpy="-1.57 0 0"/><axis xyz="0 0 1"/></joint>
+</robot>"""
+
+
 @pytest.mark.parametrize("strict", [False, True])
-def test_a_thin_disc_wheel_that_passes_the_check_compiles(tmp_path: Path, strict: bool) -> None:
-    path = tmp_path / "disc.sdf"
-    path.write_text(WHEEL)
-    read_sdf(path, strict=True)  # the reader's check accepts it
+@pytest.mark.parametrize("kind", ["sdf", "urdf"])
+def test_a_thin_disc_wheel_that_passes_the_check_compiles(
+    tmp_path: Path, strict: bool, kind: str
+) -> None:
+    path = tmp_path / f"disc.{kind}"
+    path.write_text(WHEEL if kind == "sdf" else WHEEL_URDF)
+    if kind == "sdf":
+        read_sdf(path, strict=True)  # the reader's check accepts it
+    # a URDF's is not balanced to the mean of its moments either (MuJoCo's repair)
     model = load_robot(path, strict=strict).model
     body = model.body("wheel").id
     moments = sorted(float(m) for m in model.body_inertia[body])

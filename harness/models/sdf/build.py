@@ -24,6 +24,7 @@ from harness.models.assets import mesh_asset
 from harness.models.confine import check_confined
 from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
 from harness.models.errors import ModelStructureError
+from harness.models.inertia import principal_on_edge
 from harness.models.sdf.errors import SdfWarning
 
 __all__ = ["SpanningTree", "build_spec", "spanning_tree"]
@@ -228,7 +229,7 @@ def _add_inertial(body: mujoco.MjsBody, link: Link, welded: bool) -> None:
     body.explicitinertial = True
     body.mass = inertial.mass
     body.ipos = list(local.xyz)
-    principal = _principal(in_body, welded)
+    principal = principal_on_edge(in_body, welded=welded)
     if principal is not None:
         body.inertia, body.iquat = principal
         return
@@ -240,43 +241,6 @@ def _add_inertial(body: mujoco.MjsBody, link: Link, welded: bool) -> None:
         in_body[0, 2],
         in_body[1, 2],
     ]
-
-
-_EDGE = 1e-9  # relative margin above the triangle inequality's edge
-_MIN_MOMENT = 1e-8
-
-
-def _principal(tensor: np.ndarray, welded: bool) -> tuple[list[float], list[float]] | None:
-    """Principal moments and axes (a quaternion) to hand MuJoCo instead of ``tensor``, or
-    None to hand it over as it is.
-
-    A tensor whose moments meet the triangle inequality only to within rounding (a thin
-    disc: A + B = C, which the reader's check accepts) gets its largest moment lowered to the
-    sum of the other two (a change at the rounding level), so MuJoCo's exact check never
-    refuses what the reader accepted. A ``welded`` link's invalid tensor gets valid moments
-    (raised as the reader's repair raises them)."""
-    if not np.all(np.isfinite(tensor)):
-        return None
-    moments, axes = np.linalg.eigh(tensor)
-    slack = moments[0] + moments[1] - moments[2]
-    edge = _EDGE * abs(moments[2])
-    if moments[0] > 0.0 and slack > edge:
-        return None  # clearly valid
-    if welded:
-        fixed = np.maximum(moments, _MIN_MOMENT)
-        if fixed[0] + fixed[1] < fixed[2]:
-            fixed[0] = max(fixed[0], fixed[2] / 2.0)
-            fixed[1] = max(fixed[1], fixed[2] / 2.0)
-    elif moments[0] > 0.0 and slack >= -edge:
-        fixed = moments.copy()
-    else:
-        return None  # clearly invalid: MuJoCo's error names the link
-    fixed[2] = min(fixed[2], fixed[0] + fixed[1])
-    if np.linalg.det(axes) < 0.0:
-        axes[:, 2] = -axes[:, 2]
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(axes).reshape(9))
-    return [float(m) for m in fixed], quat.tolist()
 
 
 def _add_loop(spec: mujoco.MjSpec, joint: Joint, parent_pose: Pose) -> None:
