@@ -226,3 +226,49 @@ def test_a_heightmap_is_refused_in_one_line(tmp_path: Path, no_cache: Path) -> N
     assert "\n" not in text
     assert "terrain.world" in text
     assert "<heightmap> is not supported" in text
+
+
+def test_a_mesh_named_by_a_fuel_file_uri_comes_from_the_cache(
+    tmp_path: Path, no_cache: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    cache = tmp_path / "cache"
+    folder = cache / "fuel.gazebosim.org" / "acme" / "models" / "rock" / "2"
+    (folder / "meshes").mkdir(parents=True)
+    (folder / "meshes" / "rock.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    )
+    monkeypatch.setenv("GZ_FUEL_CACHE_PATH", str(cache))
+    world = tmp_path / "w.sdf"
+    world.write_text(
+        """<?xml version="1.0"?><sdf version="1.8"><world name="w"><model name="rock">
+        <static>true</static><link name="link"><collision name="c"><geometry><mesh><uri>
+        https://fuel.gazebosim.org/1.0/ACME/models/Rock/tip/files/meshes/rock.obj
+        </uri></mesh></geometry></collision></link></model></world></sdf>"""
+    )
+    model = load_world_file(world).spec.compile()
+    assert model.nmesh == 1
+    assert model.mesh_vertnum[0] == 4
+
+
+def test_a_rebuild_from_a_recording_reads_no_fuel_cache(
+    tmp_path: Path, no_cache: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from harness.models.confine import confined_to
+    from harness.models.errors import OutsideReferenceError
+    from harness.models.fuel import STOCK_FOLDER, find_fuel_model, parse_fuel_uri
+
+    cache = tmp_path / "cache"
+    _cached_model(cache / "fuel.gazebosim.org" / "acme" / "models" / "crate" / "1", "crate", 1.0)
+    monkeypatch.setenv("GZ_FUEL_CACHE_PATH", str(cache))
+    crate = "https://fuel.gazebosim.org/1.0/ACME/models/Crate"
+    plane = f"{FUEL}/Ground%20Plane"
+    parsed_crate, parsed_plane = parse_fuel_uri(crate), parse_fuel_uri(plane)
+    assert parsed_crate is not None
+    assert parsed_plane is not None
+    assert find_fuel_model(parsed_crate, crate).parent.name == "crate"
+    recording = tmp_path / "recording"
+    recording.mkdir()
+    with confined_to(recording):
+        assert find_fuel_model(parsed_plane, plane) == STOCK_FOLDER / "ground_plane"
+        with pytest.raises(OutsideReferenceError, match="not among the recording's attachments"):
+            find_fuel_model(parsed_crate, crate)
