@@ -22,12 +22,8 @@ from pathlib import Path
 import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.errors import ModelError
-from harness.models.confine import check_confined
 from harness.models.description import Pose
-from harness.models.errors import ModelWarning, OutsideReferenceError, ResolveError
-from harness.models.fuel import LIGHT_ONLY_MODELS, FuelUri, find_fuel_model, parse_fuel_uri
-from harness.models.resolve import find_model
+from harness.models.errors import ModelWarning
 from harness.models.sdf.errors import (
     SdfCycleError,
     SdfFrameError,
@@ -37,6 +33,7 @@ from harness.models.sdf.errors import (
     SdfSyntaxError,
     SdfVersionError,
 )
+from harness.models.sdf.includes import SUPPORTED_VERSIONS, include_file
 from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = [
@@ -54,8 +51,6 @@ __all__ = [
 Vec3 = tuple[float, float, float]
 Version = tuple[int, int]
 
-SUPPORTED_VERSIONS: tuple[str, ...] = tuple(f"1.{minor}" for minor in range(4, 12))
-"""The SDFormat versions this reader accepts."""
 
 _UNLIMITED = 1e16  # SDFormat's default joint limit: |limit| >= this means "no limit"
 
@@ -583,7 +578,7 @@ class _Loader:
         uri = (uri_el.text or "").strip() if uri_el is not None else ""
         if not uri:
             raise SdfIncludeError(f"{where}: <include> needs a <uri>")
-        found = self._include_file(uri, source, where, light_ok)
+        found = include_file(uri, source, where, self.search_paths, light_ok=light_ok)
         if found is None:
             return None  # a light-only stock model (Gazebo's sun): no physics
         path = found.resolve()
@@ -618,69 +613,6 @@ class _Loader:
         finally:
             self.include_stack.pop()
 
-    def _include_file(self, uri: str, source: Path, where: str, light_ok: bool) -> Path | None:
-        """The SDF file an include names, or None for a light-only stock model (``sun``)
-        that is nowhere to be found when ``light_ok``."""
-        fuel = parse_fuel_uri(uri)
-        try:
-            if fuel is not None:
-                target = find_fuel_model(fuel, uri)
-                target = target / fuel.rest if fuel.rest else target
-            elif uri.startswith("model://"):
-                name, _, rest = uri[len("model://") :].partition("/")
-                target = find_model(name, search_paths=self.search_paths, start=source.parent)
-                target = target / rest if rest else target
-            elif "://" in uri and not uri.startswith("file://"):
-                raise SdfIncludeError(f"{where}: unsupported include URI scheme in {uri!r}")
-            else:
-                target = Path(uri.removeprefix("file://")).expanduser()
-                if not target.is_absolute():
-                    target = source.parent / target
-        except OutsideReferenceError as exc:  # a rebuild from a recording: refused as it is
-            raise type(exc)(f"{where}: include {uri!r}: {exc}") from None
-        except ResolveError as exc:
-            if light_ok and _stock_light(uri, fuel):
-                return None
-            raise SdfIncludeError(f"{where}: missing include {uri!r}: {exc}") from None
-        check_confined(target, uri, context=where, what="include")
-        if target.is_dir():
-            return self._model_config_sdf(target, uri, where)
-        if not target.is_file():
-            raise SdfIncludeError(f"{where}: missing include {uri!r}: {target} does not exist")
-        return target
-
-    def _model_config_sdf(self, folder: Path, uri: str, where: str) -> Path:
-        config = folder / "model.config"
-        if not config.is_file():
-            fallback = folder / "model.sdf"
-            if fallback.is_file():
-                return fallback
-            raise SdfIncludeError(
-                f"{where}: missing include {uri!r}: {folder} has no model.config or model.sdf"
-            )
-        try:
-            root, _ = read_xml_file(config)
-        except ModelError as exc:
-            raise SdfIncludeError(f"{where}: include {uri!r}: {exc}") from None
-        choices: list[tuple[Version, str]] = []
-        for sdf in root.findall("sdf"):
-            text = (sdf.text or "").strip()
-            version_text = sdf.get("version", "0.0")
-            try:
-                major, minor = (int(p) for p in version_text.split(".")[:2])
-            except ValueError:
-                continue
-            if text and version_text in SUPPORTED_VERSIONS:
-                choices.append(((major, minor), text))
-        if not choices:
-            raise SdfIncludeError(
-                f"{where}: include {uri!r}: {config} lists no <sdf> file of a supported version"
-            )
-        target = folder / max(choices)[1]
-        if not target.is_file():
-            raise SdfIncludeError(f"{where}: missing include {uri!r}: {target} does not exist")
-        return target
-
 
 def _in_static(scope: Entity | None) -> bool:
     """Whether ``scope`` or a model around it is static (its links never move)."""
@@ -689,17 +621,6 @@ def _in_static(scope: Entity | None) -> bool:
             return True
         scope = scope.scope
     return False
-
-
-def _stock_light(uri: str, fuel: FuelUri | None) -> bool:
-    """Whether ``uri`` names a stock model that is only a light (``model://sun``, Fuel's
-    ``OpenRobotics/Sun``)."""
-    if fuel is not None:
-        return fuel.owner.lower() == "openrobotics" and fuel.name.lower() in LIGHT_ONLY_MODELS
-    name = (
-        uri.removeprefix("model://").strip("/").split("/")[0] if uri.startswith("model://") else ""
-    )
-    return name.lower() in LIGHT_ONLY_MODELS
 
 
 def _scoped(scope: Entity | None, name: str) -> str:
