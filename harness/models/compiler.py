@@ -60,10 +60,12 @@ def mujoco_message(exc: Exception) -> str:
 _MASSLESS = re.compile(r"mass and inertia of moving bodies.*?Element name '([^']*)'", re.S)
 
 
-def compile_spec(spec: mujoco.MjSpec, source: str, *, check: bool = True) -> mujoco.MjModel:
+def compile_spec(
+    spec: mujoco.MjSpec, source: str, *, check: bool = True, strict: bool = False
+) -> mujoco.MjModel:
     """Compile ``spec`` (its size limits checked first unless ``check`` is false); a massless
     moving link, a bad inertia or any other compiler error becomes a one-line error naming
-    ``source``."""
+    ``source`` (it names strict mode as the cause only when ``strict`` was asked)."""
     if check:
         check_spec(spec, source)  # before the compiler allocates what the model declares
     try:
@@ -79,9 +81,14 @@ def compile_spec(spec: mujoco.MjSpec, source: str, *, check: bool = True) -> muj
             ) from None
         triangle = _TRIANGLE.search(text)
         if triangle:
+            hint = (
+                "load without strict=True to have it repaired"
+                if strict
+                else "MuJoCo's compiler refuses it; fix the <inertial>"
+            )
             raise CompileError(
                 f'{source}: <link name="{triangle.group(1)}">: inertia violates the triangle '
-                "inequality (A + B >= C) (load without strict=True to have it repaired)"
+                f"inequality (A + B >= C) ({hint})"
             ) from None
         raise CompileError(f"{source}: {mujoco_message(exc)}") from None
 
@@ -101,7 +108,7 @@ def compile_lenient(
     check_spec(spec, source)
     for _ in range(64):
         try:
-            return compile_spec(spec, source, check=False)
+            return compile_spec(spec, source, check=False, strict=strict)
         except CompileError as exc:
             match = _MESH_VOLUME.search(str(exc))
             mesh = None if match is None or strict else spec.mesh(match.group(1))
@@ -112,7 +119,7 @@ def compile_lenient(
                 f"{source}: mesh {match.group(1) if match else ''} encloses (almost) no volume: "
                 "its inertia is computed as a shell"
             )
-    return compile_spec(spec, source, check=False)
+    return compile_spec(spec, source, check=False, strict=strict)
 
 
 # An attached MJCF robot's <size> memory hints (nkey: it brings keyframes) lose to the world's:

@@ -185,7 +185,7 @@ def load_world(
             placements[index] = setup.place_on_floor(first, robot, servo_qpos, placements[index])
     combine_keyframes(spec, first, prepared, several)
 
-    model = compile_spec(spec, world_source)
+    model = compile_spec(spec, world_source, strict=any(r.request.strict for r in prepared))
     for robot in prepared:
         if robot.repair:
             robot.repairs_made = robot.source_repairs + _repairs(

@@ -253,7 +253,10 @@ class Scenario:
     description: str = ""
     bridge: ScenarioBridgeSection = ScenarioBridgeSection()
     logging: LoggingConfig = _LOGGING_OFF
-    timestep: float = 0.002
+    timestep: float | None = None
+    """The physics step in seconds; None (no ``timestep`` key): the map's own (an SDF world's
+    ``<max_step_size>``, an MJCF scene's ``<option timestep>``: see
+    :func:`harness.scenario.world.effective_timestep`)."""
     duration: float = 10.0
     seed: int = 0
     sensors: tuple[Mapping[str, Any], ...] = ()
@@ -355,7 +358,7 @@ class _Builder:
                 ros2=ros_bridge.get("ros2", False),
             ),
             logging=self.logging(data.get("logging")),
-            timestep=float(data.get("timestep", 0.002)),
+            timestep=None if data.get("timestep") is None else float(data["timestep"]),
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
             controllers=self.controllers(
