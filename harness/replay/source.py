@@ -386,6 +386,7 @@ def rebuild_robot(
                 control=modes,
                 scene=_scene(sources, root),
                 packages=_packages(sources, root) or None,
+                visuals=rec.metadata.get("visuals") == "true",
                 **_collision_and_base(
                     json.loads(rec.metadata.get("self_collision", "null")),
                     rec.metadata.get("base"),
