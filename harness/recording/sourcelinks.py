@@ -26,14 +26,28 @@ from harness.recording.layout import ATTACHMENT_SOURCE_PREFIX
 
 __all__ = [
     "ATTACHMENT_SOURCE_LINKS",
+    "ATTACHMENT_SOURCE_REFS",
     "MAX_LINKED_BYTES",
     "MAX_SOURCE_LINKS",
+    "PROJECT_REFERENCE_REFUSAL",
     "link_sources",
     "parse_source_links",
 ]
 
 ATTACHMENT_SOURCE_LINKS: Final = "source-links.json"
 """The attachment listing the source names whose bytes another ``source/`` attachment carries."""
+
+ATTACHMENT_SOURCE_REFS: Final = "source-refs.json"
+"""A golden's references to its project's files by content hash instead of attachments
+(:mod:`harness.plugin.golden_sources`): resolved only by the pytest golden check."""
+
+PROJECT_REFERENCE_REFUSAL: Final = (
+    "a golden that refers to its sources in its project by content hash "
+    f"({ATTACHMENT_SOURCE_REFS}, --harness-golden-sources=project) is read only by that "
+    "project's pytest golden check; write it with its sources carried to replay, diff or "
+    "inspect it elsewhere"
+)
+"""Why a file with :data:`ATTACHMENT_SOURCE_REFS` is refused outside the golden check."""
 
 MAX_SOURCE_LINKS: Final = 10_000
 """Links a recording may list (a rebuild writes one file per link)."""
