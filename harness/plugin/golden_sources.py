@@ -132,21 +132,24 @@ def _references(
     sources: Mapping[str, bytes], rootdir: Path, skip: tuple[Path, ...]
 ) -> dict[str, dict[str, str]]:
     """name under ``source/`` -> ``{"path", "sha256"}`` of each of ``sources`` the project
-    tree holds byte for byte (the first such file in name order)."""
-    wanted: dict[str, list[str]] = {}
-    for name, blob in sources.items():
-        wanted.setdefault(hashlib.sha256(blob).hexdigest(), []).append(name)
+    tree holds byte for byte: the file whose path ends like the name (``package/<pkg>/...``
+    as ``<pkg>/...``) when there is one, else the first in name order."""
+    digests = {name: hashlib.sha256(blob).hexdigest() for name, blob in sources.items()}
     sizes = {len(blob) for blob in sources.values()}
-    found: dict[str, dict[str, str]] = {}
+    candidates: dict[str, list[str]] = {}
     for path in _project_files(rootdir, sizes, skip):
         try:
             digest = hashlib.sha256(path.read_bytes()).hexdigest()
         except OSError:
             continue
-        for name in wanted.pop(digest, []):
-            found[name] = {"path": path.relative_to(rootdir).as_posix(), "sha256": digest}
-        if not wanted:
-            break
+        candidates.setdefault(digest, []).append(path.relative_to(rootdir).as_posix())
+    found: dict[str, dict[str, str]] = {}
+    for name, digest in digests.items():
+        paths = candidates.get(digest)
+        if paths:
+            tail = "/" + name.removeprefix("package/")
+            best = next((p for p in paths if ("/" + p).endswith(tail)), paths[0])
+            found[name] = {"path": best, "sha256": digest}
     return found
 
 
