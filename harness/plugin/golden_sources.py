@@ -243,12 +243,19 @@ def resolved_golden(golden: Path, rootdir: Path) -> Iterator[Path]:
 
     try:
         with Recording(golden) as rec:
-            if ATTACHMENT_SOURCE_REFS not in rec.attachment_names:
-                refs = None
-            else:
-                refs = json.loads(rec.attachment(ATTACHMENT_SOURCE_REFS).decode("utf-8"))
-    except (RecordingError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-        raise GoldenSourcesChanged(f"{golden}: {' '.join(str(exc).split())}") from None
+            blob = (
+                rec.attachment(ATTACHMENT_SOURCE_REFS)
+                if ATTACHMENT_SOURCE_REFS in rec.attachment_names
+                else None
+            )
+    except RecordingError:
+        blob = None  # a golden that does not read: the diff says why, as for any golden
+    try:
+        refs = None if blob is None else json.loads(blob.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise GoldenSourcesChanged(
+            f"{golden}: {ATTACHMENT_SOURCE_REFS}: {' '.join(str(exc).split())}"
+        ) from None
     if refs is None:
         yield golden
         return

@@ -27,7 +27,8 @@ def _mcap_edit() -> ModuleType:
     name = "replay_tests_mcap_edit"
     if name not in sys.modules:
         spec = importlib.util.spec_from_file_location(name, MCAP_EDIT)
-        assert spec is not None and spec.loader is not None
+        assert spec is not None
+        assert spec.loader is not None
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         spec.loader.exec_module(module)
@@ -77,7 +78,8 @@ def test_a_bad_link_is_refused_in_one_line(demo: Path, tmp_path: Path, case: str
         rebuild_robot(rec)
     message = str(info.value)
     assert reason in message
-    assert "\n" not in message and "source-links.json" in message
+    assert "\n" not in message
+    assert "source-links.json" in message
 
 
 def test_links_that_are_not_json_are_refused_by_the_cli_in_one_line(
@@ -93,7 +95,8 @@ def test_links_that_are_not_json_are_refused_by_the_cli_in_one_line(
     assert done.returncode != 0
     assert "Traceback" not in done.stderr
     [line] = done.stderr.strip().splitlines()
-    assert "source-links.json" in line and "not JSON" in line, line
+    assert "source-links.json" in line, line
+    assert "not JSON" in line, line
 
 
 def test_a_good_link_lays_out_the_name_from_the_attachment(demo: Path, tmp_path: Path) -> None:
