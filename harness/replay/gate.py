@@ -17,6 +17,11 @@ serves attached mesh bytes, nothing else).
   URDF as its model (``source/model/<name>.urdf``) and the files the expansion read as
   ``source/xacro/...``; those are left out with a note. A recording whose model source is
   itself xacro carries no expanded description and is refused with one line.
+- **Links** (:func:`source_links`): a source whose bytes another ``source/`` attachment
+  carries is not attached again but listed in ``source-links.json``
+  (:mod:`harness.recording.sourcelinks`); it is laid out from that attachment's bytes, its
+  name and its target checked as above, the target one of the recording's ``source/``
+  attachments, at most 10,000 links and 1 GiB laid out through them.
 - **References** (:func:`rebuild_folder`): the sources are written into a fresh private
   folder and the model is loaded inside :func:`harness.models.confine.confined_to` it: every
   file reference (mesh, ``package://``, ``model://``, ``file://``, absolute, ``..``, SDF
@@ -68,6 +73,11 @@ from harness.recording.layout import (
     ATTACHMENT_MODEL_BINARY,
     ATTACHMENT_SOURCE_PREFIX,
 )
+from harness.recording.sourcelinks import (
+    ATTACHMENT_SOURCE_LINKS,
+    MAX_LINKED_BYTES,
+    parse_source_links,
+)
 from harness.replay.errors import (
     ModelAttachmentError,
     SourceLeftOutWarning,
@@ -84,6 +94,7 @@ __all__ = [
     "rebuild_folder",
     "recorded_sources",
     "refused",
+    "source_links",
     "source_name",
     "warn_left_out",
 ]
@@ -146,11 +157,11 @@ def refused(rec: Recording, reason: str) -> UnsafeRecordingError:
 
 def recorded_sources(rec: Recording) -> RecordedSources:
     """The ``source/...`` attachments of ``rec`` a model may be rebuilt from: every name
-    checked (:func:`source_name`), xacro sources (:func:`is_xacro_source`) left out with a
-    note. A damaged attachment is a :class:`ModelAttachmentError`; an unsafe name an
+    checked (:func:`source_name`), the names linked to another attachment's bytes laid out
+    (:func:`source_links`), xacro sources (:func:`is_xacro_source`) left out with a note. A
+    damaged attachment is a :class:`ModelAttachmentError`; an unsafe name an
     :class:`UnsafeRecordingError`."""
-    files: dict[str, bytes] = {}
-    notes: list[tuple[str, str]] = []
+    raw: dict[str, bytes] = {}
     for full in rec.attachment_names:
         if not full.startswith(ATTACHMENT_SOURCE_PREFIX):
             continue
@@ -158,16 +169,73 @@ def recorded_sources(rec: Recording) -> RecordedSources:
         if source_name(name) is None:
             raise refused(rec, f"source attachment {full!r} is not a plain relative name")
         try:
-            blob = rec.attachment(full)
+            raw[name] = rec.attachment(full)
         except RecordingDamagedError as exc:
             raise ModelAttachmentError(str(exc)) from None
+    links = source_links(rec, {name: len(blob) for name, blob in raw.items()})
+    raw.update({name: raw[target] for name, target in links.items()})
+    files: dict[str, bytes] = {}
+    notes: list[tuple[str, str]] = []
+    for name, blob in raw.items():
         if is_xacro_source(name, blob):
             notes.append(
-                (name, f"{full}: a xacro source, left out (never expanded from a recording)")
+                (
+                    name,
+                    f"{full_name(name)}: a xacro source, left out (never expanded from a "
+                    "recording)",
+                )
             )
             continue
         files[name] = blob
     return RecordedSources(files, tuple(notes))
+
+
+def full_name(name: str) -> str:
+    """The attachment name of the source ``name``."""
+    return ATTACHMENT_SOURCE_PREFIX + name
+
+
+def source_links(rec: Recording, attached: Mapping[str, int]) -> dict[str, str]:
+    """The checked links of ``rec`` (:mod:`harness.recording.sourcelinks`): name under
+    ``source/`` -> the name under ``source/`` whose attachment carries its bytes. Refused
+    with one line (:class:`UnsafeRecordingError`) when a name is not a plain relative path,
+    a target is not a ``source/`` attachment, a name is also attached, or the links lay out
+    more than :data:`~harness.recording.sourcelinks.MAX_LINKED_BYTES`. ``attached``: the
+    size of each ``source/`` attachment by its name under ``source/``."""
+    if ATTACHMENT_SOURCE_LINKS not in rec.attachment_names:
+        return {}
+    try:
+        blob = rec.attachment(ATTACHMENT_SOURCE_LINKS)
+    except RecordingDamagedError as exc:
+        raise ModelAttachmentError(str(exc)) from None
+    try:
+        links = parse_source_links(blob)
+    except ValueError as exc:
+        raise refused(rec, f"attachment {ATTACHMENT_SOURCE_LINKS!r}: {exc}") from None
+    total = 0
+    for name, target in links.items():
+        for part in (name, target):
+            if source_name(part) is None:
+                raise refused(
+                    rec,
+                    f"{ATTACHMENT_SOURCE_LINKS}: source name {part!r} is not a plain relative name",
+                )
+        if target not in attached:
+            raise refused(
+                rec,
+                f"{ATTACHMENT_SOURCE_LINKS}: {name!r} names {full_name(target)!r}, which is not "
+                "attached",
+            )
+        if name in attached:
+            raise refused(rec, f"{ATTACHMENT_SOURCE_LINKS}: {full_name(name)!r} is also attached")
+        total += attached[target]
+        if total > MAX_LINKED_BYTES:
+            raise refused(
+                rec,
+                f"{ATTACHMENT_SOURCE_LINKS}: its links lay out more than the limit of "
+                f"{MAX_LINKED_BYTES} bytes",
+            )
+    return links
 
 
 def warn_left_out(rec: Recording, sources: RecordedSources) -> None:
@@ -183,8 +251,8 @@ def warn_left_out(rec: Recording, sources: RecordedSources) -> None:
 def check_model_source(rec: Recording, sources: RecordedSources, name: str) -> None:
     """Refuse with one line when the model source ``name`` (under ``source/``) was left out
     as xacro."""
-    full = ATTACHMENT_SOURCE_PREFIX + name
-    if name not in sources.files and full in rec.attachment_names:
+    full = full_name(name)
+    if name not in sources.files and any(left == name for left, _ in sources.notes):
         raise refused(
             rec,
             f"its model source {full!r} is xacro, which is never expanded from a recording, "

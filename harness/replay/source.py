@@ -58,6 +58,7 @@ from harness.recording.layout import (
     ATTACHMENT_SOURCE_PREFIX,
     TOPIC_STATE,
 )
+from harness.recording.sourcelinks import ATTACHMENT_SOURCE_REFS, PROJECT_REFERENCE_REFUSAL
 from harness.replay.errors import (
     ModelAttachmentError,
     RecordedDataError,
@@ -111,6 +112,9 @@ def open_recording(
         text = rec.problem_text()
         rec.close()
         raise RecordedDataError(f"{path}: the recording is damaged ({text}){_DAMAGED_HINT}")
+    if ATTACHMENT_SOURCE_REFS in rec.attachment_names:
+        rec.close()
+        raise UnsafeRecordingError(f"{path}: {PROJECT_REFERENCE_REFUSAL}")
     return rec
 
 
@@ -386,6 +390,7 @@ def rebuild_robot(
                 control=modes,
                 scene=_scene(sources, root),
                 packages=_packages(sources, root) or None,
+                visuals=rec.metadata.get("visuals") == "true",
                 **_collision_and_base(
                     json.loads(rec.metadata.get("self_collision", "null")),
                     rec.metadata.get("base"),
