@@ -1,5 +1,6 @@
-"""``harness check-model FILE [--json] [--robot-arg NAME:=VALUE ...] [--self-collision auto|off|on]
-[--base fixed|floating] [--strict]``: a robot's report.
+"""``harness check-model FILE [--json] [--robot-arg NAME:=VALUE ...]
+[--self-collision auto|off|on|srdf] [--srdf PATH] [--base fixed|floating] [--strict]``:
+a robot's report.
 
 Exit code 0 when the robot behaves, 1 with the reasons when it does not, 2 when it does not
 load (see :mod:`harness.models.check`).

@@ -209,11 +209,12 @@ def check_model(
     self_collision: SelfCollision | None = None,
     robot_args: RobotArgs | None = None,
     packages: PackageMap | None = None,
+    srdf: str | Path | None = None,
 ) -> ModelCheck:
     """Load ``source`` with the defaults and check it (see the module docstring).
-    ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments) and
-    ``packages``: as for :func:`harness.models.load_robot`. Never raises for a robot that
-    does not load: the report says why in one line (exit code 2)."""
+    ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments),
+    ``packages`` and ``srdf``: as for :func:`harness.models.load_robot`. Never raises for a
+    robot that does not load: the report says why in one line (exit code 2)."""
     from harness.models.build import load_robot
 
     try:
@@ -227,6 +228,7 @@ def check_model(
                 self_collision=self_collision,
                 robot_args=robot_args,
                 packages=packages,
+                srdf=srdf,
             )
     except HarnessError as exc:
         return ModelCheck(str(source), error=str(exc))
