@@ -74,6 +74,7 @@ def format_report(report: ModelCheck) -> str:
             f"{mass['lightest_moving_kg']:.3g} kg, smallest moving inertia "
             f"{mass['smallest_moving_inertia_kg_m2']:.3g} kg m^2"
         )
+    lines += [f"hint: {hint}" for hint in report.hints]
     if report.problems:
         lines.append("does not behave:")
         lines += [f"  {problem}" for problem in report.problems]
