@@ -143,8 +143,9 @@ class ScenarioRobot:
     for it (``robot``, ``robot1``, ... when not given); ``named``: whether the file gave the
     name (a given name is the robot's namespace when a run has several
     robots, see :func:`harness.scenario.world.robot_namespaces`). ``robot_args``: the
-    arguments of a xacro robot (name -> value as text). ``self_collision``, ``base`` and
-    ``strict``: as for :func:`harness.models.load_robot` (None: the default)."""
+    arguments of a xacro robot (name -> value as text). ``self_collision``, ``base``,
+    ``strict`` and ``srdf`` (the resolved SRDF file): as for
+    :func:`harness.models.load_robot` (None: the default)."""
 
     robot: str | Path
     name: str
@@ -160,6 +161,7 @@ class ScenarioRobot:
     base: BaseKind | None = None
     """``"fixed"``, ``"floating"`` (a mobile base) or None (the file's)."""
     strict: bool = False
+    srdf: str | Path | None = None
 
 
 @dataclass(frozen=True)
@@ -430,6 +432,20 @@ class _Builder:
             )
         return robot
 
+    def srdf(self, value: str, path: list[str | int]) -> Path | str:
+        """A robot's ``srdf:``: a path relative to the scenario file or ``package://``
+        (a MoveIt config package), which must exist."""
+        if value.startswith("package://"):
+            try:
+                return resolve_uri(value, base_dir=self.base, what="srdf")
+            except ModelError as exc:
+                self.problem(path, value, f"is not found: {exc}")
+                return value
+        srdf = (self.base / value).resolve()
+        if not srdf.is_file():
+            self.problem(path, value, f"not found (looked for {srdf})")
+        return srdf
+
     def unique(self, key: str, names: list[str]) -> None:
         for i, name in enumerate(names):
             if name in names[:i]:
@@ -555,6 +571,7 @@ class _Builder:
             ),
             base=None if "base" not in data else RobotBase(data["base"]).value,
             strict=bool(data.get("strict", False)),
+            srdf=None if "srdf" not in data else self.srdf(data["srdf"], [*path, "srdf"]),
         )
 
     def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:

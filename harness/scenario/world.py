@@ -366,6 +366,7 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
                 initial_positions=dict(robot.initial_joint_positions),
                 robot_args=dict(robot.robot_args),
                 self_collision=robot.self_collision,
+                srdf=robot.srdf,
                 base=robot.base,
                 strict=robot.strict,
             )

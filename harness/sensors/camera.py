@@ -205,7 +205,7 @@ def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
 
 
 def _build(spec: SensorSpec, at: Mounted) -> CameraSensor:
-    sensor_frame = at.prefix + spec.name
+    sensor_frame = at.prefix + spec.token
     return CameraSensor(spec, at.model, at.mount, at.topics, at.frame_id, at.renderer, sensor_frame)
 
 

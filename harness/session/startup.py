@@ -76,7 +76,7 @@ def load_run(
         load.scene,
         namespace,
         load.robot_args,
-        _load_options(load.self_collision, load.base, load.strict),
+        _load_options(load.self_collision, load.base, load.strict, load.srdf),
     )
 
 
@@ -129,12 +129,17 @@ def open_port(
 
 
 def _load_options(
-    self_collision: SelfCollision | None, base: BaseKind | None, strict: bool
+    self_collision: SelfCollision | None,
+    base: BaseKind | None,
+    strict: bool,
+    srdf: str | Path | None = None,
 ) -> dict[str, Any]:
     """The robot load options a session was given (none left at their default)."""
     options: dict[str, Any] = {}
     if self_collision is not None:
         options["self_collision"] = self_collision
+    if srdf is not None:
+        options["srdf"] = srdf
     if base is not None:
         options["base"] = base
     if strict:
