@@ -15,8 +15,14 @@ first, predicting its cost from its operands:
   handed to ``map``/``filter``/``sorted``/``min``/``max`` guarded too; string methods that
   widen (``ljust``, ``center``, ``zfill``, ``expandtabs``, ``replace``, ``join``, ``format``)
   charged what they will write, ``round`` digits, ``factorial``/``comb``/``perm`` bounded;
-- every item a comprehension draws, every operand compared, sliced or unpacked, every
-  ``f"{...}"`` field (format widths and precisions checked first).
+- every item a comprehension draws, every call of a ``lambda`` (C code such as ``sorted`` or
+  an object's ``__getitem__`` may call it without end), every operand compared, sliced or
+  unpacked, every ``f"{...}"`` field (format widths and precisions checked first); a method
+  call charges the size of its object (``[0] * n`` counted ``n`` times is refused);
+- ``type()`` with three arguments (a new class, whose methods C code would call) is refused.
+
+``python.vars`` reaches Python's internals (the sandbox escape of issue 31, break 1: why a
+recording's xacro is never expanded): code reached that way is not bounded by this guard.
 
 A step over the budget stops the expansion with the meter's one
 :class:`~harness.models.limits.ModelLimitError` line, before Python does the work. The
@@ -45,7 +51,7 @@ prints no integer longer than 4,300 digits anyway)."""
 MAX_FACTORIAL = 5_000
 """The largest ``n`` of ``math.factorial``/``comb``/``perm`` (5000! has about 54,000 bits)."""
 
-HELPERS = ("__hx_bin", "__hx_call", "__hx_charge", "__hx_iter", "__hx_format")
+HELPERS = ("__hx_bin", "__hx_call", "__hx_charge", "__hx_iter", "__hx_format", "__hx_step")
 """The names the rewritten tree calls (``__`` names: an expression cannot name them)."""
 
 _BINOPS: dict[type[ast.operator], Callable[[Any, Any], Any]] = {
@@ -100,6 +106,11 @@ class _Rewrite(ast.NodeTransformer):
             node,
         )
 
+    def visit_Lambda(self, node: ast.Lambda) -> ast.AST:
+        self.generic_visit(node)
+        node.body = _call(node.body, "__hx_step", node.body)
+        return node
+
     def visit_comprehension(self, node: ast.comprehension) -> ast.AST:
         self.generic_visit(node)
         node.iter = _call(node.iter, "__hx_iter", node.iter)
@@ -142,6 +153,7 @@ class _Guard:
 
     def __init__(self, meter: XacroMeter) -> None:
         self.meter = meter
+        self.steps = 0
 
     def room(self) -> int:
         return max(0, self.meter.limits.text_bytes - self.meter.text_bytes)
@@ -190,13 +202,16 @@ class _Guard:
         self.charge(len(text) + self.size(values))
 
     def call(self, function: Any, /, *args: Any, **kwargs: Any) -> Any:
-        self.charge(sum(self.size(a) for a in (*args, *kwargs.values()) if isinstance(a, _SIZED)))
+        owner = getattr(function, "__self__", None)
+        name = getattr(function, "__name__", "")
+        operands = (owner, *args, *kwargs.values())  # a method's work is linear in its object
+        self.charge(sum(self.size(a) for a in operands if isinstance(a, _SIZED)))
+        if function is type and len(args) > 1:
+            self.meter.refuse("a new class (type() with three arguments)")
         if any(function is f for f in _HIGHER_ORDER):
             args = tuple(self.wrap(a) if callable(a) else a for a in args)
             if callable(kwargs.get("key")):
                 kwargs["key"] = self.wrap(kwargs["key"])
-        owner = getattr(function, "__self__", None)
-        name = getattr(function, "__name__", "")
         if isinstance(owner, str | bytes):
             self.string_method(owner, name, args, kwargs)
         elif function is round and len(args) > 1 and isinstance(args[1], int):
@@ -261,6 +276,15 @@ class _Guard:
             self.charge(_ITEM)
             yield item
 
+    def step(self, value: Any) -> Any:
+        """One call of a lambda (which C code may call without end): charged, the clock
+        checked."""
+        self.charge(_ITEM)
+        self.steps += 1
+        if self.steps & 0xFFF == 0:
+            self.meter.tick()
+        return value
+
     def charged(self, value: Any) -> Any:
         if isinstance(value, _SIZED):
             self.charge(self.size(value))
@@ -281,7 +305,7 @@ class _Guard:
         return dict(
             zip(
                 HELPERS,
-                (self.binop, self.call, self.charged, self.iterate, self.format),
+                (self.binop, self.call, self.charged, self.iterate, self.format, self.step),
                 strict=True,
             )
         )

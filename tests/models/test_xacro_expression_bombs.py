@@ -1,6 +1,7 @@
 """One xacro ``${...}`` expression bounded while Python evaluates it (issue 31, break 7): a
-repetition, power, shift, widening string method, comprehension or range that would make
-gigabytes or run for hours inside one ``eval`` is stopped before it runs, with one
+repetition, power, shift, widening string method, comprehension, range, method or lambda
+called in a loop, or a class C code iterates without end, that would make gigabytes or run
+for hours inside one ``eval`` is stopped before it runs, with one
 :class:`~harness.models.limits.ModelLimitError` line naming the file (exit 2 on the CLI).
 
 Each bomb runs in ``harness check-model`` in a subprocess with a memory limit (1 GiB of
@@ -28,7 +29,10 @@ HEAD = '<?xml version="1.0"?>\n<robot name="bomb" xmlns:xacro="http://www.ros.or
 HANG_GUARD = 120  # seconds: each bomb is refused in well under one on an idle machine
 MEMORY = 2**30
 
-TEMPLATE = '<xacro:property name="t" value="{:&gt;10000000000}"/>'
+TEMPLATE = (
+    '<xacro:property name="t" value="{:&gt;10000000000}"/>'
+    '<xacro:property name="x" value="${python.range(10**6)}"/>'
+)
 BOMBS = {
     "string-repetition": "'x'*10**10",
     "list-repetition": "[0]*10**10",
@@ -44,6 +48,10 @@ BOMBS = {
     "factorial": "python.len(python.str(math.factorial(10**7)))",
     "map-of-copies": "len(python.list(python.map(python.list, [python.range(10**6)]*10**4)))",
     "squares-of-properties": "q30",
+    # an object that C code iterates without end (its __getitem__ never raises)
+    "endless-class": "python.all(python.type('Z', (), python.dict(__getitem__=python.slice))())",
+    "count-in-a-loop": "[([0]*10**6).count(0) for i in python.range(10**6)]",
+    "lambda-in-a-loop": "[len(python.list(python.map(lambda x: x, [1]*10**6))) for i in x]",
 }
 
 
