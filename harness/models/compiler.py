@@ -5,6 +5,7 @@ MuJoCo's warnings re-issued as :class:`~harness.models.errors.ModelWarning`.
 
 from __future__ import annotations
 
+import os
 import re
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
@@ -14,9 +15,11 @@ from typing import TYPE_CHECKING
 
 import mujoco
 
+from harness.models.assets import embed_files
+from harness.models.confine import confinement
 from harness.models.errors import CompileError, MasslessLinkError, ModelWarning
 from harness.models.limits import check_spec
-from harness.models.mjcf_files import check_mjcf_files
+from harness.models.mjcf_files import check_mjcf_files, mjcf_in_memory
 
 if TYPE_CHECKING:
     from harness.models.robot_build import RobotBuild
@@ -32,7 +35,15 @@ __all__ = [
 
 
 def spec_from_file(path: Path) -> mujoco.MjSpec:
-    """The spec of an MJCF file, its includes and assets checked first."""
+    """The spec of an MJCF file, its includes and assets checked first. In a rebuild from a
+    recording (:mod:`harness.models.confine`) MuJoCo gets no path: the text with its includes
+    inlined (:func:`~harness.models.mjcf_files.mjcf_in_memory`), then every file it references
+    as an in-memory asset (:func:`~harness.models.assets.embed_files`)."""
+    if confinement() is not None:
+        spec = spec_from_string(mjcf_in_memory(path), str(path))
+        spec.modelfiledir = str(path.parent) + os.sep  # what from_file sets: found by Python
+        embed_files(spec, source=str(path))
+        return spec
     check_mjcf_files(path)  # before MuJoCo opens its includes and assets
     try:
         with mujoco_warnings():

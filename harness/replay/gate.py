@@ -29,8 +29,10 @@ serves attached mesh bytes, nothing else).
   inside it, decided on the reference's text before any file is looked at, or the rebuild is
   refused with one line naming the reference (:class:`UnsafeRecordingError`), the same line
   whether that path exists on this machine or not. Package and model searches see only the
-  folder. URDF and SDF meshes reach MuJoCo as in-memory assets (its virtual file system);
-  an MJCF source is read by MuJoCo from the folder, after every reference was checked.
+  folder. MuJoCo is given no path: URDF and SDF meshes reach it as in-memory assets (its
+  virtual file system); an MJCF source is read in Python, its ``<include>`` files inlined,
+  and parsed from the string, every file it references then embedded as an asset
+  (:func:`harness.models.compiler.spec_from_file` while confined).
 - **Binary model** (:func:`model_from_mjb`): ``model.mjb`` is first loaded in a child process
   with limits on memory and CPU time (:data:`MJB_CPU_SECONDS`, :func:`mjb_memory_limit`):
   MuJoCo's binary reader allocates what the file's header declares before the model limits
@@ -38,8 +40,8 @@ serves attached mesh bytes, nothing else).
   here, from memory (MuJoCo's virtual file system), then checked against the model limits.
   (Rebuilding from the MJCF text instead would lose bit-exactness: MuJoCo writes it with 6
   significant digits.)
-- **MJCF text** (:func:`model_from_mjcf_text`): ``model.mjcf.xml`` compiled from its folder
-  with every reference confined to it, the limits checked before compiling.
+- **MJCF text** (:func:`model_from_mjcf_text`): ``model.mjcf.xml`` compiled from memory
+  with every reference confined to its folder, the limits checked before compiling.
 
 Nothing in a recording is unpickled or evaluated: metadata is JSON (``json.loads``), records
 are CDR decoded against declared message definitions.
@@ -63,10 +65,10 @@ from typing import NamedTuple
 import mujoco
 
 from harness.errors import HarnessError
+from harness.models.compiler import spec_from_file
 from harness.models.confine import confined_to
-from harness.models.errors import OutsideReferenceError, XacroError
+from harness.models.errors import CompileError, OutsideReferenceError, XacroError
 from harness.models.limits import check_model, check_spec
-from harness.models.mjcf_files import check_mjcf_files
 from harness.recording import Recording, RecordingDamagedError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
@@ -369,10 +371,13 @@ def model_from_mjb(blob: bytes) -> mujoco.MjModel:
 
 def model_from_mjcf_text(rec: Recording, text: bytes) -> mujoco.MjModel:
     """``model.mjcf.xml`` compiled with every reference confined to its own (otherwise
-    empty) folder and the model limits checked before compiling."""
+    empty) folder, from memory (MuJoCo gets the text, no path), the model limits checked
+    before compiling. Raises :class:`ValueError` when MuJoCo refuses the text."""
     with rebuild_folder(rec, {ATTACHMENT_MODEL: text}) as root:
         path = root / ATTACHMENT_MODEL
-        check_mjcf_files(path, roots=(root,))
-        spec = mujoco.MjSpec.from_file(str(path))
+        try:
+            spec = spec_from_file(path)
+        except CompileError as exc:
+            raise ValueError(str(exc).removeprefix(f"{path}: ")) from None
         check_spec(spec, ATTACHMENT_MODEL)
         return spec.compile()
