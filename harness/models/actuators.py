@@ -7,14 +7,16 @@ the commanded speed, with no more than the effort limit), whatever the link's in
 joint's damping (issue 34: DiffBot's wheels, Iyy 3e-5 kg m^2 and damping 0.2, reached 6 % of the
 command). Three parts:
 
-- a stiff servo: kv saturates the effort limit at a 0.05 rad/s error, so a load (a caster
-  dragging, a slope) costs no measurable speed;
+- a stiff servo: kv saturates the effort limit at a 0.2 rad/s error, so a load (a caster
+  dragging, a slope) costs little speed (a tenth of the effort limit: 0.02 rad/s);
 - the drive's rotor inertia (armature) for a joint whose file states none, enough for that kv:
   MuJoCo integrates a saturated actuator explicitly, and a kv above inertia / timestep then
   overshoots the command by more than it corrected and rings between the effort limits. So a
-  saturated drive accelerates at effort / (inertia + armature) (25 rad/s^2 for 100 N m: the
-  effort limit still bounds it), and a drive within its limit reaches the command in a few
-  steps, for any link inertia from 1e-6 to 1 kg m^2;
+  saturated drive gains at most 0.2 rad/s per step, exactly that when the rotor outweighs the
+  link (100 rad/s^2 at 2 ms; the effort limit still bounds it, Gazebo's would reach any speed
+  within the limit in one step), and a drive within its limit reaches the command in a few
+  steps, for any link inertia from 1e-6 to 1 kg m^2 (a joint whose file states an armature
+  keeps it, and its kv stays capped at inertia / timestep);
 - the joint's own damping overcome by the drive (gain kv + damping, bias -kv): the joint settles
   at the command instead of kv / (kv + damping) of it.
 
@@ -58,7 +60,7 @@ __all__ = [
 # about the velocity limit and can brake, instead of reaching many times the limit and
 # overshooting it (issue 2: joint7 reached 29x its velocity limit and 0.40 rad past its limit).
 _POSITION_SATURATION_ERROR = 0.005
-_VELOCITY_SATURATION_ERROR = 0.05
+_VELOCITY_SATURATION_ERROR = 0.2
 _DEFAULT_EFFORT = 100.0
 _STABLE_OMEGA_DT = 0.5
 
