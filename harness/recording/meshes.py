@@ -11,10 +11,11 @@ next to ``model/``), a relative path as ``source/`` + the path from ``model/``. 
 cannot be resolved here, or only through an explicit package map, absolute paths and
 ``file://`` URIs are left out (the recording still replays from ``model.mjb``).
 
-A robot loaded without its visuals (the default) compiles no visual geom, so its rebuild needs
-no visual-only file: :func:`visual_only_attachments` names the attachments of the meshes only
-``<visual>`` elements reference and of every ``<texture>``, which the recorder then leaves out
-(both spellings: ``source/<pkg>/...`` and a xacro robot's ``source/package/<pkg>/...``).
+A robot loaded without its visuals (the default; a session loads a robot whose sensors render,
+a camera, with them) compiles no visual geom, so its rebuild needs no visual-only file:
+:func:`visual_only_attachments` names the attachments of the meshes only ``<visual>`` elements
+reference and of every ``<texture>``, which the recorder then leaves out (both spellings:
+``source/<pkg>/...`` and a xacro robot's ``source/package/<pkg>/...``).
 """
 
 from __future__ import annotations

@@ -255,6 +255,7 @@ register_kind(
         gazebo=("camera",),
         topics=_camera_topics,
         params=_params,
+        renders=True,
     )
 )
 register_kind(
@@ -266,6 +267,7 @@ register_kind(
         gazebo=("depth_camera",),
         topics=_depth_topics,
         params=_params,
+        renders=True,
     )
 )
 register_kind(
@@ -277,5 +279,6 @@ register_kind(
         gazebo=("depth", "rgbd_camera", "rgbd"),
         topics=_rgbd_topics,
         params=_params,
+        renders=True,
     )
 )

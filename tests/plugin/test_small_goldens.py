@@ -1,7 +1,8 @@
 """Goldens that fit a code review (issue 35, "Small goldens"): the Panda of the real
-franka_description in tests/data (fr3 with its hand; tests/data holds no moveit_resources
-Panda), 3 s in lockstep with the physics state of every step, checked for size; a golden that
-refers to its project's files by content hash, resolved only by the pytest golden check."""
+franka_description in tests/data (fr3 with its hand) and the Panda of moveit_resources
+(tests/data/descriptions/moveit_resources_panda_description), 3 s in lockstep with the
+physics state of every step, checked for size; a golden that refers to its project's files by
+content hash, resolved only by the pytest golden check."""
 
 from __future__ import annotations
 
@@ -97,3 +98,49 @@ def test_the_panda_golden_fits_and_a_project_golden_is_read_only_by_its_check(py
             "link2.stl changed since the golden was written*--harness-update-goldens*"
         ]
     )
+
+
+MOVEIT_PANDA = FRANKA.parent / "moveit_resources_panda_description"
+
+PANDA_URDF = """
+import pathlib
+import pytest
+
+ROBOT = str(pathlib.Path(__file__).parent / "{package}/urdf/panda.urdf")
+
+@pytest.mark.harness(robot=ROBOT)
+def test_arm(harness_session, golden):
+    harness_session.step(round(3.0 / harness_session.sim.model.opt.timestep))
+    golden.check(joint_position=1e-6)
+"""
+
+
+@pytest.mark.slow
+def test_the_moveit_resources_panda_golden_carries_each_collision_mesh_once(pytester, run):
+    """The issue's own target: the Panda of moveit_resources (tests/data, from its xacro
+    package), 3 s with every step's state, is <= 1 MB carrying its sources (11,655,353 B at
+    2fffa9d, with model.mjb and the visual DAEs; 498,367 B now); its 10.5 MB of visual DAEs
+    are not attached (no visuals asked, no camera)."""
+    package = MOVEIT_PANDA.name
+    shutil.copytree(MOVEIT_PANDA, pytester.path / package)
+    pytester.makepyfile(test_panda=PANDA_URDF.format(package=package))
+    golden = pytester.path / "recordings" / "test_panda" / "test_arm.mcap"
+
+    run("--harness-update-goldens").assert_outcomes(passed=1)
+    size = golden.stat().st_size
+    with Recording(golden) as rec:
+        names = rec.attachment_names
+        blobs = [rec.attachment(n) for n in names]
+        assert rec.last_step == 1500
+        assert len(list(rec.physics_states())) == 1501  # the state of every step
+        assert rec.metadata.get("visuals") is None
+    assert "model.mjb" not in names  # the carried sources rebuild to the recorded model
+    meshes = sorted(n for n in names if n.startswith(f"source/{package}/meshes/"))
+    stls = sorted(p.name for p in (MOVEIT_PANDA / "meshes" / "collision").glob("*.stl"))
+    carried = {n.rsplit("/", 1)[1] for n in meshes}
+    assert not any(n.endswith(".dae") for n in names), meshes  # visual-only: not asked
+    assert carried == set(stls), meshes  # every collision mesh, each once
+    assert len({bytes(b) for b in blobs}) == len(blobs), "an attachment is carried twice"
+    assert size <= MEGABYTE, size
+    run().assert_outcomes(passed=1)
+    assert _harness("replay", golden).returncode == 0
