@@ -3,8 +3,9 @@
 Each subcommand lives next to the code it drives, in a module exposing
 ``add_arguments(parser)`` and ``run(args) -> int``; this module only dispatches, importing a
 subcommand's module when that subcommand runs, so ``harness --version`` stays instant.
-Any :class:`~harness.errors.HarnessError` becomes one line on stderr and exit code 2; output
-into a closed pipe (``harness inspect FILE | head``) ends quietly with exit code 141, as a
+Any :class:`~harness.errors.HarnessError` becomes one line on stderr and exit code 2; a
+warning is one line, ``harness: warning: <message>``, said once (:mod:`harness.cli_warnings`);
+output into a closed pipe (``harness inspect FILE | head``) ends quietly with exit code 141, as a
 shell reports SIGPIPE.
 """
 
@@ -18,9 +19,11 @@ import os
 import signal
 import sys
 from collections.abc import Sequence
+from types import ModuleType
 from typing import NamedTuple
 
 from harness._version import __version__
+from harness.cli_warnings import one_line_warnings
 from harness.errors import HarnessError
 
 __all__ = ["main"]
@@ -75,6 +78,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     module = importlib.import_module(COMMANDS[args.command].module)
+    with one_line_warnings():
+        return _run(module, args)
+
+
+def _run(module: ModuleType, args: argparse.Namespace) -> int:
+    """``module.run(args)`` with the command's exit-code conventions."""
     try:
         code = int(module.run(args))
         sys.stdout.flush()  # a closed pipe raises here, not at exit

@@ -70,7 +70,11 @@ client with an error ``status`` fails), ``--harness-actuation {kinematic,servo}`
 every session with every joint kinematic, or as a servo: ``servo`` keeps a test's own dynamic
 modes and turns kinematic ones into position control; :class:`harness.vocabulary.Actuation`;
 ``--harness-mode`` with ``kinematic|position|dynamic`` is its deprecated spelling),
-``--harness-golden-dir`` (default ``recordings``). Control modes are
+``--harness-golden-dir`` (default ``recordings``), ``--harness-golden-sources
+{carry,project}`` (default ``carry``: a golden carries its robot's sources, each file once,
+without ``model.mjb`` when they rebuild to it; ``project``: it refers to the project's files by
+path and SHA-256 instead, resolved only by the golden check: :mod:`harness.plugin.golden_sources`).
+Control modes are
 :class:`harness.vocabulary.ControlMode`: ``kinematic | position | velocity | effort``, with
 ``dynamic`` accepted at every boundary (marker, scenario, ``Session``) as ``position``.
 

@@ -1,7 +1,9 @@
 """Helpers for tests of robot software against a harness session.
 
 - :class:`BridgeTestClient` (:func:`connect`): a small *synchronous* rosbridge v2 client:
-  publish, subscribe, call services, and step a lockstep session through ``/harness/step``.
+  publish, subscribe, call services, send action goals (:meth:`BridgeTestClient.send_goal`:
+  a :class:`GoalHandle` with its feedback, its result and cancel), and step a lockstep session
+  through ``/harness/step``.
   :meth:`Subscription.wait_for_message` waits in **simulation time**: on a lockstep session it
   steps one step at a time until the message is there; on a free-running clock it follows
   ``/clock``. Nothing here sleeps on the wall clock: the only wall-clock bound is
@@ -27,8 +29,9 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from types import TracebackType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 from websockets.sync.client import ClientConnection
@@ -40,7 +43,10 @@ if TYPE_CHECKING:
     from harness.session import Session
 
 __all__ = [
+    "ActionGoalFailed",
     "BridgeTestClient",
+    "GoalHandle",
+    "GoalResult",
     "ServiceCallFailed",
     "Subscription",
     "TestClientError",
@@ -60,6 +66,11 @@ class TestClientError(BridgeError):
 
 class ServiceCallFailed(TestClientError):
     """A service call was answered with ``result: false``."""
+
+
+class ActionGoalFailed(TestClientError):
+    """An action goal was answered with ``result: false`` (no such action, a goal that does
+    not convert, a limit): the bridge's reason is the message."""
 
 
 class TestClientTimeout(TestClientError):
@@ -122,6 +133,91 @@ class Subscription:
         return msg
 
 
+@dataclass(frozen=True)
+class GoalResult:
+    """An action goal's end: ``status`` (``action_msgs/msg/GoalStatus``: 4 succeeded,
+    5 canceled, 6 aborted) and the result message's ``values``."""
+
+    status: int
+    values: Message
+
+    SUCCEEDED: ClassVar[int] = 4
+    CANCELED: ClassVar[int] = 5
+    ABORTED: ClassVar[int] = 6
+
+    @property
+    def succeeded(self) -> bool:
+        return self.status == self.SUCCEEDED
+
+
+class GoalHandle:
+    """One action goal sent by :meth:`BridgeTestClient.send_goal`. :attr:`feedback` holds
+    every feedback message so far (oldest first); :meth:`result` waits for the end in
+    simulation time (stepping a lockstep session); :meth:`cancel` asks the server to cancel."""
+
+    __test__ = False
+
+    def __init__(self, client: BridgeTestClient, action: str, goal_id: str) -> None:
+        self.client = client
+        self.action = action
+        self.id = goal_id
+        self.feedback: list[Message] = []
+        """The feedback messages received (read under the client's lock or between calls)."""
+        self._read = 0
+        self._end: Message | None = None
+
+    def _deliver(self, frame: Message) -> None:
+        if frame.get("op") == "action_feedback":
+            values = frame.get("values")
+            self.feedback.append(values if isinstance(values, dict) else {"value": values})
+        else:
+            self._end = frame
+
+    @property
+    def done(self) -> bool:
+        """Whether the result (or the bridge's refusal) has arrived."""
+        with self.client._cond:
+            return self._end is not None
+
+    def wait_for_feedback(self, *, sim_timeout: float) -> Message:
+        """The next feedback message not returned before, waiting up to ``sim_timeout``
+        seconds of simulation time; raises :class:`TestClientTimeout` (also when the goal
+        ends without more feedback)."""
+
+        def probe() -> Message | None:
+            if self._read < len(self.feedback):
+                self._read += 1
+                return self.feedback[self._read - 1]
+            if self._end is not None:
+                raise TestClientTimeout(f"{self.action}: the goal ended without more feedback")
+            return None
+
+        msg: Message = self.client._wait_sim(probe, sim_timeout, f"feedback from {self.action}")
+        return msg
+
+    def result(self, *, sim_timeout: float) -> GoalResult:
+        """The goal's end, waiting up to ``sim_timeout`` seconds of simulation time; raises
+        :class:`ActionGoalFailed` when the bridge refused the goal, :class:`TestClientTimeout`
+        when it does not end in time."""
+        end: Message = self.client._wait_sim(
+            lambda: self._end, sim_timeout, f"the result of {self.action}"
+        )
+        if not end.get("result", False):
+            raise ActionGoalFailed(f"{self.action}: {end.get('values')}")
+        values = end.get("values")
+        return GoalResult(
+            int(end.get("status", 0)), values if isinstance(values, dict) else {"value": values}
+        )
+
+    def cancel(self) -> None:
+        """Ask the action server to cancel the goal (it takes effect at the session's next
+        step boundary; :meth:`result` then says how the goal ended)."""
+        self.client._send({"op": "cancel_action_goal", "id": self.id, "action": self.action})
+
+    def __repr__(self) -> str:
+        return f"GoalHandle({self.action!r}, {self.id!r}, {'done' if self._end else 'active'})"
+
+
 class BridgeTestClient:
     """A synchronous rosbridge v2 client for tests (a context manager; :meth:`close`).
 
@@ -142,6 +238,7 @@ class BridgeTestClient:
         self._ids = itertools.count(1)
         self._subs: dict[str, list[Subscription]] = {}
         self._replies: dict[str, Message] = {}
+        self._goals: dict[str, GoalHandle] = {}
         self._advertised: dict[str, str] = {}
         self._sim_time_ns: int | None = None
         self._clock_sub: Subscription | None = None
@@ -210,6 +307,13 @@ class BridgeTestClient:
                     sub._deliver(msg)
             elif op == "service_response":
                 self._replies[str(frame.get("id"))] = frame
+            elif op in ("action_feedback", "action_result"):
+                goal = self._goals.get(str(frame.get("id")))
+                if goal is None:
+                    return
+                goal._deliver(frame)
+                if op == "action_result":
+                    del self._goals[goal.id]
             elif op == "status":
                 self.statuses.append(frame)
             else:
@@ -277,6 +381,36 @@ class BridgeTestClient:
             raise ServiceCallFailed(f"{service}: {reply.get('values')}")
         values = reply.get("values", {})
         return values if isinstance(values, dict) else {"value": values}
+
+    # -- actions ----------------------------------------------------------------------------
+
+    def send_goal(
+        self,
+        action: str,
+        action_type: str,
+        goal: Mapping[str, Any],
+        *,
+        feedback: bool = True,
+    ) -> GoalHandle:
+        """Send ``goal`` to ``action`` (``action_type``, e.g.
+        ``control_msgs/action/FollowJointTrajectory``); returns its :class:`GoalHandle` at
+        once. Like a publish, the goal takes effect at the session's next step boundary;
+        ``feedback``: ask for feedback messages."""
+        goal_id = self._id(f"send_action_goal:{action}")
+        handle = GoalHandle(self, action, goal_id)
+        with self._cond:
+            self._goals[goal_id] = handle
+        self._send(
+            {
+                "op": "send_action_goal",
+                "id": goal_id,
+                "action": action,
+                "action_type": action_type,
+                "args": dict(goal),
+                "feedback": feedback,
+            }
+        )
+        return handle
 
     def step(self, n: int = 1) -> int:
         """Advance a lockstep session by ``n`` steps (``/harness/step``); returns the

@@ -1,5 +1,6 @@
-"""``harness check-model FILE [--json] [--robot-arg NAME:=VALUE ...] [--self-collision auto|off|on]
-[--base fixed|floating] [--strict]``: a robot's report.
+"""``harness check-model FILE [--json] [--robot-arg NAME:=VALUE ...]
+[--self-collision auto|off|on|srdf] [--srdf PATH] [--base fixed|floating] [--strict]``:
+a robot's report.
 
 Exit code 0 when the robot behaves, 1 with the reasons when it does not, 2 when it does not
 load (see :mod:`harness.models.check`).
@@ -73,6 +74,7 @@ def format_report(report: ModelCheck) -> str:
             f"{mass['lightest_moving_kg']:.3g} kg, smallest moving inertia "
             f"{mass['smallest_moving_inertia_kg_m2']:.3g} kg m^2"
         )
+    lines += [f"hint: {hint}" for hint in report.hints]
     if report.problems:
         lines.append("does not behave:")
         lines += [f"  {problem}" for problem in report.problems]

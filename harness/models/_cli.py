@@ -53,8 +53,8 @@ def robot_args(args: argparse.Namespace) -> dict[str, str]:
 
 
 def add_load_options(parser: argparse.ArgumentParser, *, strict_only: bool = False) -> None:
-    """``--self-collision``, ``--base``, ``--mesh-collision`` and ``--strict`` (the
-    ``self_collision``, ``base``, ``mesh_collision`` and ``strict`` options of
+    """``--self-collision``, ``--srdf``, ``--base``, ``--mesh-collision`` and ``--strict`` (the
+    ``self_collision``, ``srdf``, ``base``, ``mesh_collision`` and ``strict`` options of
     :func:`harness.models.load_robot`); ``strict_only`` adds only ``--strict`` (a command
     that reads a description without simulating it)."""
     from harness.vocabulary import BASE_KINDS, MESH_COLLISION_MODES, SELF_COLLISION_POLICIES
@@ -67,6 +67,13 @@ def add_load_options(parser: argparse.ArgumentParser, *, strict_only: bool = Fal
             default=None,
             help="which pairs of the robot's own links collide (default: the file's "
             "self_collide, else auto)",
+        )
+        parser.add_argument(
+            "--srdf",
+            metavar="PATH|package://PKG/PATH",
+            default=None,
+            help="the robot's SRDF (e.g. of its MoveIt config package): its "
+            "<disable_collisions> pairs never collide",
         )
         parser.add_argument(
             "--base",
@@ -93,7 +100,7 @@ def load_options(args: argparse.Namespace) -> dict[str, Any]:
     """The options of :func:`add_load_options` given on the command line, as keyword
     arguments of :func:`harness.models.load_robot` (those not given are left out)."""
     options: dict[str, Any] = {}
-    for name in ("self_collision", "base", "mesh_collision"):
+    for name in ("self_collision", "srdf", "base", "mesh_collision"):
         value = getattr(args, name, None)
         if value is not None:
             options[name] = value

@@ -88,6 +88,8 @@ class LoadedRobot:
     self_collision: SelfCollisionReport | None = None
     base: BaseKind = "fixed"
     placement: Pose = field(default_factory=Pose)
+    visuals: bool = False
+    """Whether visual geoms were kept (``load_robot(visuals=True)``)."""
     mesh_collision: str = "decompose"
 
 
@@ -202,6 +204,7 @@ def load_robot(
         repairs=view.repairs,
         notes=view.notes,
         self_collision=view.self_collision,
+        visuals=visuals,
         base=view.base,
         placement=view.placement,
         mesh_collision=world.mesh_collision,

@@ -1,9 +1,9 @@
 """``check_model``: the sanity report a user runs first on a robot (``harness check-model``).
 
 It loads the robot with the defaults (lenient, self-collision ``auto``, gravity-compensated
-position servos; ``harness check-model`` takes ``--robot-arg``, ``--self-collision``, ``--base``
-and ``--strict`` as :func:`harness.models.load_robot` does) and simulates it without a session
-or bridge, straight on MuJoCo:
+position servos; ``harness check-model`` takes ``--robot-arg``, ``--self-collision``,
+``--srdf``, ``--base`` and ``--strict`` as :func:`harness.models.load_robot` does) and
+simulates it without a session or bridge, straight on MuJoCo:
 
 - **hold**: every actuated joint commanded to its initial position for :data:`HOLD_SECONDS`
   under gravity; the error is the largest ``|position - command|`` seen (checked every
@@ -24,7 +24,8 @@ or bridge, straight on MuJoCo:
 
 :attr:`ModelCheck.problems` says in one line each why a robot does not behave; the reason of
 a joint that does not hold is named (its effort limit below the gravity load, a contact, a
-servo that cannot reach).
+servo that cannot reach). :attr:`ModelCheck.hints` says what to try: a wheeled robot checked
+with a fixed base is told ``--base floating`` (:mod:`harness.models.base_hint`).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import HarnessError
+from harness.models.base_hint import floating_base_hint
 from harness.models.decompose import MeshCollision
 from harness.models.errors import ModelWarning
 from harness.models.placement import floor_gap, start_contacts
@@ -137,6 +139,8 @@ class ModelCheck:
     stand: StandCheck | None = None
     mass: Mapping[str, float] = field(default_factory=dict)
     problems: tuple[str, ...] = ()
+    hints: tuple[str, ...] = ()
+    """What to try (a wheeled robot checked with a fixed base: ``--base floating``)."""
 
     @property
     def loaded(self) -> bool:
@@ -196,6 +200,7 @@ class ModelCheck:
             },
             "mass": dict(self.mass),
             "problems": list(self.problems),
+            "hints": list(self.hints),
         }
 
 
@@ -210,12 +215,14 @@ def check_model(
     self_collision: SelfCollision | None = None,
     robot_args: RobotArgs | None = None,
     packages: PackageMap | None = None,
+    srdf: str | Path | None = None,
     mesh_collision: MeshCollision = "decompose",
 ) -> ModelCheck:
     """Load ``source`` with the defaults and check it (see the module docstring).
     ``base``, ``strict``, ``self_collision``, ``robot_args`` (a xacro robot's arguments),
-    ``packages`` and ``mesh_collision``: as for :func:`harness.models.load_robot`. Never
-    raises for a robot that does not load: the report says why in one line (exit code 2)."""
+    ``packages``, ``srdf`` and ``mesh_collision``: as for :func:`harness.models.load_robot`.
+    Never raises for a robot that does not load: the report says why in one line (exit
+    code 2)."""
     from harness.models.build import load_robot
 
     try:
@@ -229,6 +236,7 @@ def check_model(
                 self_collision=self_collision,
                 robot_args=robot_args,
                 packages=packages,
+                srdf=srdf,
                 mesh_collision=mesh_collision,
             )
     except HarnessError as exc:
@@ -587,6 +595,7 @@ def _check(
         stand=stand,
         mass=_mass_summary(model, loaded),
         problems=tuple(problems),
+        hints=tuple(h for h in (floating_base_hint(loaded),) if h),
     )
 
 

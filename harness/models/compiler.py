@@ -5,6 +5,7 @@ MuJoCo's warnings re-issued as :class:`~harness.models.errors.ModelWarning`.
 
 from __future__ import annotations
 
+import os
 import re
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
@@ -14,9 +15,11 @@ from typing import TYPE_CHECKING
 
 import mujoco
 
+from harness.models.assets import embed_files
+from harness.models.confine import confinement
 from harness.models.errors import CompileError, MasslessLinkError, ModelWarning
 from harness.models.limits import check_spec
-from harness.models.mjcf_files import check_mjcf_files
+from harness.models.mjcf_files import check_mjcf_files, mjcf_in_memory
 
 if TYPE_CHECKING:
     from harness.models.robot_build import RobotBuild
@@ -32,7 +35,15 @@ __all__ = [
 
 
 def spec_from_file(path: Path) -> mujoco.MjSpec:
-    """The spec of an MJCF file, its includes and assets checked first."""
+    """The spec of an MJCF file, its includes and assets checked first. In a rebuild from a
+    recording (:mod:`harness.models.confine`) MuJoCo gets no path: the text with its includes
+    inlined (:func:`~harness.models.mjcf_files.mjcf_in_memory`), then every file it references
+    as an in-memory asset (:func:`~harness.models.assets.embed_files`)."""
+    if confinement() is not None:
+        spec = spec_from_string(mjcf_in_memory(path), str(path))
+        spec.modelfiledir = str(path.parent) + os.sep  # what from_file sets: found by Python
+        embed_files(spec, source=str(path))
+        return spec
     check_mjcf_files(path)  # before MuJoCo opens its includes and assets
     try:
         with mujoco_warnings():
@@ -60,10 +71,12 @@ def mujoco_message(exc: Exception) -> str:
 _MASSLESS = re.compile(r"mass and inertia of moving bodies.*?Element name '([^']*)'", re.S)
 
 
-def compile_spec(spec: mujoco.MjSpec, source: str, *, check: bool = True) -> mujoco.MjModel:
+def compile_spec(
+    spec: mujoco.MjSpec, source: str, *, check: bool = True, strict: bool = False
+) -> mujoco.MjModel:
     """Compile ``spec`` (its size limits checked first unless ``check`` is false); a massless
     moving link, a bad inertia or any other compiler error becomes a one-line error naming
-    ``source``."""
+    ``source`` (it names strict mode as the cause only when ``strict`` was asked)."""
     if check:
         check_spec(spec, source)  # before the compiler allocates what the model declares
     try:
@@ -79,9 +92,14 @@ def compile_spec(spec: mujoco.MjSpec, source: str, *, check: bool = True) -> muj
             ) from None
         triangle = _TRIANGLE.search(text)
         if triangle:
+            hint = (
+                "load without strict=True to have it repaired"
+                if strict
+                else "MuJoCo's compiler refuses it; fix the <inertial>"
+            )
             raise CompileError(
                 f'{source}: <link name="{triangle.group(1)}">: inertia violates the triangle '
-                "inequality (A + B >= C) (load without strict=True to have it repaired)"
+                f"inequality (A + B >= C) ({hint})"
             ) from None
         raise CompileError(f"{source}: {mujoco_message(exc)}") from None
 
@@ -101,7 +119,7 @@ def compile_lenient(
     check_spec(spec, source)
     for _ in range(64):
         try:
-            return compile_spec(spec, source, check=False)
+            return compile_spec(spec, source, check=False, strict=strict)
         except CompileError as exc:
             match = _MESH_VOLUME.search(str(exc))
             mesh = None if match is None or strict else spec.mesh(match.group(1))
@@ -112,7 +130,7 @@ def compile_lenient(
                 f"{source}: mesh {match.group(1) if match else ''} encloses (almost) no volume: "
                 "its inertia is computed as a shell"
             )
-    return compile_spec(spec, source, check=False)
+    return compile_spec(spec, source, check=False, strict=strict)
 
 
 # An attached MJCF robot's <size> memory hints (nkey: it brings keyframes) lose to the world's:

@@ -10,6 +10,11 @@ resolved) leaves the model's folder: the folder of the top-level file, or the RO
 lies in (the nearest folder above it with a ``package.xml``), the folder a ``package://``
 reference is confined to; the harness's own scene data is always allowed (a generated scene
 points there). Absolute references are refused unless they lie inside too.
+
+In a rebuild from a recording (:mod:`harness.models.confine`) MuJoCo is given no path at all:
+:func:`mjcf_in_memory` reads the file and its includes in Python (each checked first) and
+inlines the includes, so MuJoCo parses one string; the compiler's files then reach it as
+in-memory assets (:func:`harness.models.assets.embed_files`).
 """
 
 from __future__ import annotations
@@ -21,10 +26,16 @@ from pathlib import Path
 from lxml import etree
 
 from harness.models.confine import confinement
-from harness.models.errors import OutsideReferenceError, ResolveError
+from harness.models.errors import OutsideReferenceError, ResolveError, XMLError
 from harness.models.xmlsafe import describe, read_xml_file
 
-__all__ = ["MAX_INCLUDES", "check_mjcf_files", "generated_from", "mjcf_roots"]
+__all__ = [
+    "MAX_INCLUDES",
+    "check_mjcf_files",
+    "generated_from",
+    "mjcf_in_memory",
+    "mjcf_roots",
+]
 
 MAX_INCLUDES = 1000
 """Most ``<include>`` elements one model may have, all files together (a cycle ends here)."""
@@ -144,3 +155,67 @@ def _check(
                 f"{source}: {describe(element)}: {attribute}={value!r} escapes the model's "
                 f"folder {where} (it leads to {str(_real(candidate))!r})"
             )
+
+
+def _include_file(source: Path, base: Path, element: etree._Element, value: str) -> Path:
+    """The file ``<include file=value>`` of ``source`` names, found as MuJoCo finds it (the
+    top-level file's folder first, then the including file's), inside the confinement."""
+    for candidate in (base / value, source.parent / value):
+        if _inside(candidate, mjcf_roots(source)) and candidate.is_file():
+            return candidate
+    raise OutsideReferenceError(
+        f"{source}: {describe(element)}: include file {value!r} is not among the recording's "
+        "attachments"
+    )
+
+
+def _inline_includes(
+    source: Path, tree: etree._Element, base: Path, seen: list[int]
+) -> etree._Element:
+    """``tree`` (of file ``source``) with every ``<include>`` replaced by the children of the
+    root of the file it names, recursively, as MuJoCo's parser does."""
+    for element in [e for e in _elements(tree) if e.tag == "include"]:
+        value = element.get("file")
+        if not value:
+            continue  # MuJoCo's own error, from the string
+        seen[0] += 1
+        if seen[0] > MAX_INCLUDES:
+            raise ResolveError(
+                f"{source}: more than {MAX_INCLUDES} <include> elements (an include cycle?)"
+            )
+        found = _include_file(source, base, element, value)
+        included = _inline_includes(found, read_xml_file(found)[0], base, seen)
+        parent = element.getparent()
+        if parent is None:  # the root itself: MuJoCo refuses it, from the string
+            continue
+        index = parent.index(element)
+        parent.remove(element)
+        for offset, child in enumerate(list(included)):
+            parent.insert(index + offset, child)
+    return tree
+
+
+def mjcf_in_memory(path: str | Path) -> str:
+    """The MJCF file ``path`` as one string for :meth:`mujoco.MjSpec.from_string`: its
+    ``<include>`` elements replaced by the files they name (read in Python, each confined and
+    checked, see :func:`check_mjcf_files`), so MuJoCo opens no file to parse it. For a
+    rebuild from a recording: an include missing from the recording is an
+    :class:`OutsideReferenceError`, as is a ``<model file>`` sub-model (MuJoCo would read
+    it by its path)."""
+    top = Path(path)
+    check_mjcf_files(top)
+    tree, data = read_xml_file(top)
+    includes = [0]
+    tree = _inline_includes(top, tree, top.resolve().parent, includes)
+    for element in _elements(tree):
+        if element.tag == "model" and element.get("file"):
+            raise OutsideReferenceError(
+                f"{top}: {describe(element)}: a <model file> sub-model is not rebuilt from a "
+                "recording"
+            )
+    if includes[0]:
+        return str(etree.tostring(tree, encoding="unicode"))
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise XMLError(f"{top}: not UTF-8 text (byte {exc.start})") from None

@@ -17,7 +17,9 @@ holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE``; at most
 :data:`CRAWL_LIMIT` folders per root). xacro's
 ``$(find pkg)`` uses the same search (:mod:`harness.models.xacro`). ``model://`` searches the
 explicit ``search_paths``, then ``GZ_SIM_RESOURCE_PATH``, ``SDF_PATH``,
-``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file.
+``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file. A Fuel
+URI (``https://fuel.gazebosim.org/1.0/<owner>/models/<name>/<version>/files/<path>``) is read
+from the local Fuel cache (:mod:`harness.models.fuel`).
 
 ``package://`` and ``model://`` references are confined to the folder of the package (model)
 they name: a reference whose path leaves that folder (``..``) is refused, and so is one whose
@@ -38,6 +40,7 @@ from urllib.parse import unquote
 
 from harness.models.confine import check_confined, confinement, inside_confinement
 from harness.models.errors import OutsideReferenceError, ResolveError, UnknownPackageError
+from harness.models.fuel import find_fuel_model, parse_fuel_uri
 from harness.names import package_problem
 
 __all__ = [
@@ -310,6 +313,10 @@ def resolve_uri(
                 root = find_model(name, search_paths=search_paths, start=base)
             check_confined(root / unquote(rest), uri, what=what)
             path = _confined(root, unquote(rest), "model", name)
+        elif (fuel := parse_fuel_uri(uri)) is not None:
+            root = find_fuel_model(fuel, uri)
+            check_confined(root / fuel.rest, uri, what=what)
+            path = _confined(root, fuel.rest, "Fuel model", f"{fuel.owner}/{fuel.name}")
         elif uri.startswith("file://"):
             path = Path(unquote(uri[len("file://") :]))
             if not path.is_absolute():

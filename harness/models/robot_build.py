@@ -21,6 +21,7 @@ from harness.models.compiler import compile_spec, spec_from_file, spec_from_stri
 from harness.models.description import ControlMode, RobotModel
 from harness.models.drive_plugins import plugin_wheels
 from harness.models.errors import ModelStructureError
+from harness.models.inertia import settle_edge_inertias
 from harness.models.lenient import lenient_urdf
 from harness.models.limits import check_description, check_urdf_counts
 from harness.models.passive import declared_actuated
@@ -154,6 +155,7 @@ class RobotBuild:
             )
             self.source_repairs, self.repaired_inertias = prepared.repairs, prepared.inertias
             self.spec = spec_from_string(prepared.xml, self.source, prepared.assets)
+            settle_edge_inertias(self.spec)  # a thin disc: MuJoCo's rounding must not refuse it
             extension = harness_extension(root, self.description)
             self.extension_keys = initial_keyframes(extension.keyframes, self.description)
             for joint_name, armature in extension.armature.items():

@@ -31,6 +31,7 @@ from harness.models.drive_plugins import plugin_modes
 from harness.models.errors import CompileError, ModelStructureError
 from harness.models.keyframes import combine_keyframes
 from harness.models.passive import drop_passive
+from harness.models.resolve import resolve_uri
 from harness.models.robot_build import RobotBuild, dof_span, qpos_span
 from harness.models.urdf import REPAIR_BOUNDINERTIA, REPAIR_BOUNDMASS
 from harness.models.urdf_source import control_defaults
@@ -188,7 +189,7 @@ def load_world(
         setup.compensate_gravity(spec, first, robot)
     for robot in prepared:
         if robot.request.srdf is not None:
-            srdf = Path(robot.request.srdf)
+            srdf = _locate_srdf(robot.request.srdf, robot.request.packages)
             body_names = {first.body(b).name for b in range(first.nbody)}
             if robot.prefix:  # only this robot's links
                 links = {link.name for link in robot.description.links}
@@ -202,7 +203,7 @@ def load_world(
             placements[index] = setup.place_on_floor(first, robot, servo_qpos, placements[index])
     combine_keyframes(spec, first, prepared, several)
 
-    model = compile_spec(spec, world_source)
+    model = compile_spec(spec, world_source, strict=any(r.request.strict for r in prepared))
     for robot in prepared:
         if robot.repair:
             robot.repairs_made = robot.source_repairs + _repairs(
@@ -239,6 +240,20 @@ def load_world(
         sha256=hashlib.sha256(mjcf.encode()).hexdigest(),
         mesh_collision=mesh_collision,
     )
+
+
+def _locate_srdf(srdf: str | Path, packages: Any) -> Path:
+    """The SRDF file a robot's ``srdf`` names: a path, or ``package://pkg/path`` (a MoveIt
+    config package, found like a robot's package)."""
+    text = str(srdf)
+    if text.startswith("package://"):
+        return resolve_uri(
+            text, base_dir=Path.cwd(), packages=packages, context="srdf", what="srdf"
+        )
+    path = Path(srdf)
+    if not path.is_file():
+        raise ModelStructureError(f"{path}: srdf file not found")
+    return path
 
 
 def _add_srdf_excludes(

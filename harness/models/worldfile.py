@@ -30,7 +30,7 @@ from lxml import etree
 from harness.models.description import ModelFrame, RobotModel
 from harness.models.errors import ModelStructureError
 from harness.models.sdf.build import build_spec
-from harness.models.sdf.convert import PlacedModel, read_sdf_world
+from harness.models.sdf.convert import PlacedModel, read_sdf_world, sdf_world
 from harness.models.sdf.document import Entity, load_document
 from harness.models.xmlsafe import read_xml_file
 
@@ -41,6 +41,7 @@ __all__ = [
     "is_sdf_world",
     "load_world_file",
     "world_description",
+    "world_timestep",
 ]
 
 BUNDLED_MODELS = Path(__file__).parent / "data" / "gazebo_models"
@@ -69,6 +70,17 @@ def is_sdf_world(path: Path) -> bool:
         return False
     root, _ = read_xml_file(path)
     return any(isinstance(c.tag, str) and c.tag == "world" for c in root)
+
+
+def world_timestep(path: Path) -> float:
+    """The SDF world's ``<physics><max_step_size>`` (MuJoCo's default 0.002 when absent),
+    read without loading its models."""
+    root, _ = read_xml_file(path)
+    world = root.find("world")
+    if world is None:
+        raise ModelStructureError(f"{path}: not an SDF world (no <world> element)")
+    timestep, _ = _physics(world, str(path))
+    return timestep if timestep is not None else float(mujoco.MjOption().timestep)
 
 
 def _float_child(element: etree._Element, path: str, where: str) -> float | None:
@@ -161,10 +173,10 @@ def load_world_file(
     ``search_paths``: folders searched first for ``model://`` includes and meshes."""
     path = Path(path)
     paths = [*(search_paths or ()), BUNDLED_MODELS]
-    document = load_document(path, search_paths=paths)
+    document = load_document(path, search_paths=paths, strict=False)
     if document.root.kind != "world":
         raise ModelStructureError(f"{path}: not an SDF world (its top element is a <model>)")
-    world = read_sdf_world(path, search_paths=paths)
+    world = sdf_world(document, search_paths=paths)
     timestep, gravity = _physics(document.root.element, str(path))
     spec = mujoco.MjSpec()
     spec.modelname = world.name or path.stem

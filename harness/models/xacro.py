@@ -216,10 +216,10 @@ def _fingerprint(
 
 def _cause(exc: BaseException) -> BaseException:
     """The innermost exception xacro wrapped (``XacroException.exc`` chains)."""
-    seen = 0
-    while getattr(exc, "exc", None) is not None and seen < 20:
+    seen = {id(exc)}  # as deep as the properties that resolve each other (a cycle ends)
+    while getattr(exc, "exc", None) is not None and id(exc.exc) not in seen:  # type: ignore[attr-defined]
         exc = exc.exc  # type: ignore[attr-defined]
-        seen += 1
+        seen.add(id(exc))
     return exc
 
 

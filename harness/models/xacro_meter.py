@@ -9,6 +9,9 @@ the first count over its limit stops the expansion with one
 :class:`~harness.models.limits.ModelLimitError` line. Nothing is checked after the fact: a
 file that asks for 4 million elements is stopped at the limit, not when it is done.
 
+``safe_eval`` evaluates through :func:`harness.models.xacro_eval.guarded_eval`: one ``${...}``
+is one Python ``eval``, so its steps are charged before they run, not its value after.
+
 ``replace_node`` is also made linear: xacro moves an expansion into its parent node by node
 with minidom's ``insertBefore``, each move a scan of the parent's children, so an expansion
 of n nodes costs n² (2 KB of doubling macros spent minutes on this alone, and two Franka arms
@@ -28,9 +31,10 @@ from typing import Any, NoReturn
 
 from harness.models.errors import XMLError
 from harness.models.limits import XACRO_LIMIT_ENV, ModelLimitError, XacroLimits
+from harness.models.xacro_eval import guarded_eval
 from harness.models.xmlsafe import MAX_XML_BYTES
 
-__all__ = ["XacroMeter", "metered"]
+__all__ = ["XacroMeter", "metered", "text_size"]
 
 _ELEMENT = 1  # xml.dom.Node.ELEMENT_NODE
 _TEXT = 3  # xml.dom.Node.TEXT_NODE
@@ -55,6 +59,10 @@ class XacroMeter:
         raise ModelLimitError(
             f"xacro expansion stopped: {what} (the limit; {XACRO_LIMIT_ENV[field]} changes it)"
         )
+
+    def refuse(self, what: str) -> NoReturn:
+        """Stop the expansion: ``what`` (a step no limit variable allows) was asked for."""
+        raise ModelLimitError(f"xacro expansion stopped: an expression asks for {what}")
 
     def tick(self) -> None:
         """Check the clock (the last guard: the counters stop any real bomb first)."""
@@ -98,7 +106,7 @@ class XacroMeter:
     def value(self, value: Any) -> None:
         """An expression's value: its text size as ``str()`` would write it, measured up to
         what is left of the budget (a value of shared references is never written out)."""
-        self.text(_size(value, self.limits.text_bytes - self.text_bytes))
+        self.text(text_size(value, self.limits.text_bytes - self.text_bytes))
 
     def work(self, scans: int) -> None:
         """``scans`` more sibling-list entries scanned or moved by DOM edits."""
@@ -107,7 +115,7 @@ class XacroMeter:
             self._stop(f"more than {self.limits.dom_work} DOM sibling scans", "dom_work")
 
 
-def _size(value: Any, budget: int) -> int:
+def text_size(value: Any, budget: int) -> int:
     """About the length of ``str(value)``, counted no further than ``budget`` + 1."""
     total = 0
     stack = [value]
@@ -217,7 +225,7 @@ def metered(xacro_module: Any, meter: XacroMeter) -> Iterator[None]:
 
     def safe_eval(expr: str, globals: Any, locals: Any = None) -> Any:
         meter.expression()
-        result = original["safe_eval"](expr, globals, locals)
+        result = guarded_eval(expr, globals, locals, meter, xacro_module.XacroException)
         if not isinstance(result, str):  # eval_text counts strings
             meter.value(result)
         return result

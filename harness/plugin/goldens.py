@@ -13,8 +13,6 @@ import contextlib
 import math
 import os
 import shlex
-import shutil
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -74,6 +72,11 @@ class Golden:
         per-quantity bounds (:class:`harness.replay.Tolerances` fields; default 0: exact).
         Raises :class:`GoldenMismatch` naming the first divergence."""
         __tracebackhide__ = True  # the failure shows the test's line, not this method's
+        from harness.plugin.golden_sources import (
+            GoldenSourcesChanged,
+            resolved_golden,
+            write_golden,
+        )
         from harness.recording.fingerprint import compare_fingerprints
         from harness.replay import PlatformMismatchError, Tolerances, diff
 
@@ -99,24 +102,41 @@ class Golden:
         golden = self.path
         run.golden = golden
         shown = _shown(golden, run.settings.rootdir)
-        if run.settings.update_goldens:
-            _write_atomically(recording, golden)
+        settings = run.settings
+        if settings.update_goldens:
+            write_golden(
+                recording,
+                golden,
+                sources=settings.golden_sources,
+                rootdir=settings.rootdir,
+                skip=(settings.record_dir, settings.golden_dir),
+            )
             run.item.config.stash[GOLDENS_WRITTEN].append(golden)
             run.golden_note = f"written {shown}"
         elif not golden.is_file():
             run.golden_note = f"missing {shown}"
             pytest.fail(
                 f"golden recording {shown} does not exist; create it with:\n"
-                f"    {update_command(run.item, run.settings)}",
+                f"    {update_command(run.item, settings)}",
                 pytrace=False,
             )
         bounds: dict[str, Any] = dict(tolerances)
+        changed = ""
         try:
-            report = diff(golden, recording, Tolerances(**bounds), ignore_after_last_step=True)
+            with resolved_golden(golden, settings.rootdir) as full:
+                report = diff(full, recording, Tolerances(**bounds), ignore_after_last_step=True)
         except PlatformMismatchError as exc:
             parts = compare_fingerprints(*exc.fingerprints, ("in the golden", "here")).text
+        except GoldenSourcesChanged as exc:
+            parts, changed = "", str(exc)
         else:
             parts = ""
+        if changed:  # one line, no traceback
+            run.golden_note = "its sources changed"
+            pytest.fail(
+                f"{changed}; if the change is intended: {update_command(run.item, settings)}",
+                pytrace=False,
+            )
         if parts:  # failed outside the except block: the one line, no chained traceback
             run.golden_note = f"recorded on another platform ({parts})"
             pytest.fail(
@@ -197,21 +217,3 @@ def _format_entry(e: DiffEntry) -> str:
         f"{e.quantity} {e.name} at step {e.step}: golden {e.a!r}, this run {e.b!r} "
         f"({delta}tolerance {e.tolerance:g}{largest})"
     )
-
-
-def _write_atomically(source: Path, target: Path) -> None:
-    """Copy ``source`` to ``target`` through a temporary file in the same folder and a rename,
-    so that a reader (or a second writer) never sees half a file."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "wb") as out, open(source, "rb") as src:
-            shutil.copyfileobj(src, out)
-            out.flush()
-            os.fsync(out.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a project file
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise

@@ -115,6 +115,8 @@ class HarnessRun:
         index = len(self.recordings)
         path = self.recording_path(index)
         planned: Any = None
+        if opts.get("srdf") is not None:  # a path or package:// like robot=
+            opts["srdf"] = resolve_path(opts["srdf"], self.item, rootdir)
         if scenario is not None:
             file = Path(resolve_path(scenario, self.item, rootdir))
             if "robot" in opts:

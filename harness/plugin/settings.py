@@ -15,6 +15,7 @@ import pytest
 from harness.vocabulary import ACTUATION_INPUTS, ACTUATIONS, Actuation
 
 __all__ = [
+    "GOLDEN_SOURCES",
     "KEEP_CHOICES",
     "MODE_CHOICES",
     "PLUGIN_MODULE",
@@ -25,6 +26,8 @@ __all__ = [
 ]
 
 KEEP_CHOICES = ("always", "failed", "never")
+GOLDEN_SOURCES = ("carry", "project")
+"""``--harness-golden-sources``' values (see :mod:`harness.plugin.golden_sources`)."""
 MODE_CHOICES = ACTUATION_INPUTS
 """The deprecated ``--harness-mode``'s spellings (``position``/``dynamic`` mean ``servo``)."""
 PLUGIN_MODULE = "harness.pytest_plugin"
@@ -44,6 +47,8 @@ class HarnessSettings:
     strict_bridge: bool
     actuation: Actuation | None
     golden_dir: Path
+    golden_sources: str
+    """``carry`` (default) or ``project``: see :mod:`harness.plugin.golden_sources`."""
     plugin_args: tuple[str, ...]
     """Arguments that load this plugin when it is not installed as an entry point."""
 
@@ -135,6 +140,16 @@ def add_options(parser: pytest.Parser) -> None:
         f"where golden recordings are (default: <rootdir>/{_DEFAULT_GOLDEN_DIR})",
         default="",
     )
+    _add(
+        parser,
+        group,
+        "--harness-golden-sources",
+        "harness_golden_sources",
+        "goldens carry the robot's source files (carry, default), or refer to the files of "
+        "this project by content hash (project): such goldens are checked only by pytest here",
+        default="carry",
+        choices=GOLDEN_SOURCES,
+    )
 
 
 def _choice(config: pytest.Config, name: str, choices: tuple[str, ...], default: str) -> str:
@@ -207,5 +222,6 @@ def resolve_settings(config: pytest.Config) -> HarnessSettings:
         strict_bridge=_flag(config, "harness_strict_bridge"),
         actuation=actuation,
         golden_dir=_folder(config, "harness_golden_dir", _DEFAULT_GOLDEN_DIR),
+        golden_sources=_choice(config, "harness_golden_sources", GOLDEN_SOURCES, "carry"),
         plugin_args=() if from_entry_point else ("-p", PLUGIN_MODULE),
     )

@@ -37,7 +37,8 @@ from harness.recording.layout import (
     ATTACHMENT_SCENARIO,
     ATTACHMENT_SOURCE_PREFIX,
 )
-from harness.recording.meshes import mesh_attachments
+from harness.recording.meshes import mesh_attachments, visual_only_attachments
+from harness.recording.sourcelinks import link_sources
 
 __all__ = ["LoadedRobotLike", "RunDescription", "describe_run", "world_metadata"]
 
@@ -213,11 +214,17 @@ def describe_run(
         attachments[ATTACHMENT_SOURCE_PREFIX + name.replace(os.sep, "/").lstrip("/")] = bytes(blob)
     description = getattr(robot, "description", None)
     if description is not None and not hasattr(robot, "robots"):
-        # The meshes a URDF references, so that a rebuild elsewhere finds them.
+        # The meshes a URDF references, so that a rebuild elsewhere finds them; without
+        # visuals, not those only the visuals use (the model has no visual geom to rebuild).
         meshes = mesh_attachments(robot.sources, getattr(description, "source", None))
         for name, blob in meshes.items():
             attachments.setdefault(name, blob)
+        if getattr(robot, "visuals", False):
+            metadata["visuals"] = "true"
+        else:
+            for name in visual_only_attachments(robot.sources):
+                attachments.pop(name, None)
     if scenario is not None:
         text = scenario.encode("utf-8") if isinstance(scenario, str) else scenario
         attachments[f"{ATTACHMENT_SCENARIO}/{scenario_name}"] = text
-    return RunDescription(metadata, attachments)
+    return RunDescription(metadata, link_sources(attachments))

@@ -7,8 +7,9 @@ import warnings
 from typing import Any
 
 from harness.errors import RecordingError
-from harness.recording.errors import RecordingDamagedWarning
+from harness.recording.errors import RecordingDamagedWarning, RecordingFormatError
 from harness.recording.recording import Recording
+from harness.recording.sourcelinks import ATTACHMENT_SOURCE_REFS, PROJECT_REFERENCE_REFUSAL
 
 __all__ = ["VERDICT_DAMAGED", "VERDICT_OK", "VERDICT_TRUNCATED", "format_report", "inspect"]
 
@@ -21,11 +22,14 @@ def inspect(path: str | os.PathLike[str]) -> dict[str, Any]:
     """A JSON-ready report of the recording at ``path``: duration, topics, metadata,
     attachments, validation and a verdict (``ok``, ``truncated``: cut short, e.g. a killed
     recorder; ``damaged``: corrupt bytes or an inconsistent summary). Unreadable files raise
-    :class:`~harness.recording.errors.RecordingFormatError`."""
+    :class:`~harness.recording.errors.RecordingFormatError`, and so does a golden that refers
+    to its project's files (:data:`~harness.recording.sourcelinks.ATTACHMENT_SOURCE_REFS`)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RecordingDamagedWarning)
         recording = Recording(path)
     with recording:
+        if ATTACHMENT_SOURCE_REFS in recording.attachment_names:
+            raise RecordingFormatError(f"{recording.path}: {PROJECT_REFERENCE_REFUSAL}")
         s = recording.scan
         problems: list[dict[str, Any]] = [
             {"offset": p.offset, "message": p.message} for p in s.problems

@@ -10,6 +10,12 @@ one folder): ``package://pkg/rest`` as ``source/pkg/rest`` (the folder named lik
 next to ``model/``), a relative path as ``source/`` + the path from ``model/``. References that
 cannot be resolved here, or only through an explicit package map, absolute paths and
 ``file://`` URIs are left out (the recording still replays from ``model.mjb``).
+
+A robot loaded without its visuals (the default; a session loads a robot whose sensors render,
+a camera, with them) compiles no visual geom, so its rebuild needs no visual-only file:
+:func:`visual_only_attachments` names the attachments of the meshes only ``<visual>`` elements
+reference and of every ``<texture>``, which the recorder then leaves out (both spellings:
+``source/<pkg>/...`` and a xacro robot's ``source/package/<pkg>/...``).
 """
 
 from __future__ import annotations
@@ -21,7 +27,7 @@ from pathlib import Path
 from harness.errors import HarnessError
 from harness.recording.layout import ATTACHMENT_SOURCE_PREFIX
 
-__all__ = ["mesh_attachment_name", "mesh_attachments"]
+__all__ = ["mesh_attachment_name", "mesh_attachments", "visual_only_attachments"]
 
 _ROLES = ("model", "scene", "srdf")
 """Folders of ``source/`` the loader's own roles use: no package may take their name."""
@@ -77,4 +83,33 @@ def mesh_attachments(sources: Mapping[str, bytes], source_path: str | None) -> d
                 out[ATTACHMENT_SOURCE_PREFIX + target] = path.read_bytes()
             except (HarnessError, OSError):
                 continue
+    return out
+
+
+def _files(root: object, paths: str) -> set[str]:
+    return {str(e.get("filename") or "") for e in root.iterfind(paths)}  # type: ignore[attr-defined]
+
+
+def visual_only_attachments(sources: Mapping[str, bytes]) -> set[str]:
+    """The ``source/...`` attachment names of the files only the visuals of the URDF model
+    files among ``sources`` use: meshes referenced by ``<visual>`` elements and by no
+    ``<collision>``, and textures."""
+    from harness.models.xmlsafe import parse_xml
+
+    out: set[str] = set()
+    for name, blob in sorted(sources.items()):
+        if not name.startswith("model/") or not name.lower().endswith(".urdf"):
+            continue
+        try:
+            root = parse_xml(blob, name)
+        except HarnessError:
+            continue
+        visual = _files(root, ".//visual//mesh") | _files(root, ".//texture")
+        for uri in visual - _files(root, ".//collision//mesh"):
+            target = _target(uri)
+            if target is None:
+                continue
+            out.add(ATTACHMENT_SOURCE_PREFIX + target)
+            if uri.startswith("package://"):
+                out.add(f"{ATTACHMENT_SOURCE_PREFIX}package/{target}")
     return out

@@ -17,6 +17,11 @@ serves attached mesh bytes, nothing else).
   URDF as its model (``source/model/<name>.urdf``) and the files the expansion read as
   ``source/xacro/...``; those are left out with a note. A recording whose model source is
   itself xacro carries no expanded description and is refused with one line.
+- **Links** (:func:`source_links`): a source whose bytes another ``source/`` attachment
+  carries is not attached again but listed in ``source-links.json``
+  (:mod:`harness.recording.sourcelinks`); it is laid out from that attachment's bytes, its
+  name and its target checked as above, the target one of the recording's ``source/``
+  attachments, at most 10,000 links and 1 GiB laid out through them.
 - **References** (:func:`rebuild_folder`): the sources are written into a fresh private
   folder and the model is loaded inside :func:`harness.models.confine.confined_to` it: every
   file reference (mesh, ``package://``, ``model://``, ``file://``, absolute, ``..``, SDF
@@ -24,8 +29,10 @@ serves attached mesh bytes, nothing else).
   inside it, decided on the reference's text before any file is looked at, or the rebuild is
   refused with one line naming the reference (:class:`UnsafeRecordingError`), the same line
   whether that path exists on this machine or not. Package and model searches see only the
-  folder. URDF and SDF meshes reach MuJoCo as in-memory assets (its virtual file system);
-  an MJCF source is read by MuJoCo from the folder, after every reference was checked.
+  folder. MuJoCo is given no path: URDF and SDF meshes reach it as in-memory assets (its
+  virtual file system); an MJCF source is read in Python, its ``<include>`` files inlined,
+  and parsed from the string, every file it references then embedded as an asset
+  (:func:`harness.models.compiler.spec_from_file` while confined).
 - **Binary model** (:func:`model_from_mjb`): ``model.mjb`` is first loaded in a child process
   with limits on memory and CPU time (:data:`MJB_CPU_SECONDS`, :func:`mjb_memory_limit`):
   MuJoCo's binary reader allocates what the file's header declares before the model limits
@@ -33,8 +40,8 @@ serves attached mesh bytes, nothing else).
   here, from memory (MuJoCo's virtual file system), then checked against the model limits.
   (Rebuilding from the MJCF text instead would lose bit-exactness: MuJoCo writes it with 6
   significant digits.)
-- **MJCF text** (:func:`model_from_mjcf_text`): ``model.mjcf.xml`` compiled from its folder
-  with every reference confined to it, the limits checked before compiling.
+- **MJCF text** (:func:`model_from_mjcf_text`): ``model.mjcf.xml`` compiled from memory
+  with every reference confined to its folder, the limits checked before compiling.
 
 Nothing in a recording is unpickled or evaluated: metadata is JSON (``json.loads``), records
 are CDR decoded against declared message definitions.
@@ -58,15 +65,20 @@ from typing import NamedTuple
 import mujoco
 
 from harness.errors import HarnessError
+from harness.models.compiler import spec_from_file
 from harness.models.confine import confined_to
-from harness.models.errors import OutsideReferenceError, XacroError
+from harness.models.errors import CompileError, OutsideReferenceError, XacroError
 from harness.models.limits import check_model, check_spec
-from harness.models.mjcf_files import check_mjcf_files
 from harness.recording import Recording, RecordingDamagedError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
     ATTACHMENT_MODEL_BINARY,
     ATTACHMENT_SOURCE_PREFIX,
+)
+from harness.recording.sourcelinks import (
+    ATTACHMENT_SOURCE_LINKS,
+    MAX_LINKED_BYTES,
+    parse_source_links,
 )
 from harness.replay.errors import (
     ModelAttachmentError,
@@ -84,6 +96,7 @@ __all__ = [
     "rebuild_folder",
     "recorded_sources",
     "refused",
+    "source_links",
     "source_name",
     "warn_left_out",
 ]
@@ -146,11 +159,11 @@ def refused(rec: Recording, reason: str) -> UnsafeRecordingError:
 
 def recorded_sources(rec: Recording) -> RecordedSources:
     """The ``source/...`` attachments of ``rec`` a model may be rebuilt from: every name
-    checked (:func:`source_name`), xacro sources (:func:`is_xacro_source`) left out with a
-    note. A damaged attachment is a :class:`ModelAttachmentError`; an unsafe name an
+    checked (:func:`source_name`), the names linked to another attachment's bytes laid out
+    (:func:`source_links`), xacro sources (:func:`is_xacro_source`) left out with a note. A
+    damaged attachment is a :class:`ModelAttachmentError`; an unsafe name an
     :class:`UnsafeRecordingError`."""
-    files: dict[str, bytes] = {}
-    notes: list[tuple[str, str]] = []
+    raw: dict[str, bytes] = {}
     for full in rec.attachment_names:
         if not full.startswith(ATTACHMENT_SOURCE_PREFIX):
             continue
@@ -158,16 +171,73 @@ def recorded_sources(rec: Recording) -> RecordedSources:
         if source_name(name) is None:
             raise refused(rec, f"source attachment {full!r} is not a plain relative name")
         try:
-            blob = rec.attachment(full)
+            raw[name] = rec.attachment(full)
         except RecordingDamagedError as exc:
             raise ModelAttachmentError(str(exc)) from None
+    links = source_links(rec, {name: len(blob) for name, blob in raw.items()})
+    raw.update({name: raw[target] for name, target in links.items()})
+    files: dict[str, bytes] = {}
+    notes: list[tuple[str, str]] = []
+    for name, blob in raw.items():
         if is_xacro_source(name, blob):
             notes.append(
-                (name, f"{full}: a xacro source, left out (never expanded from a recording)")
+                (
+                    name,
+                    f"{full_name(name)}: a xacro source, left out (never expanded from a "
+                    "recording)",
+                )
             )
             continue
         files[name] = blob
     return RecordedSources(files, tuple(notes))
+
+
+def full_name(name: str) -> str:
+    """The attachment name of the source ``name``."""
+    return ATTACHMENT_SOURCE_PREFIX + name
+
+
+def source_links(rec: Recording, attached: Mapping[str, int]) -> dict[str, str]:
+    """The checked links of ``rec`` (:mod:`harness.recording.sourcelinks`): name under
+    ``source/`` -> the name under ``source/`` whose attachment carries its bytes. Refused
+    with one line (:class:`UnsafeRecordingError`) when a name is not a plain relative path,
+    a target is not a ``source/`` attachment, a name is also attached, or the links lay out
+    more than :data:`~harness.recording.sourcelinks.MAX_LINKED_BYTES`. ``attached``: the
+    size of each ``source/`` attachment by its name under ``source/``."""
+    if ATTACHMENT_SOURCE_LINKS not in rec.attachment_names:
+        return {}
+    try:
+        blob = rec.attachment(ATTACHMENT_SOURCE_LINKS)
+    except RecordingDamagedError as exc:
+        raise ModelAttachmentError(str(exc)) from None
+    try:
+        links = parse_source_links(blob)
+    except ValueError as exc:
+        raise refused(rec, f"attachment {ATTACHMENT_SOURCE_LINKS!r}: {exc}") from None
+    total = 0
+    for name, target in links.items():
+        for part in (name, target):
+            if source_name(part) is None:
+                raise refused(
+                    rec,
+                    f"{ATTACHMENT_SOURCE_LINKS}: source name {part!r} is not a plain relative name",
+                )
+        if target not in attached:
+            raise refused(
+                rec,
+                f"{ATTACHMENT_SOURCE_LINKS}: {name!r} names {full_name(target)!r}, which is not "
+                "attached",
+            )
+        if name in attached:
+            raise refused(rec, f"{ATTACHMENT_SOURCE_LINKS}: {full_name(name)!r} is also attached")
+        total += attached[target]
+        if total > MAX_LINKED_BYTES:
+            raise refused(
+                rec,
+                f"{ATTACHMENT_SOURCE_LINKS}: its links lay out more than the limit of "
+                f"{MAX_LINKED_BYTES} bytes",
+            )
+    return links
 
 
 def warn_left_out(rec: Recording, sources: RecordedSources) -> None:
@@ -183,8 +253,8 @@ def warn_left_out(rec: Recording, sources: RecordedSources) -> None:
 def check_model_source(rec: Recording, sources: RecordedSources, name: str) -> None:
     """Refuse with one line when the model source ``name`` (under ``source/``) was left out
     as xacro."""
-    full = ATTACHMENT_SOURCE_PREFIX + name
-    if name not in sources.files and full in rec.attachment_names:
+    full = full_name(name)
+    if name not in sources.files and any(left == name for left, _ in sources.notes):
         raise refused(
             rec,
             f"its model source {full!r} is xacro, which is never expanded from a recording, "
@@ -301,10 +371,13 @@ def model_from_mjb(blob: bytes) -> mujoco.MjModel:
 
 def model_from_mjcf_text(rec: Recording, text: bytes) -> mujoco.MjModel:
     """``model.mjcf.xml`` compiled with every reference confined to its own (otherwise
-    empty) folder and the model limits checked before compiling."""
+    empty) folder, from memory (MuJoCo gets the text, no path), the model limits checked
+    before compiling. Raises :class:`ValueError` when MuJoCo refuses the text."""
     with rebuild_folder(rec, {ATTACHMENT_MODEL: text}) as root:
         path = root / ATTACHMENT_MODEL
-        check_mjcf_files(path, roots=(root,))
-        spec = mujoco.MjSpec.from_file(str(path))
+        try:
+            spec = spec_from_file(path)
+        except CompileError as exc:
+            raise ValueError(str(exc).removeprefix(f"{path}: ")) from None
         check_spec(spec, ATTACHMENT_MODEL)
         return spec.compile()

@@ -45,8 +45,9 @@ import cbor2
 from harness.errors import RecordingError
 from harness.recording import Recording
 from harness.recording.convert import to_plain
-from harness.recording.layout import TOPIC_CLOCK, is_latched
+from harness.recording.layout import ATTACHMENT_SOURCE_PREFIX, TOPIC_CLOCK, is_latched
 from harness.recording.meshes import mesh_attachment_name
+from harness.recording.sourcelinks import ATTACHMENT_SOURCE_LINKS, parse_source_links
 from harness.replay.assets import AssetServer, rewrite_mesh_uris
 from harness.replay.errors import RecordedDataError
 from harness.replay.source import open_recording
@@ -143,6 +144,7 @@ def _is_description(item: PlayItem) -> bool:
 def _referenced_meshes(rec: Recording, items: list[PlayItem]) -> dict[str, bytes]:
     """The attachments the played descriptions' ``<mesh filename>`` references name."""
     names = set(rec.attachment_names)
+    links = _links(rec)  # a mesh whose bytes another attachment carries
     wanted: set[str] = set()
     for item in items:
         if _is_description(item):
@@ -150,13 +152,28 @@ def _referenced_meshes(rec: Recording, items: list[PlayItem]) -> dict[str, bytes
                 r"<mesh\b[^>]*?\bfilename\s*=\s*[\"']([^\"']*)", item.msg["data"]
             ):
                 name = mesh_attachment_name(uri)
-                if name is not None and name in names:
+                if name is not None and (name in names or links.get(name) in names):
                     wanted.add(name)
     out: dict[str, bytes] = {}
     for name in sorted(wanted):
         with contextlib.suppress(RecordingError):  # a damaged attachment is not served
-            out[name] = rec.attachment(name)
+            out[name] = rec.attachment(links.get(name, name))
     return out
+
+
+def _links(rec: Recording) -> dict[str, str]:
+    """The recording's source links (:mod:`harness.recording.sourcelinks`) as full
+    attachment names; none when they do not read."""
+    if ATTACHMENT_SOURCE_LINKS not in rec.attachment_names:
+        return {}
+    try:
+        links = parse_source_links(rec.attachment(ATTACHMENT_SOURCE_LINKS))
+    except (RecordingError, ValueError):
+        return {}
+    return {
+        ATTACHMENT_SOURCE_PREFIX + name: ATTACHMENT_SOURCE_PREFIX + target
+        for name, target in links.items()
+    }
 
 
 def _with_meshes(item: PlayItem, url: str, meshes: dict[str, bytes]) -> PlayItem:

@@ -59,6 +59,7 @@ from harness.recording.layout import (
     ATTACHMENT_SOURCE_PREFIX,
     TOPIC_STATE,
 )
+from harness.recording.sourcelinks import ATTACHMENT_SOURCE_REFS, PROJECT_REFERENCE_REFUSAL
 from harness.replay.errors import (
     ModelAttachmentError,
     RecordedDataError,
@@ -112,6 +113,9 @@ def open_recording(
         text = rec.problem_text()
         rec.close()
         raise RecordedDataError(f"{path}: the recording is damaged ({text}){_DAMAGED_HINT}")
+    if ATTACHMENT_SOURCE_REFS in rec.attachment_names:
+        rec.close()
+        raise UnsafeRecordingError(f"{path}: {PROJECT_REFERENCE_REFUSAL}")
     return rec
 
 
@@ -402,6 +406,7 @@ def rebuild_robot(
                 scene=_scene(sources, root),
                 packages=_packages(sources, root) or None,
                 **_mesh_collision(rec, root),
+                visuals=rec.metadata.get("visuals") == "true",
                 **_collision_and_base(
                     json.loads(rec.metadata.get("self_collision", "null")),
                     rec.metadata.get("base"),

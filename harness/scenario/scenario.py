@@ -146,8 +146,9 @@ class ScenarioRobot:
     for it (``robot``, ``robot1``, ... when not given); ``named``: whether the file gave the
     name (a given name is the robot's namespace when a run has several
     robots, see :func:`harness.scenario.world.robot_namespaces`). ``robot_args``: the
-    arguments of a xacro robot (name -> value as text). ``self_collision``, ``base`` and
-    ``strict``: as for :func:`harness.models.load_robot` (None: the default)."""
+    arguments of a xacro robot (name -> value as text). ``self_collision``, ``base``,
+    ``strict`` and ``srdf`` (the resolved SRDF file): as for
+    :func:`harness.models.load_robot` (None: the default)."""
 
     robot: str | Path
     name: str
@@ -163,6 +164,7 @@ class ScenarioRobot:
     base: BaseKind | None = None
     """``"fixed"``, ``"floating"`` (a mobile base) or None (the file's)."""
     strict: bool = False
+    srdf: str | Path | None = None
 
 
 @dataclass(frozen=True)
@@ -256,7 +258,10 @@ class Scenario:
     description: str = ""
     bridge: ScenarioBridgeSection = ScenarioBridgeSection()
     logging: LoggingConfig = _LOGGING_OFF
-    timestep: float = 0.002
+    timestep: float | None = None
+    """The physics step in seconds; None (no ``timestep`` key): the map's own (an SDF world's
+    ``<max_step_size>``, an MJCF scene's ``<option timestep>``: see
+    :func:`harness.scenario.world.effective_timestep`)."""
     duration: float = 10.0
     seed: int = 0
     sensors: tuple[Mapping[str, Any], ...] = ()
@@ -359,7 +364,7 @@ class _Builder:
                 ros2=ros_bridge.get("ros2", False),
             ),
             logging=self.logging(data.get("logging")),
-            timestep=float(data.get("timestep", 0.002)),
+            timestep=None if data.get("timestep") is None else float(data["timestep"]),
             duration=float(data.get("duration", 10.0)),
             seed=int(data.get("seed", 0)),
             controllers=self.controllers(
@@ -430,6 +435,20 @@ class _Builder:
                 path, value, self.not_builtin("robot", robot, BUILTIN_ROBOTS, ROBOT_SUFFIXES)
             )
         return robot
+
+    def srdf(self, value: str, path: list[str | int]) -> Path | str:
+        """A robot's ``srdf:``: a path relative to the scenario file or ``package://``
+        (a MoveIt config package), which must exist."""
+        if value.startswith("package://"):
+            try:
+                return resolve_uri(value, base_dir=self.base, what="srdf")
+            except ModelError as exc:
+                self.problem(path, value, f"is not found: {exc}")
+                return value
+        srdf = (self.base / value).resolve()
+        if not srdf.is_file():
+            self.problem(path, value, f"not found (looked for {srdf})")
+        return srdf
 
     def unique(self, key: str, names: list[str]) -> None:
         for i, name in enumerate(names):
@@ -556,6 +575,7 @@ class _Builder:
             ),
             base=None if "base" not in data else RobotBase(data["base"]).value,
             strict=bool(data.get("strict", False)),
+            srdf=None if "srdf" not in data else self.srdf(data["srdf"], [*path, "srdf"]),
         )
 
     def logger(self, data: dict[str, Any], path: list[str | int]) -> LoggerSpec:

@@ -81,6 +81,7 @@ from harness.scenario.scenario import (
 )
 from harness.scenario.session_options import is_body, scenario_session
 from harness.scenario.travel import BaseTracker, travel_verdict
+from harness.scenario.world import effective_timestep
 from harness.session import Session, SessionError
 
 __all__ = ["SessionHost", "SessionIterationRunner", "robot_links", "steps_for"]
@@ -263,7 +264,7 @@ class SessionIterationRunner:
         spec.out_dir.mkdir(parents=True, exist_ok=True)
         spec.recording_path.parent.mkdir(parents=True, exist_ok=True)
         planned = scenario_session(scenario, spec.out_dir)
-        expected = steps_for(spec.sim_time_limit, round(scenario.timestep * 1e9))
+        expected = steps_for(spec.sim_time_limit, round(effective_timestep(scenario) * 1e9))
         every = max(1, math.ceil(expected / max(1, self.trace_samples)))
         observers: list[_Observer] = []
 

@@ -49,7 +49,7 @@ from harness.models.decompose import check_mesh_collision
 from harness.models.description import RobotModel
 from harness.models.mjcf_files import check_mjcf_files, generated_from
 from harness.models.world import add_object
-from harness.models.worldfile import is_sdf_world, load_world_file
+from harness.models.worldfile import is_sdf_world, load_world_file, world_timestep
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Scenario, ScenarioRobot
@@ -62,6 +62,7 @@ __all__ = [
     "build_world",
     "check_runnable",
     "control_modes",
+    "effective_timestep",
     "initial_positions",
     "joint_command_topic",
     "kinematic_limits",
@@ -233,10 +234,11 @@ def scene_for(scenario: Scenario, folder: Path) -> str | Path:
             [f"{_where(scenario)}: environment.map: {str(file)!r} {' '.join(str(exc).split())}"]
         ) from None
     base = file.parent
-    same_step = spec.option.timestep == scenario.timestep
+    same_step = scenario.timestep is None or spec.option.timestep == scenario.timestep
     if not scenario.objects and same_step:
         return env_map
-    spec.option.timestep = scenario.timestep
+    if scenario.timestep is not None:
+        spec.option.timestep = scenario.timestep
     existing = {b.name for b in spec.bodies if b.name}
     for index, obj in enumerate(scenario.objects):
         if obj.name in existing:
@@ -264,15 +266,42 @@ def _sdf_world_spec(scenario: Scenario, file: Path) -> mujoco.MjSpec:
     """The SDF world ``file`` as a spec that can be written out with the scenario's objects
     (refused when the world brings meshes: they live in memory, not beside the file)."""
     world = load_world_file(file)
-    if world.spec.assets and (scenario.objects or world.spec.option.timestep != scenario.timestep):
+    own = world.spec.option.timestep
+    if world.spec.assets and scenario.timestep is not None and scenario.timestep != own:
         raise ScenarioError(
             [
-                f"{_where(scenario)}: environment.map: {str(file)!r} has meshes: objects and "
-                "a timestep other than the world's <max_step_size> cannot be added to it; "
-                "put them in the world file"
+                f"{_where(scenario)}: timestep: {scenario.timestep!r} is not the world's "
+                f"<max_step_size> {own!r} ({str(file)!r} has meshes, so it keeps its own "
+                "step; leave timestep out to run at the world's)"
+            ]
+        )
+    if world.spec.assets and scenario.objects:
+        raise ScenarioError(
+            [
+                f"{_where(scenario)}: environment.map: {str(file)!r} has meshes: objects "
+                "cannot be added to it; put them in the world file"
             ]
         )
     return world.spec
+
+
+def effective_timestep(scenario: Scenario) -> float:
+    """The physics step a scenario runs at: its ``timestep``, else its map's own (an SDF
+    world's ``<max_step_size>``, an MJCF scene's ``<option timestep>``; MuJoCo's 0.002 when
+    the map sets none)."""
+    if scenario.timestep is not None:
+        return scenario.timestep
+    env_map = scenario.environment.map
+    file = env_map if isinstance(env_map, Path) else SCENES[env_map]
+    try:
+        if is_sdf_world(file):
+            return world_timestep(file)
+        check_mjcf_files(file)
+        return float(mujoco.MjSpec.from_file(str(file)).option.timestep)
+    except (ValueError, ModelError) as exc:
+        raise ScenarioError(
+            [f"{_where(scenario)}: environment.map: {str(file)!r} {' '.join(str(exc).split())}"]
+        ) from None
 
 
 def _map_name(env_map: str | Path) -> str:
@@ -338,6 +367,7 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
                 initial_positions=dict(robot.initial_joint_positions),
                 robot_args=dict(robot.robot_args),
                 self_collision=robot.self_collision,
+                srdf=robot.srdf,
                 base=robot.base,
                 strict=robot.strict,
             )

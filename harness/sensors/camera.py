@@ -205,7 +205,7 @@ def _params(sensor: etree._Element, where: str) -> dict[str, Any]:
 
 
 def _build(spec: SensorSpec, at: Mounted) -> CameraSensor:
-    sensor_frame = at.prefix + spec.name
+    sensor_frame = at.prefix + spec.token
     return CameraSensor(spec, at.model, at.mount, at.topics, at.frame_id, at.renderer, sensor_frame)
 
 
@@ -255,6 +255,7 @@ register_kind(
         gazebo=("camera",),
         topics=_camera_topics,
         params=_params,
+        renders=True,
     )
 )
 register_kind(
@@ -266,6 +267,7 @@ register_kind(
         gazebo=("depth_camera",),
         topics=_depth_topics,
         params=_params,
+        renders=True,
     )
 )
 register_kind(
@@ -277,5 +279,6 @@ register_kind(
         gazebo=("depth", "rgbd_camera", "rgbd"),
         topics=_rgbd_topics,
         params=_params,
+        renders=True,
     )
 )

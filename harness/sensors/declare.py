@@ -31,7 +31,7 @@ from harness.models.xmlsafe import parse_xml
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.registry import gazebo_kind
 from harness.sensors.sdf_values import element_number, element_text
-from harness.sensors.spec import SensorSpec
+from harness.sensors.spec import SensorSpec, sensor_token
 
 __all__ = ["declared_in_sources", "sensors_from_sdf", "sensors_from_urdf"]
 
@@ -102,7 +102,7 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
             parent=parent,
             joint=joint,
             topic=topic or "",
-            topics=kind.default_topics(topic or "", camera_name or name),
+            topics=kind.default_topics(topic or "", camera_name or sensor_token(name)),
             frame_id=frame_id,
             source=source,
             **params,

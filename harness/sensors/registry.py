@@ -70,7 +70,8 @@ class SensorKind:
     ``topics``: ``(topic, base)`` -> every output's default topic (``topic`` the declared
     ``<topic>`` or "", ``base`` the plugin's camera name or the sensor name; relative names
     stay relative); ``params``: the spec fields a ``<sensor>`` element gives (``(element,
-    where)``; noise, sizes, ...)."""
+    where)``; noise, sizes, ...); ``renders``: it draws the scene (a camera), so a session
+    loads its robot with the visual geoms."""
 
     type: str
     outputs: tuple[str, ...]
@@ -79,6 +80,7 @@ class SensorKind:
     gazebo: tuple[str, ...] = ()
     topics: Callable[[str, str], dict[str, str]] | None = None
     params: Callable[[Any, str], dict[str, Any]] = field(default=_no_params)
+    renders: bool = False
 
     def default_topics(self, topic: str, base: str) -> dict[str, str]:
         """Every output's topic (see :attr:`topics`; by default ``<base>/<output>``)."""

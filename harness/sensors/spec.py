@@ -16,12 +16,21 @@ from typing import Any, Literal, get_args
 from harness.sensors.errors import SensorConfigError, UnknownSensorType
 from harness.sensors.registry import kind_of, known_types
 
-__all__ = ["SensorSpec", "SensorType"]
+__all__ = ["SensorSpec", "SensorType", "sensor_token"]
 
 SensorType = str
 """A sensor type: one a module of the sensors room registers (:mod:`harness.sensors.registry`)."""
 FtFrame = Literal["child", "parent", "sensor"]
 FtDirection = Literal["child_to_parent", "parent_to_child"]
+
+
+def sensor_token(name: str) -> str:
+    """The sanitised form of a sensor name (any text, as Gazebo takes it) used where the name
+    becomes part of a ROS name or frame (a default topic, the default frame, the camera's
+    sensor frame): every character but letters, digits, ``_``, ``-`` and ``/`` becomes ``_``
+    (``{prefix}camera_color`` -> ``_prefix_camera_color``). A name made of those only is
+    itself."""
+    return "".join(c if c.isalnum() or c in "_-/" else "_" for c in name)
 
 
 @dataclass(frozen=True)
@@ -46,7 +55,12 @@ class SensorSpec:
     ``accel_noise_stddev`` for the acceleration when they differ; force-torque on each axis),
     drawn from the session seed. Force-torque: ``ft_frame`` (``child`` link, ``parent`` link or the
     ``sensor`` frame) and ``ft_direction``. Contact: ``collision``, a geom name (default every
-    geom of the link). ``namespace``: the robot's (set by the loader)."""
+    geom of the link). ``namespace``: the robot's (set by the loader).
+
+    ``name`` is any text without control characters, as Gazebo takes it (an upstream file may
+    write ``{prefix}camera``); where it stands in for a ROS name (the default topic and frame)
+    its sanitised form :attr:`token` is used. Topics and frames the file gives must be ROS
+    names."""
 
     name: str
     type: SensorType
@@ -87,12 +101,10 @@ class SensorSpec:
 
     def __post_init__(self) -> None:
         where = f"sensor {self.name!r}" + (f" ({self.source})" if self.source else "")
-        if (
-            not isinstance(self.name, str)
-            or not self.name
-            or not all(c.isalnum() or c in "_-/" for c in self.name)
-        ):
-            raise SensorConfigError(f"{where}: the name must be letters, digits, _ - or /")
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise SensorConfigError(f"{where}: the name must be non-empty text")
+        if any(not c.isprintable() for c in self.name):
+            raise SensorConfigError(f"{where}: the name must not hold a control character")
         try:
             kind = kind_of(self.type)
         except UnknownSensorType:
@@ -168,6 +180,11 @@ class SensorSpec:
         if not ok or value < 0 or (value == 0 and not zero):  # type: ignore[operator]
             bound = ">= 0" if zero else "> 0"
             raise SensorConfigError(f"{where}: {name} must be a number {bound}, not {value!r}")
+
+    @property
+    def token(self) -> str:
+        """The name as it appears in default topics and frames (:func:`sensor_token`)."""
+        return sensor_token(self.name)
 
     @property
     def period_hz(self) -> float:

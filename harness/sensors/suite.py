@@ -140,12 +140,12 @@ class SensorSuite:
     def _make(self, spec: SensorSpec, robot: RobotMount) -> Sensor:
         kind = kind_of(spec.type)
         mount = mount_of(self.model, spec, robot.prefix)
-        defaults = kind.default_topics(spec.topic, spec.name)
+        defaults = kind.default_topics(spec.topic, spec.token)
         topics = {
             key: _resolve(spec.topics.get(key, value), robot.namespace)
             for key, value in defaults.items()
         }
-        frame_id = robot.prefix + (spec.frame_id or spec.name)
+        frame_id = robot.prefix + (spec.frame_id or spec.token)
         self._parents.append(mount.body_name)
         return kind.build(
             spec, Mounted(self.model, mount, topics, frame_id, robot.prefix, self.renderer)

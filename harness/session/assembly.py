@@ -39,7 +39,7 @@ def resolve_run(
 ) -> tuple[LoadedRobot | LoadedWorld, CoreOptions]:
     """What the session runs (:func:`~harness.session.startup.load_run`) and its options with
     the ``controllers`` default resolved for it."""
-    loaded = load_run(robot, load, options.namespace)
+    loaded = load_run(robot, load, options.namespace, options.sensors)
     controllers = resolve_default(options.controllers, loaded)
     return loaded, dataclasses.replace(options, controllers=controllers)
 

@@ -353,8 +353,8 @@ class LoadOptions:
     RobotSpecs or a LoadedWorld, instead of ``robot``), ``objects`` (added to that world),
     ``mode`` (the control mode of ``robot``'s joints, or joint -> mode), ``scene`` (a built-in
     name, an MJCF scene or an SDF world; ``world=`` is the same keyword, as Gazebo users name
-    it), ``robot_args`` (a xacro robot's arguments), ``self_collision``, ``base`` and
-    ``strict`` (as for :func:`harness.models.load_robot`), ``controllers_args`` (the
+    it), ``robot_args`` (a xacro robot's arguments), ``self_collision``, ``srdf``, ``base``
+    and ``strict`` (as for :func:`harness.models.load_robot`), ``controllers_args`` (the
     controllers YAML's launch arguments), ``mesh_collision`` (``decompose`` or ``hull``, see
     :mod:`harness.models.decompose`)."""
 
@@ -364,6 +364,7 @@ class LoadOptions:
     scene: str | Path | None = None
     robot_args: Mapping[str, Any] | None = None
     self_collision: SelfCollision | None = None
+    srdf: str | Path | None = None
     base: BaseKind | None = None
     strict: bool = False
     controllers_args: Mapping[str, Any] | None = None
@@ -406,6 +407,7 @@ class SessionKeywords(TypedDict, total=False):
     world: str | Path | None
     robot_args: Mapping[str, Any] | None
     self_collision: SelfCollision | None
+    srdf: str | Path | None
     base: BaseKind | None
     strict: bool
     controllers_args: Mapping[str, Any] | None

@@ -65,10 +65,15 @@ def option_groups(
 
 
 def load_run(
-    robot: str | Path | LoadedRobot | None, load: LoadOptions, namespace: str
+    robot: str | Path | LoadedRobot | None,
+    load: LoadOptions,
+    namespace: str,
+    sensors: Sequence[Mapping[str, Any]] = (),
 ) -> LoadedRobot | LoadedWorld:
     """What a session runs: ``robot`` loaded (or as given), or the world of ``load.robots``;
-    options that do not apply to what was given raise :class:`SessionConfigError`."""
+    options that do not apply to what was given raise :class:`SessionConfigError`. A robot
+    the session loads whose sensors render (its files' or ``sensors``: a camera) is loaded
+    with its visual geoms, which the camera draws."""
     return _load(
         robot,
         load.robots,
@@ -77,9 +82,22 @@ def load_run(
         load.scene,
         namespace,
         load.robot_args,
-        _load_options(load.self_collision, load.base, load.strict),
-        load.mesh_collision,
+        _load_options(load.self_collision, load.base, load.strict, load.srdf),
+        sensors,
+        mesh_collision=load.mesh_collision,
     )
+
+
+def _renders(sources: Mapping[str, bytes], sensors: Sequence[Mapping[str, Any]]) -> bool:
+    """Whether a sensor the robot's ``sources`` declare, or one of ``sensors``, renders.
+    Unknown types are left to the sensor suite, which names them."""
+    from harness.sensors.declare import declared_in_sources
+    from harness.sensors.registry import kind_of, known_types
+
+    types = [str(item.get("type", "")) for item in sensors if isinstance(item, Mapping)]
+    types += [spec.type for spec in declared_in_sources(sources)]
+    known = known_types()
+    return any(kind_of(t).renders for t in types if t in known)
 
 
 def open_recorder(
@@ -131,12 +149,17 @@ def open_port(
 
 
 def _load_options(
-    self_collision: SelfCollision | None, base: BaseKind | None, strict: bool
+    self_collision: SelfCollision | None,
+    base: BaseKind | None,
+    strict: bool,
+    srdf: str | Path | None = None,
 ) -> dict[str, Any]:
     """The robot load options a session was given (none left at their default)."""
     options: dict[str, Any] = {}
     if self_collision is not None:
         options["self_collision"] = self_collision
+    if srdf is not None:
+        options["srdf"] = srdf
     if base is not None:
         options["base"] = base
     if strict:
@@ -153,6 +176,7 @@ def _load(
     namespace: str,
     robot_args: Mapping[str, Any] | None = None,
     load_options: Mapping[str, Any] | None = None,
+    sensors: Sequence[Mapping[str, Any]] = (),
     mesh_collision: MeshCollision = "decompose",
 ) -> LoadedRobot | LoadedWorld:
     """What a session runs: ``robot`` loaded (or as given), or the world of ``robots``."""
@@ -185,11 +209,24 @@ def _load(
                     "was built with its control modes (load_robot(..., control=...))"
                 )
             return robot
+        loaded = load_robot(
+            "demo" if robot is None else robot,
+            control=mode or "position",
+            scene=scene,
+            robot_args=robot_args,
+            mesh_collision=mesh_collision,
+            **(load_options or {}),
+        )
+        if not _renders(loaded.sources, sensors):
+            return loaded
+        # A camera draws the visual geoms; which sensors a (xacro) robot declares is known
+        # once it is expanded, so such a robot is loaded a second time, with its visuals.
         return load_robot(
             "demo" if robot is None else robot,
             control=mode or "position",
             scene=scene,
             robot_args=robot_args,
+            visuals=True,
             mesh_collision=mesh_collision,
             **(load_options or {}),
         )

@@ -30,6 +30,7 @@ SAMPLES = {
     "self_collision": ("off", "off"),
     "base": ("floating", "floating"),
     "strict": (True, True),
+    "srdf": ("arm.srdf", "arm.srdf"),
 }
 """Robot key -> (marker value, the first RobotSpec's value)."""
 

@@ -90,6 +90,7 @@ def test_every_option_has_an_ini_twin(pytester, run):
         ("--harness-actuation", "harness_actuation"),
         ("--harness-mode", "harness_mode"),
         ("--harness-golden-dir", "harness_golden_dir"),
+        ("--harness-golden-sources", "harness_golden_sources"),
     ]:
         assert flag in text
         assert ini in text

@@ -3,6 +3,7 @@ attachments works where the robot's package is gone (another machine)."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -30,7 +31,10 @@ def test_meshes_are_attached_and_a_rebuild_elsewhere_finds_them(
     description = describe_run(robot)
     mesh = (pkg / "meshes" / "tetra.stl").read_bytes()
     assert description.attachments["source/renamed_pkg/meshes/tetra.stl"] == mesh
-    assert description.attachments["source/meshes/tetra.stl"] == mesh
+    # the same bytes under the relative spelling: attached once, the name laid out from it
+    assert [b for b in description.attachments.values() if b == mesh] == [mesh]
+    links = json.loads(description.attachments["source-links.json"])
+    assert links == {"meshes/tetra.stl": "renamed_pkg/meshes/tetra.stl"}
     path = tmp_path / "meshy.mcap"
     with Recorder(path, metadata=description.metadata, attachments=description.attachments) as rec:
         rec.write_physics_state(

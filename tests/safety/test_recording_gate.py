@@ -522,15 +522,20 @@ def test_model_mjb_is_loaded_first_in_a_limited_child(
 
 def test_nothing_recorded_is_unpickled_or_evaluated() -> None:
     """No module of the harness unpickles, ``eval``\\ s, ``exec``\\ s or loads YAML with an
-    unsafe loader (xacro's own ``eval`` runs only on local files, never on a recording)."""
+    unsafe loader (xacro's own ``eval`` runs only on local files, never on a recording; so
+    does the one ``eval`` allowed here: :mod:`harness.models.xacro_eval`, xacro's expression
+    evaluated with its steps bounded, which the payload tests above show a replay never
+    reaches)."""
     root = Path(__file__).resolve().parents[2] / "harness"
+    allowed = {"models/xacro_eval.py: return eval(_compiled(text), symbols, locals_)"}
     banned = ("pickle.load", "marshal.load", "yaml.unsafe_load", "yaml.full_load", "shelve.")
     calls = (" eval(", " exec(", "(eval(", "(exec(")
     found: list[str] = []
     for path in sorted(root.rglob("*.py")):
         for number, line in enumerate(path.read_text().splitlines(), 1):
             code = line.split("#", 1)[0]
-            if any(b in code for b in banned) or any(c in code for c in calls):
+            suspect = any(b in code for b in banned) or any(c in code for c in calls)
+            if suspect and f"{path.relative_to(root)}: {line.strip()}" not in allowed:
                 found.append(f"{path.relative_to(root)}:{number}: {line.strip()}")
     assert not found
 

@@ -38,6 +38,7 @@ from harness.scenario.results import (
     Traces,
     judge,
 )
+from harness.scenario.world import effective_timestep
 from harness.sim.contacts import extract_contacts
 
 __all__ = ["ARM_MJCF", "ClientRunner", "StandInHost", "StepLoadRunner"]
@@ -93,7 +94,7 @@ class StepLoadRunner:
     def __call__(self, spec: IterationSpec) -> IterationResult:
         start = time.monotonic()
         model = mujoco.MjModel.from_xml_string(ARM_MJCF)
-        model.opt.timestep = spec.scenario.timestep
+        model.opt.timestep = effective_timestep(spec.scenario)
         data = mujoco.MjData(model)
         steps = max(1, round(spec.sim_time_limit / model.opt.timestep))
         if self.max_steps is not None:
@@ -310,7 +311,7 @@ class ClientRunner:
             iteration=spec.iteration,
             verdicts=judge(spec.scenario.criteria, outcome, (), ()),
             sim_time=sim_time,
-            steps=round(sim_time / spec.scenario.timestep),
+            steps=round(sim_time / effective_timestep(spec.scenario)),
             client=outcome,
             port=port,
             wall_seconds=time.monotonic() - start,

@@ -12,6 +12,7 @@ joints become joint equalities. The worldbody is the model frame.
 
 from __future__ import annotations
 
+import math
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -23,6 +24,7 @@ from harness.models.assets import mesh_asset
 from harness.models.confine import check_confined
 from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
 from harness.models.errors import ModelStructureError
+from harness.models.inertia import principal_on_edge
 from harness.models.sdf.errors import SdfWarning
 
 __all__ = ["SpanningTree", "build_spec", "spanning_tree"]
@@ -210,10 +212,15 @@ def _add_geom(
         geom.density = 0.0
 
 
-def _add_inertial(body: mujoco.MjsBody, link: Link) -> None:
+def _add_inertial(body: mujoco.MjsBody, link: Link, welded: bool) -> None:
+    """The link's ``<inertial>``. A link welded to the world (a static model's) never moves:
+    its inertia has no effect and is not judged (Gazebo ignores it), so a tensor MuJoCo would
+    refuse is handed over as valid principal moments instead."""
     inertial = link.inertial
     if inertial is None or inertial.mass == 0.0:
         return  # massless (static or welded) link: MuJoCo names it if it moves
+    if welded and not (math.isfinite(inertial.mass) and inertial.mass > 0.0):
+        return
     local = link.pose.inverse() * inertial.pose
     ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
@@ -222,6 +229,10 @@ def _add_inertial(body: mujoco.MjsBody, link: Link) -> None:
     body.explicitinertial = True
     body.mass = inertial.mass
     body.ipos = list(local.xyz)
+    principal = principal_on_edge(in_body, welded=welded)
+    if principal is not None:
+        body.inertia, body.iquat = principal
+        return
     body.fullinertia = [
         in_body[0, 0],
         in_body[1, 1],
@@ -279,6 +290,7 @@ def build_spec(
     tree = spanning_tree(model)
     links = {link.name: link for link in model.links}
     bodies: dict[str, mujoco.MjsBody] = {"world": spec.worldbody}
+    welded: dict[str, bool] = {}
     assets: dict[str, bytes] = {}
     for name in tree.order:
         link = links[name]
@@ -289,7 +301,10 @@ def build_spec(
         bodies[name] = body
         for joint in tree.joints[name]:
             _add_joint(body, joint, link.pose, parent)
-        _add_inertial(body, link)
+        welded[name] = (parent == "world" or welded[parent]) and all(
+            j.type == "fixed" for j in tree.joints[name]
+        )
+        _add_inertial(body, link, welded[name])
         for shape in link.collisions:
             _add_geom(spec, body, link, shape, False, assets, cache_dir)
         if visuals:

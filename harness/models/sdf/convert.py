@@ -51,6 +51,7 @@ __all__ = [
     "SdfWorld",
     "read_sdf",
     "read_sdf_world",
+    "sdf_world",
     "to_robot_model",
 ]
 
@@ -376,11 +377,18 @@ def read_sdf(
 
 
 def read_sdf_world(
-    path: str | Path, *, search_paths: Sequence[str | Path] | None = None
+    path: str | Path, *, search_paths: Sequence[str | Path] | None = None, strict: bool = False
 ) -> SdfWorld:
     """Every model of an SDFormat file with its pose in the world (a ``<model>`` file gives
-    one model placed at its own ``<pose>``), and the world's frames."""
-    doc = load_document(path, search_paths=search_paths)
+    one model placed at its own ``<pose>``), and the world's frames. A world is read as
+    Gazebo reads it: a dynamic model's invalid inertia is repaired with a warning (as a
+    robot's is) unless ``strict``; a static model's is not judged."""
+    doc = load_document(path, search_paths=search_paths, strict=strict)
+    return sdf_world(doc, search_paths=search_paths)
+
+
+def sdf_world(doc: SdfDocument, *, search_paths: Sequence[str | Path] | None = None) -> SdfWorld:
+    """The :class:`SdfWorld` of a loaded document (see :func:`read_sdf_world`)."""
     placed = []
     for entity in _models(doc):
         pose = entity.raw_pose.pose if doc.root.kind == "model" else doc.pose_in_root(entity)

@@ -22,11 +22,8 @@ from pathlib import Path
 import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.errors import ModelError
-from harness.models.confine import check_confined
 from harness.models.description import Pose
-from harness.models.errors import ModelWarning, OutsideReferenceError, ResolveError
-from harness.models.resolve import find_model
+from harness.models.errors import ModelWarning
 from harness.models.sdf.errors import (
     SdfCycleError,
     SdfFrameError,
@@ -36,6 +33,7 @@ from harness.models.sdf.errors import (
     SdfSyntaxError,
     SdfVersionError,
 )
+from harness.models.sdf.includes import SUPPORTED_VERSIONS, include_file
 from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = [
@@ -53,8 +51,6 @@ __all__ = [
 Vec3 = tuple[float, float, float]
 Version = tuple[int, int]
 
-SUPPORTED_VERSIONS: tuple[str, ...] = tuple(f"1.{minor}" for minor in range(4, 12))
-"""The SDFormat versions this reader accepts."""
 
 _UNLIMITED = 1e16  # SDFormat's default joint limit: |limit| >= this means "no limit"
 
@@ -262,7 +258,7 @@ def _check_inertia(
         raise SdfInertiaError(f"{where}: invalid inertia: mass {mass} must be positive")
     tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     moments, axes = np.linalg.eigh(tensor)
-    tol = 1e-9 * max(1.0, float(np.max(np.abs(moments))))
+    tol = 1e-9 * float(np.max(np.abs(moments)))  # relative: rounding, not a tiny moment
     problem = None
     if float(moments[0]) <= 0.0:
         problem = f"principal moments {moments.tolist()} must be positive"
@@ -329,7 +325,23 @@ class _Loader:
             elif child.tag == "frame":
                 world.children.append(self._frame(child, world, source, version))
         self._check_names(world)
+        self._apply_state(world, element, source, version)
         return world
+
+    def _apply_state(
+        self, world: Entity, element: etree._Element, source: Path, version: Version
+    ) -> None:
+        """A Gazebo Classic world's ``<state>``: each model's ``<pose>`` there (in the world
+        frame) is where the model is, as Gazebo places it on load."""
+        state = element.find("state")
+        if state is None:
+            return
+        models = {c.name: c for c in world.children if c.kind == "model"}
+        for entry in state.findall("model"):
+            target = models.get(entry.get("name", ""))
+            pose_el = entry.find("pose")
+            if target is not None and pose_el is not None and (pose_el.text or "").split():
+                target.raw_pose = RawPose(_parse_pose(pose_el, source, version).pose)
 
     def _model(
         self,
@@ -432,14 +444,18 @@ class _Loader:
         link.raw_pose = _parse_pose(element.find("pose"), source, version)
         inertial = element.find("inertial")
         if inertial is not None:
-            link.inertial = self._inertial(inertial, source, version)
+            link.inertial = self._inertial(inertial, source, version, _in_static(scope))
         link.collisions = tuple(
             self._shape(e, source, version) for e in element.findall("collision")
         )
         link.visuals = tuple(self._shape(e, source, version) for e in element.findall("visual"))
         return link
 
-    def _inertial(self, element: etree._Element, source: Path, version: Version) -> InertialSpec:
+    def _inertial(
+        self, element: etree._Element, source: Path, version: Version, static: bool
+    ) -> InertialSpec:
+        """The ``<inertial>``; a static model's is not judged (Gazebo ignores it: the link
+        never moves)."""
         mass = _child_float(element, "mass", 1.0, source)
         tensor = element.find("inertia")
         defaults = {"ixx": 1.0, "ixy": 0.0, "ixz": 0.0, "iyy": 1.0, "iyz": 0.0, "izz": 1.0}
@@ -448,7 +464,8 @@ class _Loader:
             for key, default in defaults.items()
         ]
         inertia = (values[0], values[1], values[2], values[3], values[4], values[5])
-        inertia = _check_inertia(mass, inertia, _where(source, element), self.strict)
+        if not static:
+            inertia = _check_inertia(mass, inertia, _where(source, element), self.strict)
         return InertialSpec(mass, _parse_pose(element.find("pose"), source, version), inertia)
 
     def _shape(self, element: etree._Element, source: Path, version: Version) -> ShapeSpec:
@@ -561,7 +578,10 @@ class _Loader:
         uri = (uri_el.text or "").strip() if uri_el is not None else ""
         if not uri:
             raise SdfIncludeError(f"{where}: <include> needs a <uri>")
-        path = self._include_file(uri, source, where).resolve()
+        found = include_file(uri, source, where, self.search_paths, light_ok=light_ok)
+        if found is None:
+            return None  # a light-only stock model (Gazebo's sun): no physics
+        path = found.resolve()
         if path in self.include_stack:
             chain = " -> ".join(str(p) for p in [*self.include_stack, path])
             raise SdfCycleError(f"{where}: include cycle: {chain}")
@@ -593,60 +613,14 @@ class _Loader:
         finally:
             self.include_stack.pop()
 
-    def _include_file(self, uri: str, source: Path, where: str) -> Path:
-        try:
-            if uri.startswith("model://"):
-                name, _, rest = uri[len("model://") :].partition("/")
-                target = find_model(name, search_paths=self.search_paths, start=source.parent)
-                target = target / rest if rest else target
-            elif "://" in uri and not uri.startswith("file://"):
-                raise SdfIncludeError(f"{where}: unsupported include URI scheme in {uri!r}")
-            else:
-                target = Path(uri.removeprefix("file://")).expanduser()
-                if not target.is_absolute():
-                    target = source.parent / target
-        except OutsideReferenceError as exc:  # a rebuild from a recording: refused as it is
-            raise type(exc)(f"{where}: include {uri!r}: {exc}") from None
-        except ResolveError as exc:
-            raise SdfIncludeError(f"{where}: missing include {uri!r}: {exc}") from None
-        check_confined(target, uri, context=where, what="include")
-        if target.is_dir():
-            return self._model_config_sdf(target, uri, where)
-        if not target.is_file():
-            raise SdfIncludeError(f"{where}: missing include {uri!r}: {target} does not exist")
-        return target
 
-    def _model_config_sdf(self, folder: Path, uri: str, where: str) -> Path:
-        config = folder / "model.config"
-        if not config.is_file():
-            fallback = folder / "model.sdf"
-            if fallback.is_file():
-                return fallback
-            raise SdfIncludeError(
-                f"{where}: missing include {uri!r}: {folder} has no model.config or model.sdf"
-            )
-        try:
-            root, _ = read_xml_file(config)
-        except ModelError as exc:
-            raise SdfIncludeError(f"{where}: include {uri!r}: {exc}") from None
-        choices: list[tuple[Version, str]] = []
-        for sdf in root.findall("sdf"):
-            text = (sdf.text or "").strip()
-            version_text = sdf.get("version", "0.0")
-            try:
-                major, minor = (int(p) for p in version_text.split(".")[:2])
-            except ValueError:
-                continue
-            if text and version_text in SUPPORTED_VERSIONS:
-                choices.append(((major, minor), text))
-        if not choices:
-            raise SdfIncludeError(
-                f"{where}: include {uri!r}: {config} lists no <sdf> file of a supported version"
-            )
-        target = folder / max(choices)[1]
-        if not target.is_file():
-            raise SdfIncludeError(f"{where}: missing include {uri!r}: {target} does not exist")
-        return target
+def _in_static(scope: Entity | None) -> bool:
+    """Whether ``scope`` or a model around it is static (its links never move)."""
+    while scope is not None and scope.kind == "model":
+        if scope.static:
+            return True
+        scope = scope.scope
+    return False
 
 
 def _scoped(scope: Entity | None, name: str) -> str:
