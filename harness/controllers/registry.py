@@ -72,12 +72,19 @@ def controller_type(*types: str) -> Callable[[F], F]:
 
     def register(factory: F) -> F:
         for name in types:
-            if name in _FACTORIES and _FACTORIES[name] is not factory:
+            known = _FACTORIES.get(name)
+            if known is not None and _origin(known) != _origin(factory):
                 raise ValueError(f"controller type {name!r} is registered twice")
             _FACTORIES[name] = factory
         return factory
 
     return register
+
+
+def _origin(factory: Factory) -> tuple[str, str]:
+    """Where ``factory`` is defined: a module imported again (a test that reloads it)
+    registers the same names anew, which is not a clash."""
+    return (getattr(factory, "__module__", ""), getattr(factory, "__qualname__", repr(factory)))
 
 
 def _discover() -> None:
