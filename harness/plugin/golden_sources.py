@@ -58,56 +58,6 @@ class GoldenSourcesChanged(Exception):
     """A golden's referenced project file changed or cannot be read (one line)."""
 
 
-def _copy(source: Path, target: Path, drop: set[str], add: Mapping[str, bytes]) -> None:
-    """Copy the MCAP ``source`` to ``target`` record by record, without the attachments named
-    in ``drop`` and with ``add`` appended after the others."""
-    from mcap.reader import make_reader
-    from mcap.writer import CompressionType, Writer
-
-    from harness.recording.metadata import media_type
-
-    with open(source, "rb") as src, open(target, "wb") as out:
-        reader = make_reader(src)
-        header = reader.get_header()
-        writer = Writer(out, compression=CompressionType.ZSTD)
-        writer.start(profile=header.profile, library=header.library)
-        schemas: dict[int, int] = {}
-        channels: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
-            if channel.id not in channels:
-                if schema is not None and schema.id not in schemas:
-                    schemas[schema.id] = writer.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                channels[channel.id] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas.get(channel.schema_id, 0),
-                    dict(channel.metadata),
-                )
-            writer.add_message(
-                channels[channel.id],
-                message.log_time,
-                message.data,
-                message.publish_time,
-                message.sequence,
-            )
-        for attachment in reader.iter_attachments():
-            if attachment.name not in drop:
-                writer.add_attachment(
-                    attachment.create_time,
-                    attachment.log_time,
-                    attachment.name,
-                    attachment.media_type,
-                    attachment.data,
-                )
-        for name, blob in add.items():
-            writer.add_attachment(0, 0, name, media_type(name), blob)
-        for metadata in reader.iter_metadata():
-            writer.add_metadata(metadata.name, dict(metadata.metadata))
-        writer.finish()  # type: ignore[no-untyped-call]
-
-
 def _project_files(rootdir: Path, sizes: set[int], skip: tuple[Path, ...]) -> Iterator[Path]:
     """The regular files under ``rootdir`` (in name order, symlinks not followed, version
     control, virtualenv and ``skip`` folders left out) whose size is in ``sizes``."""
@@ -191,7 +141,9 @@ def write_golden(
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     try:
-        _copy(recording, Path(tmp), drop, add)
+        from harness.recording.copying import copy_recording
+
+        copy_recording(recording, Path(tmp), drop=drop, add=add)
         os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a project file
         os.replace(tmp, target)
     except BaseException:
@@ -267,5 +219,7 @@ def resolved_golden(golden: Path, rootdir: Path) -> Iterator[Path]:
     }
     with tempfile.TemporaryDirectory(prefix="harness-golden-") as tmp:
         full = Path(tmp) / golden.name
-        _copy(golden, full, {ATTACHMENT_SOURCE_REFS}, add)
+        from harness.recording.copying import copy_recording
+
+        copy_recording(golden, full, drop={ATTACHMENT_SOURCE_REFS}, add=add)
         yield full

@@ -28,10 +28,8 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from mcap.reader import make_reader
-from mcap.writer import CompressionType, Writer
-
 from harness.errors import ConfigError
+from harness.recording.copying import copy_recording
 from harness.recording.layout import ATTACHMENT_MODEL_BINARY
 from harness.replay.diff import Tolerances
 from harness.scenario.runfile import load_run_file
@@ -100,44 +98,7 @@ def write_golden(recording: Path, target: Path) -> int:
     temporary file, then renamed); returns the file size."""
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.with_name(f".{target.name}.tmp")
-    with open(recording, "rb") as source, open(tmp, "wb") as out:
-        reader = make_reader(source)
-        header = reader.get_header()
-        writer = Writer(out, compression=CompressionType.ZSTD)
-        writer.start(profile=header.profile, library=header.library)
-        schemas: dict[int, int] = {}
-        channels: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
-            if channel.id not in channels:
-                if schema is not None and schema.id not in schemas:
-                    schemas[schema.id] = writer.register_schema(
-                        schema.name, schema.encoding, schema.data
-                    )
-                channels[channel.id] = writer.register_channel(
-                    channel.topic,
-                    channel.message_encoding,
-                    schemas.get(channel.schema_id, 0),
-                    dict(channel.metadata),
-                )
-            writer.add_message(
-                channels[channel.id],
-                message.log_time,
-                message.data,
-                message.publish_time,
-                message.sequence,
-            )
-        for attachment in reader.iter_attachments():
-            if attachment.name != ATTACHMENT_MODEL_BINARY:
-                writer.add_attachment(
-                    attachment.create_time,
-                    attachment.log_time,
-                    attachment.name,
-                    attachment.media_type,
-                    attachment.data,
-                )
-        for metadata in reader.iter_metadata():
-            writer.add_metadata(metadata.name, dict(metadata.metadata))
-        writer.finish()  # type: ignore[no-untyped-call]
+    copy_recording(recording, tmp, drop={ATTACHMENT_MODEL_BINARY})
     tmp.replace(target)
     return target.stat().st_size
 
