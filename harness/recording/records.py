@@ -1,7 +1,7 @@
 """Typed records read back from a recording (one per ``harness_msgs`` message, plus any message).
 
 Arrays are numpy arrays exactly as recorded (float64 bit for bit); compare them with
-:func:`harness.sim.bits.same_bits`, not ``==``. The records that cross the recorder seam every
+:func:`harness.bits.same_bits`, not ``==``. The records that cross the recorder seam every
 step (:class:`AppliedInput`, :class:`BridgeFrame`, :class:`PhysicsState`, :class:`Epoch`) are
 named tuples: immutable like the frozen dataclasses, and a third of the cost to build (about
 0.35 us against 1 us for six fields), which the per-step recording path pays every step.
@@ -16,8 +16,9 @@ import numpy as np
 import numpy.typing as npt
 
 # One type for one concept: the input the simulation applied is the same record live and read
-# back (it mirrors harness_msgs/msg/AppliedInput).
-from harness.sim.inputs import AppliedInput
+# back (it mirrors harness_msgs/msg/AppliedInput). It lives in harness.applied, which imports
+# only numpy: reading a recording loads neither MuJoCo nor the simulation.
+from harness.applied import AppliedInput
 
 __all__ = [
     "AppliedInput",
