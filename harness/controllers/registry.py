@@ -8,9 +8,6 @@ by walking the package on first use, so a new controller is one module in
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -18,6 +15,7 @@ from typing import TypeVar
 from harness.controllers.base import Controller, SensorInterfaces
 from harness.controllers.config import ControllerSpec
 from harness.controllers.errors import UnknownControllerType
+from harness.rooms import Room
 
 __all__ = [
     "NO_SENSORS",
@@ -63,8 +61,6 @@ when its parameters do not fit the robot."""
 F = TypeVar("F", bound=Factory)
 
 _FACTORIES: dict[str, Factory] = {}
-_found = False
-_lock = threading.RLock()
 
 
 def controller_type(*types: str) -> Callable[[F], F]:
@@ -87,19 +83,7 @@ def _origin(factory: Factory) -> tuple[str, str]:
     return (getattr(factory, "__module__", ""), getattr(factory, "__qualname__", repr(factory)))
 
 
-def _discover() -> None:
-    """Import every module of the room once (each registers its types)."""
-    global _found
-    if _found:
-        return
-    with _lock:  # two sessions started at once in threads: the second waits for the whole set
-        if _found:
-            return
-        package = importlib.import_module(__name__.rpartition(".")[0])
-        for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-            if not info.name.startswith("_"):
-                importlib.import_module(f"{package.__name__}.{info.name}")
-        _found = True
+_discover = Room(__name__.rpartition(".")[0]).discover
 
 
 def known_types() -> tuple[str, ...]:

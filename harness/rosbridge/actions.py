@@ -14,6 +14,7 @@ from harness.rosbridge.deadlines import bounded_timeout
 from harness.rosbridge.errors import ConversionError, FrameError
 from harness.rosbridge.frames import BAD_INPUT, BridgeHost, field_of, kind_of, name_field
 from harness.rosbridge.graph import HARNESS_NODE, ActionEntry, normalize
+from harness.rosbridge.limits import over_pending_limit
 
 __all__ = ["GOAL_ABORTED", "GOAL_CANCELED", "GOAL_SUCCEEDED", "ActionGoal", "ActionOps"]
 
@@ -81,19 +82,14 @@ class ActionOps(BridgeHost):
     def _goals_refused(self, c: int) -> str | None:
         """Why client ``c`` may not send one more action goal (it, or every client together,
         has as many active as the limit allows), or None."""
-        mine = self._goals_of.get(c, 0)
-        if mine >= self.max_pending_goals_per_client:
-            return (
-                f"{mine} goals of this client are active, the limit per client "
-                f"(MAX_PENDING_GOALS_PER_CLIENT {self.max_pending_goals_per_client})"
-            )
-        total = len(self._goals)
-        if total >= self.max_pending_goals:
-            return (
-                f"{total} goals are active, the limit for all clients together "
-                f"(MAX_PENDING_GOALS {self.max_pending_goals})"
-            )
-        return None
+        return over_pending_limit(
+            "goals",
+            "are active",
+            self._goals_of.get(c, 0),
+            ("MAX_PENDING_GOALS_PER_CLIENT", self.max_pending_goals_per_client),
+            len(self._goals),
+            ("MAX_PENDING_GOALS", self.max_pending_goals),
+        )
 
     def _cancel_orphaned_goal(self, pending: _PendingGoal) -> None:
         """Tell the action server to stop working on a goal whose client left (the goal is

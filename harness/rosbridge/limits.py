@@ -34,6 +34,7 @@ __all__ = [
     "SEND_FRAMES_PER_S",
     "SEND_QUEUE_BYTES",
     "SendBudget",
+    "over_pending_limit",
 ]
 
 MAX_FRAME_BYTES: Final = 16 * 2**20
@@ -109,3 +110,22 @@ class SendBudget:
             f"{self.frames_per_s} frames or {self.bytes_per_s // 2**20} MiB per second of "
             "simulation time"
         )
+
+
+def over_pending_limit(
+    what: str,
+    state: str,
+    mine: int,
+    per_client: tuple[str, int],
+    total: int,
+    overall: tuple[str, int],
+) -> str | None:
+    """Why a client with ``mine`` ``what`` in ``state`` ("calls", "are pending"), of ``total``
+    for every client, may not start one more: the limit (name, value) it reached, or None."""
+    name, limit = per_client
+    if mine >= limit:
+        return f"{mine} {what} of this client {state}, the limit per client ({name} {limit})"
+    name, limit = overall
+    if total >= limit:
+        return f"{total} {what} {state}, the limit for all clients together ({name} {limit})"
+    return None

@@ -12,6 +12,7 @@ from harness.rosbridge.deadlines import MAX_TIMEOUT_S, bounded_timeout
 from harness.rosbridge.errors import ConversionError, FrameError
 from harness.rosbridge.frames import BridgeHost, field_of, name_field
 from harness.rosbridge.graph import HARNESS_NODE, ServiceEntry, normalize
+from harness.rosbridge.limits import over_pending_limit
 
 __all__ = ["DEFERRED", "ServiceCall", "ServiceOps"]
 
@@ -81,19 +82,14 @@ class ServiceOps(BridgeHost):
     def _calls_refused(self, c: int) -> str | None:
         """Why client ``c`` may not start one more service call (it, or every client
         together, has as many pending as the limit allows), or None."""
-        mine = self._calls_of.get(c, 0)
-        if mine >= self.max_pending_calls_per_client:
-            return (
-                f"{mine} calls of this client are pending, the limit per client "
-                f"(MAX_PENDING_CALLS_PER_CLIENT {self.max_pending_calls_per_client})"
-            )
-        total = len(self._calls)
-        if total >= self.max_pending_calls:
-            return (
-                f"{total} calls are pending, the limit for all clients together "
-                f"(MAX_PENDING_CALLS {self.max_pending_calls})"
-            )
-        return None
+        return over_pending_limit(
+            "calls",
+            "are pending",
+            self._calls_of.get(c, 0),
+            ("MAX_PENDING_CALLS_PER_CLIENT", self.max_pending_calls_per_client),
+            len(self._calls),
+            ("MAX_PENDING_CALLS", self.max_pending_calls),
+        )
 
     def _service_failure(self, c: int, spelled: str, values: Any, msg_id: Any) -> None:
         frame: dict[str, Any] = {

@@ -10,13 +10,11 @@ module in ``harness/sensors/`` and touches no other file.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from harness.rooms import Room
 from harness.sensors.errors import UnknownSensorType
 
 if TYPE_CHECKING:
@@ -90,8 +88,6 @@ class SensorKind:
 
 _KINDS: dict[str, SensorKind] = {}
 _GAZEBO: dict[str, SensorKind] = {}
-_found = False
-_lock = threading.RLock()
 
 
 def register_kind(kind: SensorKind) -> SensorKind:
@@ -107,19 +103,7 @@ def register_kind(kind: SensorKind) -> SensorKind:
     return kind
 
 
-def _discover() -> None:
-    """Import every module of the room once (each registers its kinds)."""
-    global _found
-    if _found:
-        return
-    with _lock:  # two sessions started at once in threads: the second waits for the whole set
-        if _found:
-            return
-        package = importlib.import_module(__name__.rpartition(".")[0])
-        for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-            if not info.name.startswith("_"):
-                importlib.import_module(f"{package.__name__}.{info.name}")
-        _found = True
+_discover = Room(__name__.rpartition(".")[0]).discover
 
 
 def known_types() -> tuple[str, ...]:

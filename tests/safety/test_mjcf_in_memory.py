@@ -11,13 +11,10 @@ be the recorded one (its MJCF SHA-256 equals ``model_sha256``).
 
 from __future__ import annotations
 
-import importlib.util
 import os
-import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import mujoco
@@ -27,8 +24,8 @@ from harness.recording import Recording
 from harness.replay.errors import UnsafeRecordingError
 from harness.replay.source import rebuild_robot, resolve_model
 from harness.session import Session
+from tests.replay import mcap_edit
 
-REPLAY_TESTS = Path(__file__).resolve().parents[1] / "replay"
 ROBOT = """<mujoco model="arm">
   <compiler meshdir="meshes" angle="radian"/>
   <include file="inc/assets.xml"/>
@@ -45,18 +42,6 @@ ROBOT = """<mujoco model="arm">
 </mujoco>
 """
 INCLUDE = '<mujoco><asset><mesh name="box" file="box.stl" scale="0.1 0.1 0.1"/></asset></mujoco>'
-
-
-def _mcap_edit() -> ModuleType:
-    name = "replay_tests_mcap_edit"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, REPLAY_TESTS / "mcap_edit.py")
-        assert spec is not None
-        assert spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[name]
 
 
 def _box_stl() -> bytes:
@@ -102,7 +87,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory, robot_files: dict[str, by
 
 
 def _rewrite(src: Path, dst: Path, edit: Callable[[dict[str, bytes]], dict[str, bytes]]) -> Path:
-    _mcap_edit().rewrite(src, dst, attachments=edit)
+    mcap_edit.rewrite(src, dst, attachments=edit)
     return dst
 
 

@@ -19,7 +19,6 @@ project's recorder and rewritten with the mcap library:
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 import json
 import os
 import re
@@ -28,7 +27,6 @@ import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from types import ModuleType
 
 import pytest
 
@@ -42,24 +40,11 @@ from harness.replay.errors import (
 )
 from harness.replay.source import rebuild_robot, rebuild_run, resolve_model
 from harness.session import Session
+from tests.replay import mcap_edit, record_helper
 
-REPLAY_TESTS = Path(__file__).resolve().parents[1] / "replay"
 TIMEOUT_S = 60
 OLD_GEOMETRY = '<geometry><cylinder radius="0.07" length="0.14"/></geometry>'
 XACRO_NS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
-
-
-def _load(name: str) -> ModuleType:
-    module_name = f"replay_tests_{name}"
-    if module_name in sys.modules:
-        return sys.modules[module_name]
-    spec = importlib.util.spec_from_file_location(module_name, REPLAY_TESTS / f"{name}.py")
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[module_name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +52,7 @@ def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """A physics recording of the demo arm (``base``) and a session recording (``session``,
     what ``--level full`` re-runs), both with the exact model attached."""
     folder = tmp_path_factory.mktemp("gate")
-    helper = _load("record_helper")
+    helper = record_helper
     base = helper.record(folder / "base.mcap", {0: helper.REACH}, 30)
     session = folder / "session.mcap"
     with Session("demo", record_to=session) as live:
@@ -89,7 +74,7 @@ def _rewrite(src: Path, dst: Path, sources: dict[str, bytes], *, keep_mjb: bool 
         kept.update({f"source/{name}": blob for name, blob in sources.items()})
         return kept
 
-    _load("mcap_edit").rewrite(src, dst, attachments=edit)
+    mcap_edit.rewrite(src, dst, attachments=edit)
     return dst
 
 
@@ -414,7 +399,7 @@ def test_no_reference_kind_reaches_outside_and_the_text_does_not_tell(
         return {**kept, "model.mjb": b"not a model", "model.mjcf.xml": text.encode()}
 
     paths.append(
-        _load("mcap_edit").rewrite(
+        mcap_edit.rewrite(
             recordings["base"],
             tmp_path / "mjcf-text.mcap",
             attachments=mjcf_text,
@@ -464,7 +449,7 @@ def test_a_xacro_robot_recording_rebuilds_from_its_expanded_urdf(tmp_path: Path)
     recorded model, the xacro file never read."""
     package = tmp_path / "robot"
     (package / "meshes").mkdir(parents=True)
-    helper = _load("record_helper")
+    helper = record_helper
     stl = Path(helper.__file__).resolve().parents[1] / "data"
     meshes = sorted(stl.rglob("*.stl"))
     assert meshes, "tests/data has STL meshes"

@@ -5,12 +5,10 @@ else is refused with one line before a file is written."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
 from pathlib import Path
-from types import ModuleType
 
 import pytest
 
@@ -19,20 +17,7 @@ from harness.recording.sourcelinks import MAX_SOURCE_LINKS
 from harness.replay.errors import UnsafeRecordingError
 from harness.replay.source import rebuild_robot
 from harness.session import Session
-
-MCAP_EDIT = Path(__file__).resolve().parents[1] / "replay" / "mcap_edit.py"
-
-
-def _mcap_edit() -> ModuleType:
-    name = "replay_tests_mcap_edit"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, MCAP_EDIT)
-        assert spec is not None
-        assert spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[name]
+from tests.replay import mcap_edit
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +36,7 @@ def _with_links(src: Path, dst: Path, links: bytes) -> Path:
         kept = {n: b for n, b in attachments.items() if n != "model.mjb"}
         return {**kept, "source-links.json": links}
 
-    _mcap_edit().rewrite(src, dst, attachments=edit)
+    mcap_edit.rewrite(src, dst, attachments=edit)
     return dst
 
 
