@@ -38,7 +38,7 @@ class Command(NamedTuple):
 COMMANDS: dict[str, Command] = {
     "demo": Command("harness.demo", "run the embedded demo end to end"),
     "inspect-model": Command("harness.models._cli", "links, joints and frames of a robot model"),
-    "check-model": Command("harness.models._check_cli", "does a robot load, hold, step, stand"),
+    "check-model": Command("harness.models.check._cli", "does a robot load, hold, step, stand"),
     "run": Command("harness.scenario._cli", "run a scenario or runner file's iterations"),
     "inspect": Command("harness.recording._cli", "contents and validity of a recording"),
     "repair": Command(

@@ -22,7 +22,7 @@ from harness.controllers.config import ControllerSpec
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.errors import ControllersConfigError
 from harness.controllers.planar import TYPE_PLANAR
-from harness.models.drive_plugins import drive_plugin_elements
+from harness.models.build.drive_plugins import drive_plugin_elements
 
 __all__ = ["drive_plugins"]
 

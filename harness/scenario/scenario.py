@@ -28,8 +28,8 @@ from harness.errors import ModelError
 from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode, Pose
-from harness.models.resolve import resolve_uri
-from harness.models.world import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
+from harness.models.files.resolve import resolve_uri
+from harness.models.world.records import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
 from harness.session.options import TransportOptions
@@ -74,7 +74,7 @@ Vector3 = tuple[float, float, float]
 class Environment:
     """``map`` is a built-in scene name or the resolved world file; ``mesh_collision`` how
     its (and the robots') non-convex collision meshes collide (``decompose`` or ``hull``, see
-    :mod:`harness.models.decompose`); the rest is metadata."""
+    :mod:`harness.models.build.decompose`); the rest is metadata."""
 
     map: str | Path = "empty"
     weather: str | None = None

@@ -42,7 +42,7 @@ from harness.events import (
     velocity_limits,
 )
 from harness.models import LoadedWorld
-from harness.models.decompose import check_mesh_collision
+from harness.models.build.decompose import check_mesh_collision
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Clock, CollisionLoggerSpec, JointLoggerSpec, Scenario

@@ -45,11 +45,11 @@ from harness.models import (
     load_world,
 )
 from harness.models import RobotSpec as WorldRobot
-from harness.models.decompose import check_mesh_collision
+from harness.models.build.decompose import check_mesh_collision
 from harness.models.description import RobotModel
-from harness.models.mjcf_files import check_mjcf_files, generated_from
-from harness.models.world import add_object
-from harness.models.worldfile import is_sdf_world, load_world_file, world_timestep
+from harness.models.mjcf.files import check_mjcf_files, generated_from
+from harness.models.sdf.worldfile import is_sdf_world, load_world_file, world_timestep
+from harness.models.world.records import add_object
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Scenario, ScenarioRobot

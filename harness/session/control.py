@@ -106,7 +106,7 @@ def resolve_default(
 def with_drive_plugins(config: ControllersConfig, robot: LoadedRobot) -> ControllersConfig:
     """``config`` plus a diff drive controller per drive plugin the robot's file declares."""
     from harness.controllers.gazebo_plugins import drive_plugins
-    from harness.models.xmlsafe import parse_xml
+    from harness.models.files.xmlsafe import parse_xml
 
     specs: list[Any] = []
     for name, data in robot.sources.items():

@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TypedDict
 
 from harness.controllers import ControllersConfig
 from harness.models import ControlMode, LoadedWorld, RobotSpec, WorldObject
-from harness.models.decompose import MeshCollision
-from harness.models.world import BaseKind, SelfCollision
+from harness.models.build.decompose import MeshCollision
+from harness.models.world.records import BaseKind, SelfCollision
 from harness.sensors import SensorSpec
 from harness.session.control import (
     ControllersOption,
@@ -356,7 +356,7 @@ class LoadOptions:
     it), ``robot_args`` (a xacro robot's arguments), ``self_collision``, ``srdf``, ``base``
     and ``strict`` (as for :func:`harness.models.load_robot`), ``controllers_args`` (the
     controllers YAML's launch arguments), ``mesh_collision`` (``decompose`` or ``hull``, see
-    :mod:`harness.models.decompose`)."""
+    :mod:`harness.models.build.decompose`)."""
 
     robots: Sequence[RobotSpec] | LoadedWorld | None = None
     objects: Sequence[WorldObject] = ()

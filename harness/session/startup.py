@@ -20,8 +20,8 @@ from harness.models import (
     load_robot,
     load_world,
 )
-from harness.models.decompose import MeshCollision, check_mesh_collision
-from harness.models.world import BaseKind, SelfCollision
+from harness.models.build.decompose import MeshCollision, check_mesh_collision
+from harness.models.world.records import BaseKind, SelfCollision
 from harness.recording import Recorder, describe_run
 from harness.session.bridge import SessionBridge
 from harness.session.errors import SessionConfigError

@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from harness.errors import SimulationError
 from harness.models.description import ControlMode, RobotModel
-from harness.models.world import LoadedWorld
+from harness.models.world.records import LoadedWorld
 from harness.sim.capture import capture_input
 from harness.sim.commands import (
     CommandField,

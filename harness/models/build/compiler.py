@@ -11,18 +11,14 @@ import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import mujoco
 
-from harness.models.assets import embed_files
-from harness.models.confine import confinement
+from harness.models.files.assets import embed_files
+from harness.models.files.confine import confinement
 from harness.models.errors import CompileError, MasslessLinkError, ModelWarning
-from harness.models.limits import check_spec
-from harness.models.mjcf_files import check_mjcf_files, mjcf_in_memory
-
-if TYPE_CHECKING:
-    from harness.models.robot_build import RobotBuild
+from harness.models.files.limits import check_spec
+from harness.models.mjcf.files import check_mjcf_files, mjcf_in_memory
 
 __all__ = [
     "compile_lenient",
@@ -36,9 +32,9 @@ __all__ = [
 
 def spec_from_file(path: Path) -> mujoco.MjSpec:
     """The spec of an MJCF file, its includes and assets checked first. In a rebuild from a
-    recording (:mod:`harness.models.confine`) MuJoCo gets no path: the text with its includes
-    inlined (:func:`~harness.models.mjcf_files.mjcf_in_memory`), then every file it references
-    as an in-memory asset (:func:`~harness.models.assets.embed_files`)."""
+    recording (:mod:`harness.models.files.confine`) MuJoCo gets no path: the text with its includes
+    inlined (:func:`~harness.models.mjcf.files.mjcf_in_memory`), then every file it references
+    as an in-memory asset (:func:`~harness.models.files.assets.embed_files`)."""
     if confinement() is not None:
         spec = spec_from_string(mjcf_in_memory(path), str(path))
         spec.modelfiledir = str(path.parent) + os.sep  # what from_file sets: found by Python
@@ -109,11 +105,11 @@ _MESH_VOLUME = re.compile(r"mesh volume is too small: (\S+)")
 
 
 def compile_lenient(
-    spec: mujoco.MjSpec, source: str, robots: Sequence[RobotBuild]
+    spec: mujoco.MjSpec, source: str, *, strict: bool, notes: list[str]
 ) -> mujoco.MjModel:
     """Compile; a mesh too thin for MuJoCo's volume-based inertia gets shell inertia (its
-    body's inertia comes from the file's ``<inertial>`` anyway), with a note, unless strict."""
-    strict = any(r.request.strict for r in robots)
+    body's inertia comes from the file's ``<inertial>`` anyway), with a note added to
+    ``notes``, unless ``strict``."""
     # the limits once, before the first compile: after a failed compile the spec's tree
     # reports that compile's error when read, whatever was changed since
     check_spec(spec, source)
@@ -126,7 +122,7 @@ def compile_lenient(
             if mesh is None or mesh.inertia == mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL:
                 raise
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
-            robots[0].notes.append(
+            notes.append(
                 f"{source}: mesh {match.group(1) if match else ''} encloses (almost) no volume: "
                 "its inertia is computed as a shell"
             )

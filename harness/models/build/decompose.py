@@ -19,7 +19,7 @@ and the threshold is halved until it holds (:data:`THRESHOLDS`); a mesh that sti
 keeps its best pieces with a :class:`ModelWarning` naming the mesh and the distance.
 
 Results are cached by content (the mesh bytes MuJoCo decodes, its scale, the parameters and
-the CoACD version) in the mesh cache folder (:func:`harness.models.meshes.mesh_cache_dir`),
+the CoACD version) in the mesh cache folder (:func:`harness.models.files.meshes.mesh_cache_dir`),
 written atomically, so a world is decomposed once per machine. ``mesh_collision="hull"``
 keeps MuJoCo's convex hull (the behaviour before decomposition).
 """
@@ -43,7 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models.errors import MeshError, ModelStructureError, ModelWarning
-from harness.models.meshes import mesh_cache_dir
+from harness.models.files.meshes import mesh_cache_dir
 from harness.vocabulary import MESH_COLLISION_MODES as _MODES
 from harness.vocabulary import MeshCollisionMode
 
@@ -262,7 +262,7 @@ def decompose_spec(
     module docstring); returns the cache files used, as sources
     (``decomposition/<file>`` -> bytes: a recording attaches them, a rebuild reads them as
     its cache). ``mode="hull"`` changes nothing. The meshes must be in ``spec.assets`` (as
-    :mod:`harness.models.assets` puts them); a mesh given by its vertices, in a format MuJoCo
+    :mod:`harness.models.files.assets` puts them); a mesh given by its vertices, in a format MuJoCo
     decodes alone (``.msh``) or with a ``refpos``/``refquat`` is left as its hull."""
     mode = check_mesh_collision(mode, source)
     used: dict[str, bytes] = {}

@@ -6,14 +6,14 @@ one actuator per controllable joint, SRDF collision exclusions, the scene, compi
 
 Every file a model uses (meshes of any format, MJCF textures, height fields, skins, the
 scene's) enters the spec as an in-memory asset named by its content
-(:mod:`harness.models.assets`): the compiled model is the same byte for byte whichever folder
+(:mod:`harness.models.files.assets`): the compiled model is the same byte for byte whichever folder
 the project, the venv, the robot package or the mesh cache live in.
 
 The steps live in their own modules: reading a source into a spec
-(:mod:`harness.models.robot_build`), compiling and MuJoCo's messages
-(:mod:`harness.models.compiler`), control modes and actuators
-(:mod:`harness.models.actuators`), the world (:mod:`harness.models.worldbuild`) and its
-keyframes (:mod:`harness.models.keyframes`); the bundled files in :mod:`harness.models.bundled`.
+(:mod:`harness.models.build.robot`), compiling and MuJoCo's messages
+(:mod:`harness.models.build.compiler`), control modes and actuators
+(:mod:`harness.models.build.actuators`), the world (:mod:`harness.models.world.build`) and its
+keyframes (:mod:`harness.models.world.keyframes`); the bundled files in :mod:`harness.models.bundled`.
 """
 
 from __future__ import annotations
@@ -25,14 +25,14 @@ from pathlib import Path
 import mujoco
 
 from harness.models.bundled import DEMO_URDF, SCENES
-from harness.models.compiler import compile_spec, spec_from_file
-from harness.models.decompose import MeshCollision
+from harness.models.build.compiler import compile_spec, spec_from_file
+from harness.models.build.decompose import MeshCollision
 from harness.models.description import ControlMode, Pose, RobotModel
-from harness.models.lenient import lenient_urdf
-from harness.models.resolve import PackageMap
-from harness.models.robot_build import describe_mjcf, model_kind, sdf_api, source_path
-from harness.models.urdf_source import describe_urdf, read_urdf_source
-from harness.models.world import (
+from harness.models.urdf.lenient import lenient_urdf
+from harness.models.files.resolve import PackageMap
+from harness.models.build.robot import describe_mjcf, model_kind, sdf_api, source_path
+from harness.models.urdf.source import describe_urdf, read_urdf_source
+from harness.models.world.records import (
     BaseKind,
     LoadedWorld,
     PoseLike,
@@ -40,9 +40,9 @@ from harness.models.world import (
     SelfCollision,
     SelfCollisionReport,
 )
-from harness.models.worldbuild import load_world
-from harness.models.xacro import RobotArgs
-from harness.models.xmlsafe import read_xml_file
+from harness.models.world.build import load_world
+from harness.models.xacro.expand import RobotArgs
+from harness.models.files.xmlsafe import read_xml_file
 
 __all__ = [
     "DEMO_URDF",
@@ -151,19 +151,19 @@ def load_robot(
     inertias, reporting every changed link in ``repairs`` and as a :class:`ModelWarning`.
     ``strict``: refuse what a lenient load would recover or repair (bad inertias, a wrong XML
     declaration, trailing content, equal joint limits, ...). ``self_collision``: ``"auto"``,
-    ``"off"``, ``"on"`` or ``"srdf"`` (see :mod:`harness.models.selfcollision`). ``base``:
-    ``"fixed"`` or ``"floating"`` (see :mod:`harness.models.placement`). ``gains``: joint ->
+    ``"off"``, ``"on"`` or ``"srdf"`` (see :mod:`harness.models.build.selfcollision`). ``base``:
+    ``"fixed"`` or ``"floating"`` (see :mod:`harness.models.world.placement`). ``gains``: joint ->
     kp (position) or kv (velocity) overriding the defaults. ``cache_dir``: converted-mesh
     cache folder. ``mesh_collision``: ``"decompose"`` or ``"hull"`` (see
-    :mod:`harness.models.decompose`).
+    :mod:`harness.models.build.decompose`).
     ``pose``: where the robot's base (model frame) is in the world (see
-    :data:`harness.models.world.PoseLike`). ``initial_positions``: joint -> position
+    :data:`harness.models.world.records.PoseLike`). ``initial_positions``: joint -> position
     overriding the ``home`` keyframe (created if the robot has none). ``robot_args``: the
-    arguments of a xacro robot (name -> value, see :mod:`harness.models.xacro`); ``source``
+    arguments of a xacro robot (name -> value, see :mod:`harness.models.xacro.expand`); ``source``
     may also be ``package://pkg/path`` (found like a mesh's package).
 
     A URDF's ``<harness>`` element adds keyframes and joint armature (see
-    :func:`harness.models.urdf.harness_extension`): the model depends on file contents only,
+    :func:`harness.models.urdf.reader.harness_extension`): the model depends on file contents only,
     never on where the file is. Position servos are critically damped (servo kv plus joint
     damping) for the inertia each joint sees with the others held, at the ``home`` keyframe;
     their joint gets the drive's torque-speed limit, effort / velocity, as extra damping, so a

@@ -14,25 +14,26 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models import setup, surfaces
-from harness.models.assets import embed_files
+from harness.models.build import setup
+from harness.models.urdf import surfaces
+from harness.models.files.assets import embed_files
 from harness.models.bundled import DEMO_URDF
-from harness.models.compiler import compile_spec, spec_from_file, spec_from_string
+from harness.models.build.compiler import compile_spec, spec_from_file, spec_from_string
 from harness.models.description import ControlMode, RobotModel
-from harness.models.drive_plugins import plugin_wheels
+from harness.models.build.drive_plugins import plugin_wheels
 from harness.models.errors import ModelStructureError
-from harness.models.inertia import settle_edge_inertias
-from harness.models.lenient import lenient_urdf
-from harness.models.limits import check_description, check_urdf_counts
-from harness.models.passive import declared_actuated
-from harness.models.resolve import PackageMap
-from harness.models.ros2_control import warn_replaced_hardware
-from harness.models.selfcollision import declared_link_self_collide, declared_self_collide
-from harness.models.urdf import harness_extension, mujoco_urdf_xml
-from harness.models.urdf_source import describe_urdf, initial_keyframes, locate, read_urdf_source
-from harness.models.world import BaseKind, RobotSpec, SelfCollisionReport
-from harness.models.xacro import is_xacro
-from harness.models.xmlsafe import read_xml_file
+from harness.models.build.inertia import settle_edge_inertias
+from harness.models.urdf.lenient import lenient_urdf
+from harness.models.files.limits import check_description, check_urdf_counts
+from harness.models.build.passive import declared_actuated
+from harness.models.files.resolve import PackageMap
+from harness.models.urdf.ros2_control import warn_replaced_hardware
+from harness.models.build.selfcollision import declared_link_self_collide, declared_self_collide
+from harness.models.urdf.reader import harness_extension, mujoco_urdf_xml
+from harness.models.urdf.source import describe_urdf, initial_keyframes, locate, read_urdf_source
+from harness.models.world.records import BaseKind, RobotSpec, SelfCollisionReport
+from harness.models.xacro.expand import is_xacro
+from harness.models.files.xmlsafe import read_xml_file
 
 __all__ = [
     "MJCF_SUFFIXES",
@@ -89,14 +90,14 @@ def sdf_api() -> tuple[Callable[..., RobotModel], Callable[..., mujoco.MjSpec]]:
 
 def describe_mjcf(model: mujoco.MjModel, path: Path) -> RobotModel:
     """The :class:`RobotModel` of a compiled MJCF model read from ``path``."""
-    from harness.models.mjcf import description_from_model
+    from harness.models.mjcf.describe import description_from_model
 
     return description_from_model(model, path.stem, str(path))
 
 
 class RobotBuild:
     """A robot being assembled: its source read, its spec built, its names not yet in a world
-    (what :class:`harness.models.setup.RobotInBuild` reads and writes)."""
+    (what :class:`harness.models.build.setup.RobotInBuild` reads and writes)."""
 
     def __init__(self, index: int, robot: RobotSpec, cache_dir: str | Path | None) -> None:
         self.index = index
@@ -127,7 +128,7 @@ class RobotBuild:
         self.self_collision: SelfCollisionReport | None = None
         self.repair = robot.repair_inertia and not robot.strict
         self.plugin_wheels: tuple[str, ...] = ()  # joints a file's drive plugin drives
-        self.declared_actuated: frozenset[str] = frozenset()  # see harness.models.passive
+        self.declared_actuated: frozenset[str] = frozenset()  # see harness.models.build.passive
         setup.check_options(robot, self.source)
         path = self.path
         if self.kind == "urdf":

@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.models.world import IgnoredPair, SelfCollision
+from harness.models.world.records import IgnoredPair, SelfCollision
 
 __all__ = [
     "ALWAYS_FRACTION",

@@ -16,11 +16,11 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models.description import ControlMode, Pose, RobotModel
-from harness.models.drives import compensated_bodies
+from harness.models.build.drives import compensated_bodies
 from harness.models.errors import ModelStructureError, ModelWarning
-from harness.models.placement import CLEARANCE, floor_gap, start_contacts
-from harness.models.selfcollision import ignored_pairs, link_self_collide
-from harness.models.world import (
+from harness.models.world.placement import CLEARANCE, floor_gap, start_contacts
+from harness.models.build.selfcollision import ignored_pairs, link_self_collide
+from harness.models.world.records import (
     BASE_KINDS,
     SELF_COLLISION_POLICIES,
     BaseKind,
@@ -111,7 +111,7 @@ def _has(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> bool:
 
 def compensate_gravity(spec: mujoco.MjSpec, model: mujoco.MjModel, robot: RobotInBuild) -> None:
     """Gravity compensation by the drives, as real position-controlled robots have it (see
-    :mod:`harness.models.drives`)."""
+    :mod:`harness.models.build.drives`)."""
     modes = {int(model.joint(robot.prefix + joint).id): mode for joint, mode in robot.modes.items()}
     for joint in robot.description.joints:  # a mimic follower is driven by its leader's drive
         leader = robot.modes.get(joint.mimic.joint) if joint.mimic is not None else None
@@ -146,7 +146,7 @@ def apply_self_collision(
     spec: mujoco.MjSpec, model: mujoco.MjModel, robot: RobotInBuild, qpos: npt.NDArray[np.float64]
 ) -> None:
     """Exclude the link pairs the robot's self-collision policy ignores (see
-    :mod:`harness.models.selfcollision`)."""
+    :mod:`harness.models.build.selfcollision`)."""
     policy, origin = self_collision_policy(robot)
     bodies = {
         link.name: int(model.body(robot.prefix + link.name).id)
@@ -194,7 +194,7 @@ def place_on_floor(
     placement: Pose | None,
 ) -> Pose | None:
     """Lift a fixed robot out of the floor, set a floating one down on it (see
-    :mod:`harness.models.placement`); returns the placement used."""
+    :mod:`harness.models.world.placement`); returns the placement used."""
     bodies = [
         int(model.body(robot.prefix + link.name).id)
         for link in robot.description.links

@@ -3,7 +3,7 @@
 a robot's report.
 
 Exit code 0 when the robot behaves, 1 with the reasons when it does not, 2 when it does not
-load (see :mod:`harness.models.check`).
+load (see :mod:`harness.models.check.report`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import argparse
 import json
 
 from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
-from harness.models.check import ModelCheck, check_model
+from harness.models.check.report import ModelCheck, check_model
 
 __all__ = ["add_arguments", "format_report", "run"]
 

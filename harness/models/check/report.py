@@ -25,7 +25,7 @@ simulates it without a session or bridge, straight on MuJoCo:
 :attr:`ModelCheck.problems` says in one line each why a robot does not behave; the reason of
 a joint that does not hold is named (its effort limit below the gravity load, a contact, a
 servo that cannot reach). :attr:`ModelCheck.hints` says what to try: a wheeled robot checked
-with a fixed base is told ``--base floating`` (:mod:`harness.models.base_hint`).
+with a fixed base is told ``--base floating`` (:mod:`harness.models.check.base_hint`).
 """
 
 from __future__ import annotations
@@ -42,13 +42,13 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import HarnessError
-from harness.models.base_hint import floating_base_hint
-from harness.models.decompose import MeshCollision
+from harness.models.build.decompose import MeshCollision
+from harness.models.check.base_hint import floating_base_hint
 from harness.models.errors import ModelWarning
-from harness.models.placement import floor_gap, start_contacts
-from harness.models.resolve import PackageMap
-from harness.models.world import SelfCollision
-from harness.models.xacro import RobotArgs
+from harness.models.files.resolve import PackageMap
+from harness.models.world.placement import floor_gap, start_contacts
+from harness.models.world.records import SelfCollision
+from harness.models.xacro.expand import RobotArgs
 
 __all__ = [
     "HOLD_M",
@@ -223,7 +223,7 @@ def check_model(
     ``packages``, ``srdf`` and ``mesh_collision``: as for :func:`harness.models.load_robot`.
     Never raises for a robot that does not load: the report says why in one line (exit
     code 2)."""
-    from harness.models.build import load_robot
+    from harness.models.build.load import load_robot
 
     try:
         with warnings.catch_warnings():

@@ -7,7 +7,8 @@ differ between two checkouts of the same project. Instead each file enters the
 :class:`mujoco.MjSpec` through ``spec.assets`` (MuJoCo's in-memory file system) under the name
 ``<stem>-<first 16 hex digits of the sha256 of its bytes><suffix>``: the same bytes give the
 same name wherever they live, and two different files never share one. Meshes are the bytes
-MuJoCo decodes (converted OBJ for DAE, ASCII STL and the like, see :mod:`harness.models.meshes`).
+MuJoCo decodes (converted OBJ for DAE, ASCII STL and the like, see
+:mod:`harness.models.files.meshes`).
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ from typing import Any, NamedTuple
 
 import mujoco
 
-from harness.models.confine import check_confined
 from harness.models.errors import ResolveError
-from harness.models.meshes import CONVERTIBLE, PASS_THROUGH, prepare_mesh
+from harness.models.files.confine import check_confined
+from harness.models.files.meshes import CONVERTIBLE, PASS_THROUGH, prepare_mesh
 
 __all__ = ["Asset", "asset_name", "embed_files", "mesh_asset"]
 
@@ -55,7 +56,7 @@ def mesh_asset(
     path: str | Path, *, cache_dir: str | Path | None = None, context: str = ""
 ) -> Asset:
     """The mesh at ``path`` as MuJoCo decodes it (converted if needed, see
-    :func:`harness.models.meshes.prepare_mesh`), named after the source file's stem."""
+    :func:`harness.models.files.meshes.prepare_mesh`), named after the source file's stem."""
     source = Path(path)
     decodable = prepare_mesh(source, cache_dir=cache_dir, context=context)
     data = _read(decodable, f"{context}: " if context else "", "mesh")

@@ -25,12 +25,13 @@ from collections.abc import Iterator
 from contextvars import ContextVar
 from pathlib import Path
 
+from harness.models.bundled import DATA
 from harness.models.errors import OutsideReferenceError
 
 __all__ = ["check_confined", "confined_to", "confinement", "inside_confinement"]
 
 _ROOT: ContextVar[Path | None] = ContextVar("harness_models_confinement", default=None)
-_OWN_DATA = Path(os.path.abspath(Path(__file__).parent / "data"))
+_OWN_DATA = Path(os.path.abspath(DATA))
 _TRUSTED = tuple({_OWN_DATA, Path(os.path.realpath(_OWN_DATA))})
 
 

@@ -15,7 +15,7 @@ import tempfile
 from pathlib import Path
 
 from harness.models.errors import MeshError
-from harness.models.xmlsafe import check_size, parse_xml
+from harness.models.files.xmlsafe import check_size, parse_xml
 
 __all__ = ["CONVERTIBLE", "PASS_THROUGH", "mesh_cache_dir", "prepare_mesh"]
 

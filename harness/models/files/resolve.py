@@ -15,11 +15,11 @@ folder is named so, ``ROS_PACKAGE_PATH`` and the share folders are crawled for t
 ``package.xml`` that declares it (as rospack does: not into a package, a hidden folder or one
 holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE``; at most
 :data:`CRAWL_LIMIT` folders per root). xacro's
-``$(find pkg)`` uses the same search (:mod:`harness.models.xacro`). ``model://`` searches the
+``$(find pkg)`` uses the same search (:mod:`harness.models.xacro.expand`). ``model://`` searches the
 explicit ``search_paths``, then ``GZ_SIM_RESOURCE_PATH``, ``SDF_PATH``,
 ``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``, then the folders above the file. A Fuel
 URI (``https://fuel.gazebosim.org/1.0/<owner>/models/<name>/<version>/files/<path>``) is read
-from the local Fuel cache (:mod:`harness.models.fuel`).
+from the local Fuel cache (:mod:`harness.models.files.fuel`).
 
 ``package://`` and ``model://`` references are confined to the folder of the package (model)
 they name: a reference whose path leaves that folder (``..``) is refused, and so is one whose
@@ -38,9 +38,9 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from urllib.parse import unquote
 
-from harness.models.confine import check_confined, confinement, inside_confinement
 from harness.models.errors import OutsideReferenceError, ResolveError, UnknownPackageError
-from harness.models.fuel import find_fuel_model, parse_fuel_uri
+from harness.models.files.confine import check_confined, confinement, inside_confinement
+from harness.models.files.fuel import find_fuel_model, parse_fuel_uri
 from harness.names import package_problem
 
 __all__ = [

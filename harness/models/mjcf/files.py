@@ -11,10 +11,10 @@ lies in (the nearest folder above it with a ``package.xml``), the folder a ``pac
 reference is confined to; the harness's own scene data is always allowed (a generated scene
 points there). Absolute references are refused unless they lie inside too.
 
-In a rebuild from a recording (:mod:`harness.models.confine`) MuJoCo is given no path at all:
+In a rebuild from a recording (:mod:`harness.models.files.confine`) MuJoCo is given no path at all:
 :func:`mjcf_in_memory` reads the file and its includes in Python (each checked first) and
 inlines the includes, so MuJoCo parses one string; the compiler's files then reach it as
-in-memory assets (:func:`harness.models.assets.embed_files`).
+in-memory assets (:func:`harness.models.files.assets.embed_files`).
 """
 
 from __future__ import annotations
@@ -25,9 +25,10 @@ from pathlib import Path
 
 from lxml import etree
 
-from harness.models.confine import confinement
+from harness.models.bundled import DATA
 from harness.models.errors import OutsideReferenceError, ResolveError, XMLError
-from harness.models.xmlsafe import describe, read_xml_file
+from harness.models.files.confine import confinement
+from harness.models.files.xmlsafe import describe, read_xml_file
 
 __all__ = [
     "MAX_INCLUDES",
@@ -53,7 +54,7 @@ _DIR_ATTRIBUTES = ("meshdir", "texturedir", "assetdir")
 
 
 _GENERATED: dict[Path, tuple[Path, ...]] = {}
-_OWN_DATA = Path(__file__).resolve().parent / "data"  # the scenes and meshes the harness ships
+_OWN_DATA = DATA  # the scenes and meshes the harness ships
 
 
 def generated_from(generated: str | Path, source: str | Path) -> None:
@@ -80,7 +81,7 @@ def mjcf_roots(path: str | Path) -> tuple[Path, ...]:
 
 def _real(path: Path) -> Path:
     """``path`` with ``..`` and symbolic links resolved; in a rebuild from a recording
-    (:mod:`harness.models.confine`) on the text only: no file outside is looked at."""
+    (:mod:`harness.models.files.confine`) on the text only: no file outside is looked at."""
     if confinement() is not None:
         return Path(os.path.normpath(os.path.join(os.getcwd(), path)))
     return path.resolve()

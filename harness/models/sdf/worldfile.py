@@ -27,12 +27,13 @@ from types import MappingProxyType
 import mujoco
 from lxml import etree
 
+from harness.models.bundled import DATA
 from harness.models.description import ModelFrame, RobotModel
 from harness.models.errors import ModelStructureError
+from harness.models.files.xmlsafe import read_xml_file
 from harness.models.sdf.build import build_spec
 from harness.models.sdf.convert import PlacedModel, read_sdf_world, sdf_world
 from harness.models.sdf.document import Entity, load_document
-from harness.models.xmlsafe import read_xml_file
 
 __all__ = [
     "BUNDLED_MODELS",
@@ -44,7 +45,7 @@ __all__ = [
     "world_timestep",
 ]
 
-BUNDLED_MODELS = Path(__file__).parent / "data" / "gazebo_models"
+BUNDLED_MODELS = DATA / "gazebo_models"
 """Stock Gazebo models the harness ships (``ground_plane``): searched after the user's paths."""
 WORLD_SUFFIXES = (".sdf", ".world")
 

@@ -19,7 +19,7 @@ from typing import NamedTuple
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.models.errors import ModelStructureError, ModelWarning, XMLError
-from harness.models.xmlsafe import check_size, describe, parse_xml
+from harness.models.files.xmlsafe import check_size, describe, parse_xml
 
 __all__ = [
     "LoadNote",
@@ -87,7 +87,7 @@ def _strip_trailing(data: bytes) -> tuple[bytes, str | None]:
 def read_lenient_xml(
     path: str | Path, *, strict: bool = False
 ) -> tuple[etree._Element, bytes, tuple[LoadNote, ...]]:
-    """Read and safely parse ``path`` like :func:`harness.models.xmlsafe.read_xml_file`,
+    """Read and safely parse ``path`` like :func:`harness.models.files.xmlsafe.read_xml_file`,
     recovering a wrong XML declaration version and content after the root element.
 
     Returns ``(root, raw bytes as read, notes)``. With ``strict`` (or when the recovered text

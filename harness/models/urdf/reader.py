@@ -15,7 +15,6 @@ from typing import NamedTuple, cast
 import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.models.assets import mesh_asset
 from harness.models.description import (
     Geometry,
     Inertial,
@@ -29,8 +28,9 @@ from harness.models.description import (
     Shape,
 )
 from harness.models.errors import ModelStructureError
-from harness.models.resolve import PackageMap, resolve_uri
-from harness.models.xmlsafe import describe, read_xml_file
+from harness.models.files.assets import mesh_asset
+from harness.models.files.resolve import PackageMap, resolve_uri
+from harness.models.files.xmlsafe import describe, read_xml_file
 
 __all__ = [
     "JOINT_TYPES",
@@ -383,7 +383,7 @@ def read_urdf(path: str | Path) -> RobotModel:
 class PreparedURDF(NamedTuple):
     """What :func:`mujoco_urdf_xml` hands over: the URDF text for MuJoCo, the inertia
     repairs made in it, each repaired link's new tensor (ixx, ixy, ixz, iyy, iyz, izz), and
-    the mesh files the text names (asset name -> bytes, see :mod:`harness.models.assets`)."""
+    the mesh files the text names (asset name -> bytes, see :mod:`harness.models.files.assets`)."""
 
     xml: str
     repairs: tuple[str, ...]
@@ -431,7 +431,7 @@ def mujoco_urdf_xml(
     """The URDF text to hand to MuJoCo's importer.
 
     Mesh references are resolved and converted, and named by content
-    (:func:`harness.models.assets.mesh_asset`): pass ``assets`` to ``MjSpec.from_string``;
+    (:func:`harness.models.files.assets.mesh_asset`): pass ``assets`` to ``MjSpec.from_string``;
     visual elements are dropped unless ``visuals``; a ``<mujoco><compiler>`` element keeps
     every link a named body (``fusestatic="false"``) and, with ``repair_inertia``, sets the
     mass/inertia bounds and ``balanceinertia``; non positive-definite tensors are fixed here.

@@ -19,9 +19,9 @@ from typing import Literal
 
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.models.description import ControlMode
 from harness.models.errors import ModelStructureError
-from harness.models.xmlsafe import describe
+from harness.models.files.xmlsafe import describe
+from harness.vocabulary import ControlMode
 
 __all__ = [
     "SIMULATED_PLUGINS",

@@ -2,7 +2,7 @@
 arguments) read into the URDF element the loader builds from, with what the description
 declares for control (``<ros2_control>``).
 
-The loader (:mod:`harness.models.build`) calls :func:`locate` for the file and
+The loader (:mod:`harness.models.build.load`) calls :func:`locate` for the file and
 :func:`read_urdf_source` for a URDF or xacro robot; the rest of the build does not know
 whether the URDF was expanded.
 """
@@ -15,15 +15,21 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from harness.models.confine import confinement
 from harness.models.description import ControlMode, RobotModel
 from harness.models.errors import ModelStructureError, XacroError
-from harness.models.lenient import LoadNote, read_lenient_xml
-from harness.models.resolve import PackageMap, resolve_uri
-from harness.models.ros2_control import interface_modes, parse_ros2_control
-from harness.models.urdf import urdf_from_element
-from harness.models.xacro import RobotArgs, XacroOrigin, expand_xacro, is_xacro, normalize_args
-from harness.models.xmlsafe import parse_xml
+from harness.models.files.confine import confinement
+from harness.models.files.resolve import PackageMap, resolve_uri
+from harness.models.files.xmlsafe import parse_xml
+from harness.models.urdf.lenient import LoadNote, read_lenient_xml
+from harness.models.urdf.reader import urdf_from_element
+from harness.models.urdf.ros2_control import interface_modes, parse_ros2_control
+from harness.models.xacro.expand import (
+    RobotArgs,
+    XacroOrigin,
+    expand_xacro,
+    is_xacro,
+    normalize_args,
+)
 
 __all__ = [
     "UrdfSource",
@@ -40,7 +46,7 @@ class UrdfSource(NamedTuple):
     xacro robot the expanded file's name beside the entry file), the parsed ``root``, its
     bytes ``data`` (the expanded text for xacro), ``extra`` sources to record (xacro files
     read, meshes named), the xacro ``origin`` (None for a plain URDF) and the ``notes`` of
-    what a lenient read recovered (:func:`harness.models.lenient.read_lenient_xml`)."""
+    what a lenient read recovered (:func:`harness.models.urdf.lenient.read_lenient_xml`)."""
 
     path: Path
     root: Any
@@ -52,7 +58,7 @@ class UrdfSource(NamedTuple):
 
 def locate(source: str | Path, packages: PackageMap | None = None) -> Path:
     """The file of a robot reference: a path, or ``package://pkg/path`` found by the
-    package search (:func:`harness.models.resolve.find_package`)."""
+    package search (:func:`harness.models.files.resolve.find_package`)."""
     text = str(source)
     if text.startswith("package://"):
         return resolve_uri(

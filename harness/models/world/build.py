@@ -1,5 +1,5 @@
 """:func:`load_world`: robots, primitive objects and a scene into one compiled MuJoCo world,
-and the per-robot view of it (:class:`~harness.models.world.LoadedRobotView`).
+and the per-robot view of it (:class:`~harness.models.world.records.LoadedRobotView`).
 """
 
 from __future__ import annotations
@@ -14,28 +14,34 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.models import setup
-from harness.models.actuators import add_actuators, existing_control, held_inertias, resolve_control
-from harness.models.assets import embed_files
-from harness.models.bundled import SCENES
-from harness.models.compiler import (
+from harness.models.build import setup
+from harness.models.build.actuators import (
+    add_actuators,
+    existing_control,
+    held_inertias,
+    resolve_control,
+)
+from harness.models.build.compiler import (
     compile_lenient,
     compile_spec,
     mujoco_message,
     mujoco_warnings,
     spec_from_file,
 )
-from harness.models.decompose import MeshCollision, check_mesh_collision, decompose_spec
+from harness.models.build.decompose import MeshCollision, check_mesh_collision, decompose_spec
+from harness.models.build.drive_plugins import plugin_modes
+from harness.models.build.passive import drop_passive
+from harness.models.build.robot import RobotBuild, dof_span, qpos_span
+from harness.models.bundled import SCENES
 from harness.models.description import ControlMode, Pose, RobotModel
-from harness.models.drive_plugins import plugin_modes
 from harness.models.errors import CompileError, ModelStructureError
-from harness.models.keyframes import combine_keyframes
-from harness.models.passive import drop_passive
-from harness.models.resolve import resolve_uri
-from harness.models.robot_build import RobotBuild, dof_span, qpos_span
-from harness.models.urdf import REPAIR_BOUNDINERTIA, REPAIR_BOUNDMASS
-from harness.models.urdf_source import control_defaults
-from harness.models.world import (
+from harness.models.files.assets import embed_files
+from harness.models.files.resolve import resolve_uri
+from harness.models.files.xmlsafe import describe, read_xml_file
+from harness.models.urdf.reader import REPAIR_BOUNDINERTIA, REPAIR_BOUNDMASS
+from harness.models.urdf.source import control_defaults
+from harness.models.world.keyframes import combine_keyframes
+from harness.models.world.records import (
     DuplicateNamespaceError,
     JointAddress,
     LoadedRobotView,
@@ -46,7 +52,6 @@ from harness.models.world import (
     check_namespace,
     placement_pose,
 )
-from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = ["load_world"]
 
@@ -72,7 +77,7 @@ def load_world(
     ``qpos``, after the scene's). ``timestep`` overrides the scene's (the servo gains are
     tuned for it). ``mesh_collision``: ``"decompose"`` (default: a non-convex colliding mesh
     of the scene, or of a robot without joints, collides as convex pieces within 2 cm of its
-    triangles) or ``"hull"`` (as its convex hull); see :mod:`harness.models.decompose`.
+    triangles) or ``"hull"`` (as its convex hull); see :mod:`harness.models.build.decompose`.
 
     Keyframes combine: each key name any robot has becomes one key whose robot part is that
     robot's key of that name (else its ``home``, else its zero configuration), whose rest is
@@ -158,7 +163,12 @@ def load_world(
     spec.modelname = first_robot.description.name if not several else "world"
     sources.update(decomposed)
 
-    first = compile_lenient(spec, world_source, prepared)
+    first = compile_lenient(
+        spec,
+        world_source,
+        strict=any(r.request.strict for r in prepared),
+        notes=prepared[0].notes if prepared else [],
+    )
     joint_names = {first.joint(j).name for j in range(first.njnt)}
     servo_qpos = np.array(first.qpos0, dtype=float)
     for robot in prepared:
@@ -286,7 +296,7 @@ def _scene_spec(
             raise ModelStructureError(
                 f"{source}: scene {str(scene)!r} is neither a file nor one of {sorted(SCENES)}"
             )
-    from harness.models import worldfile  # imports the SDF reader: only when a world is used
+    from harness.models.sdf import worldfile  # imports the SDF reader: only when a world is used
 
     if worldfile.is_sdf_world(path):
         world = worldfile.load_world_file(path, cache_dir=cache_dir)

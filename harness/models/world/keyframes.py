@@ -12,8 +12,8 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.models.build.robot import RobotBuild, dof_span, qpos_span
 from harness.models.errors import ModelStructureError
-from harness.models.robot_build import RobotBuild, dof_span, qpos_span
 
 __all__ = ["combine_keyframes"]
 

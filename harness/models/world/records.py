@@ -23,8 +23,8 @@ import mujoco
 from harness import vocabulary
 from harness.models.description import ControlMode, Joint, Link, ModelFrame, Pose, RobotModel
 from harness.models.errors import ModelStructureError
-from harness.models.resolve import PackageMap
-from harness.models.xacro import RobotArgs
+from harness.models.files.resolve import PackageMap
+from harness.models.xacro.expand import RobotArgs
 from harness.names import name_problem
 
 __all__ = [
@@ -55,7 +55,7 @@ PoseLike = Pose | Sequence[float] | None
 
 ObjectShape = Literal["box", "sphere", "cylinder", "capsule"]
 SelfCollision = Literal["auto", "off", "on", "srdf"]
-"""Self-collision policies (see :mod:`harness.models.selfcollision`)."""
+"""Self-collision policies (see :mod:`harness.models.build.selfcollision`)."""
 SELF_COLLISION_POLICIES: tuple[SelfCollision, ...] = cast(
     "tuple[SelfCollision, ...]", vocabulary.SELF_COLLISION_POLICIES
 )
@@ -137,9 +137,9 @@ class RobotSpec:
     ``initial_positions``: joint -> position overriding the robot's ``home`` keyframe (the
     servos stay tuned at the source's own ``home``). ``robot_args``: a xacro robot's
     arguments (name -> value). ``strict``: refuse what a lenient load
-    recovers or repairs (see :mod:`harness.models.lenient`; implies no inertia repair).
+    recovers or repairs (see :mod:`harness.models.urdf.lenient`; implies no inertia repair).
     ``self_collision``: which pairs of the robot's own links collide (see
-    :mod:`harness.models.selfcollision`; None: the file's ``self_collide``, else the SRDF
+    :mod:`harness.models.build.selfcollision`; None: the file's ``self_collide``, else the SRDF
     when given, else ``"auto"``). ``base``: ``"fixed"`` or ``"floating"`` (None: floating
     only for an SDF model that is not static, as before).
     """
@@ -300,7 +300,7 @@ class LoadedWorld:
     ``mjcf`` is for humans (6 significant digits), ``mjb`` the exact binary model, ``sha256``
     of ``mjcf``. ``sources`` maps ``"<role>/[<namespace>/]<file name>"`` (roles: model, srdf,
     scene) to bytes. ``robots`` in the order given. ``spec`` carries the mesh and texture files
-    in ``spec.assets`` under content-derived names (see :mod:`harness.models.assets`), so
+    in ``spec.assets`` under content-derived names (see :mod:`harness.models.files.assets`), so
     ``mjb`` and ``mjcf`` do not depend on where the files are installed.
     """
 
@@ -316,7 +316,7 @@ class LoadedWorld:
     sources: Mapping[str, bytes]
     sha256: str
     mesh_collision: str = "decompose"
-    """How non-convex collision meshes collide (:mod:`harness.models.decompose`); the cached
+    """How non-convex collision meshes collide (:mod:`harness.models.build.decompose`); the cached
     pieces used are among ``sources`` (role ``decomposition``)."""
 
     def combined_description(self) -> RobotModel:

@@ -3,13 +3,13 @@
 xacro evaluates an expression with Python's ``eval`` in one go: ``${'x'*10**10}``,
 ``${[0]*10**10}``, ``${2**10**10}`` or a comprehension over ``python.range(10**9)`` would
 allocate gigabytes or run for hours inside that one call, before the meter
-(:mod:`harness.models.xacro_meter`) sees its value. :func:`guarded_eval` evaluates the same
+(:mod:`harness.models.xacro.meter`) sees its value. :func:`guarded_eval` evaluates the same
 expression, with the same checks xacro makes (no ``__`` names, no builtins), after rewriting
 its syntax tree so that every step that can make a large value or repeat work asks the meter
 first, predicting its cost from its operands:
 
 - ``*`` (repetition), ``+`` (concatenation), ``%`` (formatting), ``**`` and ``<<``: the size
-  of the result (its text, as :func:`~harness.models.xacro_meter.XacroMeter.value` counts it)
+  of the result (its text, as :func:`~harness.models.xacro.meter.XacroMeter.value` counts it)
   is charged before it is made; integers are limited to :data:`MAX_INT_BITS` bits;
 - every call: the size of its arguments (a call's work is at most linear in them), callables
   handed to ``map``/``filter``/``sorted``/``min``/``max`` guarded too; string methods that
@@ -25,7 +25,7 @@ first, predicting its cost from its operands:
 recording's xacro is never expanded): code reached that way is not bounded by this guard.
 
 A step over the budget stops the expansion with the meter's one
-:class:`~harness.models.limits.ModelLimitError` line, before Python does the work. The
+:class:`~harness.models.files.limits.ModelLimitError` line, before Python does the work. The
 value of an expression is unchanged: the rewritten tree computes the same thing.
 """
 
@@ -36,13 +36,12 @@ import math
 import operator
 import re
 import string
-from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, NoReturn, Protocol
 
-if TYPE_CHECKING:
-    from harness.models.xacro_meter import XacroMeter
+from harness.models.files.limits import XacroLimits
 
-__all__ = ["HELPERS", "MAX_INT_BITS", "guarded_eval"]
+__all__ = ["HELPERS", "MAX_INT_BITS", "Meter", "guarded_eval", "text_size"]
 
 MAX_INT_BITS = 1 << 16
 """The largest integer an expression may make (65,536 bits, about 20,000 digits: Python
@@ -148,10 +147,49 @@ class _Rewrite(ast.NodeTransformer):
         return ast.copy_location(ast.FormattedValue(value=value, conversion=-1), node)
 
 
+class Meter(Protocol):
+    """What an evaluation charges: the meter of the expansion it is part of
+    (:class:`~harness.models.xacro.meter.Meter`)."""
+
+    @property
+    def limits(self) -> XacroLimits: ...
+
+    @property
+    def text_bytes(self) -> int: ...
+
+    def text(self, size: int) -> None: ...
+
+    def tick(self) -> None: ...
+
+    def refuse(self, what: str) -> NoReturn: ...
+
+
+def text_size(value: Any, budget: int) -> int:
+    """About the length of ``str(value)``, counted no further than ``budget`` + 1."""
+    total = 0
+    stack = [value]
+    while stack and total <= budget:
+        item = stack.pop()
+        if isinstance(item, str | bytes):
+            total += len(item)
+        elif isinstance(item, Mapping):
+            total += 4 * len(item) + 2
+            if total <= budget:
+                stack.extend(item.keys())
+                stack.extend(item.values())
+        elif isinstance(item, list | tuple | set | frozenset):
+            total += 2 * len(item) + 2
+            if total <= budget:
+                stack.extend(item)
+        else:
+            total += 8
+    return total
+
+
 class _Guard:
     """The helpers of one evaluation, charging ``meter``."""
 
-    def __init__(self, meter: XacroMeter) -> None:
+    def __init__(self, meter: Meter) -> None:
         self.meter = meter
         self.steps = 0
 
@@ -162,8 +200,6 @@ class _Guard:
         self.meter.text(size)
 
     def size(self, value: Any) -> int:
-        from harness.models.xacro_meter import text_size
-
         if isinstance(value, range):  # lazy, but what consumes it makes each item
             return _ITEM * len(value) + 2
         return text_size(value, self.room())
@@ -325,7 +361,7 @@ def _compiled(expr: str) -> Any:
 
 
 def guarded_eval(
-    expr: str, symbols: Any, locals_: Any, meter: XacroMeter, error: Callable[..., Exception]
+    expr: str, symbols: Any, locals_: Any, meter: Meter, error: Callable[..., Exception]
 ) -> Any:
     """xacro's ``safe_eval(expr, symbols, locals_)`` with every costly step charged to
     ``meter`` first (see the module docstring); ``error`` is xacro's ``XacroException``."""

@@ -7,7 +7,7 @@ portable.
   (``$(arg name)``) that is neither given nor declared with a default is one
   :class:`~harness.models.errors.XacroError` naming it and the file.
 - ``$(find pkg)`` uses the package search of ``package://``
-  (:func:`harness.models.resolve.find_package`: the ``packages`` map, ``ROS_PACKAGE_PATH``,
+  (:func:`harness.models.files.resolve.find_package`: the ``packages`` map, ``ROS_PACKAGE_PATH``,
   ``AMENT_PREFIX_PATH``, the folders above the file); ``$(arg)``, ``$(env)``, ``$(eval)``,
   includes, macros and ``xacro.load_yaml`` work as in ROS.
 - The expanded URDF keeps ``package://`` references: a path the expansion made absolute
@@ -22,10 +22,10 @@ portable.
   arguments, the packages found and the environment variables the files name; a test suite
   that loads one robot in 200 tests expands it once.
 
-- Expansion is bounded while it runs (:mod:`harness.models.xacro_meter`): elements, expressions,
+- Expansion is bounded while it runs (:mod:`harness.models.xacro.meter`): elements, expressions,
   text, DOM work, nesting and time are counted as xacro produces them, the first over its limit
-  (:class:`~harness.models.limits.XacroLimits`, ``HARNESS_MAX_XACRO_*``) is one
-  :class:`~harness.models.limits.ModelLimitError` naming the file; a 2 KB file of macros
+  (:class:`~harness.models.files.limits.XacroLimits`, ``HARNESS_MAX_XACRO_*``) is one
+  :class:`~harness.models.files.limits.ModelLimitError` naming the file; a 2 KB file of macros
   that double at each of 22 levels is refused at 50,000 elements, in 2 to 3 s of CPU.
 
 xacro keeps its state in module globals, so expansions run one at a time (a lock).
@@ -41,18 +41,19 @@ import threading
 import warnings
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 from urllib.parse import unquote
 
 from harness.errors import HarnessError
+from harness.models.description import XacroOrigin
 from harness.models.errors import ResolveError, XacroError
-from harness.models.limits import xacro_limits
-from harness.models.resolve import PackageMap, find_package, owning_package, resolve_uri
-from harness.models.xacro_meter import XacroMeter, metered
-from harness.models.xmlsafe import MAX_XML_BYTES, check_size, parse_xml
+from harness.models.files.limits import xacro_limits
+from harness.models.files.resolve import PackageMap, find_package, owning_package, resolve_uri
+from harness.models.files.xmlsafe import MAX_XML_BYTES, check_size, parse_xml
+from harness.models.xacro.meter import XacroMeter, metered
 
 __all__ = [
     "XACRO_SUFFIX",
@@ -81,17 +82,6 @@ _LOCK = threading.Lock()
 class UnusedRobotArgWarning(UserWarning):
     """A robot argument was given that none of the files the expansion read mentions (xacro
     ignores it: often a misspelled name)."""
-
-
-@dataclass(frozen=True)
-class XacroOrigin:
-    """Where an expanded description came from: ``source`` (the entry file as the user named
-    it: a path or ``package://pkg/...``), the ``args`` it was expanded with and the keys of
-    the source files it read (see :attr:`Expansion.sources`)."""
-
-    source: str
-    args: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
-    files: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

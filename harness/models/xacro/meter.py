@@ -1,4 +1,5 @@
-"""A xacro expansion metered while it runs, against :class:`~harness.models.limits.XacroLimits`.
+"""A xacro expansion metered while it runs, against
+:class:`~harness.models.files.limits.XacroLimits`.
 
 xacro (the ROS package) expands a minidom DOM through a few module functions, looked up by
 name at each call: ``eval_all`` (one element), ``eval_text`` (one attribute value or text),
@@ -6,10 +7,10 @@ name at each call: ``eval_all`` (one element), ``eval_text`` (one attribute valu
 replaced by its expansion), ``remove_previous_comments`` and ``parse`` (an included file).
 :func:`metered` wraps each for the time of one expansion: every call counts its work, and
 the first count over its limit stops the expansion with one
-:class:`~harness.models.limits.ModelLimitError` line. Nothing is checked after the fact: a
+:class:`~harness.models.files.limits.ModelLimitError` line. Nothing is checked after the fact: a
 file that asks for 4 million elements is stopped at the limit, not when it is done.
 
-``safe_eval`` evaluates through :func:`harness.models.xacro_eval.guarded_eval`: one ``${...}``
+``safe_eval`` evaluates through :func:`harness.models.xacro.evaluate.guarded_eval`: one ``${...}``
 is one Python ``eval``, so its steps are charged before they run, not its value after.
 
 ``replace_node`` is also made linear: xacro moves an expansion into its parent node by node
@@ -25,16 +26,16 @@ import itertools
 import os
 import stat
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any, NoReturn
 
 from harness.models.errors import XMLError
-from harness.models.limits import XACRO_LIMIT_ENV, ModelLimitError, XacroLimits
-from harness.models.xacro_eval import guarded_eval
-from harness.models.xmlsafe import MAX_XML_BYTES
+from harness.models.files.limits import XACRO_LIMIT_ENV, ModelLimitError, XacroLimits
+from harness.models.files.xmlsafe import MAX_XML_BYTES
+from harness.models.xacro.evaluate import guarded_eval, text_size
 
-__all__ = ["XacroMeter", "metered", "text_size"]
+__all__ = ["XacroMeter", "metered"]
 
 _ELEMENT = 1  # xml.dom.Node.ELEMENT_NODE
 _TEXT = 3  # xml.dom.Node.TEXT_NODE
@@ -113,28 +114,6 @@ class XacroMeter:
         self.dom_work += scans
         if self.dom_work > self.limits.dom_work:
             self._stop(f"more than {self.limits.dom_work} DOM sibling scans", "dom_work")
-
-
-def text_size(value: Any, budget: int) -> int:
-    """About the length of ``str(value)``, counted no further than ``budget`` + 1."""
-    total = 0
-    stack = [value]
-    while stack and total <= budget:
-        item = stack.pop()
-        if isinstance(item, str | bytes):
-            total += len(item)
-        elif isinstance(item, Mapping):
-            total += 4 * len(item) + 2
-            if total <= budget:
-                stack.extend(item.keys())
-                stack.extend(item.values())
-        elif isinstance(item, list | tuple | set | frozenset):
-            total += 2 * len(item) + 2
-            if total <= budget:
-                stack.extend(item)
-        else:
-            total += 8
-    return total
 
 
 def _splice(node: Any, by: Any, content_only: bool) -> int | None:

@@ -12,7 +12,7 @@ Nothing is ever downloaded. OpenRobotics' stock ``Ground Plane`` and ``Sun`` fal
 harness's own copies (``harness/models/data/gazebo_models``) when no cache has them; any other
 model that is not cached is a :class:`FuelModelMissingError` naming the URI and every folder
 searched. While loading is confined to a recording's folder (see
-:mod:`harness.models.confine`) no cache is read: only the stock copies.
+:mod:`harness.models.files.confine`) no cache is read: only the stock copies.
 """
 
 from __future__ import annotations
@@ -24,8 +24,9 @@ from types import MappingProxyType
 from typing import NamedTuple
 from urllib.parse import unquote, urlsplit
 
-from harness.models.confine import confinement
+from harness.models.bundled import DATA
 from harness.models.errors import OutsideReferenceError, ResolveError
+from harness.models.files.confine import confinement
 
 __all__ = [
     "FUEL_CACHE_VARIABLES",
@@ -44,7 +45,7 @@ FUEL_HOSTS: tuple[str, ...] = ("fuel.gazebosim.org", "fuel.ignitionrobotics.org"
 """The Fuel server's host names (the second is its older name)."""
 FUEL_CACHE_VARIABLES: tuple[str, ...] = ("GZ_FUEL_CACHE_PATH", "IGN_FUEL_CACHE_PATH")
 """Environment variables naming a Fuel cache folder, searched before the default ones."""
-STOCK_FOLDER = Path(__file__).parent / "data" / "gazebo_models"
+STOCK_FOLDER = DATA / "gazebo_models"
 """The harness's copies of Gazebo's stock models."""
 STOCK_MODELS: Mapping[tuple[str, str], str] = MappingProxyType(
     {("openrobotics", "ground plane"): "ground_plane", ("openrobotics", "sun"): "sun"}
