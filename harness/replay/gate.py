@@ -68,7 +68,7 @@ from harness.errors import HarnessError
 from harness.models.build.compiler import spec_from_file
 from harness.models.errors import CompileError, OutsideReferenceError, XacroError
 from harness.models.files.confine import confined_to
-from harness.models.files.limits import check_model, check_spec
+from harness.models.files.limits import check_model_limits, check_spec
 from harness.recording import Recording, RecordingDamagedError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
@@ -365,7 +365,7 @@ def model_from_mjb(blob: bytes) -> mujoco.MjModel:
     model = mujoco.MjModel.from_binary_path(
         ATTACHMENT_MODEL_BINARY, {ATTACHMENT_MODEL_BINARY: blob}
     )
-    check_model(model, ATTACHMENT_MODEL_BINARY)
+    check_model_limits(model, ATTACHMENT_MODEL_BINARY)
     return model
 
 

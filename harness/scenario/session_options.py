@@ -173,7 +173,7 @@ def scenario_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
                         CollisionLogger(
                             model,
                             robot_bodies=links,
-                            self_collision=spec.self_collision,
+                            self_contacts=spec.self_contacts,
                             robot_vs_world_only=spec.robot_vs_world_only,
                             ignore=[
                                 (_body(view, model, a), _body(view, model, b))

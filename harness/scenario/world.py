@@ -116,10 +116,10 @@ def check_runnable(scenario: Scenario) -> list[str]:
                     sub.topic,
                     f"is not served: trajectories are taken on {served!r} only",
                 )
-        limits = {c.kinematic_limits for c in robot.controllers if c.mode == "kinematic"}
+        limits = {c.kinematic_limits for c in robot.modes if c.mode == "kinematic"}
         if len(limits) > 1:
             problem(
-                ["robots", index, "controllers"],
+                ["robots", index, "modes"],
                 sorted(limits),
                 "mix kinematic_limits values: kinematic joints of one robot share one policy",
             )
@@ -127,7 +127,7 @@ def check_runnable(scenario: Scenario) -> list[str]:
     for index, policy in enumerate(policies[1:], start=1):
         if policy != policies[0]:
             problem(
-                ["robots", index, "controllers"],
+                ["robots", index, "modes"],
                 policy,
                 f"differs from robots[0]'s kinematic_limits ({policies[0]!r}): the kinematic "
                 "joints of one run share one policy",
@@ -146,17 +146,17 @@ def require_runnable(scenario: Scenario) -> None:
 def control_modes(
     robot: ScenarioRobot, description: RobotModel, path: list[str | int], where: str = "<scenario>"
 ) -> dict[str, ControlMode]:
-    """Every controllable joint's mode from ``robots[].controllers`` (``path``: the robot's
+    """Every controllable joint's mode from ``robots[].modes`` (``path``: the robot's
     key path): a controller without ``joints`` covers every joint; later controllers win;
     joints no controller names are ``position``."""
     controllable = [j.name for j in description.controllable_joints]
     modes: dict[str, ControlMode] = dict.fromkeys(controllable, ControlMode.POSITION)
     problems = []
-    for i, controller in enumerate(robot.controllers):
+    for i, controller in enumerate(robot.modes):
         for joint in controller.joints or controllable:
             if joint not in modes:
                 problems.append(
-                    f"{where}: {format_path([*path, 'controllers', i, 'joints'])}: {joint!r} "
+                    f"{where}: {format_path([*path, 'modes', i, 'joints'])}: {joint!r} "
                     f"is not a controllable joint of the robot (controllable: "
                     f"{', '.join(controllable)})"
                 )
@@ -170,7 +170,7 @@ def control_modes(
 def kinematic_limits(robot: ScenarioRobot) -> LimitPolicy:
     """``allow`` when a kinematic controller lets commands pass the limits, else ``clamp``."""
     allow = any(
-        c.mode == "kinematic" and c.kinematic_limits == LimitPolicy.ALLOW for c in robot.controllers
+        c.mode == "kinematic" and c.kinematic_limits == LimitPolicy.ALLOW for c in robot.modes
     )
     return LimitPolicy.ALLOW if allow else LimitPolicy.CLAMP
 

@@ -1,5 +1,5 @@
 """A session's recording file: opened with the run's metadata and the recording sink
-(:func:`open_recording`), and copied complete while the session runs
+(:func:`start_recorder`), and copied complete while the session runs
 (:func:`flush_at_boundary` on the session's thread, then :func:`write_snapshot`).
 
 What a session records (``record_to``): every frame in and out of the bridge (incoming frames
@@ -27,10 +27,10 @@ from harness.session.snapshot import complete_prefix
 from harness.session.startup import open_recorder
 from harness.sim import Simulation
 
-__all__ = ["flush_at_boundary", "open_recording", "write_snapshot"]
+__all__ = ["flush_at_boundary", "start_recorder", "write_snapshot"]
 
 
-def open_recording(
+def start_recorder(
     path: Path | None,
     loaded: LoadedRobot | LoadedWorld,
     options: CoreOptions,

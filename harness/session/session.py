@@ -150,7 +150,7 @@ from harness.session.options import (
 )
 from harness.session.pacing import Anchor, frames_until, pace, waiting_until
 from harness.session.ports import Port, ServerPort
-from harness.session.recordfile import flush_at_boundary, open_recording, write_snapshot
+from harness.session.recordfile import flush_at_boundary, start_recorder, write_snapshot
 from harness.session.startup import option_groups
 from harness.session.teardown import cancel_other_tasks, close_port, stop_driver
 from harness.session.upstream import UpstreamStats
@@ -279,7 +279,7 @@ class Session:
         record_to = record.record_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
-            self._recorder, hub = open_recording(
+            self._recorder, hub = start_recorder(
                 self.record_path, loaded, options, transport, record, load, self.ros_domain_id
             )
             core, self._port, upstream = build_core(

@@ -67,7 +67,7 @@ def test_original_scene_config_port_as_number():
     assert s.environment == sc.Environment("empty", "sunny", "noon")
     assert s.robots[0].robot == (DATA / "robots" / "two_link.urdf").resolve()
     assert s.robots[0].subscribers == (sc.Subscriber("JointStateSubscriber", "/joint/states"),)
-    assert s.robots[0].controllers == (sc.Controller("kinematic"),)
+    assert s.robots[0].modes == (sc.JointModes("kinematic"),)
     assert s.logging.enable
     assert s.logging.destinations == (SinkSpec("seq", (("endpoint", "http://localhost:5341"),)),)
 
@@ -79,7 +79,7 @@ def test_original_scene_config_port_as_string_and_dynamic_mode():
     assert s.environment == sc.Environment("table", "rainy", "night")
     assert s.robots[0].position == (0.5, 0.0, 0.0)
     # The original's dynamic mode drove position motors; its subscriber default topic is kept.
-    assert s.robots[0].controllers[0].mode == "position"
+    assert s.robots[0].modes[0].mode == "position"
     assert s.robots[0].subscribers[0].topic == "/joint/states"
 
 

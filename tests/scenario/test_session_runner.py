@@ -227,9 +227,7 @@ def test_scenarios_the_runner_cannot_run_are_refused_with_the_key_path(tmp_path,
         {
             "robot": "demo",
             "name": "second",
-            "controllers": [
-                {"type": "JointController", "mode": "kinematic", "beyond_limits": "allow"}
-            ],
+            "modes": [{"type": "JointController", "mode": "kinematic", "beyond_limits": "allow"}],
         }
     )
     doc["robots"][0]["subscribers"].append(

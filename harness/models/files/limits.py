@@ -51,7 +51,7 @@ __all__ = [
     "ModelLimits",
     "XacroLimits",
     "check_description",
-    "check_model",
+    "check_model_limits",
     "check_spec",
     "check_urdf_counts",
     "xacro_limits",
@@ -261,7 +261,7 @@ def check_spec(spec: mujoco.MjSpec, source: str, limits: ModelLimits = LIMITS) -
     _over(source, "the number of mesh vertices", _mesh_vertices(spec, assets), limits.mesh_vertices)
 
 
-def check_model(model: mujoco.MjModel, source: str, limits: ModelLimits = LIMITS) -> None:
+def check_model_limits(model: mujoco.MjModel, source: str, limits: ModelLimits = LIMITS) -> None:
     """What a compiled model (a recording's ``model.mjb``) asks of its :class:`MjData`."""
     _over(source, "nuserdata", int(model.nuserdata), limits.userdata)
     _over(source, "the arena (bytes)", int(model.narena), limits.memory_bytes)
