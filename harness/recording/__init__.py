@@ -2,7 +2,8 @@
 
 Write with :class:`Recorder`, read with :class:`Recording`, build the metadata and
 attachments of a run with :func:`describe_run`, rewrite a damaged file's intact parts with
-:func:`harness.recording.repair.repair`. Layout: :mod:`harness.recording.layout`.
+:func:`harness.recording.repair.repair`, make a complete file of the flushed prefix of one
+still being written with :func:`complete_prefix`. Layout: :mod:`harness.recording.layout`.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from harness.recording.records import (
     RecordedMessage,
     RosoutRecord,
 )
+from harness.recording.snapshot import complete_prefix
 
 __all__ = [
     "FORMAT_VERSION",
@@ -52,5 +54,6 @@ __all__ = [
     "RosoutRecord",
     "RunDescription",
     "TopicInfo",
+    "complete_prefix",
     "describe_run",
 ]

@@ -18,13 +18,13 @@ from harness.recording.convert import from_rosbridge
 from harness.recording.layout import typestore
 from harness.recording.templates import clock_cdr
 from harness.session import Session
-from harness.session.channels import (
+from harness.session.core.channels import (
     joint_state_arrays,
     joint_state_cdr,
     joint_state_message,
     joint_state_of,
 )
-from harness.session.topics import clock_msg
+from harness.session.core.topics import clock_msg
 from tests.models.paths import robots_dir
 
 

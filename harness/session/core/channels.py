@@ -17,10 +17,10 @@ from harness.controllers.command_topics import FORWARD_TOPICS, Reporter, RobotCo
 from harness.controllers.listed import ListedJoints
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.recording.templates import JointStateCdr
+from harness.session.core.tf import RobotFrames
+from harness.session.core.topics import joint_state_msg
+from harness.session.core.urdf_text import description_text
 from harness.session.errors import SessionConfigError
-from harness.session.tf import RobotFrames
-from harness.session.topics import joint_state_msg
-from harness.session.urdf_text import description_text
 from harness.sim import CommandField, RobotJoints, Simulation
 
 __all__ = [

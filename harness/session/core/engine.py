@@ -1,7 +1,7 @@
 """The session's per-step logic without sockets, threads or wall clocks (sans-I/O, h11-style).
 
 :class:`SessionCore` is everything a session does between two step boundaries: the rosbridge
-protocol core (:class:`~harness.session.bridge.SessionBridge`), the command topics
+protocol core (:class:`~harness.session.core.bridge.SessionBridge`), the command topics
 (:mod:`harness.controllers.command_topics`), the publishing schedule, the ``/harness/*``
 services, loggers and what goes to the recorder. Input arrives as rosbridge frames at a step
 boundary (``bridge.receive``, called by the live server's queue or by replay); output is
@@ -10,13 +10,13 @@ outgoing frames (the bridge's outbox), applied inputs, physics states and publis
 shell around one core; ``harness replay --level full`` (:mod:`harness.replay.pipeline`)
 drives a fresh core with the recorded frames, so both run the same code.
 
-Rooms: the robots' topics and joints (:mod:`harness.session.channels`), the bridge, graph
-and ``/rosout`` sink (:mod:`harness.session.bridge`), markers, the recorded inputs that are
-not client frames (:mod:`harness.session.markers`), the controllers
-(:mod:`harness.session.control`), the graph set-up at :meth:`SessionCore.start`
-(:mod:`harness.session.wiring`), the ``/harness/*`` services
-(:mod:`harness.session.services`), the recorded form of frames and markers
-(:mod:`harness.session.frames`), resets and their epochs (:mod:`harness.session.epochs`).
+Rooms: the robots' topics and joints (:mod:`harness.session.core.channels`), the bridge, graph
+and ``/rosout`` sink (:mod:`harness.session.core.bridge`), markers, the recorded inputs that are
+not client frames (:mod:`harness.session.core.markers`), the controllers
+(:mod:`harness.session.core.control`), the graph set-up at :meth:`SessionCore.start`
+(:mod:`harness.session.core.wiring`), the ``/harness/*`` services
+(:mod:`harness.session.core.services`), the recorded form of frames and markers
+(:mod:`harness.session.core.frames`), resets and their epochs (:mod:`harness.session.core.epochs`).
 Python loggers are not replayable from a file: what they
 publish on ``/rosout`` needs the same loggers (``loggers=`` of
 :func:`harness.replay.pipeline.replay_pipeline`).
@@ -37,7 +37,7 @@ from harness.recording.stateslot import PhysicsStateSlot
 from harness.recording.templates import clock_cdr
 from harness.rosbridge import DIRECTION_IN
 from harness.sensors.hook import record_metadata, session_sensors
-from harness.session.bridge import (
+from harness.session.core.bridge import (
     BridgePort,
     Graph,
     MessageCallback,
@@ -45,7 +45,7 @@ from harness.session.bridge import (
     ServiceHandler,
     SessionBridge,
 )
-from harness.session.channels import (
+from harness.session.core.channels import (
     CLOCK,
     RobotChannels,
     SessionTopics,
@@ -55,17 +55,12 @@ from harness.session.channels import (
     joint_state_of,
     robot_channels,
 )
-from harness.session.control import (
+from harness.session.core.control import (
     ControlHost,
 )
-from harness.session.epochs import reset_epoch, restart
-from harness.session.errors import (
-    SessionClosedError,
-    SessionConfigError,
-    SessionError,
-)
-from harness.session.frames import marker_frame, tap_frame
-from harness.session.markers import (
+from harness.session.core.epochs import reset_epoch, restart
+from harness.session.core.frames import marker_frame, tap_frame
+from harness.session.core.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_CLOSE,
     MARKER_DISCONNECT,
@@ -76,24 +71,29 @@ from harness.session.markers import (
     open_connection,
     replay_marker,
 )
-from harness.session.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
-from harness.session.services import SERVICE_GET_STATE as SERVICE_GET_STATE
-from harness.session.services import SERVICE_PAUSE as SERVICE_PAUSE
-from harness.session.services import SERVICE_RESET as SERVICE_RESET
-from harness.session.services import SERVICE_STEP, HarnessServices
-from harness.session.stepping import PublishCounter
-from harness.session.topics import (
+from harness.session.core.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
+from harness.session.core.services import SERVICE_GET_STATE as SERVICE_GET_STATE
+from harness.session.core.services import SERVICE_PAUSE as SERVICE_PAUSE
+from harness.session.core.services import SERVICE_RESET as SERVICE_RESET
+from harness.session.core.services import SERVICE_STEP, HarnessServices
+from harness.session.core.stepping import PublishCounter
+from harness.session.core.topics import (
     TYPE_CLOCK,
     TYPE_JOINT_STATE,
     TYPE_TF,
     clock_msg,
     period_steps,
 )
-from harness.session.wiring import (
+from harness.session.core.wiring import (
     advertise_and_subscribe,
     publish_latched,
     published_topics,
     tf_trees,
+)
+from harness.session.errors import (
+    SessionClosedError,
+    SessionConfigError,
+    SessionError,
 )
 from harness.sim import Notice, Simulation
 from harness.sim.inputs import AppliedInput

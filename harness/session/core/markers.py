@@ -38,8 +38,8 @@ from harness.rosbridge import DIRECTION_IN
 from harness.session.errors import SessionError
 
 if TYPE_CHECKING:
-    from harness.session.bridge import SessionBridge
-    from harness.session.core import SessionCore
+    from harness.session.core.bridge import SessionBridge
+    from harness.session.core.engine import SessionCore
 
 __all__ = [
     "MARKERS",

@@ -32,7 +32,7 @@ from harness.models import ControlMode, LoadedWorld, RobotSpec, WorldObject
 from harness.models.decompose import MeshCollision
 from harness.models.world import BaseKind, SelfCollision
 from harness.sensors import SensorSpec
-from harness.session.control import (
+from harness.session.core.control import (
     ControllersOption,
     controllers_from_metadata,
     controllers_metadata,
@@ -42,7 +42,7 @@ from harness.session.errors import SessionConfigError
 from harness.vocabulary import CLOCK_MODES, ClockMode, LimitPolicy
 
 if TYPE_CHECKING:
-    from harness.session.core import StartMode
+    from harness.session.core.engine import StartMode
 
 __all__ = [
     "DEFAULT_MAX_STEP_REQUEST",
@@ -183,7 +183,7 @@ class CoreOptions:
     """The session seed (sensor noise); recorded as the ``seed`` metadata key."""
 
     def __post_init__(self) -> None:
-        from harness.session.core import START_MODES, _check_name
+        from harness.session.core.engine import START_MODES, _check_name
 
         if not isinstance(self.controllers, ControllersConfig) and self.controllers not in (
             "default",

@@ -24,7 +24,7 @@ import numpy.typing as npt
 
 from harness.models import RobotModel
 from harness.recording.templates import TfCdr
-from harness.session.topics import stamp
+from harness.session.core.topics import stamp
 
 __all__ = ["WORLD_FRAME", "RobotFrames", "TfEdge", "TfTree", "relative_pose"]
 
