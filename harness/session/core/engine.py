@@ -27,11 +27,10 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Mapping, Sequence
 from functools import cache, partial
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
-from harness.names import NameKind, check_name
 from harness.recording.records import BridgeFrame, Epoch
 from harness.recording.stateslot import PhysicsStateSlot
 from harness.recording.templates import clock_cdr
@@ -71,7 +70,13 @@ from harness.session.core.markers import (
     open_connection,
     replay_marker,
 )
-from harness.session.core.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
+from harness.session.core.naming import check_session_name
+from harness.session.core.options import (
+    DEFAULT_MAX_STEP_REQUEST,
+    START_MODES,
+    CoreOptions,
+    StartMode,
+)
 from harness.session.core.services import SERVICE_GET_STATE as SERVICE_GET_STATE
 from harness.session.core.services import SERVICE_PAUSE as SERVICE_PAUSE
 from harness.session.core.services import SERVICE_RESET as SERVICE_RESET
@@ -126,9 +131,6 @@ __all__ = [
     "is_marker",
 ]
 
-StartMode = Literal["now", "paused", "on_client"]
-START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
-
 _LOG_NAME = "harness.session"
 LOG_NAME = _LOG_NAME
 """The ``name`` of the session's own log events (``/rosout``)."""
@@ -156,10 +158,6 @@ class RecordSink(Protocol):
     ) -> PhysicsStateSlot: ...
 
     def write_epoch(self, epoch: Epoch) -> None: ...
-
-
-def _check_name(value: str, what: str, kind: NameKind = "topic") -> str:
-    return check_name(value, what, kind, SessionConfigError)
 
 
 class SessionCore:
@@ -221,7 +219,7 @@ class SessionCore:
             graph = BridgePort(self.bridge, self.fail)
         self.graph: Graph = graph
         self.robots = robot_channels(
-            self.sim, robot, self.namespace, options.command_topic, self, _check_name
+            self.sim, robot, self.namespace, options.command_topic, self, check_session_name
         )
         """Every robot's topics, joints and links, in the world's order."""
         self.topics = self.robots[0].topics
