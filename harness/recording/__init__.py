@@ -17,6 +17,7 @@ from harness.recording.errors import (
     RecordingWriteError,
 )
 from harness.recording.layout import FORMAT_VERSION
+from harness.recording.periodic import ClockRecord, JointStateRecord, TfRecord
 from harness.recording.recorder import FlushInfo, Recorder, RecorderStats
 from harness.recording.recording import LostRange, Recording, TopicInfo
 from harness.recording.records import (
@@ -30,18 +31,22 @@ from harness.recording.records import (
     RosoutRecord,
 )
 from harness.recording.snapshot import complete_prefix
+from harness.recording.stateslot import PhysicsStateSlot
 
 __all__ = [
     "FORMAT_VERSION",
     "AppliedInput",
     "BridgeFrame",
+    "ClockRecord",
     "CollisionEvent",
     "Epoch",
     "FlushInfo",
+    "JointStateRecord",
     "LoadedRobotLike",
     "LostRange",
     "PhysicsState",
     "PhysicsStateArrays",
+    "PhysicsStateSlot",
     "RecordedMessage",
     "Recorder",
     "RecorderStats",
@@ -53,6 +58,7 @@ __all__ = [
     "RecordingWriteError",
     "RosoutRecord",
     "RunDescription",
+    "TfRecord",
     "TopicInfo",
     "complete_prefix",
     "describe_run",

@@ -31,9 +31,7 @@ from typing import Any, Protocol
 
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
-from harness.recording.records import BridgeFrame, Epoch
-from harness.recording.stateslot import PhysicsStateSlot
-from harness.recording.templates import clock_cdr
+from harness.recording import BridgeFrame, ClockRecord, Epoch, PhysicsStateSlot
 from harness.rosbridge import DIRECTION_IN
 from harness.sensors.hook import record_metadata, session_sensors
 from harness.session.core.bridge import (
@@ -49,9 +47,9 @@ from harness.session.core.channels import (
     RobotChannels,
     SessionTopics,
     joint_state_arrays,
-    joint_state_cdr,
     joint_state_message,
     joint_state_of,
+    joint_state_record,
     robot_channels,
 )
 from harness.session.core.control import (
@@ -144,8 +142,10 @@ class RecordSink(Protocol):
     The state after each step goes through one slot (:meth:`physics_state_slot`; a sink
     taking :class:`PhysicsState` records makes one with
     :func:`harness.recording.stateslot.forwarding_slot`). A message is a dict in rosbridge
-    JSON form or, for the periodic topics, ``bytes``: its CDR
-    (:mod:`harness.recording.templates`)."""
+    JSON form or, for the periodic topics, one of the record types :mod:`harness.recording`
+    exports (:class:`~harness.recording.JointStateRecord`,
+    :class:`~harness.recording.TfRecord`, :class:`~harness.recording.ClockRecord`: the
+    recorder lays out their CDR; the core knows no file format)."""
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None: ...
 
@@ -358,10 +358,10 @@ class SessionCore:
                     channels.topics.joint_states,
                     TYPE_JOINT_STATE,
                     partial(joint_state_message, t, channels, arrays),
-                    cdr=partial(joint_state_cdr, t, channels, arrays),
+                    recorded=partial(joint_state_record, t, channels, arrays),
                 )
         if self._clock_every and k % self._clock_every == 0:
-            self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), cdr=partial(clock_cdr, t))
+            self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), recorded=partial(ClockRecord, t))
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
                 # one kinematics pass serves the subscribers' message and the recording
@@ -370,7 +370,7 @@ class SessionCore:
                     topic,
                     TYPE_TF,
                     partial(tree.moving_message, relative, t),
-                    cdr=partial(tree.moving_cdr, relative, t),
+                    recorded=partial(tree.moving_record, relative, t),
                 )
         if self.sensors is not None:
             for due in self.sensors.due(sim.data, k, t):
@@ -398,13 +398,14 @@ class SessionCore:
         type: str,
         build: Callable[[], Mapping[str, Any]],
         *,
-        cdr: Callable[[], bytes] | None = None,
+        recorded: Callable[[], Any] | None = None,
         latch: bool = False,
         record: bool = True,
     ) -> None:
         """Publish on the graph (when someone listens or ``latch``) and record (``record``);
-        ``build`` makes the message only when needed; ``cdr``, when given, makes the same
-        message as CDR for the recording (:mod:`harness.recording.templates`)."""
+        ``build`` makes the message only when needed; ``recorded``, when given, makes the same
+        message as the record the recorder takes instead of the dict (a periodic record of
+        :mod:`harness.recording`: :class:`~harness.recording.JointStateRecord`, ...)."""
         self.record_frames()
         self.publish_counts.note(topic)
         recorder = self.recorder if record else None
@@ -414,11 +415,11 @@ class SessionCore:
         now = self.sim.sim_time_ns
         msg = None
         if recorder is not None:
-            if cdr is None:
+            if recorded is None:
                 msg = build()
                 recorder.write_message(topic, type, msg, sim_time_ns=now)
             else:
-                recorder.write_message(topic, type, cdr(), sim_time_ns=now)
+                recorder.write_message(topic, type, recorded(), sim_time_ns=now)
         if send:
             self.graph.publish(topic, type, build() if msg is None else msg, now, latch=latch)
 

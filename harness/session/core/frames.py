@@ -15,7 +15,7 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
-from harness.recording.records import BridgeFrame
+from harness.recording import BridgeFrame
 from harness.rosbridge import DIRECTION_IN, TapRecord
 
 __all__ = ["marker_frame", "tap_frame"]
