@@ -76,7 +76,12 @@ from harness.session.core import (  # noqa: E402
     StartMode,
     is_marker,
 )
+from harness.session.core.control import (  # noqa: E402
+    controllers_from_metadata,
+    controllers_option,
+)
 from harness.session.core.options import (  # noqa: E402
+    SESSION_KEYWORDS,
     LoadOptions,
     RecordOptions,
     TransportOptions,
@@ -102,6 +107,7 @@ __all__ = [
     "DEFAULT_MAX_STEP_REQUEST",
     "FORWARD_TOPICS",
     "MARKERS",
+    "SESSION_KEYWORDS",
     "START_MODES",
     "ClientTimeoutError",
     "ClockMode",
@@ -121,5 +127,7 @@ __all__ = [
     "StartMode",
     "Trajectory",
     "TransportOptions",
+    "controllers_from_metadata",
+    "controllers_option",
     "is_marker",
 ]
