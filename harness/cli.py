@@ -44,7 +44,7 @@ COMMANDS: dict[str, Command] = {
     "repair": Command(
         "harness.recording._cli_repair", "rewrite a damaged recording's intact parts"
     ),
-    "serve": Command("harness.session._cli", "serve a simulated robot on a rosbridge server"),
+    "serve": Command("harness.session.live._cli", "serve a simulated robot on a rosbridge server"),
     "replay": Command("harness.replay._cli_replay", "verify a recording replays bit for bit"),
     "play": Command("harness.replay._cli_play", "serve a recording's frames to rosbridge clients"),
     "diff": Command("harness.replay._cli_diff", "compare two recordings with tolerances"),

@@ -52,7 +52,7 @@ def marker_keys() -> frozenset[str]:
     """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept: the
     session's options fields (:data:`harness.session.options.SESSION_KEYWORDS`) but where
     the plugin decides (the free port, the recording path), and the marker's own keys."""
-    from harness.session.options import SESSION_KEYWORDS
+    from harness.session import SESSION_KEYWORDS
 
     return frozenset((set(SESSION_KEYWORDS) - _NOT_MARKER) | _MARKER_OWN)
 

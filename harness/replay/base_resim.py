@@ -180,8 +180,7 @@ def resimulate_base(
     """Re-run the recording's base commands with ``actuation`` (``kinematic``: a planar
     base; ``servo``: the diff drive; see the module docstring)."""
     mode = parse_actuation(actuation)
-    from harness.session import Session
-    from harness.session.control import controllers_from_metadata
+    from harness.session import Session, controllers_from_metadata
     from harness.testing import connect
 
     rec = open_recording(path, allow_damaged=allow_damaged)
@@ -285,7 +284,7 @@ def resimulate_base(
 
 def is_base_recording(path: str | Path) -> bool:
     """Whether the recording's run had a base controller (``--actuation`` then re-runs the base)."""
-    from harness.session.control import controllers_from_metadata
+    from harness.session import controllers_from_metadata
 
     rec = open_recording(path, allow_damaged=True)
     try:

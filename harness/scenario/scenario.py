@@ -33,7 +33,7 @@ from harness.models.files.resolve import resolve_uri
 from harness.models.world.records import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
-from harness.session.options import TransportOptions
+from harness.session import TransportOptions
 from harness.vocabulary import (
     LIMIT_POLICY_KEY,
     LIMIT_POLICY_OLD_KEY,

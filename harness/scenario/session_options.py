@@ -47,9 +47,14 @@ from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Clock, CollisionLoggerSpec, JointLoggerSpec, Scenario
 from harness.scenario.world import kinematic_limits, plan_world
-from harness.session import SessionConfigError
-from harness.session.control import controllers_option
-from harness.session.options import CoreOptions, LoadOptions, RecordOptions, TransportOptions
+from harness.session import (
+    CoreOptions,
+    LoadOptions,
+    RecordOptions,
+    SessionConfigError,
+    TransportOptions,
+    controllers_option,
+)
 
 __all__ = [
     "DEFAULT_DEBOUNCE_STEPS",

@@ -13,7 +13,7 @@ from collections.abc import Callable, Coroutine
 from typing import Any, TypeVar
 
 from harness.session.errors import SessionClosedError, SessionError
-from harness.session.polling import PollingSelector
+from harness.session.live.polling import PollingSelector
 
 __all__ = ["LoopThread"]
 
@@ -25,7 +25,7 @@ class LoopThread:
     by the owner when it closes (calls are then refused); ``after_call``: run on the loop
     after every :meth:`call`'s function (the session flushes its port there); ``selector``:
     the loop's, which polls before blocking while its ``should_poll`` says so
-    (:mod:`harness.session.polling`)."""
+    (:mod:`harness.session.live.polling`)."""
 
     def __init__(self) -> None:
         self.selector = PollingSelector()

@@ -23,17 +23,17 @@ from harness.models import (
 from harness.models.build.decompose import MeshCollision, check_mesh_collision
 from harness.models.world.records import BaseKind, SelfCollision
 from harness.recording import Recorder, describe_run
-from harness.session.bridge import SessionBridge
-from harness.session.errors import SessionConfigError
-from harness.session.options import (
+from harness.session.core.bridge import SessionBridge
+from harness.session.core.options import (
     CoreOptions,
     LoadOptions,
     RecordOptions,
     TransportOptions,
     group_keywords,
 )
-from harness.session.ports import Port, ServerPort
-from harness.session.upstream import UpstreamPort, UpstreamStats, redact
+from harness.session.errors import SessionConfigError
+from harness.session.live.ports import Port, ServerPort
+from harness.session.live.upstream import UpstreamPort, UpstreamStats, redact
 
 __all__ = ["load_run", "open_port", "open_recorder", "option_groups"]
 
@@ -46,7 +46,7 @@ def option_groups(
     load: LoadOptions | None,
 ) -> tuple[CoreOptions, TransportOptions, RecordOptions, LoadOptions]:
     """The session's four options objects: those given, the others built from the keyword
-    arguments (:func:`~harness.session.options.group_keywords`); ``record`` may be the MCAP
+    arguments (:func:`~harness.session.core.options.group_keywords`); ``record`` may be the MCAP
     path."""
     if isinstance(record, str | Path):
         record = RecordOptions(record_to=record)

@@ -31,15 +31,11 @@ appears. :func:`replay_marker` applies a recorded marker to a core as the live s
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Container, Mapping
+from typing import Any, Protocol
 
 from harness.rosbridge import DIRECTION_IN
 from harness.session.errors import SessionError
-
-if TYPE_CHECKING:
-    from harness.session.bridge import SessionBridge
-    from harness.session.core import SessionCore
 
 __all__ = [
     "MARKERS",
@@ -49,6 +45,8 @@ __all__ = [
     "MARKER_PYTHON",
     "MARKER_TRANSPORT_STATUS",
     "MARKER_UNBUDGETED",
+    "MarkedBridge",
+    "MarkedCore",
     "is_marker",
     "open_connection",
     "replay_marker",
@@ -76,13 +74,58 @@ def is_marker(direction: int, connection: int, op: str, topic: str) -> bool:
     return direction == DIRECTION_IN and connection == 0 and op == "" and topic in MARKERS
 
 
-def open_connection(bridge: SessionBridge, connection: int) -> None:
+class MarkedBridge(Protocol):
+    """What replaying a marker does to a bridge (the session's
+    :class:`~harness.session.core.bridge.SessionBridge` is one): declared here, so that the
+    bridge, which records markers, and this module, which replays them, do not import each
+    other."""
+
+    @property
+    def connections(self) -> Container[int]: ...
+
+    def connect(self, peer: str = "") -> int: ...
+
+    def disconnect(self, connection: int) -> object: ...
+
+    def time_out_call(self, key: int) -> object: ...
+
+    def transport_status(self, connection: int, level: str, msg: str) -> None: ...
+
+    def exempt_from_budget(self, connection: int) -> None: ...
+
+
+class MarkedCore(Protocol):
+    """What replaying a marker does to a core (:class:`~harness.session.core.SessionCore` is
+    one, which imports this module)."""
+
+    @property
+    def bridge(self) -> MarkedBridge | None: ...
+
+    def record_close(self) -> None: ...
+
+    def command(
+        self,
+        joint: str,
+        *,
+        position: float | None = None,
+        velocity: float | None = None,
+        effort: float | None = None,
+    ) -> object: ...
+
+    def set_positions(self, positions: Mapping[str, float]) -> object: ...
+
+    def reset(self) -> object: ...
+
+    def set_paused(self, paused: bool) -> object: ...
+
+
+def open_connection(bridge: MarkedBridge, connection: int) -> None:
     """Open ``connection`` (and any lower id not yet opened) as the live bridge did."""
     while connection not in bridge.connections and bridge.connect() < connection:
         pass
 
 
-def replay_marker(core: SessionCore, topic: str, payload: str | bytes) -> None:
+def replay_marker(core: MarkedCore, topic: str, payload: str | bytes) -> None:
     """Apply one recorded marker to ``core`` at the current step boundary (its bridge: the
     core's own); a malformed marker raises :class:`SessionError` naming it."""
     bridge = core.bridge
@@ -110,7 +153,7 @@ def replay_marker(core: SessionCore, topic: str, payload: str | bytes) -> None:
         raise SessionError(f"marker {topic} {payload!r} is malformed: {exc}") from None
 
 
-def _replay_python(core: SessionCore, args: Mapping[str, Any]) -> None:
+def _replay_python(core: MarkedCore, args: Mapping[str, Any]) -> None:
     call = args["call"]
     if call == "command":
         core.command(

@@ -1,7 +1,7 @@
 """The parts :class:`~harness.session.Session`'s constructor assembles, each call made once:
 the run it loads with its options resolved (:func:`resolve_run`), the core with its port and
 event sinks (:func:`build_core`), and the ROS 2 side (:func:`ros2_domain`,
-:func:`start_ros2`). The single steps live in :mod:`harness.session.startup`.
+:func:`start_ros2`). The single steps live in :mod:`harness.session.live.startup`.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ from typing import Any
 from harness.events import EventHub, Sink
 from harness.models import LoadedRobot, LoadedWorld
 from harness.recording import Recorder
-from harness.session.bridge import SessionBridge
-from harness.session.control import resolve_default
-from harness.session.core import SessionCore
-from harness.session.options import CoreOptions, LoadOptions, TransportOptions
-from harness.session.ports import Port
-from harness.session.startup import load_run, open_port
-from harness.session.upstream import UpstreamStats
+from harness.session.core.bridge import SessionBridge
+from harness.session.core.control import resolve_default
+from harness.session.core.engine import SessionCore
+from harness.session.core.options import CoreOptions, LoadOptions, TransportOptions
+from harness.session.live.ports import Port
+from harness.session.live.startup import load_run, open_port
+from harness.session.live.upstream import UpstreamStats
 
 __all__ = ["build_core", "resolve_run", "ros2_domain", "start_ros2"]
 
@@ -37,7 +37,7 @@ def ros2_domain(transport: TransportOptions) -> int | None:
 def resolve_run(
     robot: str | Path | LoadedRobot | None, load: LoadOptions, options: CoreOptions
 ) -> tuple[LoadedRobot | LoadedWorld, CoreOptions]:
-    """What the session runs (:func:`~harness.session.startup.load_run`) and its options with
+    """What the session runs (:func:`~harness.session.live.startup.load_run`) and its options with
     the ``controllers`` default resolved for it."""
     loaded = load_run(robot, load, options.namespace, options.sensors)
     controllers = resolve_default(options.controllers, loaded)

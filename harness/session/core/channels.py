@@ -16,20 +16,20 @@ import numpy.typing as npt
 from harness.controllers.command_topics import FORWARD_TOPICS, Reporter, RobotCommands
 from harness.controllers.listed import ListedJoints
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
-from harness.recording.templates import JointStateCdr
+from harness.recording import JointStateRecord
+from harness.session.core.tf import RobotFrames
+from harness.session.core.topics import joint_state_msg
+from harness.session.core.urdf_text import description_text
 from harness.session.errors import SessionConfigError
-from harness.session.tf import RobotFrames
-from harness.session.topics import joint_state_msg
-from harness.session.urdf_text import description_text
 from harness.sim import CommandField, RobotJoints, Simulation
 
 __all__ = [
     "RobotChannels",
     "SessionTopics",
     "joint_state_arrays",
-    "joint_state_cdr",
     "joint_state_message",
     "joint_state_of",
+    "joint_state_record",
     "robot_channels",
     "robot_frames",
 ]
@@ -120,7 +120,6 @@ class RobotChannels:
             if not self.js_kin.any()
             else ""
         )
-        self.js_cdr = JointStateCdr(self.js_names)
         """The layout of the robot's ``joint_states`` in the recording."""
         self.listed = ListedJoints(description, self.js_names, self.joints.joint_names)
         """Listed on ``joint_states`` but not controllable: dropped from ``joint_command``."""
@@ -174,11 +173,11 @@ def joint_state_message(
     return joint_state_msg(sim_time_ns, channels.js_names, *arrays())
 
 
-def joint_state_cdr(
+def joint_state_record(
     sim_time_ns: int, channels: RobotChannels, arrays: Callable[[], tuple[F64, F64, F64]]
-) -> bytes:
-    """:func:`joint_state_message` as CDR (what the recording keeps)."""
-    return channels.js_cdr.encode(sim_time_ns, *arrays())
+) -> JointStateRecord:
+    """:func:`joint_state_message` as the recording's record of it."""
+    return JointStateRecord(sim_time_ns, channels.js_names, *arrays())
 
 
 def joint_state_of(sim: Simulation, channels: RobotChannels, prefix: str = "") -> dict[str, Any]:

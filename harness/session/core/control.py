@@ -39,8 +39,8 @@ from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
 from harness.sensors.hook import sensor_interfaces
-from harness.session.bridge import Publisher
-from harness.session.topics import node_name
+from harness.session.core.bridge import Publisher
+from harness.session.core.topics import node_name
 from harness.sim import CommandError, ControlConfigError, Notice
 
 __all__ = [

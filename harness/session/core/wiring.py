@@ -19,10 +19,10 @@ import mujoco
 from harness.controllers.command_topics import FORWARD_TOPICS
 from harness.sensors import TOPIC_TF_STATIC
 from harness.sensors.suite import SensorSuite
-from harness.session.bridge import Graph, Publisher
-from harness.session.channels import CLOCK, ROSOUT, RobotChannels, robot_frames
-from harness.session.tf import TfTree
-from harness.session.topics import (
+from harness.session.core.bridge import Graph, Publisher
+from harness.session.core.channels import CLOCK, ROSOUT, RobotChannels, robot_frames
+from harness.session.core.tf import TfTree
+from harness.session.core.topics import (
     HARNESS_NODE,
     TYPE_CLOCK,
     TYPE_FORWARD,

@@ -1,7 +1,7 @@
 """The recorded form of the bridge's frames and of the core's markers.
 
 Every frame the session's bridge sends or receives, and every marker
-(:mod:`harness.session.markers`), is recorded as a ``/harness/bridge``
+(:mod:`harness.session.core.markers`), is recorded as a ``/harness/bridge``
 :class:`~harness.recording.records.BridgeFrame` at the step it crossed at: an incoming
 frame or a marker took effect before the next step (``step`` is that step), an outgoing
 frame was sent at the current one. :func:`tap_frame` makes the record of a frame the bridge
@@ -15,7 +15,7 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
-from harness.recording.records import BridgeFrame
+from harness.recording import BridgeFrame
 from harness.rosbridge import DIRECTION_IN, TapRecord
 
 __all__ = ["marker_frame", "tap_frame"]

@@ -1,6 +1,6 @@
 """The session's side of the rosbridge graph: :class:`SessionBridge` (the rosbridge protocol
 core of a session, at simulation time, reporting the inputs that are not client frames as
-markers: :mod:`harness.session.markers`), the :class:`Graph` the core publishes on (an
+markers: :mod:`harness.session.core.markers`), the :class:`Graph` the core publishes on (an
 in-process bridge, :class:`BridgePort`, or a client of an external server) and
 :class:`RosoutSink` (log events on ``/rosout``)."""
 
@@ -14,13 +14,13 @@ from harness.events import JointSample, LogMessage, SinkReport
 from harness.events.events import Event
 from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Message, Output, TapRecord
 from harness.rosbridge.limits import SendBudget
-from harness.session.markers import (
+from harness.session.core.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_DISCONNECT,
     MARKER_TRANSPORT_STATUS,
     MARKER_UNBUDGETED,
 )
-from harness.session.topics import HARNESS_NODE, TYPE_LOG, log_msg
+from harness.session.core.topics import HARNESS_NODE, TYPE_LOG, log_msg
 
 __all__ = [
     "BridgePort",
@@ -75,7 +75,7 @@ class SessionBridge(Bridge):
     """The session's rosbridge protocol core: every frame is processed at the simulation's
     current time (``clock``), and inputs that are not client frames (a socket closing, a
     wall-clock call timeout, a status the transport sends by itself: :meth:`transport_status`)
-    are kept as markers (:mod:`harness.session.markers`) among its :meth:`frames`, before
+    are kept as markers (:mod:`harness.session.core.markers`) among its :meth:`frames`, before
     what they cause, so that a recording can hold them (``keep_frames``).
 
     ``peer_status(connection, level, msg)`` gets every ``status`` frame a connection sends

@@ -4,7 +4,7 @@
 ``/harness/reset`` (back to the initial state), ``/harness/pause`` (pause or resume a
 free-running clock) and ``/harness/get_state``. :class:`HarnessServices` answers them from a
 :class:`ServiceHost` (the :class:`~harness.session.core.SessionCore`) and registers them on
-a :class:`~harness.session.bridge.Graph` (:meth:`HarnessServices.serve`). A service call is a
+a :class:`~harness.session.core.bridge.Graph` (:meth:`HarnessServices.serve`). A service call is a
 client frame, so it is recorded as one: reset and pause are given the core's unrecorded forms
 (the Python API's :meth:`~harness.session.core.SessionCore.reset` records a marker first).
 """
@@ -14,10 +14,10 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
-from harness.session.bridge import Graph
-from harness.session.options import CoreOptions
-from harness.session.stepping import PublishCounter, parse_step_request, run_step
-from harness.session.topics import stamp
+from harness.session.core.bridge import Graph
+from harness.session.core.options import CoreOptions
+from harness.session.core.stepping import PublishCounter, parse_step_request, run_step
+from harness.session.core.topics import stamp
 from harness.sim import Simulation
 from harness.vocabulary import ClockMode
 

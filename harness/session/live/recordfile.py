@@ -21,10 +21,9 @@ from pathlib import Path
 
 from harness.events import EventHub, RecordingSink
 from harness.models import LoadedRobot, LoadedWorld
-from harness.recording import Recorder
-from harness.session.options import CoreOptions, LoadOptions, RecordOptions, TransportOptions
-from harness.session.snapshot import complete_prefix
-from harness.session.startup import open_recorder
+from harness.recording import Recorder, complete_prefix
+from harness.session.core.options import CoreOptions, LoadOptions, RecordOptions, TransportOptions
+from harness.session.live.startup import open_recorder
 from harness.sim import Simulation
 
 __all__ = ["flush_at_boundary", "start_recorder", "write_snapshot"]
@@ -40,7 +39,7 @@ def start_recorder(
     ros_domain_id: int | None,
 ) -> tuple[Recorder | None, EventHub]:
     """The session's event hub and, when it records (``path``), its recorder, already a
-    sink of the hub (:func:`~harness.session.startup.open_recorder`)."""
+    sink of the hub (:func:`~harness.session.live.startup.open_recorder`)."""
     hub = EventHub()
     recorder = None
     if path is not None:

@@ -1,5 +1,5 @@
 """Where the session meets rosbridge: an embedded server (default) or, in client mode, a link
-to an external server (:class:`~harness.session.upstream.UpstreamPort`). Both are used only
+to an external server (:class:`~harness.session.live.upstream.UpstreamPort`). Both are used only
 from the session's event loop thread."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 from harness.rosbridge import BridgeServer
-from harness.session.bridge import Graph, MessageCallback, ServiceHandler, SessionBridge
+from harness.session.core.bridge import Graph, MessageCallback, ServiceHandler, SessionBridge
 
 __all__ = ["Graph", "MessageCallback", "Port", "ServerPort", "ServiceHandler"]
 

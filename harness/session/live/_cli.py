@@ -119,8 +119,8 @@ def _controllers_arg(text: str) -> tuple[str, str]:
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGINT/SIGTERM; exit 0 after a clean shutdown."""
     from harness.rosbridge import ExposedServerWarning, is_loopback
-    from harness.session.session import Session
-    from harness.session.upstream import redact
+    from harness.session.live.session import Session
+    from harness.session.live.upstream import redact
 
     if args.connect is not None and args.token:
         print(

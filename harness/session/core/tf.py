@@ -23,8 +23,8 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models import RobotModel
-from harness.recording.templates import TfCdr
-from harness.session.topics import stamp
+from harness.recording import TfRecord
+from harness.session.core.topics import stamp
 
 __all__ = ["WORLD_FRAME", "RobotFrames", "TfEdge", "TfTree", "relative_pose"]
 
@@ -99,7 +99,7 @@ class TfTree:
         """The transforms of ``/tf_static``."""
         self.moving = tuple(e for e in edges if e.moving)
         """The transforms of ``/tf``."""
-        self._moving_cdr: TfCdr | None = None
+        self._moving_pairs = tuple((e.parent, e.child) for e in self.moving)
         body = mujoco.mjtObj.mjOBJ_BODY
         # (parent, child) body ids of the moving edges; the world (id 0) has the identity pose
         ids = [
@@ -192,11 +192,11 @@ class TfTree:
         """:meth:`transforms` of :attr:`moving` from ``relative()`` (:meth:`moving_poses`)."""
         return self.transforms(self.moving, relative(), sim_time_ns)
 
-    def moving_cdr(self, relative: Callable[[], list[tuple[Vec, Quat]]], sim_time_ns: int) -> bytes:
-        """:meth:`moving_message` as CDR (what the recording keeps of ``/tf``)."""
-        if self._moving_cdr is None:
-            self._moving_cdr = TfCdr([(e.parent, e.child) for e in self.moving])
-        return self._moving_cdr.encode(sim_time_ns, relative())
+    def moving_record(
+        self, relative: Callable[[], list[tuple[Vec, Quat]]], sim_time_ns: int
+    ) -> TfRecord:
+        """:meth:`moving_message` as the recording's record of it (``/tf``)."""
+        return TfRecord(sim_time_ns, self._moving_pairs, relative())
 
 
 def _plan(

@@ -1,7 +1,7 @@
 """The session's per-step logic without sockets, threads or wall clocks (sans-I/O, h11-style).
 
 :class:`SessionCore` is everything a session does between two step boundaries: the rosbridge
-protocol core (:class:`~harness.session.bridge.SessionBridge`), the command topics
+protocol core (:class:`~harness.session.core.bridge.SessionBridge`), the command topics
 (:mod:`harness.controllers.command_topics`), the publishing schedule, the ``/harness/*``
 services, loggers and what goes to the recorder. Input arrives as rosbridge frames at a step
 boundary (``bridge.receive``, called by the live server's queue or by replay); output is
@@ -10,13 +10,13 @@ outgoing frames (the bridge's outbox), applied inputs, physics states and publis
 shell around one core; ``harness replay --level full`` (:mod:`harness.replay.pipeline`)
 drives a fresh core with the recorded frames, so both run the same code.
 
-Rooms: the robots' topics and joints (:mod:`harness.session.channels`), the bridge, graph
-and ``/rosout`` sink (:mod:`harness.session.bridge`), markers, the recorded inputs that are
-not client frames (:mod:`harness.session.markers`), the controllers
-(:mod:`harness.session.control`), the graph set-up at :meth:`SessionCore.start`
-(:mod:`harness.session.wiring`), the ``/harness/*`` services
-(:mod:`harness.session.services`), the recorded form of frames and markers
-(:mod:`harness.session.frames`), resets and their epochs (:mod:`harness.session.epochs`).
+Rooms: the robots' topics and joints (:mod:`harness.session.core.channels`), the bridge, graph
+and ``/rosout`` sink (:mod:`harness.session.core.bridge`), markers, the recorded inputs that are
+not client frames (:mod:`harness.session.core.markers`), the controllers
+(:mod:`harness.session.core.control`), the graph set-up at :meth:`SessionCore.start`
+(:mod:`harness.session.core.wiring`), the ``/harness/*`` services
+(:mod:`harness.session.core.services`), the recorded form of frames and markers
+(:mod:`harness.session.core.frames`), resets and their epochs (:mod:`harness.session.core.epochs`).
 Python loggers are not replayable from a file: what they
 publish on ``/rosout`` needs the same loggers (``loggers=`` of
 :func:`harness.replay.pipeline.replay_pipeline`).
@@ -27,17 +27,14 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Mapping, Sequence
 from functools import cache, partial
-from typing import Any, Literal, Protocol
+from typing import Any, Protocol
 
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
-from harness.names import NameKind, check_name
-from harness.recording.records import BridgeFrame, Epoch
-from harness.recording.stateslot import PhysicsStateSlot
-from harness.recording.templates import clock_cdr
+from harness.recording import BridgeFrame, ClockRecord, Epoch, PhysicsStateSlot
 from harness.rosbridge import DIRECTION_IN
 from harness.sensors.hook import record_metadata, session_sensors
-from harness.session.bridge import (
+from harness.session.core.bridge import (
     BridgePort,
     Graph,
     MessageCallback,
@@ -45,27 +42,22 @@ from harness.session.bridge import (
     ServiceHandler,
     SessionBridge,
 )
-from harness.session.channels import (
+from harness.session.core.channels import (
     CLOCK,
     RobotChannels,
     SessionTopics,
     joint_state_arrays,
-    joint_state_cdr,
     joint_state_message,
     joint_state_of,
+    joint_state_record,
     robot_channels,
 )
-from harness.session.control import (
+from harness.session.core.control import (
     ControlHost,
 )
-from harness.session.epochs import reset_epoch, restart
-from harness.session.errors import (
-    SessionClosedError,
-    SessionConfigError,
-    SessionError,
-)
-from harness.session.frames import marker_frame, tap_frame
-from harness.session.markers import (
+from harness.session.core.epochs import reset_epoch, restart
+from harness.session.core.frames import marker_frame, tap_frame
+from harness.session.core.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_CLOSE,
     MARKER_DISCONNECT,
@@ -76,24 +68,35 @@ from harness.session.markers import (
     open_connection,
     replay_marker,
 )
-from harness.session.options import DEFAULT_MAX_STEP_REQUEST, CoreOptions
-from harness.session.services import SERVICE_GET_STATE as SERVICE_GET_STATE
-from harness.session.services import SERVICE_PAUSE as SERVICE_PAUSE
-from harness.session.services import SERVICE_RESET as SERVICE_RESET
-from harness.session.services import SERVICE_STEP, HarnessServices
-from harness.session.stepping import PublishCounter
-from harness.session.topics import (
+from harness.session.core.naming import check_session_name
+from harness.session.core.options import (
+    DEFAULT_MAX_STEP_REQUEST,
+    START_MODES,
+    CoreOptions,
+    StartMode,
+)
+from harness.session.core.services import SERVICE_GET_STATE as SERVICE_GET_STATE
+from harness.session.core.services import SERVICE_PAUSE as SERVICE_PAUSE
+from harness.session.core.services import SERVICE_RESET as SERVICE_RESET
+from harness.session.core.services import SERVICE_STEP, HarnessServices
+from harness.session.core.stepping import PublishCounter
+from harness.session.core.topics import (
     TYPE_CLOCK,
     TYPE_JOINT_STATE,
     TYPE_TF,
     clock_msg,
     period_steps,
 )
-from harness.session.wiring import (
+from harness.session.core.wiring import (
     advertise_and_subscribe,
     publish_latched,
     published_topics,
     tf_trees,
+)
+from harness.session.errors import (
+    SessionClosedError,
+    SessionConfigError,
+    SessionError,
 )
 from harness.sim import Notice, Simulation
 from harness.sim.inputs import AppliedInput
@@ -126,9 +129,6 @@ __all__ = [
     "is_marker",
 ]
 
-StartMode = Literal["now", "paused", "on_client"]
-START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
-
 _LOG_NAME = "harness.session"
 LOG_NAME = _LOG_NAME
 """The ``name`` of the session's own log events (``/rosout``)."""
@@ -142,8 +142,10 @@ class RecordSink(Protocol):
     The state after each step goes through one slot (:meth:`physics_state_slot`; a sink
     taking :class:`PhysicsState` records makes one with
     :func:`harness.recording.stateslot.forwarding_slot`). A message is a dict in rosbridge
-    JSON form or, for the periodic topics, ``bytes``: its CDR
-    (:mod:`harness.recording.templates`)."""
+    JSON form or, for the periodic topics, one of the record types :mod:`harness.recording`
+    exports (:class:`~harness.recording.JointStateRecord`,
+    :class:`~harness.recording.TfRecord`, :class:`~harness.recording.ClockRecord`: the
+    recorder lays out their CDR; the core knows no file format)."""
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None: ...
 
@@ -156,10 +158,6 @@ class RecordSink(Protocol):
     ) -> PhysicsStateSlot: ...
 
     def write_epoch(self, epoch: Epoch) -> None: ...
-
-
-def _check_name(value: str, what: str, kind: NameKind = "topic") -> str:
-    return check_name(value, what, kind, SessionConfigError)
 
 
 class SessionCore:
@@ -221,7 +219,7 @@ class SessionCore:
             graph = BridgePort(self.bridge, self.fail)
         self.graph: Graph = graph
         self.robots = robot_channels(
-            self.sim, robot, self.namespace, options.command_topic, self, _check_name
+            self.sim, robot, self.namespace, options.command_topic, self, check_session_name
         )
         """Every robot's topics, joints and links, in the world's order."""
         self.topics = self.robots[0].topics
@@ -360,10 +358,10 @@ class SessionCore:
                     channels.topics.joint_states,
                     TYPE_JOINT_STATE,
                     partial(joint_state_message, t, channels, arrays),
-                    cdr=partial(joint_state_cdr, t, channels, arrays),
+                    recorded=partial(joint_state_record, t, channels, arrays),
                 )
         if self._clock_every and k % self._clock_every == 0:
-            self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), cdr=partial(clock_cdr, t))
+            self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), recorded=partial(ClockRecord, t))
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
                 # one kinematics pass serves the subscribers' message and the recording
@@ -372,7 +370,7 @@ class SessionCore:
                     topic,
                     TYPE_TF,
                     partial(tree.moving_message, relative, t),
-                    cdr=partial(tree.moving_cdr, relative, t),
+                    recorded=partial(tree.moving_record, relative, t),
                 )
         if self.sensors is not None:
             for due in self.sensors.due(sim.data, k, t):
@@ -400,13 +398,14 @@ class SessionCore:
         type: str,
         build: Callable[[], Mapping[str, Any]],
         *,
-        cdr: Callable[[], bytes] | None = None,
+        recorded: Callable[[], Any] | None = None,
         latch: bool = False,
         record: bool = True,
     ) -> None:
         """Publish on the graph (when someone listens or ``latch``) and record (``record``);
-        ``build`` makes the message only when needed; ``cdr``, when given, makes the same
-        message as CDR for the recording (:mod:`harness.recording.templates`)."""
+        ``build`` makes the message only when needed; ``recorded``, when given, makes the same
+        message as the record the recorder takes instead of the dict (a periodic record of
+        :mod:`harness.recording`: :class:`~harness.recording.JointStateRecord`, ...)."""
         self.record_frames()
         self.publish_counts.note(topic)
         recorder = self.recorder if record else None
@@ -416,11 +415,11 @@ class SessionCore:
         now = self.sim.sim_time_ns
         msg = None
         if recorder is not None:
-            if cdr is None:
+            if recorded is None:
                 msg = build()
                 recorder.write_message(topic, type, msg, sim_time_ns=now)
             else:
-                recorder.write_message(topic, type, cdr(), sim_time_ns=now)
+                recorder.write_message(topic, type, recorded(), sim_time_ns=now)
         if send:
             self.graph.publish(topic, type, build() if msg is None else msg, now, latch=latch)
 

@@ -10,7 +10,7 @@ state (commands, controllers, failure).
 
 from __future__ import annotations
 
-from harness.recording.records import Epoch
+from harness.recording import Epoch
 from harness.sim import Simulation
 
 __all__ = ["reset_epoch", "restart"]

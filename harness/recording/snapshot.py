@@ -18,7 +18,7 @@ from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from harness.session.errors import SessionError
+from harness.recording.errors import RecordingWriteError
 
 __all__ = ["complete_prefix"]
 
@@ -58,7 +58,7 @@ def complete_prefix(prefix: bytes, target: str | os.PathLike[str], compression: 
                     writer.start(profile=record.profile, library=record.library)
                     started = True
                 elif not started:
-                    raise SessionError(f"{target}: the recording prefix has no MCAP header")
+                    raise RecordingWriteError(f"{target}: the recording prefix has no MCAP header")
                 elif isinstance(record, Schema):
                     schema_ids[record.id] = writer.register_schema(
                         record.name, record.encoding, record.data
@@ -89,7 +89,7 @@ def complete_prefix(prefix: bytes, target: str | os.PathLike[str], compression: 
                 elif isinstance(record, Metadata):
                     writer.add_metadata(record.name, dict(record.metadata))
             if not started:
-                raise SessionError(f"{target}: the recording prefix has no MCAP header")
+                raise RecordingWriteError(f"{target}: the recording prefix has no MCAP header")
             writer.finish()  # type: ignore[no-untyped-call]
         os.replace(tmp, target)
     except BaseException:

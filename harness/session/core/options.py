@@ -25,38 +25,42 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, NamedTuple, TypedDict
+from typing import Any, Literal, NamedTuple, TypedDict
 
 from harness.controllers import ControllersConfig
 from harness.models import ControlMode, LoadedWorld, RobotSpec, WorldObject
 from harness.models.build.decompose import MeshCollision
 from harness.models.world.records import BaseKind, SelfCollision
 from harness.sensors import SensorSpec
-from harness.session.control import (
+from harness.session.core.control import (
     ControllersOption,
     controllers_from_metadata,
     controllers_metadata,
     controllers_option,
 )
+from harness.session.core.naming import check_session_name
 from harness.session.errors import SessionConfigError
 from harness.vocabulary import CLOCK_MODES, ClockMode, LimitPolicy
-
-if TYPE_CHECKING:
-    from harness.session.core import StartMode
 
 __all__ = [
     "DEFAULT_MAX_STEP_REQUEST",
     "SESSION_KEYWORDS",
+    "START_MODES",
     "CoreOptions",
     "LoadOptions",
     "RecordOptions",
     "SessionKeywords",
+    "StartMode",
     "TransportOptions",
     "group_keywords",
 ]
 
 DEFAULT_MAX_STEP_REQUEST = 100_000
 """Default cap of one ``/harness/step`` request (steps run while the loop is blocked)."""
+
+StartMode = Literal["now", "paused", "on_client"]
+START_MODES: tuple[StartMode, ...] = ("now", "paused", "on_client")
+"""How a free-running clock starts (:attr:`CoreOptions.start`)."""
 
 
 class _Codec(NamedTuple):
@@ -183,8 +187,6 @@ class CoreOptions:
     """The session seed (sensor noise); recorded as the ``seed`` metadata key."""
 
     def __post_init__(self) -> None:
-        from harness.session.core import START_MODES, _check_name
-
         if not isinstance(self.controllers, ControllersConfig) and self.controllers not in (
             "default",
             "none",
@@ -248,7 +250,9 @@ class CoreOptions:
                 raise SessionConfigError(f"{what} must be >= 0 Hz, not {hz!r}")
         if self.namespace:
             object.__setattr__(
-                self, "namespace", _check_name(self.namespace, "namespace", "namespace").strip("/")
+                self,
+                "namespace",
+                check_session_name(self.namespace, "namespace", "namespace").strip("/"),
             )
         try:
             object.__setattr__(self, "kinematic_limits", LimitPolicy.parse(self.kinematic_limits))
@@ -262,14 +266,14 @@ class CoreOptions:
                         f"joint_command_topic[{namespace!r}] must map a namespace to a topic "
                         f"name, not {topic!r}"
                     )
-                _check_name(topic, f"joint_command_topic[{namespace!r}]")
+                check_session_name(topic, f"joint_command_topic[{namespace!r}]")
             object.__setattr__(self, "joint_command_topic", MappingProxyType(dict(topics)))
         elif not isinstance(topics, str):
             raise SessionConfigError(
                 f"joint_command_topic must be a topic name or namespace -> name, not {topics!r}"
             )
         else:
-            _check_name(topics, "joint_command_topic")
+            check_session_name(topics, "joint_command_topic")
 
     def command_topic(self, namespace: str) -> str:
         """The joint command topic name of the robot with ``namespace``."""

@@ -1,7 +1,7 @@
 """The pieces of :meth:`Session.close <harness.session.Session.close>`: the deterministic close
 of the port (:func:`close_port`), the driver's and the loop's other tasks' end
 (:func:`stop_driver`, :func:`cancel_other_tasks`), run on the session's loop before its
-thread ends (:meth:`~harness.session.loopthread.LoopThread.stop`). What they guarantee:
+thread ends (:meth:`~harness.session.live.loopthread.LoopThread.stop`). What they guarantee:
 
 :meth:`Session.close <harness.session.Session.close>` ends a recording the same way for the
 same client behaviour: the free-running clock stops; the frames already received are
@@ -29,8 +29,8 @@ import asyncio
 import contextlib
 from collections.abc import Callable
 
-from harness.session.core import SessionCore
-from harness.session.ports import Port
+from harness.session.core.engine import SessionCore
+from harness.session.live.ports import Port
 
 __all__ = ["cancel_other_tasks", "close_port", "stop_driver"]
 

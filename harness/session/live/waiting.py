@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Callable
 
-from harness.session.core import SessionCore
+from harness.session.core.engine import SessionCore
 from harness.session.errors import SessionError, SimTimeoutError
 from harness.sim import Simulation
 

@@ -2,7 +2,7 @@
 framework's topology: ROS 2 nodes on DDS, a rosbridge server relaying, the simulator connected
 to it as a client).
 
-The session keeps its own :class:`~harness.session.bridge.SessionBridge`, exactly as in server
+The session keeps its own :class:`~harness.session.core.bridge.SessionBridge`, exactly as in server
 mode, and the link to the external server is one connection of it (the *upstream* connection).
 So every frame is recorded, and replayed at ``--level full``, as a server-mode client's frames
 are: what the external server sends (``publish`` of a command topic, ``call_service`` of a
@@ -24,7 +24,7 @@ the gap as transport status markers.
 
 A frame the port cannot send (the link is down, or the send failed) is lost, as on any
 rosbridge link; it is counted (:attr:`UpstreamStats.send_failures`), logged (``logging``
-logger ``harness.session.upstream``) and reported: the first of each outage as a transport
+logger ``harness.session.live.upstream``) and reported: the first of each outage as a transport
 status of the upstream connection (recorded as a ``harness/transport_status`` marker, so a
 replay shows it where it happened), and how many were lost when the link is back.
 """
@@ -44,7 +44,7 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 
 from harness.rosbridge import Output
 from harness.rosbridge.offer import Offer, offer_of
-from harness.session.bridge import SessionBridge
+from harness.session.core.bridge import SessionBridge
 from harness.session.errors import SessionError
 
 __all__ = ["UpstreamError", "UpstreamPort", "UpstreamStats", "redact"]
@@ -99,7 +99,7 @@ def redact(url: str) -> str:
 
 
 class UpstreamPort:
-    """A :class:`~harness.session.ports.Port` connecting the session's bridge to an external
+    """A :class:`~harness.session.live.ports.Port` connecting the session's bridge to an external
     rosbridge server at ``url`` (a token goes in the URL). ``allow_refused``: start even when
     the server refuses some of the simulation's topics or services (they are left out and
     listed in :attr:`stats`); ``connect_timeout``: wall seconds to reach the server at the

@@ -49,7 +49,7 @@ Topics (relative names live under the robot's namespace, ``/<ns>/...``; ``/clock
 (``tf2_msgs/msg/TFMessage``: each moving link's pose in its parent link's frame, following
 the description's joints; a floating or mocap root's in ``world``), ``tf_static`` (latched
 ``tf2_msgs/msg/TFMessage``, once: fixed joints, sensor mounts, a base fixed to ``world``;
-:mod:`harness.session.tf`), ``robot_description`` (latched ``std_msgs/msg/String``: the
+:mod:`harness.session.core.tf`), ``robot_description`` (latched ``std_msgs/msg/String``: the
 source URDF/SDF/MJCF text), ``/rosout`` (log events); commands on ``joint_command``,
 ``joint_trajectory`` and the forward controller topics (:mod:`harness.controllers.command_topics`).
 Every published topic is on the graph with its type from the start (a client that advertises
@@ -90,10 +90,10 @@ A value beyond a joint's limits is clamped (dynamic modes; kinematic mode when
 
 Recording and closing
 ---------------------
-What a recording holds and :meth:`Session.snapshot`: :mod:`harness.session.recordfile`.
+What a recording holds and :meth:`Session.snapshot`: :mod:`harness.session.live.recordfile`.
 :meth:`Session.close` ends a recording the same way for the same client behaviour (every frame
 a client sent before it received the server's close frame is processed as at a step
-boundary): :mod:`harness.session.teardown`.
+boundary): :mod:`harness.session.live.teardown`.
 
 Structure
 ---------
@@ -101,10 +101,10 @@ The per-step logic is :class:`~harness.session.core.SessionCore` (sans-I/O); thi
 the shell around it: the thread, the asyncio loop, the WebSocket server or client, the clock
 modes, and the Python API handing calls to the loop. ``harness replay --level full`` drives a
 fresh core with a recording's frames. The shell's pieces outside its hot path have modules of
-their own: building (:mod:`harness.session.startup`, :mod:`harness.session.assembly`), the
-thread and its loop (:mod:`harness.session.loopthread`), the recording file
-(:mod:`harness.session.recordfile`), ``step``/``run_until`` from Python
-(:mod:`harness.session.waiting`) and closing (:mod:`harness.session.teardown`).
+their own: building (:mod:`harness.session.live.startup`, :mod:`harness.session.live.assembly`), the
+thread and its loop (:mod:`harness.session.live.loopthread`), the recording file
+(:mod:`harness.session.live.recordfile`), ``step``/``run_until`` from Python
+(:mod:`harness.session.live.waiting`) and closing (:mod:`harness.session.live.teardown`).
 """
 
 from __future__ import annotations
@@ -127,34 +127,34 @@ import numpy.typing as npt
 from harness.events import Logger, Sink, SinkReport
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.recording import Recorder
-from harness.session import heap
-from harness.session.assembly import build_core, resolve_run, ros2_domain, start_ros2
-from harness.session.core import (
+from harness.session.core.engine import (
     CLOCK_MODES,
     ClockMode,
     SessionCore,
     SessionTopics,
     StartMode,
 )
-from harness.session.errors import (
-    ClientTimeoutError,
-    SessionError,
-)
-from harness.session.loopthread import LoopThread
-from harness.session.options import (
+from harness.session.core.options import (
     CoreOptions,
     LoadOptions,
     RecordOptions,
     SessionKeywords,
     TransportOptions,
 )
-from harness.session.pacing import Anchor, frames_until, pace, waiting_until
-from harness.session.ports import Port, ServerPort
-from harness.session.recordfile import flush_at_boundary, start_recorder, write_snapshot
-from harness.session.startup import option_groups
-from harness.session.teardown import cancel_other_tasks, close_port, stop_driver
-from harness.session.upstream import UpstreamStats
-from harness.session.waiting import run_steps, run_until_free, run_until_lockstep
+from harness.session.errors import (
+    ClientTimeoutError,
+    SessionError,
+)
+from harness.session.live import heap
+from harness.session.live.assembly import build_core, resolve_run, ros2_domain, start_ros2
+from harness.session.live.loopthread import LoopThread
+from harness.session.live.pacing import Anchor, frames_until, pace, waiting_until
+from harness.session.live.ports import Port, ServerPort
+from harness.session.live.recordfile import flush_at_boundary, start_recorder, write_snapshot
+from harness.session.live.startup import option_groups
+from harness.session.live.teardown import cancel_other_tasks, close_port, stop_driver
+from harness.session.live.upstream import UpstreamStats
+from harness.session.live.waiting import run_steps, run_until_free, run_until_lockstep
 from harness.sim import Notice, Simulation
 
 if TYPE_CHECKING:
@@ -175,11 +175,11 @@ class Session:
     call :meth:`close`): teardown stops stepping, closes every connection and the server,
     joins the thread and closes the recording, also when the ``with`` body raised.
 
-    Options come as objects, one per concern (:mod:`harness.session.options`):
-    ``options`` (:class:`~harness.session.options.CoreOptions`: clock, rate, rates, topics,
-    limits, seed, ...), ``transport`` (:class:`~harness.session.options.TransportOptions`),
-    ``record`` (:class:`~harness.session.options.RecordOptions`, or the MCAP path) and ``load``
-    (:class:`~harness.session.options.LoadOptions`); or as keyword arguments spelled as those
+    Options come as objects, one per concern (:mod:`harness.session.core.options`):
+    ``options`` (:class:`~harness.session.core.options.CoreOptions`: clock, rate, rates, topics,
+    limits, seed, ...), ``transport`` (:class:`~harness.session.core.options.TransportOptions`),
+    ``record`` (:class:`~harness.session.core.options.RecordOptions`, or the MCAP path) and ``load``
+    (:class:`~harness.session.core.options.LoadOptions`); or as keyword arguments spelled as those
     fields (``Session(clock="fast", port=9090, record_to="run.mcap")``), the fields of a group
     given as an object not repeated as keywords. The keywords:
 
@@ -198,7 +198,7 @@ class Session:
     free port, see :attr:`url`; a non-loopback host issues an ``ExposedServerWarning``); ``token``:
     clients must present it (``?token=`` on the URL or ``Authorization: Bearer``; :attr:`url`
     carries it); ``connect_to``: a ``ws://`` URL of an external rosbridge server to use instead
-    (client mode: see :mod:`harness.session.upstream`; ``connect_allow_refused``: start even
+    (client mode: see :mod:`harness.session.live.upstream`; ``connect_allow_refused``: start even
     when that server refuses some of the simulation's topics or services). ``record_to``: an
     MCAP path (``state_every``: physics state every N steps). ``ros2``: also put the
     simulation on DDS for ROS 2 nodes (:mod:`harness.ros2`; :attr:`ros_domain_id`).
@@ -441,7 +441,7 @@ class Session:
 
     def _frames_until(self) -> float:
         """Realtime: how long this boundary may apply frames (a :func:`time.monotonic` time;
-        :func:`harness.session.pacing.frames_until`)."""
+        :func:`harness.session.live.pacing.frames_until`)."""
         return frames_until(
             self._anchor, time.monotonic(), self.sim.step_index, self.dt_ns, self.rate
         )
