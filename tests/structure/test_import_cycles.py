@@ -4,9 +4,6 @@ The graph is read from the source (:mod:`tests.structure.importgraph`): module-l
 imports inside functions and imports under ``if TYPE_CHECKING:`` all count, so a cycle cannot
 hide behind a lazy import. A failure prints each cycle as a closed path of modules.
 
-:data:`KNOWN_CYCLES` lists the cycles of packages being reorganised on other branches; each
-entry says who removes it, and the list is meant to become empty. A known cycle that is gone
-fails :func:`test_known_cycles_are_still_there`, so that its entry is removed with it.
 """
 
 from __future__ import annotations
@@ -14,25 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from tests.structure.importgraph import ROOT, cycle_in, cycles, import_graph
-
-KNOWN_CYCLES: tuple[frozenset[str], ...] = (
-    # models/: regrouped into subpackages by the lead (issue 32, "Edges straightened").
-    frozenset(
-        {
-            "harness.models.description",
-            "harness.models.limits",
-            "harness.models.ros2_control",
-            "harness.models.xacro",
-            "harness.models.xacro_eval",
-            "harness.models.xacro_meter",
-        }
-    ),
-    frozenset({"harness.models.compiler", "harness.models.robot_build"}),
-    # sensors/: registry -> base/spec under TYPE_CHECKING, spec -> registry; the sensor room
-    # (a registry filled from each sensor's own module) is being redrawn (issue 32, "Plug-in
-    # rooms"): left to that change rather than edited under it.
-    frozenset({"harness.sensors.base", "harness.sensors.registry", "harness.sensors.spec"}),
-)
 
 
 def _report(graph: dict[str, set[str]], found: list[frozenset[str]]) -> str:
@@ -42,22 +20,10 @@ def _report(graph: dict[str, set[str]], found: list[frozenset[str]]) -> str:
     )
 
 
-def _known(component: frozenset[str]) -> bool:
-    return any(component <= known for known in KNOWN_CYCLES)
-
-
 def test_no_import_cycle_in_harness() -> None:
     graph = import_graph()
-    found = [c for c in cycles(graph) if not _known(c)]
+    found = cycles(graph)
     assert not found, f"{len(found)} import cycle(s) in harness/:\n" + _report(graph, found)
-
-
-def test_known_cycles_are_still_there() -> None:
-    found = cycles(import_graph())
-    gone = [known for known in KNOWN_CYCLES if not any(c <= known for c in found)]
-    assert not gone, "no longer cycles, remove from KNOWN_CYCLES: " + "; ".join(
-        ", ".join(sorted(g)) for g in gone
-    )
 
 
 def test_the_session_core_is_a_layer_of_its_own() -> None:
