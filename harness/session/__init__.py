@@ -18,6 +18,7 @@ from harness.session.core import (
     StartMode,
     is_marker,
 )
+from harness.session.control import controllers_from_metadata
 from harness.session.errors import (
     ClientTimeoutError,
     CommandRefused,
@@ -53,5 +54,6 @@ __all__ = [
     "StartMode",
     "Trajectory",
     "TransportOptions",
+    "controllers_from_metadata",
     "is_marker",
 ]
