@@ -268,9 +268,7 @@ def resimulate_base(
         config,
         controllers=tuple(alternate if c is spec else c for c in config.controllers),
     )
-    rerun = _rerun(
-        robot, controllers, topic, msg_type, frames, int(recorded.steps[-1]), str(path)
-    )
+    rerun = _rerun(robot, controllers, topic, msg_type, frames, int(recorded.steps[-1]), str(path))
     steps = np.arange(rerun.shape[0], dtype=np.int64)
     common, ia, ib = np.intersect1d(recorded.steps, steps, return_indices=True)
     a = _poses(robot.model, recorded.qpos[ia], adr)

@@ -8,6 +8,7 @@ topics (``channels.py``), the bridge and graph (``bridge.py``), the graph set-up
 command topics it serves live in :mod:`harness.controllers.command_topics`."""
 
 from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory
+from harness.session.control import controllers_from_metadata
 from harness.session.core import (
     DEFAULT_MAX_STEP_REQUEST,
     MARKERS,
@@ -18,7 +19,6 @@ from harness.session.core import (
     StartMode,
     is_marker,
 )
-from harness.session.control import controllers_from_metadata
 from harness.session.errors import (
     ClientTimeoutError,
     CommandRefused,
