@@ -11,6 +11,8 @@ from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory
 from harness.session.control import controllers_from_metadata
 from harness.session.core import (
     DEFAULT_MAX_STEP_REQUEST,
+    FAILURE_PREFIX,
+    LOG_NAME,
     MARKERS,
     START_MODES,
     CoreOptions,
@@ -33,7 +35,9 @@ from harness.session.session import CLOCK_MODES, ClockMode, LoggerFactory, Sessi
 __all__ = [
     "CLOCK_MODES",
     "DEFAULT_MAX_STEP_REQUEST",
+    "FAILURE_PREFIX",
     "FORWARD_TOPICS",
+    "LOG_NAME",
     "MARKERS",
     "START_MODES",
     "ClientTimeoutError",
