@@ -68,6 +68,8 @@ alias_modules(
 from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory  # noqa: E402
 from harness.session.core import (  # noqa: E402
     DEFAULT_MAX_STEP_REQUEST,
+    FAILURE_PREFIX,
+    LOG_NAME,
     MARKERS,
     START_MODES,
     CoreOptions,
@@ -105,7 +107,9 @@ from harness.session.live import (  # noqa: E402
 __all__ = [
     "CLOCK_MODES",
     "DEFAULT_MAX_STEP_REQUEST",
+    "FAILURE_PREFIX",
     "FORWARD_TOPICS",
+    "LOG_NAME",
     "MARKERS",
     "SESSION_KEYWORDS",
     "START_MODES",

@@ -20,6 +20,35 @@ not client frames (:mod:`harness.session.core.markers`), the controllers
 Python loggers are not replayable from a file: what they
 publish on ``/rosout`` needs the same loggers (``loggers=`` of
 :func:`harness.replay.pipeline.replay_pipeline`).
+
+The whole state
+---------------
+Everything the rest of a run depends on is reachable from one :class:`SessionCore` value and
+is held by nothing else:
+
+- the simulation (:attr:`SessionCore.sim`: MuJoCo's data, the step index and so the
+  simulation time, each joint's control mode and command, the last applied input);
+- the controllers (:attr:`SessionCore.control`: every robot's controller manager, each
+  controller's state and the goals in flight; each robot's built-in command topics'
+  trajectory in :attr:`SessionCore.robots`);
+- the sensors (:attr:`SessionCore.sensors`: their schedules, and their noise streams, drawn
+  from :attr:`CoreOptions.seed` by sensor and step, so a stream is a function of the step);
+- the bridge graph (:attr:`SessionCore.bridge`: connections, advertisements, subscriptions,
+  services and calls in flight, send budgets, frame numbering);
+- the clock: the step index, :attr:`~SessionCore.paused`, :attr:`~SessionCore.awaiting_client`,
+  :attr:`~SessionCore.pause_at`, the clock mode and rate (:attr:`~SessionCore.options`, which
+  also fix the publishing schedule), the publication counts ``/harness/step`` waits on, the
+  resets so far, and :attr:`~SessionCore.failure`;
+- the event hub (loggers, sinks) and the recorder the core writes to.
+
+A live shell (:class:`~harness.session.Session`) keeps only I/O and wall time: its sockets
+and the frames waiting for the next step boundary (not yet input), the link to an external
+server, the loop thread, the realtime pacing's wall-clock anchor, ``run_until`` watchers,
+copies of the connection counts for other threads, the recording file. So a core brought to
+step ``k`` by a recording's inputs (as :mod:`harness.replay.pipeline` drives one) can be
+handed to a new shell and go on as the recorded run did. What a recording cannot rebuild is
+what never entered it: Python loggers (pass the same ones) and a :attr:`~SessionCore.pause_at`
+limit set from Python that has not fired yet.
 """
 
 from __future__ import annotations
@@ -251,6 +280,12 @@ class SessionCore:
         """Every topic the simulation publishes (type, node, latched), in advertising order."""
         self.publish_counts = PublishCounter()  # what /harness/step's until_topic counts
         self.paused = options.start != "now"
+        self.awaiting_client = options.start == "on_client"
+        """``start="on_client"``: the clock still waits for its first client
+        (:meth:`start_on_client`); any resume of the clock ends the wait."""
+        self.pause_at: int | None = None
+        """The step at whose boundary a free-running clock pauses (:meth:`pause_if_due`),
+        None for none (set from Python: :meth:`harness.session.Session.pause_at`)."""
         self.failure: BaseException | None = None
         """Why the simulation stopped (an unstable step, a logger or recording error...),
         else None."""
@@ -579,11 +614,32 @@ class SessionCore:
 
     def _set_paused(self, paused: bool) -> str:
         self.paused = paused
+        if not paused:
+            self.awaiting_client = False  # a recorded resume: a replay ends the wait alike
         self._clock_changed = True
         k = self.sim.step_index
         if self.clock == "lockstep":
             return f"lockstep clock: time moves only on {SERVICE_STEP} (step {k})"
         return f"paused at step {k}" if paused else f"running from step {k}"
+
+    def start_on_client(self) -> bool:
+        """At a step boundary, before the frames waiting there: start the clock of
+        ``start="on_client"`` once a connection has opened (recorded as a resume marker, so
+        before any of that client's frames). True when it started."""
+        bridge = self.bridge
+        if not self.awaiting_client or bridge is None or not bridge.opened:
+            return False
+        self.set_paused(False)
+        return True
+
+    def pause_if_due(self) -> bool:
+        """At a step boundary: pause a free-running clock that has reached :attr:`pause_at`
+        (recorded as a pause marker; the limit is then cleared). True when it paused."""
+        if self.pause_at is None or self.sim.step_index < self.pause_at:
+            return False
+        self.pause_at = None
+        self.set_paused(True)
+        return True
 
     def record_close(self) -> None:
         """Record the ``harness/close`` marker: the run ended after the current step."""

@@ -247,11 +247,9 @@ class Session:
         start = options.start
         self.clock: ClockMode = clock
         self.start: StartMode = start
-        self._start_on_client = start == "on_client"
         self._clients = threading.Condition()
         self._clients_seen = 0
         self._clients_open = 0
-        self._pause_at: int | None = None
         self._watchers: list[Callable[[], None]] = []  # run_until checks (free-running clock)
         self._watched_step = -1
         self.rate = options.rate
@@ -379,9 +377,7 @@ class Session:
                     self._boundary()
                     continue
                 self._boundary(self._frames_until() if self.clock == "realtime" else None)
-                if self._pause_at is not None and self.sim.step_index >= self._pause_at:
-                    self._pause_at = None
-                    core.set_paused(True)
+                if core.pause_if_due():
                     self._settle()
                 if core.paused or core.failure is not None:
                     continue
@@ -449,9 +445,7 @@ class Session:
     def _boundary(self, until: float | None = None) -> None:
         assert self._port is not None
         self._settle()
-        if self._start_on_client and self._clients_seen:
-            self._start_on_client = False
-            self.core.set_paused(False)  # before the client's first frame
+        self.core.start_on_client()  # before the client's first frame
         self._port.process_pending(self.sim.sim_time_ns, until)
         self._settle()
 
@@ -524,7 +518,7 @@ class Session:
             raise SessionError(f"pause_at step must be an integer >= 0 or None, not {step!r}")
 
         def set_limit() -> None:
-            self._pause_at = step
+            self.core.pause_at = step
             if self._port is not None:
                 self._port.wake.set()
 
