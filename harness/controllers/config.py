@@ -52,6 +52,8 @@ __all__ = [
 
 DEFAULT_UPDATE_RATE = 100.0
 """controller_manager's ``update_rate`` default (Hz)."""
+_MANAGER_GROUPS = frozenset({"hardware_components_initial_state"})
+"""controller_manager parameters that are mappings, not controllers."""
 TYPE_JOINT_STATE_BROADCASTER = "joint_state_broadcaster/JointStateBroadcaster"
 TYPE_JOINT_TRAJECTORY = "joint_trajectory_controller/JointTrajectoryController"
 TYPE_FORWARD = "forward_command_controller/ForwardCommandController"
@@ -198,8 +200,8 @@ def load_controllers(
             del manager[key]
     specs: list[ControllerSpec] = []
     for name, entry in manager.items():
-        if not isinstance(entry, Mapping):
-            continue  # a manager parameter (update_rate, ...)
+        if not isinstance(entry, Mapping) or name in _MANAGER_GROUPS:
+            continue  # a manager parameter (update_rate, hardware_components_initial_state...)
         own = {**common, **sections.get(name, {})}
         ctype = entry.get("type", own.get("type"))
         if not isinstance(ctype, str) or "/" not in ctype:
