@@ -138,6 +138,22 @@ def _node_name(key: object) -> str:
     return str(key).rstrip("/").rsplit("/", 1)[-1]
 
 
+def _one_manager(where: str, key: str, name: str, spaces: dict[str, str]) -> None:
+    """Refuse a node configured under two explicit namespaces (``/rrbot_1/forward_position_
+    controller`` and ``/rrbot_2/...``): that is several controller managers, one per namespace,
+    and the harness gives one configuration to every robot of a session."""
+    space = key.rstrip("/").rpartition("/")[0]
+    if not space or "*" in space:
+        return
+    other = spaces.setdefault(name, space)
+    if other != space:
+        raise ControllersConfigError(
+            f"{where}: {other}/{name} and {space}/{name}: several controller managers (one "
+            "per namespace) are not supported: the harness gives one controllers configuration "
+            "to every robot of a session"
+        )
+
+
 ControllersSource = str | Path | Mapping[str, Any]
 """One controllers YAML: a file path, YAML text, or the parsed mapping."""
 
@@ -165,6 +181,7 @@ def load_controllers(
     sections: dict[str, dict[str, Any]] = {}
     common: dict[str, Any] = {}
     names: list[str] = []
+    spaces: dict[str, str] = {}
     for one in sources:
         where, data = _read(one, values)
         names.append(where)
@@ -175,6 +192,7 @@ def load_controllers(
                 )
             params = dict(body.get(_PARAMS) or {})
             name = _node_name(key)
+            _one_manager(where, str(key), name, spaces)
             _merge(common if name == "**" else sections.setdefault(name, {}), params)
     where = " + ".join(names)
     manager = sections.get(_MANAGER)

@@ -100,7 +100,7 @@ class Params:
             raise self.error("names no joints")
         for name in names:
             if name not in known and "/" in name:
-                controller = name.rpartition("/")[0]
+                controller = name.partition("/")[0]
                 raise self.error(
                     f"joint {name!r} is a reference interface of controller {controller!r}: "
                     "chained controllers are not supported by the harness"

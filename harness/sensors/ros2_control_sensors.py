@@ -8,8 +8,9 @@ with ``force.x`` ... ``torque.z`` state interfaces and ``<param name="frame_id">
 has no simulator sensor of that name: the harness adds one, of the kind its state interfaces
 name (every interface among a force-torque sensor's: ``force_torque``; among an IMU's:
 ``imu``), mounted on the link its ``frame_id`` parameter names (the frame its values are in,
-as the ros2_control convention has it) and published in that frame. A ``<sensor>`` whose
-interfaces fit no kind, or without ``frame_id``, is left out: a broadcaster that names it
+as the ros2_control convention has it; a xacro macro that prefixed the sensor's name but
+not its ``frame_id`` gets the link with the same prefix) and published in that frame. A
+``<sensor>`` whose interfaces fit no kind, or without a ``frame_id`` naming a link, is left out: a broadcaster that names it
 is refused with the interfaces the robot has.
 
 A simulated force-torque sensor has all six interfaces, an IMU all ten, whatever subset the tag
@@ -41,6 +42,21 @@ def _kind(interfaces: Sequence[str]) -> str | None:
     return None
 
 
+def _link(frame: str, sensor: str, links: set[str]) -> str:
+    """The link ``frame`` names: itself, else the one a xacro macro prefixed as it prefixed
+    the sensor (``frame_id`` ``tool_link`` of the sensor ``rrbot_tcp_fts_sensor`` is
+    ``rrbot_tool_link``: ros2_control_demos' example 13 reuses example 5's tag so); "" when
+    no link fits."""
+    if not frame or frame in links:
+        return frame
+    fits = [
+        link
+        for link in links
+        if link.endswith(frame) and sensor.startswith(link.removesuffix(frame))
+    ]
+    return max(fits, key=len) if fits else ""
+
+
 def ros2_control_sensors(
     sources: Mapping[str, bytes], declared: Sequence[SensorSpec] = ()
 ) -> list[SensorSpec]:
@@ -57,6 +73,7 @@ def ros2_control_sensors(
             root = etree.fromstring(blob, etree.XMLParser(resolve_entities=False, no_network=True))
         except etree.XMLSyntaxError:
             continue  # the model reader has refused it with its own message already
+        links = {str(link.get("name")) for link in root.iterfind("link")}
         for sensor in root.iterfind("ros2_control/sensor"):
             sensor_name = sensor.get("name") or ""
             interfaces = [str(i.get("name") or "") for i in sensor.iterfind("state_interface")]
@@ -64,7 +81,7 @@ def ros2_control_sensors(
                 str(p.get("name")): (p.text or "").strip() for p in sensor.iterfind("param")
             }
             kind = _kind(interfaces)
-            frame = params.get("frame_id", "")
+            frame = _link(params.get("frame_id", ""), sensor_name, links)
             if not sensor_name or sensor_name in names or kind is None or not frame:
                 continue
             names.add(sensor_name)

@@ -42,13 +42,17 @@ def controllers(
     spawned: Sequence[str] | None = None,
     update_rate: float | None = None,
     args: Mapping[str, str] | None = None,
+    extra: Mapping[str, Any] | None = None,
 ) -> ControllersConfig:
     """The example's controllers YAML as its launch file loads it: ``update_rate`` where the
     launch file sets the manager's (a parameter of ``ros2_control_node``), ``args`` for its
-    ``$(var ...)`` and only the ``spawned`` controllers (every one when None)."""
+    ``$(var ...)``, ``extra`` parameters (a spawner's remapping: ``cmd_vel_topic``...) and
+    only the ``spawned`` controllers (every one when None)."""
     sources: list[Any] = [config_path(n, name)]
     if update_rate is not None:
         sources.append({"controller_manager": {"ros__parameters": {"update_rate": update_rate}}})
+    if extra is not None:
+        sources.append(extra)
     config = load_controllers(sources, args=args)
     if spawned is not None:
         specs = tuple(s for s in config.controllers if s.name in spawned)
