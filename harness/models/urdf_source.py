@@ -20,7 +20,11 @@ from harness.models.description import ControlMode, RobotModel
 from harness.models.errors import ModelStructureError, XacroError
 from harness.models.lenient import LoadNote, read_lenient_xml
 from harness.models.resolve import PackageMap, resolve_uri
-from harness.models.ros2_control import interface_modes, parse_ros2_control
+from harness.models.ros2_control import (
+    add_control_mimics,
+    interface_modes,
+    parse_ros2_control,
+)
 from harness.models.urdf import urdf_from_element
 from harness.models.xacro import RobotArgs, XacroOrigin, expand_xacro, is_xacro, normalize_args
 from harness.models.xmlsafe import parse_xml
@@ -102,6 +106,7 @@ def read_urdf_source(
 def describe_urdf(root: Any, source: str, origin: XacroOrigin | None = None) -> RobotModel:
     """The :class:`RobotModel` of a URDF element with its ``<ros2_control>`` blocks and xacro
     origin."""
+    add_control_mimics(root, source)
     description = urdf_from_element(root, source)
     return dataclasses.replace(
         description, ros2_control=parse_ros2_control(root, source), xacro=origin
