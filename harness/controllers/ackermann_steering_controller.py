@@ -56,9 +56,7 @@ class AckermannSteeringController(SteeringController):
         angles = [math.atan2(numerator, first + second), math.atan2(numerator, first - second)]
         return axle_speeds(self.geom, v, phi), angles
 
-    def measured(
-        self, traction: Sequence[float], steering: Sequence[float]
-    ) -> tuple[float, float]:
+    def measured(self, traction: Sequence[float], steering: Sequence[float]) -> tuple[float, float]:
         """The middle angle from both steering joints, ``v`` from both wheels."""
         length, half = self.geom.wheelbase, self.steering_track / 2
         right = math.atan(length * math.tan(steering[0]) / (length - half * math.tan(steering[0])))

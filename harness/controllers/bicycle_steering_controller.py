@@ -42,9 +42,7 @@ class BicycleSteeringController(SteeringController):
         """The wheel at ``v / r``, the steering at the middle wheel's angle."""
         return [v / self.geom.radius], [self.steering_angle(v, w)]
 
-    def measured(
-        self, traction: Sequence[float], steering: Sequence[float]
-    ) -> tuple[float, float]:
+    def measured(self, traction: Sequence[float], steering: Sequence[float]) -> tuple[float, float]:
         """``v`` from the wheel, ``w`` from the steering angle."""
         v = traction[0] * self.geom.radius
         return v, math.tan(steering[0]) * v / self.geom.wheelbase

@@ -127,9 +127,7 @@ class SteeringController(ControllerBase):
             *(f"{j}/{feedback}" for j in self.traction_state),
             *(f"{j}/position" for j in self.steering_state),
         )
-        self.subscriptions = (
-            TopicEndpoint(p.string("reference_topic", "~/reference"), _TWIST),
-        )
+        self.subscriptions = (TopicEndpoint(p.string("reference_topic", "~/reference"), _TWIST),)
         publishers = [TopicEndpoint(self.frames.topic, _ODOM)]
         if odom_tf:
             publishers.append(TopicEndpoint(self.tf_topic, _TF))
@@ -160,9 +158,7 @@ class SteeringController(ControllerBase):
         ``v``, ``w``: the library's ``get_commands``."""
         raise NotImplementedError
 
-    def measured(
-        self, traction: Sequence[float], steering: Sequence[float]
-    ) -> tuple[float, float]:
+    def measured(self, traction: Sequence[float], steering: Sequence[float]) -> tuple[float, float]:
         """(v, w) of the base from the traction wheels' velocities (rad/s) and the steering
         angles: the library's ``update_from_velocity``."""
         raise NotImplementedError

@@ -76,9 +76,7 @@ class TricycleSteeringController(SteeringController):
         steer = self.steering_angle(v, w)
         return axle_speeds(self.geom, v, steer), [steer]
 
-    def measured(
-        self, traction: Sequence[float], steering: Sequence[float]
-    ) -> tuple[float, float]:
+    def measured(self, traction: Sequence[float], steering: Sequence[float]) -> tuple[float, float]:
         """``v`` from both wheels, ``w`` from the steering angle."""
         v = axle_velocity(self.geom, traction[0], traction[1], steering[0])
         return v, math.tan(steering[0]) * v / self.geom.wheelbase

@@ -36,10 +36,10 @@ __all__ = [
     "ControlJoint",
     "HardwareReplacedWarning",
     "Ros2Control",
+    "add_control_mimics",
     "interface_modes",
     "parse_ros2_control",
     "warn_replaced_hardware",
-    "add_control_mimics",
 ]
 
 SIMULATED_PLUGINS: frozenset[str] = frozenset(

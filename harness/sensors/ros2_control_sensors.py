@@ -10,8 +10,8 @@ name (every interface among a force-torque sensor's: ``force_torque``; among an 
 ``imu``), mounted on the link its ``frame_id`` parameter names (the frame its values are in,
 as the ros2_control convention has it; a xacro macro that prefixed the sensor's name but
 not its ``frame_id`` gets the link with the same prefix) and published in that frame. A
-``<sensor>`` whose interfaces fit no kind, or without a ``frame_id`` naming a link, is left out: a broadcaster that names it
-is refused with the interfaces the robot has.
+``<sensor>`` whose interfaces fit no kind, or without a ``frame_id`` naming a link, is left
+out: a broadcaster that names it is refused with the interfaces the robot has.
 
 A simulated force-torque sensor has all six interfaces, an IMU all ten, whatever subset the tag
 declares: a broadcaster naming ``interface_names`` reads the subset it names.
@@ -77,9 +77,7 @@ def ros2_control_sensors(
         for sensor in root.iterfind("ros2_control/sensor"):
             sensor_name = sensor.get("name") or ""
             interfaces = [str(i.get("name") or "") for i in sensor.iterfind("state_interface")]
-            params = {
-                str(p.get("name")): (p.text or "").strip() for p in sensor.iterfind("param")
-            }
+            params = {str(p.get("name")): (p.text or "").strip() for p in sensor.iterfind("param")}
             kind = _kind(interfaces)
             frame = _link(params.get("frame_id", ""), sensor_name, links)
             if not sensor_name or sensor_name in names or kind is None or not frame:

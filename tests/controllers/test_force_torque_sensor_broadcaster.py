@@ -30,7 +30,9 @@ SENSORS = [{"name": "ft", "type": "force_torque", "joint": "wrist", "noise_stdde
 
 
 def _ns(msg: dict) -> int:
-    return int(msg["header"]["stamp"]["sec"]) * 1_000_000_000 + int(msg["header"]["stamp"]["nanosec"])
+    return int(msg["header"]["stamp"]["sec"]) * 1_000_000_000 + int(
+        msg["header"]["stamp"]["nanosec"]
+    )
 
 
 def test_a_client_receives_what_the_sensor_measures_at_that_step() -> None:
@@ -60,9 +62,7 @@ def test_a_client_receives_what_the_sensor_measures_at_that_step() -> None:
 
 
 def test_interface_names_publish_the_named_axes_and_nan_for_the_others() -> None:
-    yaml = YAML.replace(
-        "sensor_name: ft", "interface_names:\n      force:\n        z: ft/force.z"
-    )
+    yaml = YAML.replace("sensor_name: ft", "interface_names:\n      force:\n        z: ft/force.z")
     with (
         Session(RIG, sensors=SENSORS, controllers=yaml, seed=3) as session,
         connect(session.url) as client,

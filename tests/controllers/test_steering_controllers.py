@@ -64,7 +64,9 @@ class IdealJoints:
 def _circle_radius(published: list[Any]) -> float:
     """The radius of the circle through three odometry poses (first, middle, last)."""
     poses = [p.msg["pose"]["pose"]["position"] for p in published if p.topic == "~/odometry"]
-    (x1, y1), (x2, y2), (x3, y3) = [(q["x"], q["y"]) for q in (poses[0], poses[len(poses) // 2], poses[-1])]
+    (x1, y1), (x2, y2), (x3, y3) = [
+        (q["x"], q["y"]) for q in (poses[0], poses[len(poses) // 2], poses[-1])
+    ]
     a = math.dist((x1, y1), (x2, y2))
     b = math.dist((x2, y2), (x3, y3))
     c = math.dist((x1, y1), (x3, y3))
@@ -97,8 +99,9 @@ def test_bicycle_commands_are_the_example_11_userdoc_s() -> None:
 
 def test_tricycle_spreads_the_speed_over_its_axle_and_circles_on_the_model_radius() -> None:
     ctrl = _build(
-        TRICYCLE, traction_joints_names=["rear_right", "rear_left"], steering_joints_names=["front"],
-        wheelbase=0.5, traction_track_width=0.4, traction_wheels_radius=0.1,
+        TRICYCLE, traction_joints_names=["rear_right", "rear_left"],
+        steering_joints_names=["front"], wheelbase=0.5, traction_track_width=0.4,
+        traction_wheels_radius=0.1,
     )  # fmt: skip
     joints = IdealJoints()
     ctrl.activate(joints.readings())
@@ -149,12 +152,21 @@ def test_the_traction_stops_after_the_reference_timeout() -> None:
     assert joints.position["front"] == pytest.approx(math.atan(0.5 * 0.325))  # keeps its angle
 
 
+ONE_ONE = {"traction_joints_names": ["rear"], "steering_joints_names": ["front"]}
+AXLE = {"wheelbase": 0.5, "traction_track_width": 0.4, "traction_wheels_radius": 0.1}
+
+
 @pytest.mark.parametrize(
     ("type", "params", "message"),
     [
-        (BICYCLE, {"traction_joints_names": ["rear"], "steering_joints_names": ["front"], "traction_wheel_radius": 0.05}, "wheelbase"),
-        (TRICYCLE, {"traction_joints_names": ["rear"], "steering_joints_names": ["front"], "wheelbase": 0.5, "traction_track_width": 0.4, "traction_wheels_radius": 0.1}, "traction_joints_names must name 2 joint(s), not 1"),
-        (BICYCLE, {"traction_joints_names": ["nope"], "steering_joints_names": ["front"], "wheelbase": 0.3, "traction_wheel_radius": 0.05}, "joint 'nope' is not a controllable joint"),
+        (BICYCLE, {**ONE_ONE, "traction_wheel_radius": 0.05}, "wheelbase"),
+        (TRICYCLE, {**ONE_ONE, **AXLE}, "traction_joints_names must name 2 joint(s), not 1"),
+        (
+            BICYCLE,
+            {**ONE_ONE, "traction_joints_names": ["nope"], "wheelbase": 0.3,
+             "traction_wheel_radius": 0.05},
+            "joint 'nope' is not a controllable joint",
+        ),
     ],
 )  # fmt: skip
 def test_a_bad_configuration_is_one_line(type: str, params: dict[str, Any], message: str) -> None:

@@ -19,7 +19,10 @@ from harness.testing import Subscription
 
 DEMOS = Path(__file__).resolve().parents[2] / "data" / "controllers" / "ros2_control_demos"
 PACKAGES = {
-    **{f"ros2_control_demo_example_{n}": DEMOS / f"example_{n}" / "description" for n in range(1, 18)},
+    **{
+        f"ros2_control_demo_example_{n}": DEMOS / f"example_{n}" / "description"
+        for n in range(1, 18)
+    },
     "ros2_control_demo_description": DEMOS / "ros2_control_demo_description",
 }
 """Each example package installs its ``description/`` folder as its share folder (CMakeLists)."""

@@ -17,7 +17,11 @@ from harness.testing import connect
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "controllers" / "mimic"
 FILES = {"urdf_mimic": ("mimic_pair.urdf", 0.1), "ros2_control_param": ("mimic_param.urdf", 0.0)}
-COMMANDS = {"position": {"position": 0.5}, "velocity": {"velocity": 0.3}, "effort": {"effort": 0.05}}
+COMMANDS = {
+    "position": {"position": 0.5},
+    "velocity": {"velocity": 0.3},
+    "effort": {"effort": 0.05},
+}
 
 
 @pytest.mark.parametrize("mode", sorted(COMMANDS))
@@ -41,7 +45,9 @@ def test_the_follower_keeps_its_law_under_every_interface(declared: str, mode: s
 def test_a_mimic_parameter_naming_no_joint_is_one_line(tmp_path: Path) -> None:
     text = (DATA / "mimic_param.urdf").read_text("utf-8")
     bad = tmp_path / "bad.urdf"
-    bad.write_text(text.replace('<param name="mimic">leader</param>', '<param name="mimic">lead</param>'))
+    bad.write_text(
+        text.replace('<param name="mimic">leader</param>', '<param name="mimic">lead</param>')
+    )
     with pytest.raises(ModelError) as info:
         load_robot(bad)
     message = str(info.value)

@@ -19,7 +19,10 @@ STEP = 0.002  # the harness's default time step (s)
 
 
 def _twist(linear: float, angular: float = 0.0) -> dict[str, Any]:
-    twist = {"linear": {"x": linear, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": angular}}
+    twist = {
+        "linear": {"x": linear, "y": 0.0, "z": 0.0},
+        "angular": {"x": 0.0, "y": 0.0, "z": angular},
+    }
     return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "base_link"}, "twist": twist}
 
 
@@ -108,7 +111,10 @@ def test_carlikebot_turns_on_the_bicycle_model_radius_of_its_wheelbase() -> None
         first = len(odom.messages)
         _publish_for(client, "/bicycle_steering_controller/reference", _twist(v, w), 5.0, 30)
         track = np.array([_xy(m) for m in odom.messages[first:]])
-        steering, wheel = latest(states, ["virtual_front_wheel_joint", "virtual_rear_wheel_joint"])[0], latest(states, ["virtual_rear_wheel_joint"], "velocity")[0]
+        steering, wheel = (
+            latest(states, ["virtual_front_wheel_joint", "virtual_rear_wheel_joint"])[0],
+            latest(states, ["virtual_rear_wheel_joint"], "velocity")[0],
+        )
     # the controller's commands: the bicycle model's angle and v / r
     assert steering == pytest.approx(steer, abs=0.01)
     assert wheel == pytest.approx(v / TRACTION_RADIUS, rel=0.02)

@@ -14,7 +14,7 @@ from tests.controllers.demos.demos import command, controllers, is_nan, latest, 
 JOINTS = ["joint1", "joint2"]
 SPAWNED = ["joint_state_broadcaster", "forward_position_controller", "fts_broadcaster"]
 TYPE = "force_torque_sensor_broadcaster/ForceTorqueSensorBroadcaster"
-AXES = [("force", "x"), ("force", "y"), ("force", "z"), ("torque", "x"), ("torque", "y"), ("torque", "z")]  # fmt: skip
+AXES = [(part, axis) for part in ("force", "torque") for axis in "xyz"]
 
 
 def _drive(example: int, yaml: str) -> tuple[dict, list[dict], list[dict], list[float]]:

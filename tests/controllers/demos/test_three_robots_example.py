@@ -47,13 +47,17 @@ def test_three_robots_in_one_controller_manager_move_each_on_its_own_controller(
         assert _switch(client, [], INACTIVE)  # the launch file spawns them --inactive
         client.step(10)
         client.publish("/rrbot_position_controller/commands", ARRAY, command([0.5, -0.5]))
-        client.publish("/rrbot_with_sensor_position_controller/commands", ARRAY, command([0.5, 0.5]))
+        client.publish(
+            "/rrbot_with_sensor_position_controller/commands", ARRAY, command([0.5, 0.5])
+        )
         client.step(1000)
         client.sync()
         rrbot, idle = latest(states, RRBOT), latest(states, WITH_SENSOR)
         # the userdoc's next step: activate the robot with the sensor's controller
         assert _switch(client, ["rrbot_with_sensor_position_controller"], [])
-        client.publish("/rrbot_with_sensor_position_controller/commands", ARRAY, command([0.5, 0.5]))
+        client.publish(
+            "/rrbot_with_sensor_position_controller/commands", ARRAY, command([0.5, 0.5])
+        )
         assert _switch(client, ["threedofbot_position_controller"], [])
         client.publish("/threedofbot_position_controller/commands", ARRAY, command([0.3, 0.2, 0.1]))
         client.step(1000)
