@@ -13,7 +13,9 @@ not its ``frame_id`` gets the link with the same prefix) and published in that f
 ``<sensor>`` whose interfaces fit no kind, or without a ``frame_id`` naming a link, is left
 out: a broadcaster that names it is refused with the interfaces the robot has.
 
-A simulated force-torque sensor has all six interfaces, an IMU all ten, whatever subset the tag
+Such a sensor is a sensor of the session like a declared one: it also publishes on its default
+topic (``/<name>/wrench``, ``/<name>/imu``) and is recorded. A simulated force-torque sensor has
+all six interfaces, an IMU all ten, whatever subset the tag
 declares: a broadcaster naming ``interface_names`` reads the subset it names.
 """
 
