@@ -52,6 +52,8 @@ __all__ = [
 
 DEFAULT_UPDATE_RATE = 100.0
 """controller_manager's ``update_rate`` default (Hz)."""
+_MANAGER_GROUPS = frozenset({"hardware_components_initial_state"})
+"""controller_manager parameters that are mappings, not controllers."""
 TYPE_JOINT_STATE_BROADCASTER = "joint_state_broadcaster/JointStateBroadcaster"
 TYPE_JOINT_TRAJECTORY = "joint_trajectory_controller/JointTrajectoryController"
 TYPE_FORWARD = "forward_command_controller/ForwardCommandController"
@@ -136,6 +138,22 @@ def _node_name(key: object) -> str:
     return str(key).rstrip("/").rsplit("/", 1)[-1]
 
 
+def _one_manager(where: str, key: str, name: str, spaces: dict[str, str]) -> None:
+    """Refuse a node configured under two explicit namespaces (``/rrbot_1/forward_position_
+    controller`` and ``/rrbot_2/...``): that is several controller managers, one per namespace,
+    and the harness gives one configuration to every robot of a session."""
+    space = key.rstrip("/").rpartition("/")[0]
+    if not space or "*" in space:
+        return
+    other = spaces.setdefault(name, space)
+    if other != space:
+        raise ControllersConfigError(
+            f"{where}: {other}/{name} and {space}/{name}: several controller managers (one "
+            "per namespace) are not supported: the harness gives one controllers configuration "
+            "to every robot of a session"
+        )
+
+
 ControllersSource = str | Path | Mapping[str, Any]
 """One controllers YAML: a file path, YAML text, or the parsed mapping."""
 
@@ -163,6 +181,7 @@ def load_controllers(
     sections: dict[str, dict[str, Any]] = {}
     common: dict[str, Any] = {}
     names: list[str] = []
+    spaces: dict[str, str] = {}
     for one in sources:
         where, data = _read(one, values)
         names.append(where)
@@ -173,6 +192,7 @@ def load_controllers(
                 )
             params = dict(body.get(_PARAMS) or {})
             name = _node_name(key)
+            _one_manager(where, str(key), name, spaces)
             _merge(common if name == "**" else sections.setdefault(name, {}), params)
     where = " + ".join(names)
     manager = sections.get(_MANAGER)
@@ -198,8 +218,8 @@ def load_controllers(
             del manager[key]
     specs: list[ControllerSpec] = []
     for name, entry in manager.items():
-        if not isinstance(entry, Mapping):
-            continue  # a manager parameter (update_rate, ...)
+        if not isinstance(entry, Mapping) or name in _MANAGER_GROUPS:
+            continue  # a manager parameter (update_rate, hardware_components_initial_state...)
         own = {**common, **sections.get(name, {})}
         ctype = entry.get("type", own.get("type"))
         if not isinstance(ctype, str) or "/" not in ctype:

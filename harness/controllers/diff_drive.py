@@ -13,10 +13,13 @@ command the wheels are commanded to stop. ``linear.x.*`` and ``angular.z.*`` lim
 command every update, as the controller's speed limiter does (jerk limits are not applied).
 
 Output: ``nav_msgs/msg/Odometry`` on ``~/odom`` (``odom_topic`` remaps it) at
-``publish_rate`` Hz, integrated from the wheels' encoder positions (mean per side;
-``position_feedback: false`` or ``open_loop: true`` integrate the commanded velocity
-instead), and, with ``enable_odom_tf`` (default true), ``odom_frame_id`` ->
-``base_frame_id`` on ``/tf``.
+``publish_rate`` Hz, integrated from the wheels' encoder positions (the mean of each side's
+wheels: a skid-steer base lists several per side), from their velocities with
+``position_feedback: false`` (the ``velocity`` state interfaces, times the update period), or
+from the commanded velocity with ``open_loop: true``; and, with ``enable_odom_tf`` (default
+true), ``odom_frame_id`` -> ``base_frame_id`` on ``/tf``. As in ros2_controllers, both sides
+name as many wheels, and ``wheels_per_side`` is read but the name lists decide (the controller
+overwrites it with their length).
 """
 
 from __future__ import annotations
@@ -136,6 +139,12 @@ class DiffDriveController(ControllerBase):
         self.right = p.joints(p.strings("right_wheel_names"), controllable)
         if set(self.left) & set(self.right):
             raise p.error("a joint is both a left and a right wheel")
+        if len(self.left) != len(self.right):
+            raise p.error(
+                f"the number of left wheels [{len(self.left)}] and the number of right wheels "
+                f"[{len(self.right)}] are different"
+            )
+        p.number("wheels_per_side", 0, minimum=0)  # read, then the name lists decide
         self.separation = p.number("wheel_separation", 0.0, minimum=0.0) * p.number(
             "wheel_separation_multiplier", 1.0
         )
@@ -145,13 +154,15 @@ class DiffDriveController(ControllerBase):
         if self.separation <= 0 or self.left_radius <= 0 or self.right_radius <= 0:
             raise p.error("wheel_separation and wheel_radius must be given and positive")
         self.settings = BaseSettings.read(p)
-        self.open_loop = p.flag("open_loop", False) or not p.flag("position_feedback", True)
+        self.open_loop = p.flag("open_loop", False)
+        self.position_feedback = p.flag("position_feedback", True)
+        feedback = "position" if self.position_feedback else "velocity"
         self.linear_limits = SpeedLimits(p, "linear.x")
         self.angular_limits = SpeedLimits(p, "angular.z")
         self.subscriptions = self.settings.subscriptions
         self.publishers = self.settings.publishers
         self.command_interfaces = tuple(f"{j}/velocity" for j in (*self.left, *self.right))
-        self.state_interfaces = tuple(f"{j}/position" for j in (*self.left, *self.right))
+        self.state_interfaces = tuple(f"{j}/{feedback}" for j in (*self.left, *self.right))
         self.odometry = Odometry()
         self.wanted = (0.0, 0.0)
         self.applied = (0.0, 0.0)
@@ -159,9 +170,10 @@ class DiffDriveController(ControllerBase):
         self.last_publish_ns: int | None = None
         self.previous: tuple[float, float] | None = None
 
-    def _sides(self, state: JointReadings) -> tuple[float, float]:
-        left = sum(state.position[j] for j in self.left) / len(self.left)
-        right = sum(state.position[j] for j in self.right) / len(self.right)
+    def _sides(self, state: JointReadings, source: str = "position") -> tuple[float, float]:
+        values = state.position if source == "position" else state.velocity
+        left = sum(values[j] for j in self.left) / len(self.left)
+        right = sum(values[j] for j in self.right) / len(self.right)
         return left, right
 
     def activate(self, state: JointReadings) -> Output:
@@ -214,6 +226,12 @@ class DiffDriveController(ControllerBase):
         sides = self._sides(state)
         if self.open_loop or self.previous is None:
             distance, rotation = self.applied[0] * dt, self.applied[1] * dt
+        elif not self.position_feedback:
+            speeds = self._sides(state, "velocity")
+            d_left = speeds[0] * dt * self.left_radius
+            d_right = speeds[1] * dt * self.right_radius
+            distance = (d_left + d_right) / 2
+            rotation = (d_right - d_left) / self.separation
         else:
             d_left = (sides[0] - self.previous[0]) * self.left_radius
             d_right = (sides[1] - self.previous[1]) * self.right_radius

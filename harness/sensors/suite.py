@@ -35,6 +35,7 @@ from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import static_tf_msg
 from harness.sensors.registry import Mounted, kind_of
 from harness.sensors.render import OffscreenRenderer, RendererInfo
+from harness.sensors.ros2_control_sensors import ros2_control_sensors
 from harness.sensors.spec import SensorSpec
 
 __all__ = [
@@ -169,7 +170,8 @@ class SensorSuite:
         found: dict[tuple[str, str], tuple[SensorSpec, RobotMount]] = {}
         by_namespace = {robot.namespace: robot for robot in robots}
         for robot in (*robots, *world):
-            for spec in declared_in_sources(robot.sources):
+            declared = declared_in_sources(robot.sources)
+            for spec in [*declared, *ros2_control_sensors(robot.sources, declared)]:
                 spec = replace(spec, namespace=robot.namespace)
                 found[(spec.namespace, spec.name)] = (spec, robot)
         for i, item in enumerate(extra):

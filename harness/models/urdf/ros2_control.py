@@ -6,6 +6,12 @@ commanded only through ``velocity`` or ``effort`` gets that mode) and the initia
 (``initial_value`` of the ``position`` state interface), and the controllers read them later.
 A hardware plugin that stands for a real driver (not a mock or a simulator's plugin) is
 replaced by the simulation with a :class:`HardwareReplacedWarning` naming it.
+
+Mimic joints: a URDF ``<mimic>`` is the law; a ``<ros2_control>`` joint's ``mimic`` parameter
+(``<param name="mimic">leader</param>`` with ``multiplier``, the Humble syntax that
+gazebo_ros2_control and gz_ros2_control read: the follower takes ``multiplier`` times its
+leader's command under each of the leader's interfaces) gives a joint without ``<mimic>`` the
+same law (:func:`add_control_mimics`), so it follows under every interface.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ __all__ = [
     "ControlJoint",
     "HardwareReplacedWarning",
     "Ros2Control",
+    "add_control_mimics",
     "interface_modes",
     "parse_ros2_control",
     "warn_replaced_hardware",
@@ -250,4 +257,48 @@ def warn_replaced_hardware(control: Ros2Control | None, source: str) -> None:
                 f"{block.plugin!r} is a real driver; the simulation stands in for it",
                 HardwareReplacedWarning,
                 stacklevel=3,
+            )
+
+
+def _number(text: str, what: str) -> str:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise ModelStructureError(f"{what} {text!r} is not a finite number")
+    return repr(value)
+
+
+def add_control_mimics(root: etree._Element, source: str) -> None:
+    """Give each URDF joint that a ``<ros2_control>`` joint's ``mimic`` parameter makes a
+    follower (and that has no ``<mimic>`` of its own) the ``<mimic joint= multiplier=
+    offset=>`` element of that law (``multiplier`` default 1, ``offset`` default 0), in
+    ``root`` itself: the description and the simulation then read one law. A parameter
+    naming no other joint of the robot is one :class:`ModelStructureError` naming the file
+    and joint."""
+    joints = {str(j.get("name")): j for j in root.findall("joint")}
+    for block in root.findall("ros2_control"):
+        for entry in block.findall("joint"):
+            params = _params(entry)
+            leader = params.get("mimic")
+            if not leader:
+                continue
+            name = str(entry.get("name") or "")
+            where = f'{source}: <ros2_control name="{block.get("name") or ""}"> joint {name!r}'
+            if leader not in joints or leader == name or name not in joints:
+                raise ModelStructureError(
+                    f"{where}: mimic {leader!r} is not another joint of the robot"
+                )
+            follower = joints[name]
+            if follower.find("mimic") is not None:
+                continue  # the URDF's own law
+            etree.SubElement(
+                follower,
+                "mimic",
+                {
+                    "joint": leader,
+                    "multiplier": _number(params.get("multiplier", "1"), f"{where}: multiplier"),
+                    "offset": _number(params.get("offset", "0"), f"{where}: offset"),
+                },
             )

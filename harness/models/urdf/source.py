@@ -22,7 +22,11 @@ from harness.models.files.resolve import PackageMap, resolve_uri
 from harness.models.files.xmlsafe import parse_xml
 from harness.models.urdf.lenient import LoadNote, read_lenient_xml
 from harness.models.urdf.reader import urdf_from_element
-from harness.models.urdf.ros2_control import interface_modes, parse_ros2_control
+from harness.models.urdf.ros2_control import (
+    add_control_mimics,
+    interface_modes,
+    parse_ros2_control,
+)
 from harness.models.xacro.expand import (
     RobotArgs,
     XacroOrigin,
@@ -108,6 +112,7 @@ def read_urdf_source(
 def describe_urdf(root: Any, source: str, origin: XacroOrigin | None = None) -> RobotModel:
     """The :class:`RobotModel` of a URDF element with its ``<ros2_control>`` blocks and xacro
     origin."""
+    add_control_mimics(root, source)
     description = urdf_from_element(root, source)
     return dataclasses.replace(
         description, ros2_control=parse_ros2_control(root, source), xacro=origin
