@@ -28,6 +28,7 @@ from harness.recording.records import (
     RecordedMessage,
     RosoutRecord,
 )
+from harness.recording.stateslot import PhysicsStateSlot
 
 __all__ = [
     "FORMAT_VERSION",
@@ -40,6 +41,7 @@ __all__ = [
     "LostRange",
     "PhysicsState",
     "PhysicsStateArrays",
+    "PhysicsStateSlot",
     "RecordedMessage",
     "Recorder",
     "RecorderStats",

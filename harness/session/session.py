@@ -118,7 +118,7 @@ from collections.abc import Callable, Iterable, Mapping
 from functools import partial
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, overload
 
 import mujoco
 import numpy as np
@@ -167,6 +167,43 @@ T = TypeVar("T")
 
 LoggerFactory = Callable[["Session"], Logger]
 """Builds a logger once the session (and so its model) exists."""
+
+
+class _ResumeFrom(Protocol):
+    def __call__(
+        self,
+        path: str | Path,
+        *,
+        step: int | None = None,
+        at_time: float | None = None,
+        **keywords: Any,
+    ) -> Session: ...
+
+
+def _resume_from(
+    path: str | Path, *, step: int | None = None, at_time: float | None = None, **keywords: Any
+) -> Session:
+    from harness.resume import resume_session
+
+    return resume_session(path, step=step, at_time=at_time, **keywords)
+
+
+class _Resume:
+    """``Session.resume``: on the class, a session resumed from a recording; on a session,
+    restart its paused clock (the older meaning, kept)."""
+
+    @overload
+    def __get__(self, obj: None, owner: type[Session]) -> _ResumeFrom: ...
+
+    @overload
+    def __get__(self, obj: Session, owner: type[Session] | None = None) -> Callable[[], None]: ...
+
+    def __get__(
+        self, obj: Session | None, owner: type[Session] | None = None
+    ) -> _ResumeFrom | Callable[[], None]:
+        if obj is None:
+            return _resume_from
+        return obj._restart_clock
 
 
 class Session:
@@ -234,8 +271,13 @@ class Session:
         load: LoadOptions | None = None,
         loggers: Iterable[Logger | LoggerFactory] = (),
         sinks: Iterable[Sink] = (),
+        _resumed: tuple[SessionCore, Recorder | None] | None = None,
         **keywords: Unpack[SessionKeywords],
     ) -> None:
+        # ``_resumed``: a core already started and brought to a step, with its recorder
+        # (:mod:`harness.resume`; use ``Session.resume(path, step=...)``)
+        if _resumed is not None:
+            options = _resumed[0].options
         options, transport, record, load = option_groups(keywords, options, transport, record, load)
         self.options: CoreOptions = options
         """The core's options (the ``controllers`` default resolved once the robot is loaded)."""
@@ -247,7 +289,8 @@ class Session:
         start = options.start
         self.clock: ClockMode = clock
         self.start: StartMode = start
-        self._start_on_client = start == "on_client"
+        self._start_on_client = start == "on_client" and _resumed is None
+        self._resumed = _resumed is not None
         self._clients = threading.Condition()
         self._clients_seen = 0
         self._clients_open = 0
@@ -269,7 +312,11 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        loaded, options = resolve_run(robot, load, options)
+        loaded, options = (
+            resolve_run(robot, load, options)
+            if _resumed is None
+            else (_resumed[0].robot, _resumed[0].options)
+        )
         self.options = options
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
@@ -279,12 +326,20 @@ class Session:
         record_to = record.record_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
-            self._recorder, hub = open_recording(
-                self.record_path, loaded, options, transport, record, load, self.ros_domain_id
-            )
-            core, self._port, upstream = build_core(
-                loaded, options, self._recorder, hub, transport, sinks
-            )
+            if _resumed is None:
+                self._recorder, hub = open_recording(
+                    self.record_path, loaded, options, transport, record, load, self.ros_domain_id
+                )
+                core, self._port, upstream = build_core(
+                    loaded, options, self._recorder, hub, transport, sinks
+                )
+            else:
+                core, self._recorder = _resumed
+                hub = core.hub
+                self.record_path = None if self._recorder is None else self._recorder.path
+                _, self._port, upstream = build_core(
+                    loaded, options, self._recorder, hub, transport, sinks, core=core
+                )
             self.core: SessionCore = core
             """The sans-I/O core (touch it only from the session's thread)."""
             self.upstream: UpstreamStats | None = upstream
@@ -317,9 +372,11 @@ class Session:
         port = self._port
         assert port is not None
         url = await port.start()
-        self.core.start()
+        if not self._resumed:  # a resumed core was started by the run it continues
+            self.core.start()
         await port.settle()
-        self.core.publish_initial()
+        if not self._resumed:
+            self.core.publish_initial()
         port.flush()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         if isinstance(port, ServerPort):
@@ -511,9 +568,14 @@ class Session:
         """Stop a fast or realtime clock (frames are still applied), as ``/harness/pause``."""
         self._call(lambda: self._settled(lambda: self.core.set_paused(True)))
 
-    def resume(self) -> None:
-        """Restart a paused fast or realtime clock."""
+    def _restart_clock(self) -> None:
+        """Restart a paused fast or realtime clock (``session.resume()``)."""
         self._call(lambda: self._settled(lambda: self.core.set_paused(False)))
+
+    resume = _Resume()
+    """``session.resume()``: restart a paused fast or realtime clock. ``Session.resume(path,
+    step=K)`` (on the class): a live session continuing the recording at ``path`` from step
+    ``K`` (:func:`harness.resume.resume_session`: its keywords)."""
 
     def pause_at(self, step: int | None) -> None:
         """Pause a fast or realtime clock when it reaches ``step`` (exactly: at that step

@@ -1,0 +1,113 @@
+"""A live session on a core brought to a step: :func:`resume_session` (``Session.resume``,
+``harness serve --from RUN.mcap --at K``).
+
+The core is brought to the step by :func:`harness.resume.seek.seek`, the fork edits are
+applied at that step boundary (recorded as that step's input), then a live
+:class:`~harness.session.Session` shell takes the core over on the chosen transport (the
+embedded rosbridge server, ``connect_to``, ``ros2``). A lockstep run stays in lockstep: time
+moves only when a client or Python steps it. A free-running (fast, realtime) run is paused at
+the step (a recorded ``pause`` marker): ``session.resume()`` or ``/harness/pause`` false
+starts it. The recorded clients whose connections were open at the step are ghost peers:
+their subscriptions, advertised topics, services and goals live on in the core, and what the
+core sends them is recorded in the child recording but sent nowhere. New clients get the
+connection ids after theirs, as they would have in the parent.
+
+The robot software's own state is not restored by the harness: a node attaching to a resumed
+session starts from its own initial state (``preroll`` plays it the recorded traffic before
+the step so that its state can catch up).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from harness.events import Logger, Sink
+from harness.resume.edits import Edit, apply_edits, parse_edits
+from harness.resume.seek import Fork, seek
+from harness.session import LoggerFactory, Session, TransportOptions
+
+__all__ = ["close_fork", "open_fork", "resume_session"]
+
+
+def open_fork(
+    path: str | Path,
+    *,
+    step: int | None = None,
+    at_time: float | None = None,
+    record_to: str | Path | None = None,
+    edits: Sequence[Edit | str] = (),
+) -> Fork:
+    """The core of the recording at ``path`` at the step, with ``edits`` applied and a
+    free-running clock paused (see :func:`resume_session`), not yet in a shell."""
+    parsed = parse_edits(edits)
+    fork = seek(
+        path,
+        step=step,
+        at_time=at_time,
+        record_to=record_to,
+        edits=[e.to_json() for e in parsed],
+    )
+    try:
+        core = fork.core
+        apply_edits(core, parsed)
+        if core.clock != "lockstep" and not core.paused:
+            core.set_paused(True)
+        core.record_frames()
+        assert core.bridge is not None
+        core.bridge.drain()
+    except BaseException:
+        close_fork(fork)
+        raise
+    return fork
+
+
+def close_fork(fork: Fork) -> None:
+    """Close a fork no shell took over (its child recording is closed)."""
+    fork.core.finish()
+    if fork.recorder is not None:
+        fork.recorder.close()
+
+
+def resume_session(
+    path: str | Path,
+    *,
+    step: int | None = None,
+    at_time: float | None = None,
+    record_to: str | Path | None = None,
+    edits: Sequence[Edit | str] = (),
+    preroll: float = 0.0,
+    transport: TransportOptions | None = None,
+    loggers: Iterable[Logger | LoggerFactory] = (),
+    sinks: Iterable[Sink] = (),
+    **transport_keywords: Any,
+) -> Session:
+    """A live session continuing the recording at ``path`` from ``step`` (or from the step
+    at ``at_time`` seconds; the last step when neither is given). ``record_to``: the child
+    recording (:mod:`harness.resume.child`). ``edits``: fork edits (:mod:`harness.resume.edits`,
+    e.g. ``"joint.joint1=0.4"``). ``preroll``: seconds of sim time of recorded traffic played
+    to each client that attaches, before its live traffic (:mod:`harness.resume.preroll`).
+    ``transport`` (or its fields as keywords: ``host``, ``port``, ``token``, ``connect_to``,
+    ``ros2``): where the session's bridge is. ``loggers``/``sinks``: as for
+    :class:`~harness.session.Session`, from the step on.
+
+    Raises :class:`~harness.resume.ResumeError` (one line) when the recording cannot be
+    resumed at that step."""
+    fork = open_fork(path, step=step, at_time=at_time, record_to=record_to, edits=edits)
+    try:
+        if preroll:
+            from harness.resume.preroll import install_preroll
+
+            install_preroll(fork, path, preroll)
+        return Session(
+            transport=transport,
+            loggers=loggers,
+            sinks=sinks,
+            _resumed=(fork.core, fork.recorder),
+            **transport_keywords,
+        )
+    except BaseException:
+        if fork.recorder is not None:
+            fork.recorder.close()  # idempotent: a shell that started closed it already
+        raise
