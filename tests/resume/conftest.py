@@ -32,7 +32,8 @@ def load_helper(folder: str, name: str) -> ModuleType:
     if module_name in sys.modules:
         return sys.modules[module_name]
     spec = importlib.util.spec_from_file_location(module_name, HERE.parent / folder / f"{name}.py")
-    assert spec is not None and spec.loader is not None
+    assert spec is not None
+    assert spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules[module_name] = module
     spec.loader.exec_module(module)
@@ -64,12 +65,14 @@ def arm_parent(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The demo arm in lockstep, a real client sending a 1 s trajectory goal, then stepping
     in /harness/step requests of 50 steps to step 1000; recorded."""
     path = tmp_path_factory.mktemp("arm") / "parent.mcap"
-    with Session("demo", clock="lockstep", record_to=path) as session:
-        with connect(session.url) as client:
-            handle = client.send_goal(ARM, FJT, goal(TARGET, 1.0))
-            for _ in range(ARM_STEPS // ARM_CHUNK):
-                client.step(ARM_CHUNK)
-            assert handle.done
+    with (
+        Session("demo", clock="lockstep", record_to=path) as session,
+        connect(session.url) as client,
+    ):
+        handle = client.send_goal(ARM, FJT, goal(TARGET, 1.0))
+        for _ in range(ARM_STEPS // ARM_CHUNK):
+            client.step(ARM_CHUNK)
+        assert handle.done
     return path
 
 

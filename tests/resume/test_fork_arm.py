@@ -67,7 +67,9 @@ def test_a_live_client_takes_over_and_the_goal_in_flight_finishes(
             state = client.state()
         assert session.core.bridge is not None
         assert session.core.bridge.opened == 2  # the live client came after the ghost
-    positions = dict(zip(state["joint_state"]["name"], state["joint_state"]["position"]))
+    positions = dict(
+        zip(state["joint_state"]["name"], state["joint_state"]["position"], strict=True)
+    )
     for joint, target in zip([f"joint{i}" for i in range(1, 8)], TARGET, strict=True):
         assert positions[joint] == pytest.approx(target, abs=0.01)
     with Recording(child) as rec:
@@ -98,7 +100,9 @@ def test_an_edit_at_the_fork_shows_as_the_first_divergence_after_it(
     report = diff(arm_parent, child)
     assert not report.same
     first = report.first_divergence
-    assert first is not None and first.step == ARM_FORK + 1, report.format()
-    assert first.cause is not None and "incoming frame" in first.cause.format()
+    assert first is not None
+    assert first.step == ARM_FORK + 1, report.format()
+    assert first.cause is not None
+    assert "incoming frame" in first.cause.format()
     assert main(["diff", str(arm_parent), str(child)]) == 1
     assert main(["replay", str(child), "--level", "full"]) == 0
