@@ -4,7 +4,13 @@
 An edit is ``KIND.TARGET=VALUE``:
 
 - ``joint.NAME=POSITION``: a joint's position target (a Python ``command`` of the joint,
-  recorded as a ``harness/python`` marker; a trajectory in flight lets go of the joint).
+  recorded as a ``harness/python`` marker; a trajectory of the built-in command topics lets
+  go of the joint; a ros2_control controller that claims the joint writes it again at its
+  next update);
+- ``param.CONTROLLER.NAME=VALUE``: a running controller's parameter, e.g.
+  ``param.joint_trajectory_controller.constraints.joint1.trajectory=0.05`` (the JTC's
+  tolerances: the goals that follow use them, as ros2_control's JTC re-reading its
+  parameters), recorded as a ``harness/python`` ``set_parameter`` marker.
 
 Each edit is applied at the step boundary after the resume step, before any live frame, and
 is recorded there (the child replays it); the child's metadata lists them
@@ -24,7 +30,7 @@ from harness.session import SessionCore
 
 __all__ = ["EDIT_KINDS", "Edit", "apply_edits", "parse_edit", "parse_edits"]
 
-EDIT_KINDS = ("joint",)
+EDIT_KINDS = ("joint", "param")
 
 
 @dataclass(frozen=True)
@@ -92,3 +98,10 @@ def _apply(core: SessionCore, edit: Edit) -> None:
         if len(edit.value) != 1:
             raise ForkEditError(f"fork edit {edit}: a joint target is one position")
         core.command(edit.target, position=edit.value[0])
+    elif edit.kind == "param":
+        controller, dot, name = edit.target.partition(".")
+        if not dot or not name or len(edit.value) != 1:
+            raise ForkEditError(
+                f"fork edit {edit}: a parameter edit is param.CONTROLLER.NAME=VALUE"
+            )
+        core.set_parameter(controller, name, edit.value[0])

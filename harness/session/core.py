@@ -536,6 +536,29 @@ class SessionCore:
         self._marker(MARKER_PYTHON, {"call": "set_positions", "positions": values})
         return self._python_command(lambda: self.sim.set_positions(values), set(values))
 
+    def set_parameter(self, controller: str, name: str, value: float) -> None:
+        """Change a running controller's parameter (its ``set_parameter``: the JTC's
+        ``constraints.*``), recorded as a ``harness/python`` marker (a fork edit of a resumed
+        run, :mod:`harness.resume`); :class:`SessionError` naming what is wrong."""
+        built = {n: c for robot in self.control.robots for n, c in robot.manager.built.items()}
+        found = built.get(controller)
+        if found is None:
+            raise SessionError(
+                f"no controller {controller!r} (controllers: {', '.join(built) or 'none'})"
+            )
+        setter = getattr(found, "set_parameter", None)
+        if setter is None:
+            raise SessionError(
+                f"controller {controller!r} ({type(found).__name__}) has no parameter that can "
+                "change while running"
+            )
+        try:
+            setter(name, float(value))
+        except ValueError as exc:
+            raise SessionError(str(exc)) from None
+        args = {"call": "set_parameter", "controller": controller, "name": name}
+        self._marker(MARKER_PYTHON, {**args, "value": float(value)})
+
     def _python_command(self, apply: Callable[[], list[Notice]], joints: set[str]) -> list[Notice]:
         notices = apply()
         for channels in self.robots:

@@ -12,7 +12,8 @@ effect):
 - ``harness/transport_status`` ``{"connection": c, "level": l, "msg": m}``: a ``status``
   frame the transport sent by itself (subscription frames dropped for a slow reader, a
   client-mode link lost or back);
-- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause", ...}``:
+- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause" |
+  "set_parameter", ...}``:
   a call of the session's Python API that changes the run (stepping from Python needs no
   marker: replay steps to the recorded steps); a free-running clock started by its first
   client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
@@ -125,5 +126,7 @@ def _replay_python(core: SessionCore, args: Mapping[str, Any]) -> None:
         core.reset()
     elif call == "pause":
         core.set_paused(bool(args["paused"]))
+    elif call == "set_parameter":
+        core.set_parameter(str(args["controller"]), str(args["name"]), float(args["value"]))
     else:
         raise ValueError(f"unknown call {call!r}")
