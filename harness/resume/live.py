@@ -57,6 +57,10 @@ def open_fork(
         core.record_frames()
         assert core.bridge is not None
         core.bridge.drain()
+        if core.sensors is not None:
+            # An OpenGL context is bound to the thread that made it current (the seek's):
+            # the shell's thread starts its own at the next camera frame.
+            core.sensors.close()
     except BaseException:
         close_fork(fork)
         raise

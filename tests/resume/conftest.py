@@ -117,3 +117,14 @@ def frames_from(path: Path, start: int) -> list[tuple[Any, ...]]:
              f.data)
             for f in rec.bridge_frames(start)
         ]  # fmt: skip
+
+
+def messages_from(path: Path, start: int) -> dict[str, list[tuple[int, bytes]]]:
+    """Topic -> every recorded message's (sim time, CDR bytes) from step ``start`` on."""
+    with Recording(path) as rec:
+        out: dict[str, list[tuple[int, bytes]]] = {}
+        for topic in rec.topics:
+            out[topic] = [
+                (m.sim_time_ns, bytes(m.data)) for m in rec.messages(topic, start_step=start)
+            ]
+        return out
