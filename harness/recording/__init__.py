@@ -7,6 +7,7 @@ attachments of a run with :func:`describe_run`, rewrite a damaged file's intact 
 
 from __future__ import annotations
 
+from harness.recording.convert import to_plain
 from harness.recording.describe import LoadedRobotLike, RunDescription, describe_run
 from harness.recording.errors import (
     RecordingDamagedError,
@@ -55,4 +56,5 @@ __all__ = [
     "RunDescription",
     "TopicInfo",
     "describe_run",
+    "to_plain",
 ]

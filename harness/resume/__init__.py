@@ -29,6 +29,7 @@ from harness.resume.errors import (
     ResumeVersionError,
 )
 from harness.resume.live import close_fork, open_fork, resume_session
+from harness.resume.preroll import install_preroll, preroll_frames
 from harness.resume.seek import Fork, ForkSink, file_sha256, resolve_step, seek
 
 __all__ = [
@@ -48,10 +49,12 @@ __all__ = [
     "child_metadata",
     "close_fork",
     "file_sha256",
+    "install_preroll",
     "open_fork",
     "parent_of",
     "parse_edit",
     "parse_edits",
+    "preroll_frames",
     "resolve_step",
     "resume_session",
     "seek",

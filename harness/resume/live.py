@@ -25,6 +25,7 @@ from typing import Any
 
 from harness.events import Logger, Sink
 from harness.resume.edits import Edit, apply_edits, parse_edits
+from harness.resume.preroll import install_preroll
 from harness.resume.seek import Fork, seek
 from harness.session import LoggerFactory, Session, TransportOptions
 
@@ -101,8 +102,6 @@ def resume_session(
     fork = open_fork(path, step=step, at_time=at_time, record_to=record_to, edits=edits)
     try:
         if preroll:
-            from harness.resume.preroll import install_preroll
-
             install_preroll(fork, path, preroll)
         return Session(
             transport=transport,

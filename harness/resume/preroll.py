@@ -3,9 +3,10 @@ live traffic, so that its own state (a filter, a TF buffer, a controller's last 
 time) can catch up: the harness restores the simulation, never the robot software's state.
 
 When a client that connected after the resume (not a ghost peer) subscribes to a topic, it
-is first sent the recorded ``publish`` frames of that topic from the ``SECONDS`` of sim time
-before the resume step (one copy per step, as a ghost peer received them), and for
-``/clock`` the recorded clock of those steps; then live messages follow as usual. These
+is first sent that topic's recorded messages of the ``SECONDS`` of sim time up to the resume
+step (``/clock``, ``/joint_states``, ``/tf``, sensors; topics recorded only as outgoing
+frames from their ``publish`` frames), as ``publish`` frames; then live messages follow as
+usual. These
 frames are a playback of the parent, not part of the resumed run: they are sent, not
 recorded (the client's reaction to them is, as its incoming frames).
 """
@@ -16,21 +17,20 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
-from harness.recording import Recording
+from harness.recording import Recording, to_plain
 from harness.replay import open_recording
 from harness.resume.errors import ResumeError
 from harness.resume.seek import Fork
 from harness.rosbridge import Output
 
-__all__ = ["CLOCK", "install_preroll", "preroll_frames"]
-
-CLOCK = "/clock"
+__all__ = ["install_preroll", "preroll_frames"]
 
 
 def preroll_frames(path: str | Path, step: int, seconds: float) -> dict[str, list[str | bytes]]:
-    """Topic -> the recorded ``publish`` frames of the ``seconds`` of sim time up to ``step``
-    of the recording at ``path`` (one per step and topic), ``/clock`` from its recorded clock
-    when no client subscribed to it."""
+    """Topic -> the ``publish`` frames of the ``seconds`` of sim time up to ``step`` of the
+    recording at ``path``: each recorded message of a typed channel (``/joint_states``,
+    ``/clock``, ``/tf``, sensors), and for topics without one the recorded outgoing
+    ``publish`` frames (one per step, as a ghost peer received it)."""
     if not seconds >= 0:
         raise ResumeError(f"--preroll must be >= 0 seconds, not {seconds!r}")
     out: dict[str, list[str | bytes]] = {}
@@ -38,22 +38,19 @@ def preroll_frames(path: str | Path, step: int, seconds: float) -> dict[str, lis
     with open_recording(path, allow_damaged=True) as rec:
         dt_ns = rec.timestep_ns
         first = max(0, step - round(seconds * 1e9 / dt_ns))
+        typed = [t for t in rec.topics if not t.startswith("/harness/")]
+        for message in rec.messages(typed, start_step=first, stop_step=step + 1, decode=True):
+            frame = {"op": "publish", "topic": message.topic, "msg": to_plain(message.msg)}
+            out.setdefault(message.topic, []).append(json.dumps(frame))
         seen: set[tuple[int, str]] = set()
-        for frame in rec.bridge_frames(first, step + 1):
-            if frame.direction != 1 or frame.op != "publish" or frame.step > step:
+        for recorded in rec.bridge_frames(first, step + 1):
+            topic = recorded.topic
+            if recorded.direction != 1 or recorded.op != "publish" or recorded.step > step:
                 continue
-            if (frame.step, frame.topic) in seen:
+            if topic in typed or (recorded.step, topic) in seen:
                 continue
-            seen.add((frame.step, frame.topic))
-            out.setdefault(frame.topic, []).append(frame.payload)
-        if CLOCK not in out:
-            clock: list[str | bytes] = []
-            for message in rec.messages(CLOCK, start_step=first, stop_step=step + 1):
-                ns = message.sim_time_ns
-                msg = {"clock": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}}
-                clock.append(json.dumps({"op": "publish", "topic": CLOCK, "msg": msg}))
-            if clock:
-                out[CLOCK] = clock
+            seen.add((recorded.step, topic))
+            out.setdefault(topic, []).append(recorded.payload)
     return out
 
 
