@@ -10,7 +10,9 @@ An edit is ``KIND.TARGET=VALUE``:
 - ``param.CONTROLLER.NAME=VALUE``: a running controller's parameter, e.g.
   ``param.joint_trajectory_controller.constraints.joint1.trajectory=0.05`` (the JTC's
   tolerances: the goals that follow use them, as ros2_control's JTC re-reading its
-  parameters), recorded as a ``harness/python`` ``set_parameter`` marker.
+  parameters), recorded as a ``harness/python`` ``set_parameter`` marker;
+- ``noise.SENSOR=STDDEV``: a sensor's Gaussian noise (its ``noise_stddev``; the noise stream
+  stays a function of seed, sensor and step), recorded as a ``set_sensor_noise`` marker.
 
 Each edit is applied at the step boundary after the resume step, before any live frame, and
 is recorded there (the child replays it); the child's metadata lists them
@@ -30,7 +32,7 @@ from harness.session import SessionCore
 
 __all__ = ["EDIT_KINDS", "Edit", "apply_edits", "parse_edit", "parse_edits"]
 
-EDIT_KINDS = ("joint", "param")
+EDIT_KINDS = ("joint", "param", "noise")
 
 
 @dataclass(frozen=True)
@@ -105,3 +107,7 @@ def _apply(core: SessionCore, edit: Edit) -> None:
                 f"fork edit {edit}: a parameter edit is param.CONTROLLER.NAME=VALUE"
             )
         core.set_parameter(controller, name, edit.value[0])
+    elif edit.kind == "noise":
+        if len(edit.value) != 1:
+            raise ForkEditError(f"fork edit {edit}: a noise edit is noise.SENSOR=STDDEV")
+        core.set_sensor_noise(edit.target, edit.value[0])

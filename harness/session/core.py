@@ -25,6 +25,8 @@ publish on ``/rosout`` needs the same loggers (``loggers=`` of
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import math
 from collections.abc import Callable, Mapping, Sequence
 from functools import cache, partial
 from typing import Any, Literal, Protocol
@@ -558,6 +560,22 @@ class SessionCore:
             raise SessionError(str(exc)) from None
         args = {"call": "set_parameter", "controller": controller, "name": name}
         self._marker(MARKER_PYTHON, {**args, "value": float(value)})
+
+    def set_sensor_noise(self, sensor: str, stddev: float) -> None:
+        """Change a sensor's Gaussian noise ``noise_stddev`` from the next reading on (its
+        noise stream stays a function of seed, sensor and step), recorded as a
+        ``harness/python`` marker (a fork edit, :mod:`harness.resume`)."""
+        sensors = [] if self.sensors is None else self.sensors.sensors
+        found = [s for s in sensors if s.spec.name == sensor]
+        if not found:
+            names = ", ".join(s.spec.name for s in sensors) or "none"
+            raise SessionError(f"no sensor {sensor!r} (sensors: {names})")
+        if not (math.isfinite(stddev) and stddev >= 0):
+            raise SessionError(f"sensor {sensor!r}: noise stddev must be >= 0, not {stddev!r}")
+        for one in found:
+            one.spec = dataclasses.replace(one.spec, noise_stddev=float(stddev))
+        args = {"call": "set_sensor_noise", "sensor": sensor, "stddev": float(stddev)}
+        self._marker(MARKER_PYTHON, args)
 
     def _python_command(self, apply: Callable[[], list[Notice]], joints: set[str]) -> list[Notice]:
         notices = apply()

@@ -13,7 +13,7 @@ effect):
   frame the transport sent by itself (subscription frames dropped for a slow reader, a
   client-mode link lost or back);
 - ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause" |
-  "set_parameter", ...}``:
+  "set_parameter" | "set_sensor_noise", ...}``:
   a call of the session's Python API that changes the run (stepping from Python needs no
   marker: replay steps to the recorded steps); a free-running clock started by its first
   client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
@@ -128,5 +128,7 @@ def _replay_python(core: SessionCore, args: Mapping[str, Any]) -> None:
         core.set_paused(bool(args["paused"]))
     elif call == "set_parameter":
         core.set_parameter(str(args["controller"]), str(args["name"]), float(args["value"]))
+    elif call == "set_sensor_noise":
+        core.set_sensor_noise(str(args["sensor"]), float(args["stddev"]))
     else:
         raise ValueError(f"unknown call {call!r}")

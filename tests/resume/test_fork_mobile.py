@@ -64,3 +64,17 @@ def test_resumed_mid_turn_records_the_parents_drive_and_scans(drive: Path, tmp_p
     for topic in parent:
         assert resumed[topic] == parent[topic], topic
     assert main(["replay", str(child), "--level", "full"]) == 0
+
+
+def test_a_noise_edit_changes_the_scans_not_the_drive(drive: Path, tmp_path: Path) -> None:
+    child = tmp_path / "quiet.mcap"
+    with Session.resume(drive, step=MID_TURN, record_to=child, edits=["noise.scan=0"]) as session:
+        feed(session, incoming_after(drive, MID_TURN), STEPS)
+    assert states(child, MID_TURN) == states(drive, MID_TURN)  # sensors do not move the robot
+    parent, quiet = messages_from(drive, MID_TURN), messages_from(child, MID_TURN)
+    assert [t for t, _ in quiet["/scan/scan"]] == [t for t, _ in parent["/scan/scan"]]
+    assert all(
+        a != b for (_, a), (_, b) in zip(quiet["/scan/scan"], parent["/scan/scan"], strict=True)
+    )
+    assert quiet["/scan"] == parent["/scan"]  # the robot's own lidar keeps its noise
+    assert main(["replay", str(child), "--level", "full"]) == 0
