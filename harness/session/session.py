@@ -291,6 +291,11 @@ class Session:
         self.start: StartMode = start
         self._start_on_client = start == "on_client" and _resumed is None
         self._resumed = _resumed is not None
+        ghost_bridge = None if _resumed is None else _resumed[0].bridge
+        self._ghosts: frozenset[int] = frozenset(
+            () if ghost_bridge is None else ghost_bridge.connections
+        )
+        self._ghosts_opened = 0 if ghost_bridge is None else ghost_bridge.opened
         self._clients = threading.Condition()
         self._clients_seen = 0
         self._clients_open = 0
@@ -402,7 +407,9 @@ class Session:
                 self._port.wake.set()
         bridge = core.bridge
         if bridge is not None:
-            seen, now_open = bridge.opened, bridge.open_count
+            seen, now_open = bridge.opened - self._ghosts_opened, bridge.open_count
+            if self._ghosts:  # a resumed run's recorded clients (ghost peers) are not clients
+                now_open -= len(self._ghosts.intersection(bridge.connections))
             if seen != self._clients_seen or now_open != self._clients_open:
                 with self._clients:
                     self._clients_seen, self._clients_open = seen, now_open
@@ -722,7 +729,8 @@ class Session:
     @property
     def client_count(self) -> int:
         """Clients connected now (sockets accepted whose closing the session has not yet
-        processed; in client mode the link to the external server is the one client)."""
+        processed; in client mode the link to the external server is the one client; a
+        resumed run's ghost peers are not counted)."""
         return self._clients_open
 
     @property

@@ -65,6 +65,7 @@ def test_a_live_client_takes_over_and_the_goal_in_flight_finishes(
             assert client.step(0) == ARM_FORK * session.dt_ns  # paused at the fork
             client.step(400)
             state = client.state()
+            assert session.clients_seen == 1  # the live client, not the ghost
         assert session.core.bridge is not None
         assert session.core.bridge.opened == 2  # the live client came after the ghost
     positions = dict(
