@@ -107,3 +107,18 @@ def test_an_edit_at_the_fork_shows_as_the_first_divergence_after_it(
     assert "incoming frame" in first.cause.format()
     assert main(["diff", str(arm_parent), str(child)]) == 1
     assert main(["replay", str(child), "--level", "full"]) == 0
+
+
+@pytest.mark.parametrize("fork", [0, ARM_STEPS])
+def test_resumed_at_either_end_and_fed_the_rest_is_the_parents_run(
+    arm_parent: Path, tmp_path: Path, fork: int
+) -> None:
+    """Step 0 (before any client: no ghost) and the last step (the client's goal done, its
+    connection still open until the boundary after it)."""
+    child = tmp_path / "child.mcap"
+    with Session.resume(arm_parent, step=fork, record_to=child) as session:
+        assert session.core.bridge is not None
+        assert session.core.bridge.connections == ([] if fork == 0 else [1])
+        feed(session, incoming_after(arm_parent, fork), ARM_STEPS)
+    assert states(child) == states(arm_parent)
+    assert frames_from(child, 0) == frames_from(arm_parent, 0)
