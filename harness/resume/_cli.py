@@ -108,7 +108,11 @@ def run_resumed(args: argparse.Namespace) -> int:
         if failure is not None:
             print(f"harness serve: error: {failure}, recording {record} closed", file=sys.stderr)
             return 1
-        print(f"harness serve: stopped at step {reached}, recording {record} closed", flush=True)
+        print(
+            f"harness serve: stopped at step {reached}, recording {record} closed (harness diff "
+            f"{parent} {record}: the first divergence after the fork)",
+            flush=True,
+        )
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
