@@ -19,6 +19,7 @@ the step so that its state can catch up).
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -63,16 +64,26 @@ def open_fork(
             # the shell's thread starts its own at the next camera frame.
             core.sensors.close()
     except BaseException:
-        close_fork(fork)
+        close_fork(fork, discard=True)
         raise
     return fork
 
 
-def close_fork(fork: Fork) -> None:
-    """Close a fork no shell took over (its child recording is closed)."""
-    fork.core.finish()
-    if fork.recorder is not None:
-        fork.recorder.close()
+def close_fork(fork: Fork, *, discard: bool = False) -> None:
+    """Close a fork no shell took over: its child recording is closed (``discard``: and
+    removed, for a resume that did not start)."""
+    try:
+        if discard:
+            with contextlib.suppress(Exception):  # it may have been finished already
+                fork.core.finish()
+        else:
+            fork.core.finish()
+    finally:
+        if fork.recorder is not None:
+            fork.recorder.close()  # idempotent
+            if discard:
+                with contextlib.suppress(OSError):
+                    fork.recorder.path.unlink()
 
 
 def resume_session(
@@ -111,6 +122,5 @@ def resume_session(
             **transport_keywords,
         )
     except BaseException:
-        if fork.recorder is not None:
-            fork.recorder.close()  # idempotent: a shell that started closed it already
+        close_fork(fork, discard=True)  # a shell that failed to start closed the core too
         raise

@@ -284,12 +284,12 @@ def seek(
     metadata). See the module docstring for what is refused."""
     started = time.perf_counter()
     path = Path(path)
-    parent_sha256 = file_sha256(path)
     hint = f"at {step}" if step is not None else "it"
     recorder: Recorder | None = None
     try:
         with open_recording(path, allow_damaged=True) as rec:
             _check_recording(rec, path, hint)
+            parent_sha256 = file_sha256(path)
             dt_ns = rec.timestep_ns
             last = rec.last_step
             k = resolve_step(path, last, dt_ns, step, at_time)
@@ -316,8 +316,10 @@ def seek(
             core = SessionCore(robot, options, recorder=sink, hub=hub)
             applied = _drive(core, sink, rec.bridge_frames(None, k + 1), k, path, progress)
     except BaseException:
-        if recorder is not None:
+        if recorder is not None:  # a resume that did not start leaves no child behind
             recorder.close()
+            with contextlib.suppress(OSError):
+                recorder.path.unlink()
         raise
     sink.checking = False
     bridge = core.bridge

@@ -86,7 +86,9 @@ def test_a_recording_of_another_version(
         Session.resume(other, step=ARM_FORK)
 
 
-def test_wrong_edits_and_options(arm_parent: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_wrong_edits_and_options(
+    arm_parent: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     err = _serve(capsys, "--from", str(arm_parent), "--at", "0", "--set", "joint.elbow=1")
     assert "fork edit joint.elbow=1.0: no controllable joint 'elbow' (joints: " in err
     err = _serve(capsys, "--from", str(arm_parent), "--set", "gain=1")
@@ -97,4 +99,8 @@ def test_wrong_edits_and_options(arm_parent: Path, capsys: pytest.CaptureFixture
     assert "--at, --at-time and --set need --from RUN.mcap" in err
     with pytest.raises(ForkEditError):
         Session.resume(arm_parent, step=0, edits=["joint.joint1=nan"])
+    child = tmp_path / "child.mcap"
+    with pytest.raises(ForkEditError):
+        Session.resume(arm_parent, step=ARM_FORK, record_to=child, edits=["joint.elbow=1"])
+    assert not child.exists()  # a resume that did not start leaves no child
     assert issubclass(ForkEditError, ResumeError)
