@@ -101,10 +101,11 @@ The per-step logic is :class:`~harness.session.core.SessionCore` (sans-I/O); thi
 the shell around it: the thread, the asyncio loop, the WebSocket server or client, the clock
 modes, and the Python API handing calls to the loop. ``harness replay --level full`` drives a
 fresh core with a recording's frames; ``Session.resume(path, step=K)`` (:mod:`harness.resume`)
-puts this shell on a core those frames brought to step K (its recorded clients ghost peers). The shell's pieces outside its hot path have modules of
-their own: building (:mod:`harness.session.startup`, :mod:`harness.session.assembly`), the
-thread and its loop (:mod:`harness.session.loopthread`), the recording file
-(:mod:`harness.session.recordfile`), ``step``/``run_until`` from Python
+puts this shell on a core those frames brought to step K (its recorded clients ghost peers).
+The shell's pieces outside its hot path have modules of their own: building
+(:mod:`harness.session.startup`, :mod:`harness.session.assembly`), the thread and its loop
+(:mod:`harness.session.loopthread`), the recording file (:mod:`harness.session.recordfile`),
+``step``/``run_until`` from Python
 (:mod:`harness.session.waiting`) and closing (:mod:`harness.session.teardown`).
 """
 
