@@ -62,7 +62,12 @@ def test_a_live_client_takes_over_and_the_goal_in_flight_finishes(
     child = tmp_path / "live.mcap"
     with Session.resume(arm_parent, step=ARM_FORK, record_to=child) as session:
         with connect(session.url) as client:
+            description = client.subscribe("/robot_description", "std_msgs/msg/String")
+            static = client.subscribe("/tf_static", "tf2_msgs/msg/TFMessage")
             assert client.step(0) == ARM_FORK * session.dt_ns  # paused at the fork
+            # the latched topics published at step 0 of the re-derived run reach a late client
+            assert "<robot" in description.messages[0]["data"]
+            assert static.messages[0]["transforms"]
             client.step(400)
             state = client.state()
             assert session.clients_seen == 1  # the live client, not the ghost
