@@ -10,7 +10,9 @@ An edit is ``KIND.TARGET=VALUE``:
 - ``param.CONTROLLER.NAME=VALUE``: a running controller's parameter, e.g.
   ``param.joint_trajectory_controller.constraints.joint1.trajectory=0.05`` (the JTC's
   tolerances: the goals that follow use them, as ros2_control's JTC re-reading its
-  parameters), recorded as a ``harness/python`` ``set_parameter`` marker;
+  parameters) or ``param.diff_drive_controller.angular.z.max_velocity=0.5`` (a diff drive's
+  speed limits, from its next update), recorded as a ``harness/python`` ``set_parameter``
+  marker;
 - ``noise.SENSOR=STDDEV``: a sensor's Gaussian noise (its ``noise_stddev``; the noise stream
   stays a function of seed, sensor and step), recorded as a ``set_sensor_noise`` marker.
 

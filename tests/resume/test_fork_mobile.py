@@ -5,6 +5,7 @@ fork on, bit for bit."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ import pytest
 from harness import Session
 from harness.cli import main
 from harness.models.mobile import MOBILE_CONTROLLERS, load_mobile_bot
+from harness.recording import Recording
 from harness.testing import connect
 
 from .conftest import feed, frames_from, incoming_after, messages_from, states
@@ -78,3 +80,28 @@ def test_a_noise_edit_changes_the_scans_not_the_drive(drive: Path, tmp_path: Pat
     )
     assert quiet["/scan"] == parent["/scan"]  # the robot's own lidar keeps its noise
     assert main(["replay", str(child), "--level", "full"]) == 0
+
+
+def test_a_slower_turn_at_the_fork(drive: Path, tmp_path: Path) -> None:
+    """A diff drive's limit changed mid-turn: the base turns less from the fork on; the run
+    up to the fork is the parent's and the child replays with the edit."""
+    child = tmp_path / "slow.mcap"
+    edit = "param.diff_drive_controller.angular.z.max_velocity=0.2"
+    with Session.resume(drive, step=MID_TURN, record_to=child, edits=[edit]) as session:
+        feed(session, incoming_after(drive, MID_TURN), STEPS)
+    parent, slow = states(drive), states(child)
+    assert {k: v for k, v in slow.items() if k <= MID_TURN} == {
+        k: v for k, v in parent.items() if k <= MID_TURN
+    }
+    assert slow[STEPS] != parent[STEPS]
+    with Recording(drive) as a, Recording(child) as b:
+        yaw_parent = _yaw(next(iter(a.physics_states(STEPS, STEPS + 1))).qpos)
+        yaw_slow = _yaw(next(iter(b.physics_states(STEPS, STEPS + 1))).qpos)
+    assert abs(yaw_slow) < abs(yaw_parent)  # 8 x 25 steps at 0.2 rad/s, not 1 rad/s
+    assert main(["replay", str(child), "--level", "full"]) == 0
+
+
+def _yaw(qpos: Any) -> float:
+    """The floating base's heading from its free joint quaternion (w, x, y, z at 3:7)."""
+    w, x, y, z = (float(v) for v in qpos[3:7])
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
