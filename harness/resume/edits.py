@@ -14,7 +14,10 @@ An edit is ``KIND.TARGET=VALUE``:
   speed limits, from its next update), recorded as a ``harness/python`` ``set_parameter``
   marker;
 - ``noise.SENSOR=STDDEV``: a sensor's Gaussian noise (its ``noise_stddev``; the noise stream
-  stays a function of seed, sensor and step), recorded as a ``set_sensor_noise`` marker.
+  stays a function of seed, sensor and step), recorded as a ``set_sensor_noise`` marker;
+- ``pose.BODY=X,Y,Z[,QW,QX,QY,QZ]``: an object's pose (a free body: a world object, a
+  floating base), at rest, recorded as a ``set_body_pose`` marker and an epoch (reason
+  ``pose``) holding the state the run continues from, as a reset is.
 
 Each edit is applied at the step boundary after the resume step, before any live frame, and
 is recorded there (the child replays it); the child's metadata lists them
@@ -34,7 +37,7 @@ from harness.session import SessionCore
 
 __all__ = ["EDIT_KINDS", "Edit", "apply_edits", "parse_edit", "parse_edits"]
 
-EDIT_KINDS = ("joint", "param", "noise")
+EDIT_KINDS = ("joint", "param", "noise", "pose")
 
 
 @dataclass(frozen=True)
@@ -113,3 +116,8 @@ def _apply(core: SessionCore, edit: Edit) -> None:
         if len(edit.value) != 1:
             raise ForkEditError(f"fork edit {edit}: a noise edit is noise.SENSOR=STDDEV")
         core.set_sensor_noise(edit.target, edit.value[0])
+    elif edit.kind == "pose":
+        if len(edit.value) not in (3, 7):
+            raise ForkEditError(f"fork edit {edit}: a pose is pose.BODY=X,Y,Z[,QW,QX,QY,QZ]")
+        orientation = edit.value[3:] if len(edit.value) == 7 else None
+        core.set_body_pose(edit.target, edit.value[:3], orientation)

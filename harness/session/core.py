@@ -31,6 +31,8 @@ from collections.abc import Callable, Mapping, Sequence
 from functools import cache, partial
 from typing import Any, Literal, Protocol
 
+import mujoco
+
 from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
 from harness.names import NameKind, check_name
@@ -576,6 +578,44 @@ class SessionCore:
             one.spec = dataclasses.replace(one.spec, noise_stddev=float(stddev))
         args = {"call": "set_sensor_noise", "sensor": sensor, "stddev": float(stddev)}
         self._marker(MARKER_PYTHON, args)
+
+    def set_body_pose(
+        self, body: str, position: Sequence[float], orientation: Sequence[float] | None = None
+    ) -> None:
+        """Move a free body (a world object, a floating base) to ``position`` and, when
+        given, ``orientation`` (quaternion w x y z), at rest, at the current step boundary (a
+        fork edit, :mod:`harness.resume`): a discontinuity like a reset, recorded as a
+        ``harness/python`` marker and an epoch (reason ``pose``) holding the state the run
+        continues from."""
+        sim = self.sim
+        model, data = sim.model, sim.data
+        bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
+        joint = int(model.body_jntadr[bid]) if bid >= 0 else -1
+        if joint < 0 or model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_FREE:
+            raise SessionError(f"body {body!r}: no free body of that name (only one can be moved)")
+        pos = [float(v) for v in position]
+        quat = None if orientation is None else [float(v) for v in orientation]
+        norm = math.sqrt(sum(v * v for v in quat)) if quat is not None else 1.0
+        if len(pos) != 3 or (quat is not None and len(quat) != 4) or not norm > 0:
+            raise SessionError(f"body {body!r}: a pose is x,y,z or x,y,z,qw,qx,qy,qz")
+        if not all(math.isfinite(v) for v in [*pos, *(quat or ())]):
+            raise SessionError(f"body {body!r}: the pose must be finite")
+        self._marker(
+            MARKER_PYTHON,
+            {"call": "set_body_pose", "body": body, "position": pos, "orientation": quat},
+        )
+        qadr, dof = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
+        data.qpos[qadr : qadr + 3] = pos
+        if quat is not None:
+            data.qpos[qadr + 3 : qadr + 7] = [v / norm for v in quat]
+        data.qvel[dof : dof + 6] = 0.0
+        sim.set_state(sim.get_state(), sim.step_index)
+        self._epoch += 1
+        self.record_frames()
+        if self.recorder is not None:
+            epoch = reset_epoch(sim, self._epoch)
+            self.recorder.write_epoch(epoch._replace(reason="pose"))
+        self._after_state(record_state=False)
 
     def _python_command(self, apply: Callable[[], list[Notice]], joints: set[str]) -> list[Notice]:
         notices = apply()

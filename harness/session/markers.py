@@ -13,7 +13,7 @@ effect):
   frame the transport sent by itself (subscription frames dropped for a slow reader, a
   client-mode link lost or back);
 - ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause" |
-  "set_parameter" | "set_sensor_noise", ...}``:
+  "set_parameter" | "set_sensor_noise" | "set_body_pose", ...}``:
   a call of the session's Python API that changes the run (stepping from Python needs no
   marker: replay steps to the recorded steps); a free-running clock started by its first
   client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
@@ -130,5 +130,12 @@ def _replay_python(core: SessionCore, args: Mapping[str, Any]) -> None:
         core.set_parameter(str(args["controller"]), str(args["name"]), float(args["value"]))
     elif call == "set_sensor_noise":
         core.set_sensor_noise(str(args["sensor"]), float(args["stddev"]))
+    elif call == "set_body_pose":
+        orientation = args.get("orientation")
+        core.set_body_pose(
+            str(args["body"]),
+            [float(v) for v in args["position"]],
+            None if orientation is None else [float(v) for v in orientation],
+        )
     else:
         raise ValueError(f"unknown call {call!r}")
