@@ -197,6 +197,20 @@ class DiffDriveController(ControllerBase):
             Command(j, velocity=right) for j in self.right
         ]
 
+    def set_parameter(self, name: str, value: float) -> None:
+        """Change a speed limit while running (``linear.x.`` or ``angular.z.`` +
+        ``max_velocity``, ``min_velocity``, ``max_acceleration``, ``max_deceleration``; NaN:
+        unlimited), from the next update on. Raises ``ValueError`` naming what is wrong."""
+        axis, _, field = name.rpartition(".")
+        limits = {"linear.x": self.linear_limits, "angular.z": self.angular_limits}.get(axis)
+        fields = ("max_velocity", "min_velocity", "max_acceleration", "max_deceleration")
+        if limits is None or field not in fields:
+            raise ValueError(
+                f"{self.name}: {name!r} is not a parameter that can change while running "
+                f"(linear.x.* or angular.z.*: {', '.join(fields)})"
+            )
+        setattr(limits, field, None if math.isnan(value) else float(value))
+
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
     ) -> Output:

@@ -139,6 +139,10 @@ class JointTrajectoryController(ControllerBase):
         constraints = p.get("constraints", {})
         if not isinstance(constraints, Mapping):
             raise p.error(f"constraints must be a mapping, not {constraints!r}")
+        self.constraints: dict[str, Any] = {
+            str(k): dict(v) if isinstance(v, Mapping) else v for k, v in constraints.items()
+        }
+        """The ``constraints`` parameters (changed by :meth:`set_parameter`)."""
         try:
             self.default_tolerances = params_tolerances(self.joints, constraints)
         except ValueError as exc:
@@ -283,6 +287,36 @@ class JointTrajectoryController(ControllerBase):
             order(accelerations, None),
             order(effort, None),
         )
+
+    def set_parameter(self, name: str, value: float) -> None:
+        """Change a ``constraints`` parameter while running (``constraints.goal_time``,
+        ``constraints.stopped_velocity_tolerance``, ``constraints.<joint>.trajectory|goal``),
+        as ros2_control's JTC re-reads its parameters: the default tolerances change for the
+        goals that follow (and the topic interface); a goal in flight keeps the tolerances it
+        was accepted with. Raises ``ValueError`` naming what is wrong."""
+        parts = name.split(".")
+        scalar = ("goal_time", "stopped_velocity_tolerance")
+        if not (
+            (len(parts) == 2 and parts[0] == "constraints" and parts[1] in scalar)
+            or (len(parts) == 3 and parts[0] == "constraints" and parts[1] in self.joints
+                and parts[2] in ("trajectory", "goal"))
+        ):  # fmt: skip
+            raise ValueError(
+                f"{self.name}: {name!r} is not a parameter that can change while running "
+                "(constraints.goal_time, constraints.stopped_velocity_tolerance, "
+                "constraints.<joint>.trajectory, constraints.<joint>.goal)"
+            )
+        constraints = {
+            k: dict(v) if isinstance(v, dict) else v for k, v in self.constraints.items()
+        }
+        if len(parts) == 2:
+            constraints[parts[1]] = float(value)
+        else:
+            constraints.setdefault(parts[1], {})[parts[2]] = float(value)
+        self.default_tolerances = params_tolerances(self.joints, constraints)
+        self.constraints = constraints
+        if self.goal is None:
+            self.tolerances = self.default_tolerances
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings

@@ -40,6 +40,7 @@ _MARKER_OWN = frozenset(
         "joint_limits",
         "connect",  # the marker's spelling of Session(connect_to=)
         "world",  # a Gazebo world as the map: the same option as scene (harness serve --world)
+        "resume",  # continue a recording from a step (harness.resume)
     }
 )
 _NOT_MARKER = frozenset({"host", "port", "token", "record_to"})  # the plugin's own choice

@@ -8,6 +8,7 @@ still being written with :func:`complete_prefix`. Layout: :mod:`harness.recordin
 
 from __future__ import annotations
 
+from harness.recording.convert import to_plain
 from harness.recording.describe import LoadedRobotLike, RunDescription, describe_run
 from harness.recording.errors import (
     RecordingDamagedError,
@@ -62,4 +63,5 @@ __all__ = [
     "TopicInfo",
     "complete_prefix",
     "describe_run",
+    "to_plain",
 ]

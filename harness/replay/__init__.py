@@ -19,6 +19,7 @@ from harness.replay.errors import (
 )
 from harness.replay.play import Player
 from harness.replay.resim import Finding, ResimReport, Thresholds, resimulate
+from harness.replay.source import open_recording, rebuild_run, resolve_model
 from harness.replay.verify import (
     BodyDelta,
     Divergence,
@@ -45,6 +46,9 @@ __all__ = [
     "VerifyReport",
     "VersionMismatchError",
     "diff",
+    "open_recording",
+    "rebuild_run",
     "resimulate",
+    "resolve_model",
     "verify",
 ]

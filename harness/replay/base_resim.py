@@ -189,7 +189,7 @@ def _rerun(
     (``step - 1``; advertised before the first), stepped up to ``last`` (or the last command).
     Returns every step's ``qpos`` (row ``k``: after step ``k``). A step that fails ends the
     re-run with :class:`LevelUnavailableError` naming it (and ``where``, the recording)."""
-    from harness.session import CoreOptions, SessionCore
+    from harness.session.core import CoreOptions, SessionCore
 
     core = SessionCore(robot, CoreOptions(controllers=controllers))
     bridge = core.bridge
@@ -233,7 +233,7 @@ def resimulate_base(
     """Re-run the recording's base commands with ``actuation`` (``kinematic``: a planar
     base; ``servo``: the diff drive; see the module docstring)."""
     mode = parse_actuation(actuation)
-    from harness.session import controllers_from_metadata
+    from harness.session.core import controllers_from_metadata
 
     rec = open_recording(path, allow_damaged=allow_damaged)
     try:
@@ -319,7 +319,7 @@ def resimulate_base(
 
 def is_base_recording(path: str | Path) -> bool:
     """Whether the recording's run had a base controller (``--actuation`` then re-runs the base)."""
-    from harness.session import controllers_from_metadata
+    from harness.session.core import controllers_from_metadata
 
     rec = open_recording(path, allow_damaged=True)
     try:

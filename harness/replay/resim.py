@@ -607,7 +607,7 @@ def resimulate(
     # The re-simulation in the other mode: a session core (the engine of a live run) taking
     # the targets as Python position commands, without controllers (nothing else commands
     # the joints), recorder, clients, sockets or threads.
-    from harness.session import CoreOptions, SessionCore
+    from harness.session.core import CoreOptions, SessionCore
 
     options = CoreOptions(kinematic_limits=LimitPolicy.ALLOW, controllers="none")
     core = SessionCore(other_robot, options, graph=_NoGraph())

@@ -55,6 +55,7 @@ __all__ = [
     "JointLoggerSpec",
     "JointModes",
     "LoggerSpec",
+    "ResumeSpec",
     "Scenario",
     "ScenarioBridgeSection",
     "ScenarioRecordingSection",
@@ -258,6 +259,19 @@ class ClientSpec:
 
 
 @dataclass(frozen=True)
+class ResumeSpec:
+    """The ``resume`` section: continue the recording ``source`` from ``step`` (or from
+    ``at_time`` seconds; its last step when neither) with ``edits`` and ``preroll``
+    (``Session.resume``)."""
+
+    source: Path
+    step: int | None = None
+    at_time: float | None = None
+    edits: tuple[str, ...] = ()
+    preroll: float = 0.0
+
+
+@dataclass(frozen=True)
 class Scenario:
     """A validated scenario. Build it with :meth:`load` or :meth:`from_mapping`."""
 
@@ -284,6 +298,9 @@ class Scenario:
     recording: ScenarioRecordingSection = ScenarioRecordingSection()
     criteria: Criteria = Criteria()
     client: ClientSpec | None = None
+    resume: ResumeSpec | None = None
+    """Continue a recording from a step instead of starting at step 0 (``duration`` still
+    counts from step 0)."""
     source: Path | None = None
     controllers: ControllersConfig | None = None
     """The ros2_control controllers (None: each robot's default set)."""
@@ -413,6 +430,7 @@ class _Builder:
                 ),
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
+            resume=self.resume(data["resume"]) if "resume" in data else None,
             source=source,
         )
 
@@ -677,6 +695,15 @@ class _Builder:
             env=dict(data.get("env", {})),
             readiness_timeout=float(data.get("readiness_timeout", 30.0)),
             wall_timeout=float(data.get("wall_timeout", 600.0)),
+        )
+
+    def resume(self, data: dict[str, Any]) -> ResumeSpec:
+        return ResumeSpec(
+            source=(self.base / data["from"]).resolve(),
+            step=data.get("at"),
+            at_time=None if data.get("at_time") is None else float(data["at_time"]),
+            edits=tuple(data.get("edits", ())),
+            preroll=float(data.get("preroll", 0.0)),
         )
 
 

@@ -22,6 +22,7 @@ that no module here imports an I/O or wall-clock module, the live shell or a rec
 submodule (records go to the recorder as the types :mod:`harness.recording` exports).
 """
 
+from harness.session.core.control import controllers_from_metadata, controllers_option
 from harness.session.core.engine import (
     CLOCK_MODES,
     DEFAULT_MAX_STEP_REQUEST,
@@ -71,5 +72,7 @@ __all__ = [
     "SessionCore",
     "SessionTopics",
     "StartMode",
+    "controllers_from_metadata",
+    "controllers_option",
     "is_marker",
 ]

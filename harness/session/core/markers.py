@@ -12,7 +12,8 @@ effect):
 - ``harness/transport_status`` ``{"connection": c, "level": l, "msg": m}``: a ``status``
   frame the transport sent by itself (subscription frames dropped for a slow reader, a
   client-mode link lost or back);
-- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause", ...}``:
+- ``harness/python`` ``{"call": "command" | "set_positions" | "reset" | "pause" |
+  "set_parameter" | "set_sensor_noise" | "set_body_pose", ...}``:
   a call of the session's Python API that changes the run (stepping from Python needs no
   marker: replay steps to the recorded steps); a free-running clock started by its first
   client (``start="on_client"``) is recorded as ``{"call": "pause", "paused": false}``;
@@ -31,7 +32,7 @@ appears. :func:`replay_marker` applies a recorded marker to a core as the live s
 from __future__ import annotations
 
 import json
-from collections.abc import Container, Mapping
+from collections.abc import Container, Mapping, Sequence
 from typing import Any, Protocol
 
 from harness.rosbridge import DIRECTION_IN
@@ -118,6 +119,14 @@ class MarkedCore(Protocol):
 
     def set_paused(self, paused: bool) -> object: ...
 
+    def set_parameter(self, controller: str, name: str, value: float) -> None: ...
+
+    def set_sensor_noise(self, sensor: str, stddev: float) -> None: ...
+
+    def set_body_pose(
+        self, body: str, position: Sequence[float], orientation: Sequence[float] | None = None
+    ) -> None: ...
+
 
 def open_connection(bridge: MarkedBridge, connection: int) -> None:
     """Open ``connection`` (and any lower id not yet opened) as the live bridge did."""
@@ -168,5 +177,16 @@ def _replay_python(core: MarkedCore, args: Mapping[str, Any]) -> None:
         core.reset()
     elif call == "pause":
         core.set_paused(bool(args["paused"]))
+    elif call == "set_parameter":
+        core.set_parameter(str(args["controller"]), str(args["name"]), float(args["value"]))
+    elif call == "set_sensor_noise":
+        core.set_sensor_noise(str(args["sensor"]), float(args["stddev"]))
+    elif call == "set_body_pose":
+        orientation = args.get("orientation")
+        core.set_body_pose(
+            str(args["body"]),
+            [float(v) for v in args["position"]],
+            None if orientation is None else [float(v) for v in orientation],
+        )
     else:
         raise ValueError(f"unknown call {call!r}")

@@ -20,6 +20,7 @@ from typing import Any
 
 from harness.errors import HarnessError, RecordingError
 from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
+from harness.session.live._cli_resume import run_resumed
 from harness.vocabulary import CLOCK_MODES, CONTROL_MODE_INPUTS, LIMIT_POLICIES, ControlMode
 
 __all__ = ["add_arguments", "run", "what_was_kept"]
@@ -47,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="kinematic commands beyond a joint's limits: clamp (default) or allow",
     )
     parser.add_argument(
-        "--clock", choices=CLOCK_MODES, default="realtime", help="clock mode (default realtime)"
+        "--clock", choices=CLOCK_MODES, default=None, help="clock mode (default realtime)"
     )
     parser.add_argument(
         "--rate", type=float, default=1.0, help="realtime: sim time per wall time (default 1)"
@@ -102,6 +103,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="also put the simulation on DDS for ROS 2 nodes (rclpy gateway; see README)",
     )
+    resume = parser.add_argument_group(
+        "resume a recording (harness.resume): the run continues bit-exactly from a step"
+    )
+    resume.add_argument(
+        "--from",
+        dest="resume_from",
+        metavar="RUN.mcap",
+        default=None,
+        help="continue this session recording live: its robot, world and options are the "
+        "recording's; the recorded clients become ghost peers; paused (lockstep: time moves "
+        "when a client steps)",
+    )
+    at = resume.add_mutually_exclusive_group()
+    at.add_argument(
+        "--at", dest="resume_at", type=int, metavar="STEP", default=None,
+        help="--from: the step to continue from (default: the recording's last step)",
+    )  # fmt: skip
+    at.add_argument(
+        "--at-time", dest="resume_at_time", type=float, metavar="SECONDS", default=None,
+        help="--from: the sim time to continue from (the nearest step)",
+    )  # fmt: skip
+    resume.add_argument(
+        "--preroll", type=float, metavar="SECONDS", default=0.0,
+        help="--from: play each attaching client the recorded outgoing frames and /clock of "
+        "the SECONDS of sim time before the step, so its own state can catch up",
+    )  # fmt: skip
+    resume.add_argument(
+        "--set", dest="resume_edits", metavar="KIND.TARGET=VALUE", action="append", default=[],
+        help="--from: a fork edit applied at the step and recorded as its input (repeatable), "
+        "e.g. joint.joint1=0.4",
+    )  # fmt: skip
 
 
 def _controllers_arg(text: str) -> tuple[str, str]:
@@ -143,6 +175,14 @@ def run(args: argparse.Namespace) -> int:
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
+    if args.resume_from is not None:
+        return run_resumed(args)
+    if args.resume_at is not None or args.resume_at_time is not None or args.resume_edits:
+        print(
+            "harness serve: error: --at, --at-time and --set need --from RUN.mcap", file=sys.stderr
+        )
+        return 2
+    args.clock = args.clock or "realtime"
     # Installed once the robot is loaded: during the load SIGTERM ends the process and SIGINT
     # raises KeyboardInterrupt (exit 130) as they do by default, instead of waiting for it.
     previous: dict[int, Any] = {}

@@ -51,10 +51,14 @@ def build_core(
     hub: EventHub,
     transport: TransportOptions,
     sinks: Iterable[Sink],
+    *,
+    core: SessionCore | None = None,
 ) -> tuple[SessionCore, Port, UpstreamStats | None]:
-    """The sans-I/O core, the port its bridge talks through (not started; client mode: with
-    what the upstream link counts) and ``sinks`` added to ``hub`` after the recording's."""
-    core = SessionCore(loaded, options, recorder=recorder, hub=hub)
+    """The sans-I/O core (or ``core``, one already running: a resumed run), the port its
+    bridge talks through (not started; client mode: with what the upstream link counts) and
+    ``sinks`` added to ``hub`` after the recording's."""
+    if core is None:
+        core = SessionCore(loaded, options, recorder=recorder, hub=hub)
     assert core.bridge is not None
     port, upstream = open_port(core.bridge, transport)
     for sink in sinks:

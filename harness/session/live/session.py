@@ -100,9 +100,11 @@ Structure
 The per-step logic is :class:`~harness.session.core.SessionCore` (sans-I/O); this class is
 the shell around it: the thread, the asyncio loop, the WebSocket server or client, the clock
 modes, and the Python API handing calls to the loop. ``harness replay --level full`` drives a
-fresh core with a recording's frames. The shell's pieces outside its hot path have modules of
-their own: building (:mod:`harness.session.live.startup`, :mod:`harness.session.live.assembly`), the
-thread and its loop (:mod:`harness.session.live.loopthread`), the recording file
+fresh core with a recording's frames; ``Session.resume(path, step=K)`` (:mod:`harness.resume`)
+puts this shell on a core those frames brought to step K (its recorded clients ghost peers).
+The shell's pieces outside its hot path have modules of their own: building
+(:mod:`harness.session.live.startup`, :mod:`harness.session.live.assembly`), the thread and its
+loop (:mod:`harness.session.live.loopthread`), the recording file
 (:mod:`harness.session.live.recordfile`), ``step``/``run_until`` from Python
 (:mod:`harness.session.live.waiting`) and closing (:mod:`harness.session.live.teardown`).
 """
@@ -114,11 +116,11 @@ import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from functools import partial
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, overload
 
 import mujoco
 import numpy as np
@@ -127,6 +129,7 @@ import numpy.typing as npt
 from harness.events import Logger, Sink, SinkReport
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.recording import Recorder
+from harness.resume import Edit, close_fork, install_preroll, open_fork
 from harness.session.core.engine import (
     CLOCK_MODES,
     ClockMode,
@@ -167,6 +170,75 @@ T = TypeVar("T")
 
 LoggerFactory = Callable[["Session"], Logger]
 """Builds a logger once the session (and so its model) exists."""
+
+
+class _ResumeFrom(Protocol):
+    def __call__(
+        self,
+        path: str | Path,
+        *,
+        step: int | None = None,
+        at_time: float | None = None,
+        **keywords: Any,
+    ) -> Session: ...
+
+
+def _resume_from(
+    path: str | Path,
+    *,
+    step: int | None = None,
+    at_time: float | None = None,
+    record_to: str | Path | None = None,
+    edits: Sequence[Edit | str] = (),
+    preroll: float = 0.0,
+    transport: TransportOptions | None = None,
+    loggers: Iterable[Logger | LoggerFactory] = (),
+    sinks: Iterable[Sink] = (),
+    **transport_keywords: Any,
+) -> Session:
+    """A live session continuing the recording at ``path`` from ``step`` (or from the step
+    at ``at_time`` seconds; the last step when neither is given). ``record_to``: the child
+    recording (:mod:`harness.resume.child`). ``edits``: fork edits (:mod:`harness.resume.edits`,
+    e.g. ``"joint.joint1=0.4"``). ``preroll``: seconds of sim time of recorded traffic played
+    to each client that attaches, before its live traffic (:mod:`harness.resume.preroll`).
+    ``transport`` (or its fields as keywords: ``host``, ``port``, ``token``, ``connect_to``,
+    ``ros2``): where the session's bridge is. ``loggers``/``sinks``: as for
+    :class:`~harness.session.Session`, from the step on.
+
+    Raises :class:`~harness.resume.ResumeError` (one line) when the recording cannot be
+    resumed at that step."""
+    fork = open_fork(path, step=step, at_time=at_time, record_to=record_to, edits=edits)
+    try:
+        if preroll:
+            install_preroll(fork, path, preroll)
+        return Session(
+            transport=transport,
+            loggers=loggers,
+            sinks=sinks,
+            _resumed=(fork.core, fork.recorder),
+            **transport_keywords,
+        )
+    except BaseException:
+        close_fork(fork, discard=True)  # a shell that failed to start closed the core too
+        raise
+
+
+class _Resume:
+    """``Session.resume``: on the class, a session resumed from a recording; on a session,
+    restart its paused clock (the older meaning, kept)."""
+
+    @overload
+    def __get__(self, obj: None, owner: type[Session]) -> _ResumeFrom: ...
+
+    @overload
+    def __get__(self, obj: Session, owner: type[Session] | None = None) -> Callable[[], None]: ...
+
+    def __get__(
+        self, obj: Session | None, owner: type[Session] | None = None
+    ) -> _ResumeFrom | Callable[[], None]:
+        if obj is None:
+            return _resume_from
+        return obj._restart_clock
 
 
 class Session:
@@ -234,8 +306,13 @@ class Session:
         load: LoadOptions | None = None,
         loggers: Iterable[Logger | LoggerFactory] = (),
         sinks: Iterable[Sink] = (),
+        _resumed: tuple[SessionCore, Recorder | None] | None = None,
         **keywords: Unpack[SessionKeywords],
     ) -> None:
+        # ``_resumed``: a core already started and brought to a step, with its recorder
+        # (:mod:`harness.resume`; use ``Session.resume(path, step=...)``)
+        if _resumed is not None:
+            options = _resumed[0].options
         options, transport, record, load = option_groups(keywords, options, transport, record, load)
         self.options: CoreOptions = options
         """The core's options (the ``controllers`` default resolved once the robot is loaded)."""
@@ -247,6 +324,12 @@ class Session:
         start = options.start
         self.clock: ClockMode = clock
         self.start: StartMode = start
+        self._resumed = _resumed is not None
+        ghost_bridge = None if _resumed is None else _resumed[0].bridge
+        self._ghosts: frozenset[int] = frozenset(
+            () if ghost_bridge is None else ghost_bridge.connections
+        )
+        self._ghosts_opened = 0 if ghost_bridge is None else ghost_bridge.opened
         self._clients = threading.Condition()
         self._clients_seen = 0
         self._clients_open = 0
@@ -267,7 +350,11 @@ class Session:
         self.sink_reports: list[SinkReport] = []
         """One report per event sink, filled by :meth:`close`."""
 
-        loaded, options = resolve_run(robot, load, options)
+        loaded, options = (
+            resolve_run(robot, load, options)
+            if _resumed is None
+            else (_resumed[0].robot, _resumed[0].options)
+        )
         self.options = options
         self._loaded: LoadedRobot | LoadedWorld = loaded
         self.world: LoadedWorld | None = loaded if isinstance(loaded, LoadedWorld) else None
@@ -277,12 +364,20 @@ class Session:
         record_to = record.record_to
         self.record_path = Path(record_to) if record_to is not None else None
         try:
-            self._recorder, hub = start_recorder(
-                self.record_path, loaded, options, transport, record, load, self.ros_domain_id
-            )
-            core, self._port, upstream = build_core(
-                loaded, options, self._recorder, hub, transport, sinks
-            )
+            if _resumed is None:
+                self._recorder, hub = start_recorder(
+                    self.record_path, loaded, options, transport, record, load, self.ros_domain_id
+                )
+                core, self._port, upstream = build_core(
+                    loaded, options, self._recorder, hub, transport, sinks
+                )
+            else:
+                core, self._recorder = _resumed
+                hub = core.hub
+                self.record_path = None if self._recorder is None else self._recorder.path
+                _, self._port, upstream = build_core(
+                    loaded, options, self._recorder, hub, transport, sinks, core=core
+                )
             self.core: SessionCore = core
             """The sans-I/O core (touch it only from the session's thread)."""
             self.upstream: UpstreamStats | None = upstream
@@ -315,9 +410,11 @@ class Session:
         port = self._port
         assert port is not None
         url = await port.start()
-        self.core.start()
+        if not self._resumed:  # a resumed core was started by the run it continues
+            self.core.start()
         await port.settle()
-        self.core.publish_initial()
+        if not self._resumed:
+            self.core.publish_initial()
         port.flush()
         self._driver = asyncio.get_running_loop().create_task(self._drive())
         if isinstance(port, ServerPort):
@@ -343,7 +440,9 @@ class Session:
                 self._port.wake.set()
         bridge = core.bridge
         if bridge is not None:
-            seen, now_open = bridge.opened, bridge.open_count
+            seen, now_open = bridge.opened - self._ghosts_opened, bridge.open_count
+            if self._ghosts:  # a resumed run's recorded clients (ghost peers) are not clients
+                now_open -= len(self._ghosts.intersection(bridge.connections))
             if seen != self._clients_seen or now_open != self._clients_open:
                 with self._clients:
                     self._clients_seen, self._clients_open = seen, now_open
@@ -505,9 +604,14 @@ class Session:
         """Stop a fast or realtime clock (frames are still applied), as ``/harness/pause``."""
         self._call(lambda: self._settled(lambda: self.core.set_paused(True)))
 
-    def resume(self) -> None:
-        """Restart a paused fast or realtime clock."""
+    def _restart_clock(self) -> None:
+        """Restart a paused fast or realtime clock (``session.resume()``)."""
         self._call(lambda: self._settled(lambda: self.core.set_paused(False)))
+
+    resume = _Resume()
+    """``session.resume()``: restart a paused fast or realtime clock. ``Session.resume(path,
+    step=K)`` (on the class): a live session continuing the recording at ``path`` from step
+    ``K`` (:func:`_resume_from`: its keywords)."""
 
     def pause_at(self, step: int | None) -> None:
         """Pause a fast or realtime clock when it reaches ``step`` (exactly: at that step
@@ -654,7 +758,8 @@ class Session:
     @property
     def client_count(self) -> int:
         """Clients connected now (sockets accepted whose closing the session has not yet
-        processed; in client mode the link to the external server is the one client)."""
+        processed; in client mode the link to the external server is the one client; a
+        resumed run's ghost peers are not counted)."""
         return self._clients_open
 
     @property
