@@ -76,12 +76,6 @@ class ForwardCommandController(ControllerBase):
             )
         return data
 
-    def targets(self, msg: Mapping[str, Any]) -> dict[str, float]:
-        """What :meth:`commands` gives, as joint -> value of :attr:`interface` (each joint
-        once, in :attr:`joints` order): the session writes it at once (a command may come
-        every step); ``ValueError`` when refused."""
-        return dict(zip(self.joints, map(float, self._data(msg)), strict=True))
-
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
     ) -> Output:
