@@ -42,17 +42,17 @@ LifecycleState = Literal["unconfigured", "inactive", "active", "finalized"]
 _NOTHING: Mapping[str, float] = MappingProxyType({})
 
 
-@dataclass(frozen=True)
-class JointReadings:
+class JointReadings(NamedTuple):
     """The state interfaces of a robot's joints at one instant (``sim_time_ns``), and the
     value each joint's command interface holds (``command``: what was last commanded, in the
-    unit of its mode's field; empty where a caller gives none)."""
+    unit of its mode's field; empty where a caller gives none). A tuple: the session makes
+    one at every step for a controller updated every step."""
 
     sim_time_ns: int
     position: Mapping[str, float]
     velocity: Mapping[str, float]
     effort: Mapping[str, float]
-    command: Mapping[str, float] = field(default_factory=lambda: _NOTHING)
+    command: Mapping[str, float] = _NOTHING
 
 
 class Command(NamedTuple):
@@ -238,7 +238,8 @@ class ControllerBase:
     every command written through it (:meth:`taken`)."""
     every_step = False
     """Whether the session updates it at every simulation step (a harness-owned controller
-    interpolating a command), instead of at its update rate."""
+    interpolating a command), instead of at its update rate; its :meth:`update` is then
+    given the time only (reading a joint raises)."""
     notice_key = 0
     """Notices of its cyclic commands (a value clamped, ...) are said once per joint and
     kind for each value of this key (a controller changes it when a new command starts)."""
@@ -278,6 +279,6 @@ class ControllerBase:
         """Nothing to do per cycle."""
         return Output()
 
-    def taken(self, joints: Sequence[str], by: str) -> None:
+    def taken(self, commands: Sequence[Command], by: str) -> None:
         """A multiplexer's hook: controller ``by`` (another, or this one answering a
-        message) wrote commands of ``joints``. Nothing by default."""
+        message; "" for Python) wrote ``commands``. Nothing by default."""

@@ -320,6 +320,8 @@ _FIELD_OF_MODE: Mapping[str, CommandField] = {
     "effort": "effort",
 }
 _FIELDS: tuple[CommandField, ...] = ("position", "velocity", "effort")
+_IDLE = Output()
+"""The multiplexer's update without a trajectory (every step: one shared, never changed)."""
 
 
 class _Joints(Protocol):
@@ -513,11 +515,11 @@ class RobotCommands(ControllerBase):
         self.trajectory_topic = topic
         self.notice_key += 1  # a new trajectory: its notices are said again
 
-    def taken(self, joints: Sequence[str], by: str) -> None:
-        """Commands of ``joints`` were written (by a message, another controller or Python):
-        the trajectory in progress lets go of them."""
+    def taken(self, commands: Sequence[Command], by: str) -> None:
+        """``commands`` were written (by a message or another controller): the trajectory in
+        progress lets go of their joints."""
         if self.trajectory is not None:
-            self.trajectory = self.trajectory.without(set(joints))
+            self.trajectory = self.trajectory.without({c[0] for c in commands})
 
     def drop_from_trajectory(self, joints: Iterable[str]) -> None:
         """Stop the trajectory driving ``joints`` (the robot's own names)."""
@@ -530,9 +532,9 @@ class RobotCommands(ControllerBase):
         """The trajectory's setpoint for the step ending at ``sim_time_ns + period_ns`` (it
         is updated every step); its notices are said once per joint and trajectory."""
         trajectory = self.trajectory
-        out = Output()
         if trajectory is None:
-            return out
+            return _IDLE
+        out = Output()
         t_next = state.sim_time_ns + period_ns
         positions, velocities = trajectory.commands(t_next)
         out.commands = [Command(j, p) for j, p in positions.items()]

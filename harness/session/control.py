@@ -198,8 +198,6 @@ class _RobotControl:
             if name not in {c.name for c in self.steps}
         }
         """Controller -> its update period (ns of simulation time)."""
-        self.last: dict[str, int] = {}
-        """Controller -> the step of its last update."""
         self.uniform = len(set(self.periods.values())) <= 1 and all(
             p % dt == 0 for p in self.periods.values()
         )
@@ -216,29 +214,41 @@ class _RobotControl:
         """Its joint state broadcasters, when they pace ``/joint_states`` (a named set)."""
         self.goals: dict[int, ActionGoal] = {}
         self.warned: set[tuple[str, str, str, int]] = set()
+        self._unread: JointReadings | None = None
         self.topics: dict[str, str] = {}
         """Resolved topic -> controller name (the topics its controllers subscribe)."""
+
+    def _cycle_step(self, m: int) -> int:
+        """The step of the manager's cycle ``m``: the first at or after ``m`` periods."""
+        return -((-m * self.manager.update_period_ns) // self.dt_ns)
 
     def due(self, name: str, k: int) -> bool:
         """Whether controller ``name`` is updated at step ``k``: at a cycle of the manager
         (the first step at or after each of its periods, in simulation time) that is the
-        first at or after one of the controller's own periods since its last update."""
+        first at or after one of the controller's own periods."""
         dt = self.dt_ns
         cycle = self.manager.update_period_ns
-        if k and (k * dt) // cycle == ((k - 1) * dt) // cycle:
+        if k == 0:
+            return True
+        if (k * dt) // cycle == ((k - 1) * dt) // cycle:
             return False
         period = self.periods[name]
-        last = self.last.get(name)
-        return period == cycle or last is None or (k * dt) // period > (last * dt) // period
+        if period == cycle:
+            return True
+        previous = self._cycle_step((k * dt) // cycle - 1)
+        return (previous * dt) // period < (k * dt) // period
 
     def period_at(self, name: str, k: int) -> int:
-        """The simulation time since controller ``name``'s last update (its period rounded to
-        steps at the first one)."""
-        last = self.last.get(name)
-        self.last[name] = k
-        if last is None or last >= k:
-            return max(1, round(self.periods[name] / self.dt_ns)) * self.dt_ns
-        return (k - last) * self.dt_ns
+        """The simulation time since controller ``name``'s previous update slot (its period
+        rounded to steps at the first one), whether or not it was active then."""
+        dt = self.dt_ns
+        period = self.periods[name]
+        n = (k * dt) // period
+        if n == 0:
+            return max(1, round(period / dt)) * dt
+        cycle = self.manager.update_period_ns
+        previous = self._cycle_step(-((-(n - 1) * period) // cycle))
+        return (k - previous) * dt
 
     def resolve(self, controller: str, name: str) -> str:
         ns = self.channels.namespace
@@ -247,8 +257,12 @@ class _RobotControl:
 
     def unread(self) -> JointReadings:
         """Readings for controllers that never look at them (``reads_state`` False): the
-        time only; reading a joint raises."""
-        return JointReadings(self.host.core.sim.sim_time_ns, _UNREAD, _UNREAD, _UNREAD)
+        time only; reading a joint raises. One per instant (a command may come every step)."""
+        now = self.host.core.sim.sim_time_ns
+        unread = self._unread
+        if unread is None or unread.sim_time_ns != now:
+            unread = self._unread = JointReadings(now, _UNREAD, _UNREAD, _UNREAD, _UNREAD)
+        return unread
 
     def read_for(self, controllers: Sequence[Any]) -> JointReadings:
         """:meth:`read`, or :meth:`unread` when none of ``controllers`` reads the joints."""
@@ -462,7 +476,8 @@ class ControlHost:
                 entry = robot.manager.loaded.get(controller.name)
                 if entry is None or entry.state != "active":
                     continue
-                out = controller.update(robot.read_for((controller,)), robot.dt_ns)
+                # an every-step update is given the time only (it interpolates a command)
+                out = controller.update(robot.unread(), robot.dt_ns)
                 if out.commands or out.logs or out.publications or out.base is not None:
                     self._apply(robot, out, controller, cycle=True)
 
@@ -542,6 +557,11 @@ class ControlHost:
         core = self.core
         name = controller.name if controller is not None else ""
         where = out.where or where or name or "controller_manager"
+        if out.commands and not (
+            out.logs or out.publications or out.feedback or out.results or out.base
+        ):  # commands alone (a command message, a controller's cycle): the common case
+            self._command(robot, out.commands, where, connection, controller, cycle)
+            return
         for log in out.logs:
             text = f"{where}: {log.text}"
             if log.connection:
@@ -632,10 +652,11 @@ class ControlHost:
                 self.core.graph.status(connection, "error", text)
             self.core.log(Level.ERROR, text)
             return
-        by = writer.name if writer is not None else ""
         for mux in robot.muxes:
             if not (cycle and mux is writer):  # its own setpoint keeps its trajectory
-                mux.taken([c.joint for c in commands], by)
+                mux.taken(commands, writer.name if writer is not None else "")
+        if not notices:
+            return
         key = getattr(writer, "notice_key", 0)
         for notice in notices:
             seen = (where, notice.joint, notice.kind, key)

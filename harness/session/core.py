@@ -350,10 +350,11 @@ class SessionCore:
             sim.get_state(slot.state)
             slot.write(k, t)
         control = self.control
+        paced = control.paces_joint_states
         js_due = bool(self._js_every) and k % self._js_every == 0
-        if js_due or (self._js_every and control.paces_joint_states):
+        if js_due or (paced and self._js_every):
             for channels in self.robots:
-                if not control.joint_states_due(channels, k, js_due):
+                if paced and not control.joint_states_due(channels, k, js_due):
                     continue  # its joint_state_broadcaster's rate (a named controller set)
                 # one reading of the joints serves the subscribers' message and the recording
                 arrays = cache(partial(joint_state_arrays, sim, channels))

@@ -17,6 +17,7 @@ launch files give ``ros2_control_node`` (10 Hz).
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -236,3 +237,45 @@ def test_odometry_follows_its_publish_rate_in_simulation_time() -> None:
         dt = session.model.opt.timestep
         session.step(round(10.0 / dt))
         assert abs(_count(session, odom) - 301) <= 1
+
+
+CLASSIC_DRIVE = """
+  <gazebo>
+    <plugin name="wheels" filename="libgazebo_ros_diff_drive.so">
+      <left_joint>left_wheel_joint</left_joint>
+      <right_joint>right_wheel_joint</right_joint>
+      <wheel_separation>0.16</wheel_separation>
+      <wheel_diameter>0.066</wheel_diameter>
+      <command_topic>cmd_vel</command_topic>
+      <odometry_topic>wheel_odom</odometry_topic>
+      <update_rate>30</update_rate>
+    </plugin>
+  </gazebo>
+"""
+
+
+def test_a_drive_plugin_in_the_robot_file_replaces_the_default_set(tmp_path: Path) -> None:
+    from harness.models.mobile import MOBILE_URDF
+
+    text = re.sub(
+        r"<ros2_control.*</ros2_control>", CLASSIC_DRIVE, MOBILE_URDF.read_text(), flags=re.DOTALL
+    )
+    path = tmp_path / "plugin_bot.urdf"
+    path.write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = load_robot(path, base="floating")
+    with Session(robot) as session, connect(session.url) as client:
+        assert set(_list(client)) == {"joint_state_broadcaster", "wheels"}
+        topics = client.call_service("/rosapi/topics")["topics"]
+        assert "/cmd_vel" in topics
+        for gone in (
+            "/joint_command",
+            "/joint_trajectory",
+            "/forward_velocity_controller/commands",
+        ):
+            assert gone not in topics
+        # the plugin's <update_rate> is its odometry's rate, in simulation time
+        dt = session.model.opt.timestep
+        session.step(round(10.0 / dt))
+        assert abs(_count(session, "/wheel_odom") - 301) <= 1
