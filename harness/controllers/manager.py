@@ -89,7 +89,9 @@ class LoadedController:
 class ControllerManager:
     """The controllers of one robot. ``controllable``: its controllable joints -> control mode;
     ``joints``: every joint its ``joint_states`` hold; ``read``: the joints' state now;
-    ``sensors``: its sensors' state interfaces (what a sensor broadcaster reads)."""
+    ``sensors``: its sensors' state interfaces (what a sensor broadcaster reads);
+    ``multiplexer``: the harness's multiplexer of a set the harness made (loaded first; the
+    set's other controllers command through it, see the module docstring)."""
 
     def __init__(
         self,
