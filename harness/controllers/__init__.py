@@ -41,6 +41,7 @@ from harness.controllers.base import (
 from harness.controllers.config import (
     ControllersConfig,
     ControllerSpec,
+    builtin_controllers,
     default_controllers,
     load_controllers,
 )
@@ -77,6 +78,7 @@ __all__ = [
     "SensorInterfaces",
     "TopicEndpoint",
     "UnknownControllerType",
+    "builtin_controllers",
     "controller_type",
     "default_controllers",
     "known_types",

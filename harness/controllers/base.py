@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from types import MappingProxyType
+from typing import Any, Literal, NamedTuple, Protocol
 
 __all__ = [
     "GOAL_ABORTED",
@@ -38,21 +39,28 @@ GOAL_ABORTED = 6
 
 LifecycleState = Literal["unconfigured", "inactive", "active", "finalized"]
 
+_NOTHING: Mapping[str, float] = MappingProxyType({})
 
-@dataclass(frozen=True)
-class JointReadings:
-    """The state interfaces of a robot's joints at one instant (``sim_time_ns``)."""
+
+class JointReadings(NamedTuple):
+    """The state interfaces of a robot's joints at one instant (``sim_time_ns``), and the
+    value each joint's command interface holds (``command``: what was last commanded, in the
+    unit of its mode's field; empty where a caller gives none). A tuple: the session makes
+    one at every step for a controller updated every step."""
 
     sim_time_ns: int
     position: Mapping[str, float]
     velocity: Mapping[str, float]
     effort: Mapping[str, float]
+    command: Mapping[str, float] = _NOTHING
 
 
-@dataclass(frozen=True)
-class Command:
-    """A command for one joint: the session uses the field its control mode takes
-    (``position`` for position and kinematic joints, ``velocity``, ``effort``)."""
+class Command(NamedTuple):
+    """A command for one joint, the one form every command takes on its way to the
+    simulation (whatever topic, action or controller it came from). With one field given
+    (the common case) that field is written; with several, the one the joint's control
+    mode takes (``position`` for position and kinematic joints, ``velocity``, ``effort``).
+    A tuple, so that a controller may emit one per joint per message cheaply."""
 
     joint: str
     position: float | None = None
@@ -117,6 +125,9 @@ class Output:
     results: list[Result] = field(default_factory=list)
     logs: list[LogLine] = field(default_factory=list)
     base: BaseVelocity | None = None
+    where: str = ""
+    """What its log lines and the notices of its commands are prefixed with (default: the
+    topic of the message it answers, else the controller's name)."""
 
     def extend(self, other: Output) -> None:
         """Append ``other``'s items."""
@@ -131,10 +142,12 @@ class Output:
 
 @dataclass(frozen=True)
 class TopicEndpoint:
-    """A topic a controller subscribes (``~/name`` relative to the controller)."""
+    """A topic a controller subscribes (``~/name`` relative to the controller); ``node``:
+    the node it belongs to on the graph (default: the controller's)."""
 
     name: str
     type: str
+    node: str = ""
 
 
 @dataclass(frozen=True)
@@ -216,6 +229,20 @@ class ControllerBase:
     actions: Sequence[ActionEndpoint] = ()
     command_interfaces: tuple[str, ...] = ()
     state_interfaces: tuple[str, ...] = ()
+    reference_interfaces: tuple[str, ...] = ()
+    """``<name>/<joint>/<interface>`` it offers other controllers (a multiplexer's)."""
+    multiplexes = False
+    """Whether it is a multiplexer: the one controller of a set that claims the joints'
+    command interfaces, which the set's other controllers command through (its
+    :attr:`reference_interfaces`, shared: exempt from the one-claim rule). It is told of
+    every command written through it (:meth:`taken`)."""
+    every_step = False
+    """Whether the session updates it at every simulation step (a harness-owned controller
+    interpolating a command), instead of at its update rate; its :meth:`update` is then
+    given the time only (reading a joint raises)."""
+    notice_key = 0
+    """Notices of its cyclic commands (a value clamped, ...) are said once per joint and
+    kind for each value of this key (a controller changes it when a new command starts)."""
 
     def __init__(self, name: str, type: str) -> None:
         self.name = name
@@ -251,3 +278,7 @@ class ControllerBase:
     def update(self, state: JointReadings, period_ns: int) -> Output:
         """Nothing to do per cycle."""
         return Output()
+
+    def taken(self, commands: Sequence[Command], by: str) -> None:
+        """A multiplexer's hook: controller ``by`` (another, or this one answering a
+        message; "" for Python) wrote ``commands``. Nothing by default."""

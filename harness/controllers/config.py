@@ -46,6 +46,7 @@ __all__ = [
     "ControllerSpec",
     "ControllersConfig",
     "ControllersSource",
+    "builtin_controllers",
     "default_controllers",
     "load_controllers",
 ]
@@ -89,9 +90,11 @@ class ControllersConfig:
     controllers: tuple[ControllerSpec, ...] = ()
     source: str = "controllers"
     exclusive: bool = True
-    """Whether two active controllers may not claim one command interface (as in
-    ros2_control); the default set turns it off to keep every command path of earlier
-    versions active at once."""
+    """Whether it is a set a YAML or a robot file names (its controllers obey ros2_control's
+    one-claim rule, and it replaces the harness's command topics); False for a set the
+    harness makes (:func:`default_controllers`, :func:`builtin_controllers`), whose
+    controllers share the joints through the robot's multiplexer (``command_mux``, added by
+    the session) and which keeps the harness's ``joint_command`` and ``joint_trajectory``."""
 
     def to_json(self) -> str:
         """A canonical JSON text (the recording's metadata holds it)."""
@@ -298,7 +301,9 @@ def default_controllers(
     over the arm joints (controllable joints not driven by effort, fingers excluded);
     ``gripper_controller`` on the first finger joint when the robot has fingers (a joint named
     ``*finger*``, ``*gripper*`` or ``*jaw*``); and ``forward_{position,velocity,effort}_controller``
-    over every controllable joint (the forward command topics the session always had)."""
+    over every controllable joint (the forward command topics the session always had). The
+    session adds the robot's multiplexer (``command_mux``: ``joint_command``,
+    ``joint_trajectory``), through which they all share the joints."""
     fingers = [j for j in joints if _is_finger(j) and control.get(j) != "effort"]
     arm = [j for j in joints if j not in fingers and control.get(j) != "effort"]
     specs = [ControllerSpec("joint_state_broadcaster", TYPE_JOINT_STATE_BROADCASTER)]
@@ -322,12 +327,28 @@ def default_controllers(
                 {"joint": fingers[0]},
             )
         )
-    for interface in ("position", "velocity", "effort"):
-        specs.append(
-            ControllerSpec(
-                f"forward_{interface}_controller",
-                TYPE_FORWARD,
-                {"joints": list(joints), "interface_name": interface},
-            )
-        )
+    specs += _forward_specs(joints)
     return ControllersConfig(update_rate, tuple(specs), "default controllers", exclusive=False)
+
+
+def _forward_specs(joints: Sequence[str]) -> list[ControllerSpec]:
+    return [
+        ControllerSpec(
+            f"forward_{interface}_controller",
+            TYPE_FORWARD,
+            {"joints": list(joints), "interface_name": interface},
+        )
+        for interface in ("position", "velocity", "effort")
+    ]
+
+
+def builtin_controllers(
+    joints: Sequence[str], update_rate: float = DEFAULT_UPDATE_RATE
+) -> ControllersConfig:
+    """The harness's command topics without ros2_control's controllers
+    (``controllers=False``): ``forward_{position,velocity,effort}_controller`` over every
+    controllable joint (with the multiplexer's ``joint_command`` and ``joint_trajectory``,
+    which the session adds)."""
+    return ControllersConfig(
+        update_rate, tuple(_forward_specs(joints)), "harness command topics", exclusive=False
+    )

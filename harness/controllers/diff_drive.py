@@ -262,7 +262,7 @@ class DiffDriveController(ControllerBase):
         out.commands += self._wheel_commands(linear, angular)
         period = self.settings.publish_period_ns
         due = period == 0 or self.last_publish_ns is None
-        due = due or now - (self.last_publish_ns or 0) >= period
+        due = due or now // period > (self.last_publish_ns or 0) // period  # each period's first
         if due:
             self.last_publish_ns = now
             out.publications += self._publications(now)

@@ -422,7 +422,8 @@ class JointTrajectoryController(ControllerBase):
             )
         self._flush_feedback(out, now)
         if self.state_period_ns == 0 or now >= self._state_next:
-            self._state_next = now + self.state_period_ns
+            # the first update at or after each period (no drift: the mean rate is the rate)
+            self._state_next = (now // max(1, self.state_period_ns) + 1) * self.state_period_ns
             out.publications.append(self._state_msg(now, actual, desired, error))
         return out
 

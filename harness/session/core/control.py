@@ -14,8 +14,7 @@ recording replays it bit for bit.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import replace
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -26,15 +25,18 @@ from harness.controllers import (
     SERVICES,
     BaseVelocity,
     Command,
+    Controller,
     ControllerManager,
     ControllersConfig,
     ControllersConfigError,
+    ControllerSpec,
     JointReadings,
     Output,
+    builtin_controllers,
     default_controllers,
     load_controllers,
 )
-from harness.controllers.forward_command import ForwardCommandController
+from harness.controllers.config import TYPE_JOINT_STATE_BROADCASTER
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
@@ -104,17 +106,27 @@ def resolve_default(
 
 
 def with_drive_plugins(config: ControllersConfig, robot: LoadedRobot) -> ControllersConfig:
-    """``config`` plus a diff drive controller per drive plugin the robot's file declares."""
+    """``config``, or, when the robot's file declares drive plugins, what they name: a
+    ``joint_state_broadcaster`` and a diff drive (or planar) controller per plugin. Like a
+    YAML, a robot file that names controllers replaces the default set and its topics
+    (ros2_control's one-claim rule then holds among them)."""
     from harness.controllers.gazebo_plugins import drive_plugins
     from harness.models.files.xmlsafe import parse_xml
 
     specs: list[Any] = []
+    files: list[str] = []
     for name, data in robot.sources.items():
         if name.startswith("model/") and name.endswith((".urdf", ".sdf", ".xacro", ".world")):
-            specs += drive_plugins(parse_xml(data, name), name)
+            found = drive_plugins(parse_xml(data, name), name)
+            if found:
+                files.append(name)
+            specs += found
     if not specs:
         return config
-    return replace(config, controllers=(*config.controllers, *specs))
+    broadcaster = ControllerSpec("joint_state_broadcaster", TYPE_JOINT_STATE_BROADCASTER)
+    return ControllersConfig(
+        config.update_rate, (broadcaster, *specs), " + ".join(files), exclusive=True
+    )
 
 
 def controllers_metadata(config: ControllersConfig | str) -> str:
@@ -144,11 +156,23 @@ class _Core(Publisher, Protocol):
 
 
 class _RobotControl:
-    """One robot's controller manager and the goals in flight."""
+    """One robot's controller manager, the goals in flight and when each controller is
+    updated."""
 
-    def __init__(self, host: ControlHost, channels: Any, config: ControllersConfig) -> None:
+    def __init__(
+        self,
+        host: ControlHost,
+        channels: Any,
+        config: ControllersConfig,
+        *,
+        multiplexer: Controller | None,
+        services: bool,
+    ) -> None:
         self.host = host
         self.channels = channels
+        self.services = services
+        """Whether it serves the ``controller_manager`` services (not with
+        ``controllers=False``: then only the harness's own command topics are there)."""
         joints = channels.joints
         self.manager = ControllerManager(
             config,
@@ -157,12 +181,74 @@ class _RobotControl:
             self.read,
             robot=channels.namespace or host.core.robot_name,
             sensors=sensor_interfaces(getattr(host.core, "sensors", None), channels.namespace),
+            multiplexer=multiplexer,
         )
-        self.every = max(1, round(self.manager.update_period_ns / host.core.sim.dt_ns))
+        dt: int = host.core.sim.dt_ns
+        self.dt_ns = dt
+        self.every = max(1, round(self.manager.update_period_ns / dt))
+        self.muxes: list[Any] = [
+            c for c in self.manager.built.values() if getattr(c, "multiplexes", False)
+        ]
+        self.steps = [c for c in self.manager.built.values() if getattr(c, "every_step", False)]
+        """Controllers updated at every step (the multiplexer: its trajectory's setpoint)."""
+        periods = self.manager.periods_ns
+        self.periods = {
+            name: period
+            for name, period in periods.items()
+            if name not in {c.name for c in self.steps}
+        }
+        """Controller -> its update period (ns of simulation time)."""
+        self.uniform = len(set(self.periods.values())) <= 1 and all(
+            p % dt == 0 for p in self.periods.values()
+        )
+        """Whether every controller is updated every :attr:`every` steps (the common case)."""
+        self.broadcasters = (
+            tuple(
+                name
+                for name, c in self.manager.built.items()
+                if getattr(c, "publishes_joint_states", False)
+            )
+            if config.exclusive
+            else ()
+        )
+        """Its joint state broadcasters, when they pace ``/joint_states`` (a named set)."""
         self.goals: dict[int, ActionGoal] = {}
-        self.warned: set[tuple[str, str, str]] = set()
+        self.warned: set[tuple[str, str, str, int]] = set()
+        self._unread: JointReadings | None = None
         self.topics: dict[str, str] = {}
         """Resolved topic -> controller name (the topics its controllers subscribe)."""
+
+    def _cycle_step(self, m: int) -> int:
+        """The step of the manager's cycle ``m``: the first at or after ``m`` periods."""
+        return -((-m * self.manager.update_period_ns) // self.dt_ns)
+
+    def due(self, name: str, k: int) -> bool:
+        """Whether controller ``name`` is updated at step ``k``: at a cycle of the manager
+        (the first step at or after each of its periods, in simulation time) that is the
+        first at or after one of the controller's own periods."""
+        dt = self.dt_ns
+        cycle = self.manager.update_period_ns
+        if k == 0:
+            return True
+        if (k * dt) // cycle == ((k - 1) * dt) // cycle:
+            return False
+        period = self.periods[name]
+        if period == cycle:
+            return True
+        previous = self._cycle_step((k * dt) // cycle - 1)
+        return (previous * dt) // period < (k * dt) // period
+
+    def period_at(self, name: str, k: int) -> int:
+        """The simulation time since controller ``name``'s previous update slot (its period
+        rounded to steps at the first one), whether or not it was active then."""
+        dt = self.dt_ns
+        period = self.periods[name]
+        n = (k * dt) // period
+        if n == 0:
+            return max(1, round(period / dt)) * dt
+        cycle = self.manager.update_period_ns
+        previous = self._cycle_step(-((-(n - 1) * period) // cycle))
+        return (k - previous) * dt
 
     def resolve(self, controller: str, name: str) -> str:
         ns = self.channels.namespace
@@ -171,8 +257,12 @@ class _RobotControl:
 
     def unread(self) -> JointReadings:
         """Readings for controllers that never look at them (``reads_state`` False): the
-        time only; reading a joint raises."""
-        return JointReadings(self.host.core.sim.sim_time_ns, _UNREAD, _UNREAD, _UNREAD)
+        time only; reading a joint raises. One per instant (a command may come every step)."""
+        now = self.host.core.sim.sim_time_ns
+        unread = self._unread
+        if unread is None or unread.sim_time_ns != now:
+            unread = self._unread = JointReadings(now, _UNREAD, _UNREAD, _UNREAD, _UNREAD)
+        return unread
 
     def read_for(self, controllers: Sequence[Any]) -> JointReadings:
         """:meth:`read`, or :meth:`unread` when none of ``controllers`` reads the joints."""
@@ -184,31 +274,32 @@ class _RobotControl:
     def read(self) -> JointReadings:
         joints = self.channels.joints
         names = joints.joint_names
-        # The arrays are copies taken now; their per-joint dicts are built only when a
-        # controller looks (a forward command controller never does).
+        # Each array is read when a controller first looks (the joints' state does not change
+        # between two steps; a command written meanwhile shows in ``command``).
         return JointReadings(
             self.host.core.sim.sim_time_ns,
-            _Snapshot(names, joints.joint_positions()),
-            _Snapshot(names, joints.joint_velocities()),
-            _Snapshot(names, joints.joint_efforts()),
+            _Snapshot(names, joints.joint_positions),
+            _Snapshot(names, joints.joint_velocities),
+            _Snapshot(names, joints.joint_efforts),
+            _Snapshot(names, joints.joint_commands),
         )
 
 
 class _Snapshot(Mapping[str, float]):
-    """Joint name -> value of an array copied at one instant; the dict is built on first use
-    (the same values a dict built at once would hold)."""
+    """Joint name -> value of an array read on first use (then held: the same values a dict
+    built at once would hold)."""
 
-    __slots__ = ("_dict", "_names", "_values")
+    __slots__ = ("_dict", "_names", "_read")
 
-    def __init__(self, names: Sequence[str], values: npt.NDArray[np.float64]) -> None:
+    def __init__(self, names: Sequence[str], read: Callable[[], npt.NDArray[np.float64]]) -> None:
         self._names = names
-        self._values = values
+        self._read = read
         self._dict: dict[str, float] | None = None
 
     def _get(self) -> dict[str, float]:
         d = self._dict
         if d is None:
-            d = self._dict = dict(zip(self._names, self._values.tolist(), strict=True))
+            d = self._dict = dict(zip(self._names, self._read().tolist(), strict=True))
         return d
 
     def __getitem__(self, key: str) -> float:
@@ -271,21 +362,46 @@ class ControlHost:
         self.core = core
         self.robots: list[_RobotControl] = []
         self._next_goal = 1
-        if config == _CONFIG_NONE:
-            return
         for channels in core.robots:
             joints = channels.joints
             own = (
                 default_controllers(joints.joint_names, joints.control)
                 if config == _CONFIG_DEFAULT
+                else builtin_controllers(joints.joint_names)
+                if config == _CONFIG_NONE
                 else config
             )
             assert isinstance(own, ControllersConfig)
-            robot = _RobotControl(self, channels, own)
+            # a set the harness made (the default set, the built-in topics) shares the joints
+            # through the robot's multiplexer; a set a YAML or robot file names replaces it
+            # with its own topics
+            robot = _RobotControl(
+                self,
+                channels,
+                own,
+                multiplexer=None if own.exclusive else channels.commands,
+                services=config != _CONFIG_NONE,
+            )
             for name, controller in robot.manager.built.items():
                 for endpoint in controller.subscriptions:
                     robot.topics[robot.resolve(name, endpoint.name)] = name
             self.robots.append(robot)
+        self.paces_joint_states = any(robot.broadcasters for robot in self.robots)
+        """Whether a robot's ``/joint_states`` follow its broadcaster's schedule (a set a
+        YAML or robot file names, with a ``joint_state_broadcaster``)."""
+
+    def joint_states_due(self, channels: Any, k: int, default: bool) -> bool:
+        """Whether the robot of ``channels`` publishes ``/joint_states`` at step ``k``: while
+        its broadcaster is active, at the first step at or after each of its periods; without
+        one, when the session's own rate says so (``default``)."""
+        for robot in self.robots:
+            if robot.channels is channels and robot.broadcasters:
+                loaded = robot.manager.loaded
+                return any(
+                    name in loaded and loaded[name].state == "active" and robot.due(name, k)
+                    for name in robot.broadcasters
+                )
+        return default
 
     def claims(self, topic: str) -> bool:
         """Whether a controller subscribes ``topic`` (the core then leaves it alone)."""
@@ -309,7 +425,7 @@ class ControlHost:
                         robot.resolve(name, topic.name),
                         topic.type,
                         self._on_message(robot, name, topic.name),
-                        node=node,
+                        node=topic.node or node,
                     )
                 for action in controller.actions:
                     resolved = robot.resolve(name, action.name)
@@ -323,7 +439,7 @@ class ControlHost:
                     serve_action(
                         resolved, action.type, self._on_goal(robot, name, action.name), node=node
                     )
-            for service, type in SERVICES.items():
+            for service, type in SERVICES.items() if robot.services else ():
                 graph.serve(
                     robot.resolve("controller_manager", "~/" + service),
                     type,
@@ -335,18 +451,35 @@ class ControlHost:
     # ----------------------------------------------------------------------------- stepping
 
     def before_step(self) -> None:
-        """Run every controller update due at the current step boundary."""
+        """Run every controller update due at the current step boundary: those at their
+        update rate (every robot's, in load order), then those of every step."""
         k = self.core.sim.step_index
         for robot in self.robots:
-            if k % robot.every:
+            if robot.uniform:
+                if k % robot.every:
+                    continue
+                due = [c for c in robot.manager.active() if c.name in robot.periods]
+            else:
+                due = [
+                    c
+                    for c in robot.manager.active()
+                    if c.name in robot.periods and robot.due(c.name, k)
+                ]
+            if not due:
                 continue
-            active = robot.manager.active()
-            if not active:
-                continue
-            state = robot.read_for(active)
-            period = robot.every * self.core.sim.dt_ns
-            for controller in active:
-                self._apply(robot, controller.update(state, period), controller.name)
+            state = robot.read_for(due)
+            for controller in due:
+                period = robot.period_at(controller.name, k)
+                self._apply(robot, controller.update(state, period), controller)
+        for robot in self.robots:
+            for controller in robot.steps:
+                entry = robot.manager.loaded.get(controller.name)
+                if entry is None or entry.state != "active":
+                    continue
+                # an every-step update is given the time only (it interpolates a command)
+                out = controller.update(robot.unread(), robot.dt_ns)
+                if out.commands or out.logs or out.publications or out.base is not None:
+                    self._apply(robot, out, controller, cycle=True)
 
     def reset(self) -> None:
         """After a reset to the initial state: every active controller restarts (goals end)."""
@@ -365,27 +498,9 @@ class ControlHost:
             if entry is None:
                 return
             controller = entry.controller
-            if type(controller) is ForwardCommandController and controller.active:
-                # what on_message and _command do for it, without a Command per joint
-                try:
-                    values = controller.targets(msg)
-                except ValueError:
-                    pass  # refused: on_message below says why
-                else:
-                    field = controller.interface
-                    self._write(
-                        robot,
-                        values if field == "position" else None,
-                        values if field == "velocity" else None,
-                        values if field == "effort" else None,
-                        values,
-                        where,
-                        connection,
-                    )
-                    return
             state = robot.read() if getattr(controller, "reads_state", True) else robot.unread()
             out = controller.on_message(topic, msg, connection, state)
-            self._apply(robot, out, name, connection, where)
+            self._apply(robot, out, controller, connection, where)
 
         return handle
 
@@ -406,11 +521,11 @@ class ControlHost:
                 current = robot.manager.loaded.get(name)
                 if current is not None:
                     out = current.controller.on_cancel(action, gid, robot.read())
-                    self._apply(robot, out, name)
+                    self._apply(robot, out, current.controller)
 
             goal.on_cancel = cancel
             out = entry.controller.on_goal(action, gid, goal.goal, robot.read())
-            self._apply(robot, out, name, goal.connection)
+            self._apply(robot, out, entry.controller, goal.connection)
 
         return handle
 
@@ -430,28 +545,37 @@ class ControlHost:
         self,
         robot: _RobotControl,
         out: Output,
-        controller: str = "",
+        controller: Controller | None = None,
         connection: int = 0,
         where: str = "",
+        *,
+        cycle: bool = False,
     ) -> None:
-        """Apply a controller's output; ``where`` (a topic, else the controller's name)
-        prefixes its log lines."""
+        """Apply a controller's output (``controller``: whose, None for the manager's;
+        ``cycle``: from its every-step update). ``out.where``, else ``where`` (a topic),
+        else the controller's name prefixes its log lines."""
         core = self.core
-        where = where or controller or "controller_manager"
+        name = controller.name if controller is not None else ""
+        where = out.where or where or name or "controller_manager"
+        if out.commands and not (
+            out.logs or out.publications or out.feedback or out.results or out.base
+        ):  # commands alone (a command message, a controller's cycle): the common case
+            self._command(robot, out.commands, where, connection, controller, cycle)
+            return
         for log in out.logs:
             text = f"{where}: {log.text}"
             if log.connection:
                 core.graph.status(log.connection, "error" if log.level >= 40 else "warning", text)
             core.log(Level(log.level), text)
         if out.commands:
-            self._command(robot, out.commands, where, connection)
+            self._command(robot, out.commands, where, connection, controller, cycle)
         if out.base is not None:
             self._base(out.base, where)
         for pub in out.publications:
             # to subscribers only: the frames sent are recorded (as /rosout's are), no channel
             # of its own (a session's recorded channels stay what they were)
             core.publish(
-                robot.resolve(controller, pub.topic),
+                robot.resolve(name, pub.topic),
                 pub.type,
                 lambda msg=pub.msg: msg,  # type: ignore[misc]
                 record=False,
@@ -476,52 +600,43 @@ class ControlHost:
             self.core.log(Level.ERROR, f"{where}: base velocity refused: {exc}")
 
     def _command(
-        self, robot: _RobotControl, commands: list[Command], where: str, connection: int
+        self,
+        robot: _RobotControl,
+        commands: list[Command],
+        where: str,
+        connection: int,
+        writer: Controller | None,
+        cycle: bool,
     ) -> None:
-        joints = robot.channels.joints
-        control = joints.control
+        """The one way a command reaches the simulation: each :class:`Command` of an output,
+        grouped by the field it gives (the simulation checks them all before any applies),
+        then the robot's multiplexer is told which joints were taken."""
+        control = robot.channels.joints.control
         positions: dict[str, float] = {}
         velocities: dict[str, float] = {}
         efforts: dict[str, float] = {}
-        for cmd in commands:
-            position, velocity, effort = cmd.position, cmd.velocity, cmd.effort
+        for joint, position, velocity, effort in commands:
             # one field given (the common case): that field, whatever the joint's mode
             if velocity is None and effort is None:
                 if position is not None:
-                    positions[cmd.joint] = position
+                    positions[joint] = position
                 continue
             if position is None and effort is None:
-                velocities[cmd.joint] = velocity  # type: ignore[assignment]
+                velocities[joint] = velocity  # type: ignore[assignment]
                 continue
             if position is None and velocity is None:
-                efforts[cmd.joint] = effort  # type: ignore[assignment]
+                efforts[joint] = effort  # type: ignore[assignment]
                 continue
             # several given: the one the joint's mode takes, if given
-            mode = control.get(cmd.joint, "position")
+            mode = control.get(joint, "position")
             if mode in ("position", "kinematic"):
                 if position is not None:
-                    positions[cmd.joint] = position
+                    positions[joint] = position
             elif mode == "velocity":
                 if velocity is not None:
-                    velocities[cmd.joint] = velocity
+                    velocities[joint] = velocity
             elif mode == "effort" and effort is not None:
-                efforts[cmd.joint] = effort
-        self._write(
-            robot, positions, velocities, efforts, (c.joint for c in commands), where, connection
-        )
-
-    def _write(
-        self,
-        robot: _RobotControl,
-        positions: Mapping[str, float] | None,
-        velocities: Mapping[str, float] | None,
-        efforts: Mapping[str, float] | None,
-        commanded: Iterable[str],
-        where: str,
-        connection: int,
-    ) -> None:
-        """Write the commands of each field (``commanded``: every joint commanded, the
-        trajectory lets go of them) and report what was refused or changed."""
+                efforts[joint] = effort
         joints = robot.channels.joints
         notices: list[Notice] = []
         try:
@@ -537,13 +652,17 @@ class ControlHost:
                 self.core.graph.status(connection, "error", text)
             self.core.log(Level.ERROR, text)
             return
-        if robot.channels.commands.trajectory is not None:
-            robot.channels.commands.drop_from_trajectory(list(commanded))
+        for mux in robot.muxes:
+            if not (cycle and mux is writer):  # its own setpoint keeps its trajectory
+                mux.taken(commands, writer.name if writer is not None else "")
+        if not notices:
+            return
+        key = getattr(writer, "notice_key", 0)
         for notice in notices:
-            key = (where, notice.joint, notice.kind)
-            if not connection and key in robot.warned:
+            seen = (where, notice.joint, notice.kind, key)
+            if not connection and seen in robot.warned:
                 continue  # a controller's every cycle: once per joint
-            robot.warned.add(key)
+            robot.warned.add(seen)
             text = f"{where}: {notice.message}"
             if connection:
                 self.core.graph.status(connection, "warning", text)

@@ -317,7 +317,7 @@ class SessionCore:
         """Advertise every published topic, subscribe every robot's command topics and
         serve the services."""
         graph = self.graph
-        advertise_and_subscribe(graph, self.published, self.robots, self.sim, self.control.claims)
+        advertise_and_subscribe(graph, self.published)
         HarnessServices(self, reset=self._reset, pause=self._set_paused).serve(graph)
         self.control.start()
 
@@ -366,9 +366,6 @@ class SessionCore:
     def _advance(self) -> None:
         sim = self.sim
         self.control.before_step()
-        t_next = sim.sim_time_ns + self.dt_ns
-        for channels in self.robots:
-            channels.commands.setpoint(t_next)
         sim.step()
         self.record_frames()
         recorder = self.recorder
@@ -389,8 +386,13 @@ class SessionCore:
         if slot is not None and record_state and k % self._state_every == 0:
             sim.get_state(slot.state)
             slot.write(k, t)
-        if self._js_every and k % self._js_every == 0:
+        control = self.control
+        paced = control.paces_joint_states
+        js_due = bool(self._js_every) and k % self._js_every == 0
+        if js_due or (paced and self._js_every):
             for channels in self.robots:
+                if paced and not control.joint_states_due(channels, k, js_due):
+                    continue  # its joint_state_broadcaster's rate (a named controller set)
                 # one reading of the joints serves the subscribers' message and the recording
                 arrays = cache(partial(joint_state_arrays, sim, channels))
                 self.publish(

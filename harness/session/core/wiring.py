@@ -2,21 +2,20 @@
 
 What it publishes (:func:`published_topics`: every robot's topics, ``/clock``,
 ``/rosout``), one TF tree per pair of ``/tf`` and ``/tf_static`` topics (:func:`tf_trees`),
-the advertising of those topics and the subscriptions to every robot's command topics
-(:func:`advertise_and_subscribe`), and the latched messages published at step 0: robot
-descriptions and static transforms (:func:`publish_latched`). The per-step publishing stays
+the advertising of those topics (:func:`advertise_and_subscribe`; the command topics are the
+controllers'), and the latched messages published at step 0: robot descriptions and static
+transforms (:func:`publish_latched`). The per-step publishing stays
 in :class:`~harness.session.core.SessionCore`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from functools import partial
 from typing import Any
 
 import mujoco
 
-from harness.controllers.command_topics import FORWARD_TOPICS
 from harness.sensors import TOPIC_TF_STATIC
 from harness.sensors.suite import SensorSuite
 from harness.session.core.bridge import Graph, Publisher
@@ -25,14 +24,10 @@ from harness.session.core.tf import TfTree
 from harness.session.core.topics import (
     HARNESS_NODE,
     TYPE_CLOCK,
-    TYPE_FORWARD,
-    TYPE_JOINT_STATE,
     TYPE_LOG,
     TYPE_STRING,
     TYPE_TF,
-    TYPE_TRAJECTORY,
     TopicDef,
-    node_name,
     robot_topic_defs,
 )
 from harness.sim import Simulation
@@ -83,38 +78,12 @@ def tf_trees(model: mujoco.MjModel, robots: Iterable[RobotChannels]) -> tuple[Tf
     )
 
 
-def advertise_and_subscribe(
-    graph: Graph,
-    published: Iterable[TopicDef],
-    robots: Iterable[RobotChannels],
-    sim: Simulation,
-    claims: Callable[[str], bool],
-) -> None:
-    """Advertise every published topic and subscribe every robot's command topics (a
-    forward command topic a controller ``claims`` is left to that controller)."""
+def advertise_and_subscribe(graph: Graph, published: Iterable[TopicDef]) -> None:
+    """Advertise every published topic. The robots' command topics are their controllers'
+    (:class:`~harness.session.control.ControlHost` subscribes them, the harness's own ones
+    too: one command path)."""
     for defined in published:
         graph.advertise(defined.name, defined.type, node=defined.node, latch=defined.latched)
-    for channels in robots:
-        topics = channels.topics
-        commands = channels.commands
-        graph.subscribe(topics.joint_command, TYPE_JOINT_STATE, commands.on_joint_command)
-        graph.subscribe(
-            topics.joint_trajectory,
-            TYPE_TRAJECTORY,
-            lambda msg, c, commands=commands: commands.on_trajectory(  # type: ignore[misc]
-                msg, c, sim.sim_time_ns
-            ),
-        )
-        for command_field, topic in topics.forward.items():
-            if claims(topic):
-                continue  # served by the forward command controller of that name
-            controller = FORWARD_TOPICS[command_field].split("/")[0]
-            graph.subscribe(
-                topic,
-                TYPE_FORWARD,
-                commands.forward_handler(command_field, topic),
-                node=node_name(channels.namespace, controller),
-            )
 
 
 def publish_latched(
