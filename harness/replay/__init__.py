@@ -18,7 +18,8 @@ from harness.replay.errors import (
     VersionMismatchError,
 )
 from harness.replay.play import Player
-from harness.replay.resim import Finding, ResimReport, Thresholds, resimulate
+from harness.replay.resim import resimulate
+from harness.replay.resim_report import Finding, ResimReport, Thresholds
 from harness.replay.source import open_recording, rebuild_run, resolve_model
 from harness.replay.verify import (
     BodyDelta,
