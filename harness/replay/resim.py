@@ -31,6 +31,9 @@ recorded teleport past a joint limit that a servo cannot follow; a servo that ov
 where the recording did not). What both runs do alike is the recording's own behaviour, shown
 in the table but not a finding. When the requested actuation is the recorded control
 (``servo`` for position servos), the re-simulation is the same run, and the report says so.
+
+This module plans the actuation and steps both runs; the measuring and judging are
+:mod:`harness.replay.resim_measure`, the report :mod:`harness.replay.resim_report`.
 """
 
 from __future__ import annotations
