@@ -78,7 +78,7 @@ def test_example_14_forward_velocity_without_position_feedback() -> None:
     config = controllers(14, name, spawned)
     with session(14, config) as s, connect(s.url) as client:
         states = client.subscribe("/joint_states", "sensor_msgs/msg/JointState")
-        client.step(10)
+        client.step(100)  # a /joint_states message at the manager's first cycles (10 Hz)
         client.sync()
         start = latest(states, JOINTS)
         client.publish(
