@@ -231,8 +231,11 @@ class DiffDriveController(ControllerBase):
         period = self.settings.publish_period_ns
         due = period == 0 or self.last_publish_ns is None
         due = due or now - (self.last_publish_ns or 0) >= period
-        if due:
-            self.last_publish_ns = now
+        if due:  # as ros2_controllers: the schedule advances by whole periods, not to now
+            last = self.last_publish_ns
+            self.last_publish_ns = (
+                now if not period or last is None else last + period * ((now - last) // period)
+            )
             out.publications += self._publications(now)
         return out
 

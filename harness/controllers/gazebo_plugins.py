@@ -29,18 +29,19 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 from lxml import etree
 
-from harness.controllers.config import ControllersConfig, ControllerSpec
+from harness.controllers.config import ControllersConfig, ControllerSpec, load_controllers
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.errors import ControllersConfigError
 from harness.controllers.planar import TYPE_PLANAR
 from harness.models.drive_plugins import drive_plugin_elements
 from harness.models.xmlsafe import parse_xml
 
-__all__ = ["BASE_CONTROLLER_TYPES", "drive_plugins", "robot_controllers"]
+__all__ = ["BASE_CONTROLLER_TYPES", "ROS2_CONTROL_PLUGINS", "drive_plugins", "robot_controllers"]
 
 BASE_CONTROLLER_TYPES = frozenset({TYPE_DIFF_DRIVE, TYPE_PLANAR})
 """Controller types that move a mobile base."""
@@ -194,15 +195,82 @@ def _planar_plugins(root: etree._Element, source: str) -> list[ControllerSpec]:
     return specs
 
 
+ROS2_CONTROL_PLUGINS = (
+    "gz_ros2_control-system",
+    "libgz_ros2_control-system.so",
+    "ign_ros2_control-system",
+    "libign_ros2_control-system.so",
+    "libgazebo_ros2_control.so",
+)
+"""Plugin file names of the simulators' ros2_control (gz-sim, its former Ignition name, Classic)."""
+_TOPIC_PARAMS = {
+    "cmd_vel": "cmd_vel_topic",
+    "cmd_vel_unstamped": "cmd_vel_topic",
+    "odom": "odom_topic",
+}
+
+
+def _parameter_files(root: etree._Element, source: str) -> list[tuple[Path, etree._Element]]:
+    """The ``<parameters>`` files of the file's ros2_control plugin tags, with their plugin."""
+    out: list[tuple[Path, etree._Element]] = []
+    for plugin in root.iter("plugin"):
+        if plugin.get("filename", "") not in ROS2_CONTROL_PLUGINS:
+            continue
+        for text in _texts(plugin, "parameters"):
+            path = Path(text.removeprefix("file://"))
+            if not path.is_file():
+                raise ControllersConfigError(
+                    f"{source}: line {plugin.sourceline}: <plugin "
+                    f"filename={plugin.get('filename')!r}>: <parameters> {text!r} is no file"
+                )
+            out.append((path, plugin))
+    return out
+
+
+def _plugin_remaps(config: ControllersConfig, plugin: etree._Element) -> ControllersConfig:
+    """``config`` with the plugin's remappings of controller topics
+    (``/<controller>/cmd_vel:=/cmd_vel``, ``odom``) applied as those controllers' topic
+    parameters, relative names under the plugin's namespace."""
+    namespace = _namespace(plugin)
+    specs = []
+    for spec in config.controllers:
+        params = dict(spec.params)
+        for e in [*plugin.findall("ros/remapping"), *plugin.findall("ros/argument")]:
+            text = (e.text or "").strip()
+            if ":=" not in text:
+                continue
+            left, right = (part.strip() for part in text.split(":=", 1))
+            node, _, topic = left.strip("/").rpartition("/")
+            key = _TOPIC_PARAMS.get(topic)
+            if key is None or node.rpartition("/")[2] != spec.name or not right:
+                continue
+            params[key] = (
+                right if right.startswith("/") else f"/{namespace}/{right}".replace("//", "/")
+            )
+        specs.append(ControllerSpec(spec.name, spec.type, params))
+    return replace(config, controllers=tuple(specs))
+
+
 def robot_controllers(
     default: ControllersConfig, sources: Mapping[str, bytes]
 ) -> ControllersConfig:
-    """``default`` plus the controllers of the drive plugins declared in a robot's model files
-    (``sources``: ``"model/<file>"`` -> bytes, as :attr:`harness.models.LoadedRobot.sources`)."""
+    """The controllers of a robot given none: the ``<parameters>`` file(s) of its
+    ros2_control plugin tag (gz_ros2_control, ign_ros2_control, gazebo_ros2_control; merged in
+    order, with the tag's topic remappings), else ``default``; plus the controllers of the
+    drive plugins declared in its model files (``sources``: ``"model/<file>"`` -> bytes, as
+    :attr:`harness.models.LoadedRobot.sources`)."""
     specs: list[ControllerSpec] = []
+    files: list[tuple[Path, etree._Element]] = []
     for name, data in sources.items():
         if name.startswith("model/") and name.endswith(_MODEL_SUFFIXES):
-            specs += drive_plugins(parse_xml(data, name), name)
+            root = parse_xml(data, name)
+            files += _parameter_files(root, name)
+            specs += drive_plugins(root, name)
+    config = default
+    if files:
+        config = load_controllers([path for path, _ in files])
+        for _, plugin in files:
+            config = _plugin_remaps(config, plugin)
     if not specs:
-        return default
-    return replace(default, controllers=(*default.controllers, *specs))
+        return config
+    return replace(config, controllers=(*config.controllers, *specs))

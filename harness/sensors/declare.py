@@ -12,11 +12,13 @@ Sensor types: each sensor module registers the Gazebo spellings of its kind
 ``rgbd``), ``depth_camera``; ``rgbd_camera``; ``ray``, ``gpu_ray``, ``lidar``, ``gpu_lidar``;
 ``imu``; ``force_torque``; ``contact``. Other types (``gps``, ``altimeter``...) are skipped.
 
-Topic names (overridable per output with ``topics``): with a ``<topic>`` (gz-sim) the main
-output is on it (a camera's ``camera_info`` beside it); without one, Gazebo Classic's plugin
-names under ``<camera_name>`` or the sensor name (``image_raw``, ``camera_info``,
-``depth/image_raw``, ``points``; ``scan``; ``imu``; ``wrench``; ``contacts``). The frame id
-is the plugin's ``<frame_name>``, else ``<gz_frame_id>``, else the sensor name.
+Topic names (overridable per output with ``topics``): a Gazebo ROS plugin's (``<remapping>``
+of ``~/out``, ROS 1's ``<topicName>``, under its ``<ros><namespace>``/``<robotNamespace>``);
+else with a ``<topic>`` (gz-sim) the main output is on it (a camera's ``camera_info`` beside
+it); without one, Gazebo Classic's plugin names under ``<camera_name>`` or the sensor name
+(``image_raw``, ``camera_info``, ``depth/image_raw``, ``points``; ``scan``; ``imu``;
+``wrench``; ``contacts``). The frame id is the plugin's ``<frame_name>`` (``<frameName>``),
+else ``<gz_frame_id>``, else the sensor name.
 """
 
 from __future__ import annotations
@@ -53,7 +55,9 @@ def _pose(el: etree._Element, where: str) -> tuple[float, ...] | None:
 
 
 def _plugin(sensor: etree._Element) -> tuple[str, str, str]:
-    """(camera name, frame name, remapped ``~/out``-style topic) from a Gazebo ROS plugin."""
+    """(camera name, frame name, topic) from a Gazebo ROS plugin: the topic remapped from
+    ``~/out`` (ROS 2) or named by ``<topicName>`` (ROS 1), under the plugin's ``<ros><namespace>``
+    (ROS 1: ``<robotNamespace>``) when relative; a camera's name under it too."""
     camera = frame = topic = ""
     for plugin in sensor.findall("plugin"):
         camera = camera or (
@@ -62,16 +66,21 @@ def _plugin(sensor: etree._Element) -> tuple[str, str, str]:
         frame = frame or (
             element_text(plugin, "frame_name") or element_text(plugin, "frameName") or ""
         )
-        topic = topic or (element_text(plugin, "topicName") or "")
-        namespace = element_text(plugin, "ros/namespace") or ""
+        namespace = (
+            element_text(plugin, "ros/namespace") or element_text(plugin, "robotNamespace") or ""
+        ).rstrip("/")
+        own = ""
         for remap in plugin.findall("ros/remapping") + plugin.findall("ros/argument"):
             text = (remap.text or "").strip()
             if ":=" in text:
                 left, right = (s.strip() for s in text.split(":=", 1))
-                if left in ("~/out", "out") and not topic:
-                    topic = f"{namespace.rstrip('/')}/{right}" if namespace else right
+                if left in ("~/out", "out", "/out") and right:
+                    own = own or right
+        own = own or element_text(plugin, "topicName") or ""
+        if own and not topic:
+            topic = own if own.startswith("/") or not namespace else f"{namespace}/{own}"
         if namespace and camera and not camera.startswith("/"):
-            camera = f"{namespace.rstrip('/')}/{camera}"
+            camera = f"{namespace}/{camera}"
     return camera, frame, topic
 
 
@@ -85,7 +94,8 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
     if not name:
         raise SensorConfigError(f"{where}: a sensor needs a name")
     camera_name, frame_name, plugin_topic = _plugin(sensor)
-    topic = element_text(sensor, "topic") or plugin_topic
+    # a ROS plugin's topic is the one ROS sees; <topic> is Gazebo's own (bridged by gz-sim)
+    topic = plugin_topic or element_text(sensor, "topic")
     params: dict[str, Any] = {}
     rate = element_number(sensor, "update_rate", where)
     if rate is not None:
