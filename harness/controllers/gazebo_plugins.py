@@ -228,13 +228,18 @@ def _parameter_files(root: etree._Element, source: str) -> list[tuple[Path, etre
 
 
 def _plugin_remaps(config: ControllersConfig, plugin: etree._Element) -> ControllersConfig:
-    """``config`` with the plugin's remappings of controller topics
-    (``/<controller>/cmd_vel:=/cmd_vel``, ``odom``) applied as those controllers' topic
+    """``config`` with the plugin's namespace and remappings of controller topics
+    (``/<controller>/cmd_vel:=/cmd_vel``, ``odom``) applied as the base controllers' topic
     parameters, relative names under the plugin's namespace."""
     namespace = _namespace(plugin)
     specs = []
     for spec in config.controllers:
         params = dict(spec.params)
+        if namespace and spec.type in BASE_CONTROLLER_TYPES:  # their ~/ topics in the namespace
+            for topic, key in (("cmd_vel", "cmd_vel_topic"), ("odom", "odom_topic")):
+                if str(params.get(key, "~/")).startswith("~/"):
+                    default = str(params.get(key, f"~/{topic}")).removeprefix("~/")
+                    params[key] = f"/{namespace}/{spec.name}/{default}"
         for e in [*plugin.findall("ros/remapping"), *plugin.findall("ros/argument")]:
             text = (e.text or "").strip()
             if ":=" not in text:

@@ -51,8 +51,9 @@ def _x(msg: dict[str, Any]) -> float:
 )
 def test_a_ros2_control_tags_parameters_are_the_controllers(tmp_path: Path, filename: str) -> None:
     """Without ``controllers=``, the tag's YAML is loaded instead of the default set (no
-    forward command or trajectory controllers) and its remapping of the diff drive's
-    ``cmd_vel`` (relative: under the tag's namespace) is the topic that drives the robot
+    forward command or trajectory controllers), its remapping of the diff drive's ``cmd_vel``
+    (relative: under the tag's namespace) is the topic that drives the robot and its odometry
+    is in the tag's namespace
     (before: the default set, the YAML ignored, nothing on the remapped topic)."""
     params = tmp_path / "controllers.yaml"
     params.write_text(
@@ -73,6 +74,7 @@ def test_a_ros2_control_tags_parameters_are_the_controllers(tmp_path: Path, file
             "joint_state_broadcaster",
         ]
         truth = client.subscribe("/ground_truth/odom", ODOM)
+        wheel = client.subscribe("/mb/diff_drive_controller/odom", ODOM)  # in the namespace
         client.sync()
         _steps(client, 0.2)
         start = _x(truth.messages[-1])
@@ -80,6 +82,7 @@ def test_a_ros2_control_tags_parameters_are_the_controllers(tmp_path: Path, file
         client.sync()
         _steps(client, 1.0)
         assert _x(truth.messages[-1]) - start > 0.05  # the YAML's cmd_vel_timeout: 0.5 s
+        assert _x(wheel.messages[-1]) == pytest.approx(_x(truth.messages[-1]) - start, abs=0.01)
 
 
 def test_a_missing_parameters_file_is_one_line(tmp_path: Path) -> None:
@@ -193,3 +196,23 @@ def test_sensor_plugins_topics_frames_and_rates(tmp_path: Path, rate: int) -> No
     assert abs(len(first.messages) - 10 * rate) <= 1
     assert abs(len(second.messages) - 300) <= 1
     assert first.messages[0]["header"]["frame_id"] == "imu_frame"
+
+
+def test_check_model_hints_floating_for_an_sdf_drive_plugin() -> None:
+    """The TB3 burger's gz-sim DiffDrive held on a fixed base: check-model's one-line hint
+    (before: its wheels were position-driven, so no hint)."""
+    import os
+    import subprocess
+    import sys
+
+    burger = Path(__file__).resolve().parents[2] / "data" / "worlds" / "turtlebot3" / "models"
+    root = Path(__file__).resolve().parents[3]
+    done = subprocess.run(
+        [sys.executable, "-m", "harness", "check-model",
+         str(burger / "turtlebot3_burger" / "model.sdf"), "--base", "fixed"],
+        capture_output=True, text=True, timeout=300,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )  # fmt: skip
+    hints = [line for line in (done.stdout + done.stderr).splitlines() if "--base floating" in line]
+    assert len(hints) == 1, done.stdout + done.stderr
+    assert "wheel_left_joint, wheel_right_joint turn as wheels" in hints[0]
