@@ -84,6 +84,26 @@ def _plugin(sensor: etree._Element) -> tuple[str, str, str]:
     return camera, frame, topic
 
 
+_PLUGIN_RATES = ("updateRateHZ", "updateRate", "update_rate")
+"""A Gazebo ROS plugin's own publishing rate (ROS 1 plugins; 0 or absent: the sensor's)."""
+
+
+def _plugin_rate(sensor: etree._Element, where: str) -> float | None:
+    for plugin in sensor.findall("plugin"):
+        for tag in _PLUGIN_RATES:
+            value = element_number(plugin, tag, where)
+            if value is not None and value > 0:
+                return value
+    return None
+
+
+def _rate(sensor: float | None, plugin: float | None) -> float | None:
+    """The rate messages come at: the sensor's, throttled by its plugin's."""
+    if plugin is None or (sensor is not None and 0 < sensor <= plugin):
+        return sensor
+    return plugin
+
+
 def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -> SensorSpec | None:
     raw_type = sensor.get("type", "")
     name = sensor.get("name", "")
@@ -97,7 +117,7 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
     # a ROS plugin's topic is the one ROS sees; <topic> is Gazebo's own (bridged by gz-sim)
     topic = plugin_topic or element_text(sensor, "topic")
     params: dict[str, Any] = {}
-    rate = element_number(sensor, "update_rate", where)
+    rate = _rate(element_number(sensor, "update_rate", where), _plugin_rate(sensor, where))
     if rate is not None:
         params["update_rate"] = rate
     pose = _pose(sensor, where)

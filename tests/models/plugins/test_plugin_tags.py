@@ -178,23 +178,31 @@ IMU = """<gazebo reference="base_link"><sensor type="imu" name="imu">
   <plugin filename="libgazebo_ros_imu_sensor.so" name="imu2_plugin">
     <ros><namespace>/r2</namespace><remapping>~/out:=imu</remapping></ros>
   </plugin>
+</sensor></gazebo>
+<gazebo reference="base_link"><sensor type="imu" name="imu3">
+  <update_rate>200</update_rate>
+  <plugin filename="libgazebo_ros_imu.so" name="imu3_plugin">
+    <topicName>imu3</topicName><updateRateHZ>50.0</updateRateHZ>
+  </plugin>
 </sensor></gazebo>"""
 
 
 @pytest.mark.parametrize("rate", [200, 30])
 def test_sensor_plugins_topics_frames_and_rates(tmp_path: Path, rate: int) -> None:
     """ROS 1's ``<robotNamespace>``/``<topicName>``/``<frameName>`` and ROS 2's namespace and
-    ``~/out`` remapping; over 10 s of simulation (2 ms steps) each sensor gives ``10 * rate``
-    messages to one (before: 2500 for 200 Hz, 333 for 30 Hz: a period rounded to whole steps;
-    and ``imu/data`` outside its namespace)."""
+    ``~/out`` remapping; a ROS 1 plugin's ``<updateRateHZ>``; over 10 s of simulation (2 ms
+    steps) each sensor gives ``10 * rate`` messages to one (before: 2500 for 200 Hz, 333 for
+    30 Hz: a period rounded to whole steps; and ``imu/data`` outside its namespace)."""
     robot = _robot(tmp_path, IMU.format(rate=rate))
     with Session(robot, base="floating", controllers=False) as session, connect(session.url) as c:
         first = c.subscribe("/r1/imu/data", "sensor_msgs/msg/Imu")
         second = c.subscribe("/r2/imu", "sensor_msgs/msg/Imu")
+        third = c.subscribe("/imu3", "sensor_msgs/msg/Imu")
         c.sync()
         _steps(c, 10.0)
     assert abs(len(first.messages) - 10 * rate) <= 1
     assert abs(len(second.messages) - 300) <= 1
+    assert abs(len(third.messages) - 500) <= 1  # a ROS 1 plugin's updateRateHZ throttles it
     assert first.messages[0]["header"]["frame_id"] == "imu_frame"
 
 
