@@ -4,6 +4,8 @@
   gz-sim spellings); a sensor in a ``<gazebo>`` block without ``reference`` is refused.
 - SDF (1.4-1.11): ``<sensor>`` elements of a ``<link>`` (pose in the link frame) and of a
   ``<joint>`` (force-torque: mounted on the joint's child link).
+- Ground truth plugins: Gazebo Classic's ``libgazebo_ros_p3d.so`` and gz-sim's
+  ``OdometryPublisher`` system are ``ground_truth`` sensors.
 - MJCF has no rate or topic: its ``<camera>`` and ``<site>`` elements are used by name from a
   ``sensors:`` list (``camera: wrist``, ``site: imu``); nothing is published unasked.
 
@@ -141,8 +143,69 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
         raise SensorConfigError(f"{where}: {exc}") from None
 
 
-def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpec]:
-    """The sensors of the URDF ``<gazebo reference>`` blocks in ``data``."""
+_P3D = ("libgazebo_ros_p3d.so",)
+_ODOMETRY_PUBLISHER = (
+    "gz-sim-odometry-publisher-system",
+    "libgz-sim-odometry-publisher-system.so",
+    "ignition-gazebo-odometry-publisher-system",
+    "libignition-gazebo-odometry-publisher-system.so",
+)
+
+
+def _ground_truth_plugins(root: etree._Element, source: str, base: str) -> list[SensorSpec]:
+    """Gazebo Classic's ``libgazebo_ros_p3d.so`` (``<body_name>``/``<bodyName>``, its
+    ``odom`` topic remapped or ROS 1's ``<topicName>``, ``<frame_name>``, ``<update_rate>``)
+    and gz-sim's ``OdometryPublisher`` (``<robot_base_frame>``, ``<odom_topic>``,
+    ``<odom_frame>``, ``<odom_publish_frequency>``) as ``ground_truth`` sensors; ``base``: the
+    link a gz-sim plugin without ``<robot_base_frame>`` follows."""
+    out: list[SensorSpec] = []
+    for plugin in root.iter("plugin"):
+        filename = plugin.get("filename", "")
+        if filename not in _P3D + _ODOMETRY_PUBLISHER:
+            continue
+        name = plugin.get("name") or "ground_truth"
+        where = f"{source}: line {plugin.sourceline}: <plugin filename={filename!r}>"
+        namespace = (
+            element_text(plugin, "ros/namespace") or element_text(plugin, "robotNamespace") or ""
+        ).rstrip("/")
+        if filename in _P3D:
+            body = element_text(plugin, "body_name") or element_text(plugin, "bodyName") or ""
+            topic = element_text(plugin, "topicName") or "odom"
+            for remap in plugin.findall("ros/remapping"):
+                left, _, right = (remap.text or "").partition(":=")
+                if left.strip().removeprefix("~").lstrip("/") == "odom" and right.strip():
+                    topic = right.strip()
+            frame = element_text(plugin, "frame_name") or element_text(plugin, "frameName")
+            rate = element_number(plugin, "update_rate", where) or element_number(
+                plugin, "updateRate", where
+            )
+        else:
+            body = element_text(plugin, "robot_base_frame") or base
+            topic = element_text(plugin, "odom_topic") or "odom"
+            frame = element_text(plugin, "odom_frame") or "odom"
+            rate = element_number(plugin, "odom_publish_frequency", where)
+        if not body:
+            raise SensorConfigError(f"{where}: needs <body_name>")
+        if namespace and not topic.startswith("/"):
+            topic = f"{namespace}/{topic}"
+        try:
+            out.append(
+                SensorSpec(
+                    name=name, type="ground_truth", parent=body, topic=topic,
+                    topics={"odom": topic}, frame_id=frame or "world", source=source,
+                    **({"update_rate": rate} if rate else {}),
+                )
+            )  # fmt: skip
+        except SensorConfigError as exc:
+            raise SensorConfigError(f"{where}: {exc}") from None
+    return out
+
+
+def sensors_from_urdf(
+    data: bytes, source: str = "robot.urdf", *, plugins: bool = True
+) -> list[SensorSpec]:
+    """The sensors of the URDF ``<gazebo reference>`` blocks in ``data`` (``plugins``: and its
+    ground truth plugins)."""
     root = parse_xml(data, source)
     out: list[SensorSpec] = []
     # Gazebo force-torque sensors reference a joint: they sit on its child link.
@@ -168,11 +231,14 @@ def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpe
                 spec = _sensor(sensor, reference, source)
             if spec is not None:
                 out.append(spec)
-    return out
+    return out + (_ground_truth_plugins(root, source, "") if plugins else [])
 
 
-def sensors_from_sdf(data: bytes, source: str = "model.sdf") -> list[SensorSpec]:
-    """The sensors of the SDF ``<link>`` and ``<joint>`` elements in ``data``."""
+def sensors_from_sdf(
+    data: bytes, source: str = "model.sdf", *, plugins: bool = True
+) -> list[SensorSpec]:
+    """The sensors of the SDF ``<link>`` and ``<joint>`` elements in ``data`` (``plugins``: and
+    its ground truth plugins)."""
     root = parse_xml(data, source)
     out: list[SensorSpec] = []
     for link in root.iter("link"):
@@ -186,7 +252,10 @@ def sensors_from_sdf(data: bytes, source: str = "model.sdf") -> list[SensorSpec]
             spec = _sensor(sensor, child, source, joint=joint.get("name", ""))
             if spec is not None:
                 out.append(spec)
-    return out
+    if not plugins:
+        return out
+    first = next(iter(root.iter("link")), None)
+    return out + _ground_truth_plugins(root, source, "" if first is None else first.get("name", ""))
 
 
 def declared_in_sources(sources: Mapping[str, bytes]) -> list[SensorSpec]:
@@ -199,10 +268,11 @@ def declared_in_sources(sources: Mapping[str, bytes]) -> list[SensorSpec]:
             continue
         lower = name.lower()
         try:
+            # a ground truth plugin follows a robot's link: the robot's own files only
             if lower.endswith(_URDF_SUFFIXES):
-                out.extend(sensors_from_urdf(blob, name))
+                out.extend(sensors_from_urdf(blob, name, plugins=role == "model"))
             elif lower.endswith(_SDF_SUFFIXES):
-                out.extend(sensors_from_sdf(blob, name))
+                out.extend(sensors_from_sdf(blob, name, plugins=role == "model"))
         except ModelError as exc:
             raise SensorConfigError(f"{name}: cannot read sensors: {exc}") from None
     return out

@@ -164,6 +164,27 @@ def test_ground_truth_whenever_a_base_controller_runs(tmp_path: Path) -> None:
     assert "/ground_truth/odom" not in _sensor_topics(MOBILE_URDF, controllers=False)
 
 
+P3D = """<gazebo><plugin filename="libgazebo_ros_p3d.so" name="p3d">
+  <ros><namespace>/demo</namespace><remapping>odom:=truth</remapping></ros>
+  <body_name>base_link</body_name><frame_name>map</frame_name><update_rate>20</update_rate>
+</plugin></gazebo>"""
+
+
+def test_a_p3d_plugin_is_the_robots_ground_truth(tmp_path: Path) -> None:
+    """Gazebo Classic's p3d plugin in the robot file: its body, remapped topic under its
+    namespace, frame and rate (before: ignored); the automatic ground truth then stays off."""
+    robot = _robot(tmp_path, CLASSIC + P3D)
+    with Session(robot, base="floating") as session, connect(session.url) as client:
+        truth = client.subscribe("/demo/truth", ODOM)
+        client.sync()
+        _steps(client, 1.0)
+        topics = {out.topic for s in session.core.sensors.sensors for out in s.outputs}
+    assert "/ground_truth/odom" not in topics
+    assert abs(len(truth.messages) - 20) <= 1
+    assert truth.messages[-1]["header"]["frame_id"] == "map"
+    assert truth.messages[-1]["child_frame_id"] == "base_link"
+
+
 # ---------------------------------------------------------------------------- sensor plugins
 
 IMU = """<gazebo reference="base_link"><sensor type="imu" name="imu">
