@@ -245,11 +245,11 @@ def _plugin_remaps(config: ControllersConfig, plugin: etree._Element) -> Control
             if ":=" not in text:
                 continue
             left, right = (part.strip() for part in text.split(":=", 1))
-            node, _, topic = left.strip("/").rpartition("/")
-            key = _TOPIC_PARAMS.get(topic)
-            if key is None or node.rpartition("/")[2] != spec.name or not right:
+            node, _, last = left.strip("/").rpartition("/")
+            param = _TOPIC_PARAMS.get(last)
+            if param is None or node.rpartition("/")[2] != spec.name or not right:
                 continue
-            params[key] = (
+            params[param] = (
                 right if right.startswith("/") else f"/{namespace}/{right}".replace("//", "/")
             )
         specs.append(ControllerSpec(spec.name, spec.type, params))

@@ -193,7 +193,7 @@ def _ground_truth_plugins(root: etree._Element, source: str, base: str) -> list[
                 SensorSpec(
                     name=name, type="ground_truth", parent=body, topic=topic,
                     topics={"odom": topic}, frame_id=frame or "world", source=source,
-                    **({"update_rate": rate} if rate else {}),
+                    update_rate=rate or None,
                 )
             )  # fmt: skip
         except SensorConfigError as exc:
