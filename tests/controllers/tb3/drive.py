@@ -38,6 +38,7 @@ class Travel:
     true: float
     odom_lateral: float
     odom_messages: int
+    imu_messages: int
 
     def check(self) -> None:
         """Raise AssertionError unless odometry and truth agree to :data:`TOLERANCE`."""
@@ -66,12 +67,13 @@ def drive(url: str) -> Travel:
         dt = (client.step(1) - start) / 1e9
         odom = client.subscribe("/odom", ODOM)
         truth = client.subscribe("/ground_truth/odom", ODOM)
+        imu = client.subscribe("/imu", "sensor_msgs/msg/Imu")
         client.sync()
         _run(client, round(0.1 / dt))
         assert odom.latest is not None, "no /odom"
         assert truth.latest is not None, "no /ground_truth/odom"
         (ox, oy), (tx, ty) = _xy(odom.latest), _xy(truth.latest)
-        count = len(odom.messages)
+        count, imu_count = len(odom.messages), len(imu.messages)
         twist = {
             "linear": {"x": SPEED, "y": 0.0, "z": 0.0},
             "angular": {"x": 0.0, "y": 0.0, "z": 0.0},
@@ -89,6 +91,7 @@ def drive(url: str) -> Travel:
             true=math.hypot(tx2 - tx, ty2 - ty),
             odom_lateral=oy2 - oy,
             odom_messages=len(odom.messages) - count,
+            imu_messages=len(imu.messages) - imu_count,
         )
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from harness.session import Session
-from tests.controllers.tb3.drive import drive, model
+from tests.controllers.tb3.drive import DRIVE_S, REST_S, drive, model
 
 ROOT = Path(__file__).resolve().parents[3]
 ROBOTS = ["burger", "waffle"]
@@ -33,6 +33,10 @@ def test_session(name: str) -> None:
         travel = drive(session.url)
     assert set(modes.values()) == {"velocity"}, modes
     travel.check()
+    # the files' rates in simulation time: odometry 30 Hz, IMU 200 Hz (before: 50 and 250)
+    seconds = DRIVE_S + REST_S
+    assert abs(travel.odom_messages - 30 * seconds) <= 1, travel
+    assert abs(travel.imu_messages - 200 * seconds) <= 1, travel
 
 
 @pytest.mark.slow
