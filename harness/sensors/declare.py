@@ -86,6 +86,28 @@ def _plugin(sensor: etree._Element) -> tuple[str, str, str]:
     return camera, frame, topic
 
 
+def _remapped_outputs(sensor: etree._Element, topics: Mapping[str, str]) -> dict[str, str]:
+    """``topics`` (output -> name) with a plugin's remappings of its other outputs applied
+    (``~/image_raw:=image``, ``front_camera/camera_info:=info``: matched by their last names),
+    relative ones under the plugin's namespace."""
+    out = dict(topics)
+    for plugin in sensor.findall("plugin"):
+        namespace = (
+            element_text(plugin, "ros/namespace") or element_text(plugin, "robotNamespace") or ""
+        ).rstrip("/")
+        for remap in plugin.findall("ros/remapping") + plugin.findall("ros/argument"):
+            left, _, right = ((remap.text or "").strip()).partition(":=")
+            name, right = left.strip().removeprefix("~").strip("/"), right.strip()
+            if not right or not name or name == "out":
+                continue
+            target = right if right.startswith("/") or not namespace else f"{namespace}/{right}"
+            for key, topic in topics.items():
+                own = topic.strip("/")
+                if own == name or own.endswith("/" + name):
+                    out[key] = target
+    return out
+
+
 _PLUGIN_RATES = ("updateRateHZ", "updateRate", "update_rate")
 """A Gazebo ROS plugin's own publishing rate (ROS 1 plugins; 0 or absent: the sensor's)."""
 
@@ -134,7 +156,9 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
             parent=parent,
             joint=joint,
             topic=topic or "",
-            topics=kind.default_topics(topic or "", camera_name or sensor_token(name)),
+            topics=_remapped_outputs(
+                sensor, kind.default_topics(topic or "", camera_name or sensor_token(name))
+            ),
             frame_id=frame_id,
             source=source,
             **params,

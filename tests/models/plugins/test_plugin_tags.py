@@ -245,3 +245,23 @@ def test_check_model_hints_floating_for_an_sdf_drive_plugin() -> None:
     hints = [line for line in (done.stdout + done.stderr).splitlines() if "--base floating" in line]
     assert len(hints) == 1, done.stdout + done.stderr
     assert "wheel_left_joint, wheel_right_joint turn as wheels" in hints[0]
+
+
+def test_a_camera_plugins_remapped_outputs(tmp_path: Path) -> None:
+    """gazebo_ros_camera's ``<remapping>`` of its image and camera_info (by ``~/`` or by the
+    camera's name; relative: under the plugin's namespace) and the others under its namespace
+    (before: the remappings were ignored)."""
+    text = MOBILE_URDF.read_text().replace(
+        "<camera_name>front_camera</camera_name>",
+        """<camera_name>front_camera</camera_name>
+        <ros><namespace>/mb</namespace><remapping>~/image_raw:=front/image</remapping>
+          <remapping>front_camera/camera_info:=/front/info</remapping></ros>""",
+    )
+    path = tmp_path / "robot.urdf"
+    path.write_text(text)
+    with Session(path, base="floating", controllers=False) as session:
+        camera = next(s for s in session.core.sensors.sensors if s.spec.name == "front_camera")
+        topics = {out.key: out.topic for out in camera.outputs}
+    assert topics["image"] == "/mb/front/image"
+    assert topics["camera_info"] == "/front/info"
+    assert topics["compressed"] == "/mb/front_camera/image_raw/compressed"
