@@ -46,7 +46,7 @@ __all__ = ["BASE_CONTROLLER_TYPES", "ROS2_CONTROL_PLUGINS", "drive_plugins", "ro
 BASE_CONTROLLER_TYPES = frozenset({TYPE_DIFF_DRIVE, TYPE_PLANAR})
 """Controller types that move a mobile base."""
 
-_CLASSIC = "libgazebo_ros_diff_drive.so"
+_CLASSIC = "libgazebo_ros_diff_drive.so"  # ROS 2 and ROS 1 alike
 _PLANAR = "libgazebo_ros_planar_move.so"
 _NO_TIMEOUT = 1e9  # seconds: the plugins hold the last command
 _MODEL_SUFFIXES = (".urdf", ".sdf", ".xacro", ".world")

@@ -20,9 +20,13 @@ ODOM = "nav_msgs/msg/Odometry"
 TWIST = "geometry_msgs/msg/Twist"
 
 
-def _robot(tmp_path: Path, tags: str) -> Path:
-    """The bundled mobile robot with ``tags`` added (its own sensors' plugins kept)."""
-    text = MOBILE_URDF.read_text().replace("</robot>", f"{tags}\n</robot>")
+def _robot(tmp_path: Path, tags: str, *, ros2_control: bool = True) -> Path:
+    """The bundled mobile robot with ``tags`` added (its own sensors' plugins kept;
+    ``ros2_control=False``: without its ``<ros2_control>`` block)."""
+    text = MOBILE_URDF.read_text()
+    if not ros2_control:
+        text = re.sub(r"<ros2_control .*</ros2_control>", "", text, flags=re.S)
+    text = text.replace("</robot>", f"{tags}\n</robot>")
     path = tmp_path / "robot.urdf"
     path.write_text(text)
     return path
@@ -130,10 +134,10 @@ def test_a_drive_plugins_namespace_remappings_and_rate(
     """The plugin's topics as it names them, its odometry at its rate in simulation time (10 s:
     within one message of ``10 * rate``; before: ``/cmd_vel`` and ``/odom``, at 25 Hz for 30)
     and the robot's true pose on ``/ground_truth/odom`` because a base controller runs."""
-    with (
-        Session(_robot(tmp_path, tags), base="floating") as session,
-        connect(session.url) as client,
-    ):
+    robot = _robot(tmp_path, tags, ros2_control=False)  # the plugin alone drives the wheels
+    with Session(robot, base="floating") as session, connect(session.url) as client:
+        wheels = {session.sim.control[j] for j in ("left_wheel_joint", "right_wheel_joint")}
+        assert wheels == {"velocity"}
         wheel = client.subscribe(odom, ODOM)
         truth = client.subscribe("/ground_truth/odom", ODOM)
         client.sync()
