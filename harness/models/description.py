@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -20,8 +21,7 @@ import numpy.typing as npt
 from harness.vocabulary import CONTROL_MODE_INPUTS, CONTROL_MODES, DYNAMIC_ALIAS, ControlMode
 
 if TYPE_CHECKING:
-    from harness.models.ros2_control import Ros2Control
-    from harness.models.xacro import XacroOrigin
+    from harness.models.urdf.ros2_control import Ros2Control
 
 __all__ = [
     "CONTROL_MODES",
@@ -39,6 +39,7 @@ __all__ = [
     "Pose",
     "RobotModel",
     "Shape",
+    "XacroOrigin",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -290,10 +291,22 @@ class ModelFrame:
 
 
 @dataclass(frozen=True)
+class XacroOrigin:
+    """Where an expanded description came from: ``source`` (the entry file as the user named
+    it: a path or ``package://pkg/...``), the ``args`` it was expanded with and the keys of
+    the source files it read (see :attr:`Expansion.sources`)."""
+
+    source: str
+    args: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    files: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class RobotModel:
     """A robot description in the model frame at the zero configuration.
 
-    ``ros2_control``: the URDF's ``<ros2_control>`` blocks (:mod:`harness.models.ros2_control`);
+    ``ros2_control``: the URDF's ``<ros2_control>`` blocks
+    (:mod:`harness.models.urdf.ros2_control`);
     ``xacro``: where an expanded xacro description came from (entry file and arguments)."""
 
     name: str

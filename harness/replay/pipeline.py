@@ -53,7 +53,7 @@ from harness.recording.stateslot import PhysicsStateSlot, forwarding_slot
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.sensor_check import SensorCheck
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
-from harness.session.core import (
+from harness.session import (
     FAILURE_PREFIX,
     LOG_NAME,
     CoreOptions,

@@ -13,7 +13,10 @@ re-simulation (``position``/``dynamic``, its earlier spellings, are accepted wit
 :class:`DeprecationWarning`). The robot is rebuilt from the recording's source
 attachments with :func:`harness.models.load_robot` (a world of several robots with
 :func:`harness.models.load_world`: :func:`harness.replay.source.rebuild_run`; its joints are
-named by their MuJoCo, prefixed, names).
+named by their MuJoCo, prefixed, names). The re-simulation is stepped by a
+:class:`~harness.session.SessionCore`, the engine of a live run, given the targets as Python
+position commands (no controllers, clients, sockets or threads); the recorded run is replayed
+from its applied inputs, as ``harness replay`` does.
 
 Both runs (the recorded one, replayed from its own inputs, and the re-simulation) are
 measured the same way, per step: tracking error ``|q - q_target|``, limit violation
@@ -58,11 +61,11 @@ from harness.replay.source import (
     run_description,
 )
 from harness.replay.verify import Progress
-from harness.sim import InstabilityError, Simulation
+from harness.sim import InstabilityError
 from harness.sim.collisions import CollisionTracker
 from harness.sim.inputs import AppliedInput, advance
 from harness.sim.metrics import energy
-from harness.vocabulary import ACTUATIONS, Actuation
+from harness.vocabulary import ACTUATIONS, Actuation, LimitPolicy
 
 __all__ = [
     "Finding",
@@ -601,8 +604,15 @@ def resimulate(
         if recorded_modes[name] in ("velocity", "effort"):
             targets[:, i] = recorded_q[:, i]
 
-    # The re-simulation in the other mode.
-    sim = Simulation(other_robot, kinematic_limits="allow")
+    # The re-simulation in the other mode: a session core (the engine of a live run) taking
+    # the targets as Python position commands, without controllers (nothing else commands
+    # the joints), recorder, clients, sockets or threads.
+    from harness.session import CoreOptions, SessionCore
+
+    options = CoreOptions(kinematic_limits=LimitPolicy.ALLOW, controllers="none")
+    core = SessionCore(other_robot, options, graph=_NoGraph())
+    core.start()
+    sim = core.sim
     sim.reset()
     sim.data.qpos[:] = states.qpos[0]
     sim.data.qvel[:] = states.qvel[0]
@@ -621,16 +631,17 @@ def resimulate(
             previous = None
         wanted = targets[row]
         if previous is None or not np.array_equal(wanted, previous):
-            sim.set_positions(dict(zip(joints, wanted.tolist(), strict=True)))
+            core.set_positions(dict(zip(joints, wanted.tolist(), strict=True)))
             previous = wanted
         try:
-            sim.step()
+            core.advance()
         except InstabilityError as exc:
             unstable = exc.step
             break
         re_trace.observe(k, sim.data, dt_ns)
         if progress is not None and k % 500 == 0:
             progress(last - first + k - first, total)
+    core.finish()
     if not re_trace.steps:
         raise RecordedDataError(f"{path}: the re-simulation failed at its first step")
 
@@ -674,6 +685,31 @@ def resimulate(
         ),
         recorded_reproduced=reproduced,
     )
+
+
+class _NoGraph:
+    """The graph of a core no client is connected to: nothing subscribes, so what is
+    published goes nowhere (spares the core a bridge and its message types)."""
+
+    def has_subscribers(self, topic: str) -> bool:
+        return False
+
+    def advertise(self, topic: str, type: str, *, node: str, latch: bool = False) -> None:
+        pass
+
+    def publish(
+        self, topic: str, type: str, msg: Mapping[str, Any], now_ns: int, *, latch: bool = False
+    ) -> None:
+        pass
+
+    def subscribe(self, topic: str, type: str, callback: Any, *, node: str = "") -> None:
+        pass
+
+    def serve(self, service: str, type: str, handler: Any, *, node: str = "") -> None:
+        pass
+
+    def status(self, connection: int, level: str, text: str) -> None:
+        pass
 
 
 def _describe(modes: Mapping[str, str]) -> str:

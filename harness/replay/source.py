@@ -48,10 +48,10 @@ from harness.models import (
     load_robot,
     load_world,
 )
-from harness.models.decompose import DECOMPOSITION_FOLDER, check_mesh_collision
+from harness.models.build.decompose import DECOMPOSITION_FOLDER, check_mesh_collision
 from harness.models.description import CONTROL_MODES, ControlMode
 from harness.models.errors import OutsideReferenceError, XacroError
-from harness.models.limits import ModelLimitError
+from harness.models.files.limits import ModelLimitError
 from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,

@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.sensors.errors import SensorConfigError
+from harness.sensors.registry import Mount
 from harness.sensors.spec import SensorSpec
 
 __all__ = [
@@ -62,21 +63,6 @@ def quat_of(rotation: F64) -> F64:
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).reshape(9))
     return quat
-
-
-@dataclass(frozen=True)
-class Mount:
-    """A sensor frame fixed to a body: ``position``/``rotation`` in the body frame."""
-
-    body: int
-    body_name: str
-    position: F64
-    rotation: F64
-
-    def world(self, data: mujoco.MjData) -> tuple[F64, F64]:
-        """The sensor frame in the world: (position, rotation matrix)."""
-        body_rot = data.xmat[self.body].reshape(3, 3)
-        return data.xpos[self.body] + body_rot @ self.position, body_rot @ self.rotation
 
 
 def find_object(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:

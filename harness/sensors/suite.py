@@ -165,9 +165,10 @@ class SensorSuite:
         }
         frame_id = robot.prefix + (spec.frame_id or spec.token)
         self._parents.append(mount.body_name)
-        return kind.build(
+        sensor: Sensor = kind.build(
             spec, Mounted(self.model, mount, topics, frame_id, robot.prefix, self.renderer)
         )
+        return sensor
 
     @classmethod
     def for_robots(

@@ -20,11 +20,11 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from harness.models.assets import mesh_asset
-from harness.models.confine import check_confined
+from harness.models.build.inertia import principal_on_edge
 from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
 from harness.models.errors import ModelStructureError
-from harness.models.inertia import principal_on_edge
+from harness.models.files.assets import mesh_asset
+from harness.models.files.confine import check_confined
 from harness.models.sdf.errors import SdfWarning
 
 __all__ = ["SpanningTree", "build_spec", "spanning_tree"]
@@ -282,8 +282,8 @@ def build_spec(
     the model frame. Actuators and the scene are the caller's.
 
     Meshes are in ``spec.assets`` under content-derived names (see
-    :mod:`harness.models.assets`): the spec does not depend on where the files are.
-    ``cache_dir``: the converted-mesh cache (see :mod:`harness.models.meshes`)."""
+    :mod:`harness.models.files.assets`): the spec does not depend on where the files are.
+    ``cache_dir``: the converted-mesh cache (see :mod:`harness.models.files.meshes`)."""
     spec = mujoco.MjSpec()
     spec.modelname = model.name or "robot"
     spec.compiler.degree = False

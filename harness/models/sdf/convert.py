@@ -34,7 +34,7 @@ from harness.models.description import (
     Shape,
 )
 from harness.models.errors import OutsideReferenceError, ResolveError
-from harness.models.resolve import resolve_uri
+from harness.models.files.resolve import resolve_uri
 from harness.models.sdf.build import spanning_tree
 from harness.models.sdf.document import (
     Axis,
