@@ -339,6 +339,15 @@ class RobotModel:
         return found
 
     @property
+    def root_link(self) -> str | None:
+        """The first link that is no other link's child (the body a floating base moves),
+        or None."""
+        link_names = {link.name for link in self.links}
+        children = {joint.child for joint in self.joints if joint.parent in link_names}
+        roots = [link.name for link in self.links if link.name not in children]
+        return roots[0] if roots else None
+
+    @property
     def controllable_joints(self) -> tuple[Joint, ...]:
         """Joints that get an actuator, in declaration order."""
         return tuple(j for j in self.joints if j.is_controllable)

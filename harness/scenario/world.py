@@ -148,13 +148,15 @@ def control_modes(
 ) -> dict[str, ControlMode]:
     """Every controllable joint's mode from ``robots[].modes`` (``path``: the robot's
     key path): a controller without ``joints`` covers every joint; later controllers win;
-    joints no controller names are ``position``."""
+    joints no controller names are left out, so that they get the loader's default (position,
+    or what the robot file's drive plugin or ``<ros2_control>`` interfaces drive them with, as
+    for ``Session`` and ``harness serve``)."""
     controllable = [j.name for j in description.controllable_joints]
-    modes: dict[str, ControlMode] = dict.fromkeys(controllable, ControlMode.POSITION)
+    modes: dict[str, ControlMode] = {}
     problems = []
     for i, controller in enumerate(robot.modes):
         for joint in controller.joints or controllable:
-            if joint not in modes:
+            if joint not in controllable:
                 problems.append(
                     f"{where}: {format_path([*path, 'modes', i, 'joints'])}: {joint!r} "
                     f"is not a controllable joint of the robot (controllable: "

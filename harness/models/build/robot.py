@@ -181,6 +181,7 @@ class RobotBuild:
             check_description(self.description, self.source)
             self.spec = build_spec(self.description, cache_dir=cache_dir)
             sdf_root = read_xml_file(path)[0]
+            self.plugin_wheels = plugin_wheels(sdf_root)
             self.declared_self_collide = declared_self_collide(sdf_root)
             self.link_self_collide = declared_link_self_collide(sdf_root)
             self.base = setup.sdf_base(self.spec, robot.base)

@@ -29,14 +29,12 @@ from harness.controllers import (
     ControllerManager,
     ControllersConfig,
     ControllersConfigError,
-    ControllerSpec,
     JointReadings,
     Output,
     builtin_controllers,
     default_controllers,
     load_controllers,
 )
-from harness.controllers.config import TYPE_JOINT_STATE_BROADCASTER
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
@@ -48,6 +46,7 @@ from harness.sim import CommandError, ControlConfigError, Notice
 __all__ = [
     "ControlHost",
     "ControllersOption",
+    "base_driven",
     "controllers_from_metadata",
     "controllers_metadata",
     "controllers_option",
@@ -106,27 +105,32 @@ def resolve_default(
 
 
 def with_drive_plugins(config: ControllersConfig, robot: LoadedRobot) -> ControllersConfig:
-    """``config``, or, when the robot's file declares drive plugins, what they name: a
-    ``joint_state_broadcaster`` and a diff drive (or planar) controller per plugin. Like a
-    YAML, a robot file that names controllers replaces the default set and its topics
-    (ros2_control's one-claim rule then holds among them)."""
-    from harness.controllers.gazebo_plugins import drive_plugins
-    from harness.models.files.xmlsafe import parse_xml
+    """``config`` plus a diff drive controller per drive plugin the robot's file declares."""
+    from harness.controllers.gazebo_plugins import robot_controllers
 
-    specs: list[Any] = []
-    files: list[str] = []
-    for name, data in robot.sources.items():
-        if name.startswith("model/") and name.endswith((".urdf", ".sdf", ".xacro", ".world")):
-            found = drive_plugins(parse_xml(data, name), name)
-            if found:
-                files.append(name)
-            specs += found
-    if not specs:
-        return config
-    broadcaster = ControllerSpec("joint_state_broadcaster", TYPE_JOINT_STATE_BROADCASTER)
-    return ControllersConfig(
-        config.update_rate, (broadcaster, *specs), " + ".join(files), exclusive=True
+    return robot_controllers(config, robot.sources)
+
+
+def base_driven(
+    config: ControllersConfig | str, loaded: LoadedRobot | LoadedWorld, namespace: str
+) -> tuple[str, ...]:
+    """The namespaces of the robots a base controller (diff drive, planar) drives under
+    ``config`` (``namespace``: a single robot's)."""
+    from harness.controllers.gazebo_plugins import BASE_CONTROLLER_TYPES, robot_controllers
+
+    if config == _CONFIG_NONE:
+        return ()
+    robots = (
+        [(namespace, loaded.sources)]
+        if isinstance(loaded, LoadedRobot)
+        else [(view.namespace, view.sources) for view in loaded.robots]
     )
+    out: list[str] = []
+    for space, sources in robots:
+        own = robot_controllers(ControllersConfig(), sources) if isinstance(config, str) else config
+        if any(spec.type in BASE_CONTROLLER_TYPES for spec in own.controllers):
+            out.append(space)
+    return tuple(out)
 
 
 def controllers_metadata(config: ControllersConfig | str) -> str:
@@ -147,6 +151,7 @@ class _Core(Publisher, Protocol):
     """What the host needs of the session core (it publishes through it)."""
 
     sim: Any
+    robot: Any
     robot_name: str
     robots: Any
     graph: Any
@@ -353,6 +358,22 @@ class _Unread(Mapping[str, float]):
 _UNREAD = _Unread()
 
 
+def _robot_sources(loaded: Any, index: int) -> Mapping[str, bytes]:
+    """The source files of robot ``index`` of what the core runs (none when unknown)."""
+    if isinstance(loaded, LoadedRobot):
+        return loaded.sources
+    if isinstance(loaded, LoadedWorld) and index < len(loaded.robots):
+        return loaded.robots[index].sources
+    return {}
+
+
+def _robot_default(joints: Any, sources: Mapping[str, bytes]) -> ControllersConfig:
+    """A robot's default set with its drive plugins (the translation of :func:`resolve_default`)."""
+    from harness.controllers.gazebo_plugins import robot_controllers
+
+    return robot_controllers(default_controllers(joints.joint_names, joints.control), sources)
+
+
 class ControlHost:
     """The controllers of every robot of a core (see the module docstring). ``config``: a
     :class:`ControllersConfig` (every robot gets it), ``"default"`` (each robot its
@@ -365,7 +386,7 @@ class ControlHost:
         for channels in core.robots:
             joints = channels.joints
             own = (
-                default_controllers(joints.joint_names, joints.control)
+                _robot_default(joints, _robot_sources(core.robot, len(self.robots)))
                 if config == _CONFIG_DEFAULT
                 else builtin_controllers(joints.joint_names)
                 if config == _CONFIG_NONE

@@ -87,6 +87,7 @@ from harness.session.core.channels import (
 )
 from harness.session.core.control import (
     ControlHost,
+    base_driven,
 )
 from harness.session.core.epochs import reset_epoch, restart
 from harness.session.core.frames import marker_frame, tap_frame
@@ -262,6 +263,7 @@ class SessionCore:
         self.sensors = session_sensors(
             robot, self.sim.model, options.sensors, namespace=self.namespace,
             seed=options.seed, dt_ns=self.dt_ns,
+            base_driven=base_driven(options.controllers, robot, self.namespace),
         )  # fmt: skip
         """The simulated sensors (None without any: then no sensor code runs)."""
         if self.sensors is not None and recorder is not None:
