@@ -26,6 +26,7 @@ from harness.models.errors import ModelStructureError, ResolveError
 from harness.models.files.assets import asset_name, mesh_asset
 from harness.models.files.confine import check_confined
 from harness.models.sdf.errors import SdfWarning
+from harness.models.sdf.materials import collada_appearance
 
 __all__ = ["COLLISION_GROUP", "SpanningTree", "build_spec", "spanning_tree"]
 
@@ -212,8 +213,11 @@ def _add_geom(
         geom.conaffinity = 0
         geom.group = 1
         geom.density = 0.0
-        if shape.appearance is not None:
-            _add_material(spec, geom, shape.appearance, assets, where)
+        appearance = shape.appearance
+        if appearance is None and geometry.kind == "mesh":  # drawn in its own material
+            appearance = collada_appearance(geometry.mesh_path or "")
+        if appearance is not None:
+            _add_material(spec, geom, appearance, assets, where)
     return geom
 
 

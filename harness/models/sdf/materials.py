@@ -12,13 +12,15 @@ Gazebo's stock materials: gz-sim reads its ambient, diffuse and specular from it
 Gazebo Classic's ``media/materials/scripts/gazebo.material`` (:data:`GAZEBO_MATERIALS`, exact
 names; gz-sim matches by substring, so ``Gazebo/Red`` there takes ``Gazebo/RedGlow``'s
 values, the same red). A visual of a primitive shape with no ``<material>`` is gz-sim's
-default grey (diffuse 0.7); a mesh's own materials (COLLADA) are not read: MuJoCo's grey.
+default grey (diffuse 0.7); a mesh visual without one has its own material: a COLLADA mesh's
+diffuse colour when it has one colour (:func:`collada_appearance`), else MuJoCo's grey.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
@@ -26,7 +28,13 @@ from harness.models.description import Appearance
 from harness.models.files.xmlsafe import describe
 from harness.models.sdf.errors import SdfSyntaxError, SdfWarning
 
-__all__ = ["DEFAULT_APPEARANCE", "GAZEBO_MATERIALS", "gazebo_appearance", "sdf_appearance"]
+__all__ = [
+    "DEFAULT_APPEARANCE",
+    "GAZEBO_MATERIALS",
+    "collada_appearance",
+    "gazebo_appearance",
+    "sdf_appearance",
+]
 
 Rgba = tuple[float, float, float, float]
 
@@ -236,3 +244,30 @@ def sdf_appearance(
         texture=image,
         source=source,
     )
+
+
+def collada_appearance(path: str) -> Appearance | None:
+    """The colour of a COLLADA mesh drawn with its own material (a mesh visual without an SDF
+    ``<material>``, as Gazebo draws it): the diffuse colour of its effects when they all have
+    one and the same (``<lambert>``/``<phong>``/``<blinn>``); None for a textured or
+    many-coloured mesh (drawn in MuJoCo's grey)."""
+    from harness.models.files.xmlsafe import check_size, parse_xml
+
+    source = Path(path)
+    if source.suffix.lower() != ".dae" or not source.is_file():
+        return None
+    check_size(source)
+    root = parse_xml(source.read_bytes(), path)
+    colors: set[Rgba] = set()
+    for element in root.iter():
+        if not isinstance(element.tag, str) or element.tag.rpartition("}")[2] != "diffuse":
+            continue
+        children = [c for c in element if isinstance(c.tag, str)]
+        if not children or children[0].tag.rpartition("}")[2] != "color":
+            return None  # a texture
+        color = _color(children[0], path)
+        if color is not None:
+            colors.add(color)
+    if len(colors) != 1:
+        return None
+    return Appearance(colors.pop(), specular=0.0, source=path)

@@ -1,0 +1,75 @@
+"""A visual's ``<pbr><metal><albedo_map>`` PNG is drawn as a MuJoCo texture, and a COLLADA
+mesh visual without an SDF material is drawn in the mesh's own colour (issue 33)."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from harness.models.sdf.errors import SdfWarning
+from tests.cameras.collada import collada
+from tests.cameras.scenes import GAZEBO_BLUE, H, W, robot, view, world
+
+
+def _png(path: Path, rgb: tuple[int, int, int], size: int = 8) -> None:
+    """A one-colour RGB PNG."""
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (
+            struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+        )
+
+    rows = b"".join(b"\0" + bytes(rgb) * size for _ in range(size))
+    header = struct.pack(">IIBBBBB", size, size, 8, 2, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(rows))
+        + chunk(b"IEND", b"")
+    )
+
+
+def _centre(rgb: np.ndarray) -> np.ndarray:
+    return rgb[H // 2 - 2 : H // 2 + 2, W // 2 - 2 : W // 2 + 2].reshape(-1, 3).mean(axis=0)
+
+
+def test_an_albedo_map_texture_is_drawn(tmp_path: Path) -> None:
+    folder = tmp_path / "w"
+    folder.mkdir()
+    _png(folder / "green.png", (20, 230, 40))
+    material = "<material><pbr><metal><albedo_map>green.png</albedo_map></metal></pbr></material>"
+    rgb, _, model = view(robot(tmp_path / "bot"), world(folder, material))
+    assert model.ntex == 1
+    r, g, b = _centre(rgb)
+    assert g > 3 * max(r, b), (r, g, b)
+
+
+def test_a_missing_texture_is_one_warning_and_the_colour_is_drawn(tmp_path: Path) -> None:
+    material = GAZEBO_BLUE.replace(
+        "</material>", "<pbr><metal><albedo_map>gone.png</albedo_map></metal></pbr></material>"
+    )
+    with pytest.warns(SdfWarning, match="gone.png"):
+        rgb, _, model = view(robot(tmp_path / "bot"), world(tmp_path / "w", material))
+    assert model.ntex == 0
+    r, g, b = _centre(rgb)
+    assert b > 3 * max(r, g), (r, g, b)
+
+
+def test_a_collada_mesh_without_material_is_drawn_in_its_own_colour(tmp_path: Path) -> None:
+    folder = tmp_path / "w"
+    folder.mkdir()
+    collada(folder / "quad.dae", color="0.1 0.2 0.9 1")  # a 2 m square, blue in its effect
+    path = world(folder, "")
+    text = path.read_text()
+    head, _, tail = text.partition('<visual name="visual"><geometry>')
+    tail = tail.split("</geometry>", 1)[1]
+    mesh = "<mesh><uri>quad.dae</uri></mesh>"
+    path.write_text(f'{head}<visual name="visual"><geometry>{mesh}</geometry>{tail}')
+    rgb, _, _ = view(robot(tmp_path / "bot"), path)
+    r, g, b = _centre(rgb)
+    assert b > 3 * max(r, g), (r, g, b)  # main: MuJoCo's grey
+    assert b == pytest.approx(0.4 * 0.9 * 255, abs=6)
