@@ -39,6 +39,13 @@ ROBOT = """<?xml version="1.0"?>
     <collision><origin xyz="0 0 0.05"/><geometry><box size="0.2 0.2 0.1"/></geometry></collision>
     <visual><origin xyz="0 0 0.05"/><geometry><box size="0.2 0.2 0.1"/></geometry></visual>
   </link>
+  <link name="spinner">
+    <inertial><mass value="0.1"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>
+  </link>
+  <joint name="spin" type="continuous">
+    <parent link="base_link"/><child link="spinner"/><axis xyz="0 0 1"/>
+  </joint>
 {links}</robot>
 """
 
@@ -69,6 +76,14 @@ WORLD = """<?xml version="1.0"?>
 </sdf>
 """
 
+POINT_LIGHT = """    <light type="point" name="bulb">
+      <pose>1.6 0.6 0.5 0 0 0</pose>
+      <diffuse>1 1 1 1</diffuse>
+      <specular>0 0 0 1</specular>
+      <attenuation><range>5</range><constant>0.2</constant><linear>0.5</linear>
+        <quadratic>1</quadratic></attenuation>
+    </light>
+"""
 RED = "<material><ambient>0.8 0 0 1</ambient><diffuse>0.9 0.05 0.05 1</diffuse></material>"
 GAZEBO_BLUE = (
     "<material><script><uri>file://media/materials/scripts/gazebo.material</uri>"

@@ -9,17 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.cameras.scenes import RED, H, W, robot, view, world
+from tests.cameras.scenes import POINT_LIGHT, RED, H, W, robot, view, world
 
 GREY = "<material><diffuse>0.5 0.5 0.5 1</diffuse></material>"
-POINT = """    <light type="point" name="bulb">
-      <pose>1.6 0.6 0.5 0 0 0</pose>
-      <diffuse>1 1 1 1</diffuse>
-      <specular>0 0 0 1</specular>
-      <attenuation><range>5</range><constant>0.2</constant><linear>0.5</linear>
-        <quadratic>1</quadratic></attenuation>
-    </light>
-"""
 
 
 def _third(rgb: np.ndarray, which: int) -> float:
@@ -31,7 +23,7 @@ def _third(rgb: np.ndarray, which: int) -> float:
 def test_a_point_light_brightens_the_wall_near_it(tmp_path: Path) -> None:
     bot = robot(tmp_path / "bot")
     dark, _, _ = view(bot, world(tmp_path / "a", GREY))
-    lit, _, model = view(bot, world(tmp_path / "b", GREY, extra=POINT))
+    lit, _, model = view(bot, world(tmp_path / "b", GREY, extra=POINT_LIGHT))
     assert model.nlight == 1
     # without light: the ambient light alone, the same everywhere on the wall
     assert _third(dark, 0) == pytest.approx(_third(dark, 2), abs=2)
