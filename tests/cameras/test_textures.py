@@ -73,3 +73,16 @@ def test_a_collada_mesh_without_material_is_drawn_in_its_own_colour(tmp_path: Pa
     r, g, b = _centre(rgb)
     assert b > 3 * max(r, g), (r, g, b)  # main: MuJoCo's grey
     assert b == pytest.approx(0.4 * 0.9 * 255, abs=6)
+
+
+def test_a_visual_mesh_not_at_hand_is_one_warning_and_not_drawn(tmp_path: Path) -> None:
+    path = world(tmp_path / "w", "")
+    text = path.read_text()
+    head, _, tail = text.partition('<visual name="visual"><geometry>')
+    tail = tail.split("</geometry>", 1)[1]
+    mesh = "<mesh><uri>model://not_here/meshes/wall.stl</uri></mesh>"
+    path.write_text(f'{head}<visual name="visual"><geometry>{mesh}</geometry>{tail}')
+    with pytest.warns(SdfWarning, match=r"visual 'visual': mesh not found: .*not drawn"):
+        rgb, _, model = view(robot(tmp_path / "bot"), path)
+    assert model.ngeom > 0
+    assert rgb[H // 2, W // 2].max() == 0  # Gazebo draws nothing there: the background

@@ -221,6 +221,21 @@ def _add_geom(
     return geom
 
 
+def _drawable(link: Link, shape: Shape) -> bool:
+    """Whether a visual can be drawn: a visual mesh that is not at hand is left out with a
+    warning, as Gazebo draws nothing for it (it carries no physics)."""
+    path = shape.geometry.mesh_path
+    if shape.geometry.kind != "mesh" or (path and "://" not in path and Path(path).is_file()):
+        return True
+    warnings.warn(
+        SdfWarning(
+            f"link {link.name!r} visual {shape.name!r}: mesh not found: {path!r} (not drawn)"
+        ),
+        stacklevel=4,
+    )
+    return False
+
+
 COLLISION_GROUP = 3
 """The geom group of collision geoms in a model built with its visuals: cameras draw groups
 0-2, so they see the visuals only, as Gazebo's cameras do."""
@@ -358,7 +373,8 @@ def build_spec(
                 geom.group = COLLISION_GROUP
         if visuals:
             for shape in link.visuals:
-                _add_geom(spec, body, link, shape, True, assets, cache_dir)
+                if _drawable(link, shape):
+                    _add_geom(spec, body, link, shape, True, assets, cache_dir)
     if assets:
         spec.assets = assets
     for joint in tree.loops:
