@@ -61,3 +61,13 @@ def test_an_included_sun_lights_the_face_turned_to_it(tmp_path: Path) -> None:
     # ambient 0.4 plus the sun's 0.5 at 45 degrees to the face, on a 0.5 grey
     expected = (0.4 + 0.5 * np.sqrt(0.5)) * 0.5 * 255
     assert float(rgb[H // 2, W // 2].mean()) == pytest.approx(expected, abs=6)
+
+
+def test_the_scene_background_fills_what_nothing_covers(tmp_path: Path) -> None:
+    scene = "    <scene><background>0.1 0.2 0.9 1</background></scene>\n"
+    rgb, depth, _ = view(robot(tmp_path / "bot"), world(tmp_path / "w", RED, extra=scene))
+    # the bottom rows look below the wall (there is no floor): nothing is drawn there
+    assert np.isinf(depth[-1]).all()
+    assert (rgb[-1] == [26, 51, 230]).all()  # main: MuJoCo's black
+    assert np.isfinite(depth[H // 2, W // 2])
+    assert rgb[H // 2, W // 2, 0] > 3 * rgb[H // 2, W // 2, 2]  # the red wall is not touched

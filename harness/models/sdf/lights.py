@@ -11,7 +11,9 @@ MuJoCo's ``range``, which its OpenGL renderer does not cut at). A light with
 ``<light_on>false`` is left out. The scene's ambient light (``<scene><ambient>``, SDF's
 default 0.4 grey when not written) is MuJoCo's headlight, as ambient only (no diffuse or
 specular part that would follow the camera): so a world with no light at all is lit by that
-ambient light alone, as gz-sim lights it. MuJoCo lights per vertex, not per pixel: with a
+ambient light alone, as gz-sim lights it; ``<scene><background>`` (0.7 grey when not
+written) fills a camera's pixels where nothing is drawn (:data:`BACKGROUND_NUMERIC`).
+MuJoCo lights per vertex, not per pixel: with a
 point or spot light, box faces are drawn as :data:`NUMQUADS` squared quads so the light
 falls off across a wall (a mesh is lit at its own vertices). Shadows are not drawn (cameras
 render with MuJoCo's shadows off); a light inside a ``<model>`` or ``<link>`` is not read.
@@ -34,13 +36,25 @@ from harness.models.sdf.document import _parse_pose
 from harness.models.sdf.errors import SdfIncludeError, SdfSyntaxError
 from harness.models.sdf.includes import SUPPORTED_VERSIONS, include_file
 
-__all__ = ["SCENE_AMBIENT", "Lighting", "WorldLight", "apply_lighting", "world_lighting"]
+__all__ = [
+    "BACKGROUND_NUMERIC",
+    "SCENE_AMBIENT",
+    "SCENE_BACKGROUND",
+    "Lighting",
+    "WorldLight",
+    "apply_lighting",
+    "world_lighting",
+]
 
 Vec3 = tuple[float, float, float]
 LightKind = Literal["directional", "point", "spot"]
 
 SCENE_AMBIENT: Vec3 = (0.4, 0.4, 0.4)
 """SDF's default ``<scene><ambient>``."""
+SCENE_BACKGROUND: Vec3 = (0.7, 0.7, 0.7)
+"""SDF's default ``<scene><background>``."""
+BACKGROUND_NUMERIC = "harness:background"
+"""The model numeric (r, g, b) :mod:`harness.sensors.render` fills a camera's empty pixels with."""
 NUMQUADS = 32
 """Quads per box face side when a world has point or spot lights (MuJoCo's default: 4)."""
 
@@ -63,10 +77,11 @@ class WorldLight:
 
 @dataclass(frozen=True)
 class Lighting:
-    """A world's ``ambient`` light and its ``lights``."""
+    """A world's ``ambient`` light, its ``lights`` and its ``background`` colour."""
 
     ambient: Vec3 = SCENE_AMBIENT
     lights: tuple[WorldLight, ...] = ()
+    background: Vec3 = SCENE_BACKGROUND
 
 
 def _numbers(element: etree._Element | None, count: int, where: str) -> tuple[float, ...] | None:
@@ -177,6 +192,7 @@ def world_lighting(
     module docstring); ``search_paths`` as for the world's includes, the last of them holding
     the harness's stock ``sun``."""
     ambient = _numbers(world.find("scene/ambient"), 3, str(source))
+    background = _numbers(world.find("scene/background"), 3, str(source))
     paths = [Path(p) for p in search_paths]
     stock = paths[-1] / "sun" / "model.sdf" if paths else Path()
     lights: list[WorldLight] = []
@@ -194,6 +210,9 @@ def world_lighting(
     return Lighting(
         (ambient[0], ambient[1], ambient[2]) if ambient is not None else SCENE_AMBIENT,
         tuple(lights),
+        (background[0], background[1], background[2])
+        if background is not None
+        else SCENE_BACKGROUND,
     )
 
 
@@ -213,6 +232,7 @@ def apply_lighting(spec: mujoco.MjSpec, lighting: Lighting) -> None:
         # MuJoCo lights per vertex: a box face drawn as numquads^2 quads catches a point
         # light's fall-off (4 quads: a wall's face lit as the mean of its corners)
         spec.visual.quality.numquads = max(int(spec.visual.quality.numquads), NUMQUADS)
+    spec.add_numeric(name=BACKGROUND_NUMERIC, size=3, data=list(lighting.background))
     headlight = spec.visual.headlight
     headlight.ambient = list(lighting.ambient)
     headlight.diffuse = [0.0, 0.0, 0.0]
