@@ -55,7 +55,7 @@ SCENE_BACKGROUND: Vec3 = (0.7, 0.7, 0.7)
 """SDF's default ``<scene><background>``."""
 BACKGROUND_NUMERIC = "harness:background"
 """The model numeric (r, g, b) :mod:`harness.sensors.render` fills a camera's empty pixels with."""
-NUMQUADS = 32
+NUMQUADS = 16
 """Quads per box face side when a world has point or spot lights (MuJoCo's default: 4)."""
 
 
