@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from harness.models.sdf.errors import SdfWarning
 from tests.cameras.scenes import GAZEBO_BLUE, RED, H, W, robot, view, world
 
 
@@ -56,3 +57,11 @@ def test_urdf_named_material_and_gazebo_reference_colour_the_robot(tmp_path: Pat
     assert left[1] / left[0] == pytest.approx(0.45, abs=0.06)
     # <gazebo reference="gz"><material>Gazebo/Green</material>: Gazebo draws it green
     assert right[1] > 3 * max(right[0], right[2]), right
+
+
+def test_a_malformed_colour_is_one_warning_and_the_world_loads(tmp_path: Path) -> None:
+    bad = "<material><diffuse>red</diffuse></material>"
+    with pytest.warns(SdfWarning, match=r"colour 'red' needs 3 or 4 numbers \(drawn grey\)"):
+        rgb, _, _ = view(robot(tmp_path / "bot"), world(tmp_path / "w", bad))
+    r, g, b = _centre(rgb)
+    assert r == g == b

@@ -208,16 +208,17 @@ class _Converter:
         else:
             raise SdfStructureError(f"{where}: geometry <{kind}> is not supported")
         element = spec.element.getparent()  # <geometry>, in the <visual>
-        appearance = (
-            sdf_appearance(
-                element.getparent(),
-                str(link.source),
-                lambda uri, at: self.texture_path(uri, link, at),
-                mesh=kind == "mesh",
-            )
-            if visual and element is not None and element.getparent() is not None
-            else None
-        )
+        appearance = None
+        if visual and element is not None and element.getparent() is not None:
+            try:
+                appearance = sdf_appearance(
+                    element.getparent(),
+                    str(link.source),
+                    lambda uri, at: self.texture_path(uri, link, at),
+                    mesh=kind == "mesh",
+                )
+            except SdfSyntaxError as exc:  # only drawing needs it: the model still loads
+                warnings.warn(SdfWarning(f"{exc} (drawn grey)"), stacklevel=2)
         return Shape(spec.name, pose, geometry, appearance)
 
     def texture_path(self, uri: str, link: Entity, where: str) -> str | None:

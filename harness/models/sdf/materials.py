@@ -18,6 +18,7 @@ diffuse colour when it has one colour (:func:`collada_appearance`), else MuJoCo'
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -149,13 +150,13 @@ def _color(element: etree._Element | None, where: str) -> Rgba | None:
         values = [float(v) for v in (element.text or "").split()]
     except ValueError:
         values = []
-    if len(values) not in (3, 4) or not all(0.0 <= v <= 1e9 for v in values):
+    if len(values) not in (3, 4) or not all(math.isfinite(v) for v in values):
         raise SdfSyntaxError(
-            f"{where}: {describe(element)}: colour {element.text!r} needs 3 or 4 numbers >= 0"
+            f"{where}: {describe(element)}: colour {element.text!r} needs 3 or 4 numbers"
         )
     if len(values) == 3:
         values.append(1.0)
-    r, g, b, a = (min(1.0, v) for v in values)
+    r, g, b, a = (min(1.0, max(0.0, v)) for v in values)  # clamped, as gz clamps
     return (r, g, b, a)
 
 
