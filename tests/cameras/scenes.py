@@ -3,6 +3,8 @@ whose camera looks along +x at a wall 2 m ahead, and the pixels it sees."""
 
 from __future__ import annotations
 
+import struct
+import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -133,3 +135,21 @@ def view(
     rgb = np.frombuffer(out["/cam/image_raw"]["data"], np.uint8).reshape(H, W, 3)
     depth = np.frombuffer(out["/cam/depth/image_raw"]["data"], "<f4").reshape(H, W)
     return rgb, depth, model
+
+
+def png(path: Path, rgb: tuple[int, int, int], size: int = 8) -> None:
+    """A one-colour RGB PNG."""
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (
+            struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+        )
+
+    rows = b"".join(b"\0" + bytes(rgb) * size for _ in range(size))
+    header = struct.pack(">IIBBBBB", size, size, 8, 2, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(rows))
+        + chunk(b"IEND", b"")
+    )

@@ -1,6 +1,6 @@
-"""A session whose camera renders loads the SDF world with its visuals, materials and lights:
-the recorded image shows the red wall, the recording rebuilds to the same model from its
-attachments, and replays at --level full (issue 33)."""
+"""A session whose camera renders loads the SDF world with its visuals, materials, textures and
+lights: the recorded image shows the red wall, the recording rebuilds to the same model from
+its attachments (a texture beside the world too), and replays at --level full (issue 33)."""
 
 from __future__ import annotations
 
@@ -14,12 +14,19 @@ import pytest
 from harness.recording import Recording
 from harness.replay.source import rebuild_run
 from harness.session import Session
-from tests.cameras.scenes import CAMERA, POINT_LIGHT, RED, H, W, robot, world
+from tests.cameras.scenes import CAMERA, POINT_LIGHT, RED, H, W, png, robot, world
+
+TEXTURED = "<material><pbr><metal><albedo_map>red.png</albedo_map></metal></pbr></material>"
 
 
 @pytest.mark.slow
-def test_a_camera_session_records_the_world_as_gazebo_draws_it(tmp_path: Path) -> None:
-    scene = world(tmp_path / "w", RED, extra=POINT_LIGHT)
+@pytest.mark.parametrize("material", [RED, TEXTURED], ids=["material", "texture"])
+def test_a_camera_session_records_the_world_as_gazebo_draws_it(
+    tmp_path: Path, material: str
+) -> None:
+    (tmp_path / "w").mkdir()
+    png(tmp_path / "w" / "red.png", (230, 20, 20))  # beside the world: attached as scene/red.png
+    scene = world(tmp_path / "w", material, extra=POINT_LIGHT)
     path = tmp_path / "run.mcap"
     with Session(robot(tmp_path / "bot"), scene=scene, sensors=[CAMERA], record_to=path) as s:
         s.step(10)

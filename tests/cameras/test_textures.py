@@ -3,8 +3,6 @@ mesh visual without an SDF material is drawn in the mesh's own colour (issue 33)
 
 from __future__ import annotations
 
-import struct
-import zlib
 from pathlib import Path
 
 import numpy as np
@@ -12,25 +10,7 @@ import pytest
 
 from harness.models.sdf.errors import SdfWarning
 from tests.cameras.collada import collada
-from tests.cameras.scenes import GAZEBO_BLUE, H, W, robot, view, world
-
-
-def _png(path: Path, rgb: tuple[int, int, int], size: int = 8) -> None:
-    """A one-colour RGB PNG."""
-
-    def chunk(kind: bytes, body: bytes) -> bytes:
-        return (
-            struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
-        )
-
-    rows = b"".join(b"\0" + bytes(rgb) * size for _ in range(size))
-    header = struct.pack(">IIBBBBB", size, size, 8, 2, 0, 0, 0)
-    path.write_bytes(
-        b"\x89PNG\r\n\x1a\n"
-        + chunk(b"IHDR", header)
-        + chunk(b"IDAT", zlib.compress(rows))
-        + chunk(b"IEND", b"")
-    )
+from tests.cameras.scenes import GAZEBO_BLUE, H, W, png, robot, view, world
 
 
 def _centre(rgb: np.ndarray) -> np.ndarray:
@@ -40,7 +20,7 @@ def _centre(rgb: np.ndarray) -> np.ndarray:
 def test_an_albedo_map_texture_is_drawn(tmp_path: Path) -> None:
     folder = tmp_path / "w"
     folder.mkdir()
-    _png(folder / "green.png", (20, 230, 40))
+    png(folder / "green.png", (20, 230, 40))
     material = "<material><pbr><metal><albedo_map>green.png</albedo_map></metal></pbr></material>"
     rgb, _, model = view(robot(tmp_path / "bot"), world(folder, material))
     assert model.ntex == 1

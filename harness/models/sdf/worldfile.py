@@ -195,6 +195,7 @@ def load_world_file(
         spec.option.gravity = list(gravity)
     entities = {e.name: e for e in document.root.of_kind("model")}
     meshes: list[str] = []
+    drawn: list[str] = []
     assets: dict[str, bytes] = {}
     for placed in world.models:
         model_spec = build_spec(placed.model, visuals=visuals, cache_dir=cache_dir)
@@ -212,10 +213,8 @@ def load_world_file(
         ]
         if visuals:  # what the visuals read: their meshes and textures
             shapes = [s for link in placed.model.links for s in link.visuals]
-            meshes += [s.geometry.mesh_path or "" for s in shapes if s.geometry.kind == "mesh"]
-            meshes += [
-                s.appearance.texture for s in shapes if s.appearance and s.appearance.texture
-            ]
+            drawn += [s.geometry.mesh_path or "" for s in shapes if s.geometry.kind == "mesh"]
+            drawn += [s.appearance.texture for s in shapes if s.appearance and s.appearance.texture]
         frame = spec.worldbody.add_frame(pos=list(placed.pose.xyz), quat=list(placed.pose.quat))
         spec.attach(model_spec, prefix=f"{placed.name}::", frame=frame)
     if assets:
@@ -224,14 +223,36 @@ def load_world_file(
         version = document.root.version
         apply_lighting(spec, world_lighting(document.root.element, path, version, paths))
     every = [e for e in document.root.walk() if e.kind == "model"]
+    beside, elsewhere = _beside_world(path, drawn, meshes)
     return WorldScene(
         name=str(spec.modelname),
         spec=spec,
         models=world.models,
         timestep=timestep,
         gravity=None if gravity is None else (gravity[0], gravity[1], gravity[2]),
-        sources=MappingProxyType(world_sources(path, every, meshes)),
+        sources=MappingProxyType({**world_sources(path, every, meshes + elsewhere), **beside}),
     )
+
+
+def _beside_world(
+    path: Path, drawn: Sequence[str], meshes: Sequence[str]
+) -> tuple[dict[str, bytes], list[str]]:
+    """The files only visuals read (meshes, textures) in the world's folder, as sources
+    ``"scene/<path from that folder>"``, where a rebuild finds them by the same relative
+    reference; and the other files (for :func:`world_sources`)."""
+    folder = path.resolve().parent
+    colliding = {Path(m).resolve() for m in meshes if m}
+    beside: dict[str, bytes] = {}
+    elsewhere: list[str] = []
+    for name in drawn:
+        file = Path(name).resolve() if name else None
+        if file is None or not file.is_file() or file in colliding:
+            continue
+        if file.is_relative_to(folder):
+            beside[f"scene/{file.relative_to(folder).as_posix()}"] = file.read_bytes()
+        else:
+            elsewhere.append(name)
+    return beside, elsewhere
 
 
 def _scoped(prefix: str, name: str) -> str:
