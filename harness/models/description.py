@@ -27,6 +27,7 @@ __all__ = [
     "CONTROL_MODES",
     "CONTROL_MODE_INPUTS",
     "DYNAMIC_ALIAS",
+    "Appearance",
     "ControlMode",
     "Geometry",
     "Inertial",
@@ -211,12 +212,30 @@ class Geometry:
 
 
 @dataclass(frozen=True)
+class Appearance:
+    """How a visual is drawn (its material), in MuJoCo's terms: ``rgba`` the colour the lights
+    and the ambient light scale (Gazebo's diffuse), ``emission`` the part of it drawn unlit,
+    ``specular`` and ``shininess`` (0-1), ``texture`` an image file (PNG) multiplied with
+    ``rgba``; ``source``: where it was read (for messages)."""
+
+    rgba: tuple[float, float, float, float]
+    emission: float = 0.0
+    specular: float = 0.5
+    shininess: float = 0.5
+    texture: str | None = None
+    source: str = ""
+
+
+@dataclass(frozen=True)
 class Shape:
-    """A collision or visual element of a link; ``pose`` is in the model frame at zero config."""
+    """A collision or visual element of a link; ``pose`` is in the model frame at zero config;
+    ``appearance``: a visual's material, when its file gives one (not part of equality: it
+    changes no geometry)."""
 
     name: str
     pose: Pose
     geometry: Geometry
+    appearance: Appearance | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)

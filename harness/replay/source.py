@@ -176,8 +176,10 @@ def _scene(sources: Mapping[str, bytes], root: Path) -> str | Path | None:
     scenes = [n for n in sources if n.startswith("scene/")]
     if not scenes:
         return None
-    # the scene file itself, not a model an SDF world includes (scene/include/...)
-    scenes = [n for n in scenes if "/" not in n[6:]] or scenes
+    # the scene file itself, not a model an SDF world includes (scene/include/...) nor a
+    # file its visuals read beside it (scene/wall.png)
+    top = [n for n in scenes if "/" not in n[6:]]
+    scenes = [n for n in top if n.lower().endswith((".world", ".sdf", ".xml"))] or top or scenes
     for named, scene_path in SCENES.items():
         if sources[scenes[0]] == scene_path.read_bytes():
             return named

@@ -8,7 +8,9 @@ A static model is welded to the world; a model that is not static gets a free jo
 (``model::link::__free__``) and can be pushed. ``<physics><max_step_size>`` becomes the
 timestep and ``<gravity>`` the gravity (MuJoCo's defaults when absent); a collision's
 ``<surface><friction><ode><mu>`` its sliding friction. Lights, the sky, the scene's
-ambient, plugins and actors carry no physics and are left out. A ground plane is whatever
+ambient, plugins and actors carry no physics: only a world loaded with its visuals (for a
+camera) has its visual geoms, their materials (:mod:`harness.models.sdf.materials`) and its
+lights and ambient light (:mod:`harness.models.sdf.lights`). A ground plane is whatever
 the world writes (usually ``model://ground_plane``: a bundled copy is on the search path
 last, as are ``sun`` and Gazebo's other stock names the harness ships).
 
@@ -34,6 +36,7 @@ from harness.models.files.xmlsafe import read_xml_file
 from harness.models.sdf.build import build_spec
 from harness.models.sdf.convert import PlacedModel, read_sdf_world, sdf_world
 from harness.models.sdf.document import Entity, load_document
+from harness.models.sdf.lights import apply_lighting, world_lighting
 
 __all__ = [
     "BUNDLED_MODELS",
@@ -169,9 +172,12 @@ def load_world_file(
     *,
     search_paths: Sequence[str | Path] | None = None,
     cache_dir: str | Path | None = None,
+    visuals: bool = False,
 ) -> WorldScene:
     """Read the SDF world at ``path`` into a :class:`WorldScene` (see the module docstring).
-    ``search_paths``: folders searched first for ``model://`` includes and meshes."""
+    ``search_paths``: folders searched first for ``model://`` includes and meshes;
+    ``visuals``: build the visual geoms with their materials, and the lights (what a camera
+    draws), the collision geoms then in a group cameras do not draw."""
     path = Path(path)
     paths = [*(search_paths or ()), BUNDLED_MODELS]
     document = load_document(path, search_paths=paths, strict=False)
@@ -189,9 +195,10 @@ def load_world_file(
         spec.option.gravity = list(gravity)
     entities = {e.name: e for e in document.root.of_kind("model")}
     meshes: list[str] = []
+    drawn: list[str] = []
     assets: dict[str, bytes] = {}
     for placed in world.models:
-        model_spec = build_spec(placed.model, visuals=False, cache_dir=cache_dir)
+        model_spec = build_spec(placed.model, visuals=visuals, cache_dir=cache_dir)
         entity = entities[placed.name]
         for geom_name, mu in _frictions(entity, entity.path + "::").items():
             geom = model_spec.geom(geom_name)
@@ -204,19 +211,48 @@ def load_world_file(
             for s in link.collisions
             if s.geometry.kind == "mesh"
         ]
+        if visuals:  # what the visuals read: their meshes and textures
+            shapes = [s for link in placed.model.links for s in link.visuals]
+            drawn += [s.geometry.mesh_path or "" for s in shapes if s.geometry.kind == "mesh"]
+            drawn += [s.appearance.texture for s in shapes if s.appearance and s.appearance.texture]
         frame = spec.worldbody.add_frame(pos=list(placed.pose.xyz), quat=list(placed.pose.quat))
         spec.attach(model_spec, prefix=f"{placed.name}::", frame=frame)
     if assets:
         spec.assets = {**spec.assets, **assets}
+    if visuals:
+        version = document.root.version
+        apply_lighting(spec, world_lighting(document.root.element, path, version, paths))
     every = [e for e in document.root.walk() if e.kind == "model"]
+    beside, elsewhere = _beside_world(path, drawn, meshes)
     return WorldScene(
         name=str(spec.modelname),
         spec=spec,
         models=world.models,
         timestep=timestep,
         gravity=None if gravity is None else (gravity[0], gravity[1], gravity[2]),
-        sources=MappingProxyType(world_sources(path, every, meshes)),
+        sources=MappingProxyType({**world_sources(path, every, meshes + elsewhere), **beside}),
     )
+
+
+def _beside_world(
+    path: Path, drawn: Sequence[str], meshes: Sequence[str]
+) -> tuple[dict[str, bytes], list[str]]:
+    """The files only visuals read (meshes, textures) in the world's folder, as sources
+    ``"scene/<path from that folder>"``, where a rebuild finds them by the same relative
+    reference; and the other files (for :func:`world_sources`)."""
+    folder = path.resolve().parent
+    colliding = {Path(m).resolve() for m in meshes if m}
+    beside: dict[str, bytes] = {}
+    elsewhere: list[str] = []
+    for name in drawn:
+        file = Path(name).resolve() if name else None
+        if file is None or not file.is_file() or file in colliding:
+            continue
+        if file.is_relative_to(folder):
+            beside[f"scene/{file.relative_to(folder).as_posix()}"] = file.read_bytes()
+        else:
+            elsewhere.append(name)
+    return beside, elsewhere
 
 
 def _scoped(prefix: str, name: str) -> str:

@@ -380,6 +380,29 @@ def read_urdf(path: str | Path) -> RobotModel:
     return urdf_from_element(root, str(path))
 
 
+def _gazebo_materials(doc: etree._Element, source: str) -> None:
+    """Colour the visuals of each link a ``<gazebo reference="link"><material>Gazebo/...``
+    names as Gazebo does: the stock material replaces the URDF's own colour."""
+    from harness.models.sdf.materials import gazebo_appearance  # the table: only with visuals
+
+    links = {str(link.get("name")): link for link in doc.findall("link")}
+    for gazebo in doc.findall("gazebo"):
+        link = links.get(gazebo.get("reference") or "")
+        material = gazebo.find("material")
+        if link is None or material is None or not (material.text or "").strip():
+            continue
+        name = (material.text or "").strip()
+        appearance = gazebo_appearance(name, f"{source}: {describe(material)}")
+        if appearance is None:
+            continue
+        for visual in link.findall("visual"):
+            for old in visual.findall("material"):
+                visual.remove(old)
+            added = etree.SubElement(visual, "material", {"name": f"gazebo:{name}"})
+            rgba = " ".join(repr(float(v)) for v in appearance.rgba)
+            etree.SubElement(added, "color", {"rgba": rgba})
+
+
 class PreparedURDF(NamedTuple):
     """What :func:`mujoco_urdf_xml` hands over: the URDF text for MuJoCo, the inertia
     repairs made in it, each repaired link's new tensor (ixx, ixy, ixz, iyy, iyz, izz), and
@@ -432,7 +455,8 @@ def mujoco_urdf_xml(
 
     Mesh references are resolved and converted, and named by content
     (:func:`harness.models.files.assets.mesh_asset`): pass ``assets`` to ``MjSpec.from_string``;
-    visual elements are dropped unless ``visuals``; a ``<mujoco><compiler>`` element keeps
+    visual elements are dropped unless ``visuals`` (then a link's ``<gazebo reference>``
+    ``<material>Gazebo/...`` colours its visuals); a ``<mujoco><compiler>`` element keeps
     every link a named body (``fusestatic="false"``) and, with ``repair_inertia``, sets the
     mass/inertia bounds and ``balanceinertia``; non positive-definite tensors are fixed here.
     """
@@ -444,6 +468,8 @@ def mujoco_urdf_xml(
             parent = visual.getparent()
             if parent is not None:
                 parent.remove(visual)
+    else:
+        _gazebo_materials(doc, source)
     repairs: list[str] = []
     inertias: dict[str, tuple[float, ...]] = {}
     assets: dict[str, bytes] = {}

@@ -135,7 +135,8 @@ def load_world(
         for number, obj in enumerate(objects):
             add_object(spec, obj, f"{world_source}: objects[{number}] ({obj.name!r})")
     else:
-        spec, scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir)
+        visuals = any(r.request.visuals for r in prepared)  # a camera draws the world too
+        spec, scene_path, scene_sources = _scene_spec(scene, world_source, cache_dir, visuals)
         decomposed.update(
             decompose_spec(spec, mode=mesh_collision, source=str(scene_path), cache_dir=cache_dir)
         )
@@ -284,9 +285,10 @@ def _add_srdf_excludes(
 
 
 def _scene_spec(
-    scene: str | Path | None, source: str, cache_dir: str | Path | None
+    scene: str | Path | None, source: str, cache_dir: str | Path | None, visuals: bool = False
 ) -> tuple[mujoco.MjSpec, Path, dict[str, bytes]]:
-    """The scene's spec, its file and its sources (an SDF world: every file it reads)."""
+    """The scene's spec, its file and its sources (an SDF world: every file it reads; with
+    ``visuals``, its visual geoms, materials and lights too)."""
     if scene is None:
         scene = "floor"
     path = SCENES.get(str(scene)) if isinstance(scene, str) else None
@@ -299,7 +301,7 @@ def _scene_spec(
     from harness.models.sdf import worldfile  # imports the SDF reader: only when a world is used
 
     if worldfile.is_sdf_world(path):
-        world = worldfile.load_world_file(path, cache_dir=cache_dir)
+        world = worldfile.load_world_file(path, cache_dir=cache_dir, visuals=visuals)
         return world.spec, path, dict(world.sources)
     read_xml_file(path)
     spec = spec_from_file(path)
