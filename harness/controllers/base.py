@@ -2,8 +2,8 @@
 
 A controller never touches a socket, a clock or the simulation: the session hands it the joints'
 :class:`JointReadings` and the simulation time at a step boundary (a message, a goal, a cancel,
-an update) and applies the :class:`Output` it returns: joint commands, messages to publish,
-action feedback and results, log lines. A controller that reads a sensor (a broadcaster) is
+an update) and applies the :class:`ControllerOutput` it returns: joint commands, messages to
+publish, action feedback and results, log lines. A controller that reads a sensor (a broadcaster) is
 given the robot's :class:`SensorInterfaces` when it is built.
 """
 
@@ -23,10 +23,10 @@ __all__ = [
     "Command",
     "Controller",
     "ControllerBase",
+    "ControllerOutput",
     "Feedback",
     "JointReadings",
     "LogLine",
-    "Output",
     "Publication",
     "Result",
     "SensorInterfaces",
@@ -116,7 +116,7 @@ class LogLine:
 
 
 @dataclass
-class Output:
+class ControllerOutput:
     """What one call of a controller produced, in order of effect."""
 
     commands: list[Command] = field(default_factory=list)
@@ -129,7 +129,7 @@ class Output:
     """What its log lines and the notices of its commands are prefixed with (default: the
     topic of the message it answers, else the controller's name)."""
 
-    def extend(self, other: Output) -> None:
+    def extend(self, other: ControllerOutput) -> None:
         """Append ``other``'s items."""
         self.commands += other.commands
         self.publications += other.publications
@@ -186,21 +186,21 @@ class Controller(Protocol):
     @property
     def actions(self) -> Sequence[ActionEndpoint]: ...
 
-    def activate(self, state: JointReadings) -> Output: ...
+    def activate(self, state: JointReadings) -> ControllerOutput: ...
 
-    def deactivate(self, state: JointReadings) -> Output: ...
+    def deactivate(self, state: JointReadings) -> ControllerOutput: ...
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output: ...
+    ) -> ControllerOutput: ...
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output: ...
+    ) -> ControllerOutput: ...
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output: ...
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput: ...
 
-    def update(self, state: JointReadings, period_ns: int) -> Output: ...
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput: ...
 
 
 class SensorInterfaces(Protocol):
@@ -249,35 +249,35 @@ class ControllerBase:
         self.type = type
         self.active = False
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Become active."""
         self.active = True
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Become inactive."""
         self.active = False
-        return Output()
+        return ControllerOutput()
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """No topics: nothing."""
-        return Output()
+        return ControllerOutput()
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """No actions: nothing."""
-        return Output()
+        return ControllerOutput()
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput:
         """No actions: nothing."""
-        return Output()
+        return ControllerOutput()
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Nothing to do per cycle."""
-        return Output()
+        return ControllerOutput()
 
     def taken(self, commands: Sequence[Command], by: str) -> None:
         """A multiplexer's hook: controller ``by`` (another, or this one answering a

@@ -42,9 +42,9 @@ import numpy.typing as npt
 from harness.controllers.base import (
     Command,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     TopicEndpoint,
 )
 from harness.controllers.errors import CommandRefused
@@ -295,7 +295,7 @@ def parse_trajectory(sim: TrajectoryBase, msg: Mapping[str, Any], now_ns: int) -
 class Reporter(Protocol):
     """Where command refusals and notices were reported before the command topics became a
     controller (kept for callers that still pass one; :class:`RobotCommands` reports through
-    its :class:`~harness.controllers.base.Output`)."""
+    its :class:`~harness.controllers.base.ControllerOutput`)."""
 
     def refuse(self, topic: str, connection: int, reason: str) -> None:
         """A command on ``topic`` was refused as a whole (``reason``)."""
@@ -320,7 +320,7 @@ _FIELD_OF_MODE: Mapping[str, CommandField] = {
     "effort": "effort",
 }
 _FIELDS: tuple[CommandField, ...] = ("position", "velocity", "effort")
-_IDLE = Output()
+_IDLE = ControllerOutput()
 """The multiplexer's update without a trajectory (every step: one shared, never changed)."""
 
 
@@ -367,7 +367,7 @@ class RobotCommands(ControllerBase):
       its setpoint is commanded at every step (:meth:`update`) until its end or until
       another command takes its joints (:meth:`taken`).
 
-    Its commands and reports are its :class:`~harness.controllers.base.Output`, like any
+    Its commands and reports are its :class:`~harness.controllers.base.ControllerOutput`, like any
     controller's (``report`` is accepted for older callers and unused)."""
 
     multiplexes = True
@@ -403,25 +403,25 @@ class RobotCommands(ControllerBase):
 
     # ----------------------------------------------------------------------------- lifecycle
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Become active (no trajectory in progress)."""
         self.active = True
         self.trajectory = None
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Become inactive: the trajectory in progress ends where it is."""
         self.active = False
         self.trajectory = None
-        return Output()
+        return ControllerOutput()
 
     # ----------------------------------------------------------------------------- inputs
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A ``joint_command`` or ``joint_trajectory`` message from ``connection``."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
@@ -504,7 +504,7 @@ class RobotCommands(ControllerBase):
         msg: Mapping[str, Any],
         connection: int,
         state: JointReadings,
-        out: Output,
+        out: ControllerOutput,
     ) -> None:
         try:
             trajectory = parse_trajectory(_AtInstant(self.joints, state), msg, state.sim_time_ns)
@@ -528,13 +528,13 @@ class RobotCommands(ControllerBase):
 
     # ----------------------------------------------------------------------------- cycle
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """The trajectory's setpoint for the step ending at ``sim_time_ns + period_ns`` (it
         is updated every step); its notices are said once per joint and trajectory."""
         trajectory = self.trajectory
         if trajectory is None:
             return _IDLE
-        out = Output()
+        out = ControllerOutput()
         t_next = state.sim_time_ns + period_ns
         positions, velocities = trajectory.commands(t_next)
         out.commands = [Command(j, p) for j, p in positions.items()]

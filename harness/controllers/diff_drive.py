@@ -32,9 +32,9 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     Publication,
 )
 from harness.controllers.config import ControllerSpec
@@ -176,18 +176,18 @@ class DiffDriveController(ControllerBase):
         right = sum(values[j] for j in self.right) / len(self.right)
         return left, right
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Start: odometry from the current wheel positions, zero velocity."""
         self.active = True
         self.previous = self._sides(state)
         self.wanted = self.applied = (0.0, 0.0)
         self.last_command_ns = None
-        return Output(commands=self._wheel_commands(0.0, 0.0))
+        return ControllerOutput(commands=self._wheel_commands(0.0, 0.0))
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop the wheels."""
         self.active = False
-        return Output(commands=self._wheel_commands(0.0, 0.0))
+        return ControllerOutput(commands=self._wheel_commands(0.0, 0.0))
 
     def _wheel_commands(self, linear: float, angular: float) -> list[Command]:
         half = angular * self.separation / 2
@@ -213,9 +213,9 @@ class DiffDriveController(ControllerBase):
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A velocity command: taken at the next update."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
@@ -230,9 +230,9 @@ class DiffDriveController(ControllerBase):
         self.last_command_ns = state.sim_time_ns
         return out
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Odometry, the timeout, the speed limiter, the wheel commands, the publications."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             return out
         dt = period_ns / _NS

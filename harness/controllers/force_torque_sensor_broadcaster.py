@@ -26,8 +26,8 @@ from typing import Any
 from harness.controllers.base import (
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
-    Output,
     Publication,
     TopicEndpoint,
 )
@@ -106,9 +106,9 @@ class ForceTorqueSensorBroadcaster(ControllerBase):
             },
         }
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Publish the sensor's values."""
-        out = Output()
+        out = ControllerOutput()
         if self.active:
             out.publications.append(
                 Publication("~/wrench", TYPE_WRENCH, self.message(state.sim_time_ns))

@@ -14,9 +14,9 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     TopicEndpoint,
 )
 from harness.controllers.config import TYPE_FORWARD, ControllerSpec
@@ -81,9 +81,9 @@ class ForwardCommandController(ControllerBase):
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A command message: applied at once (the simulation holds it)."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out

@@ -42,10 +42,10 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     Feedback,
     JointReadings,
     LogLine,
-    Output,
     Publication,
     Result,
     TopicEndpoint,
@@ -167,15 +167,15 @@ class JointTrajectoryController(ControllerBase):
 
     # ----------------------------------------------------------------------------- lifecycle
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Start holding the current position (no trajectory)."""
         self.active = True
         self._hold(state)
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop; an active goal is aborted as the real controller does."""
-        out = Output()
+        out = ControllerOutput()
         if self.goal is not None:
             out.results.append(
                 self._result(
@@ -320,9 +320,9 @@ class JointTrajectoryController(ControllerBase):
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A trajectory on ``~/joint_trajectory`` replaces the current one."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, trajectory ignored", connection))
             return out
@@ -334,9 +334,9 @@ class JointTrajectoryController(ControllerBase):
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A FollowJointTrajectory goal: validated, then preempts the active goal."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.results.append(
                 self._result(goal, INVALID_GOAL, "controller is not active", GOAL_ABORTED)
@@ -366,9 +366,9 @@ class JointTrajectoryController(ControllerBase):
             out.logs.append(LogLine(40, f"{note}"))
         return out
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput:
         """Cancel the active goal: canceled, holding the current position."""
-        out = Output()
+        out = ControllerOutput()
         if goal == self.goal:
             out.results.append(Result(goal, {"error_code": 0, "error_string": ""}, GOAL_CANCELED))
             self.goal = None
@@ -393,9 +393,9 @@ class JointTrajectoryController(ControllerBase):
         )
         return Point(0, tuple(state.position[j] for j in self.joints), velocities)
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """One control cycle at ``state.sim_time_ns``."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             return out
         now = state.sim_time_ns
@@ -429,7 +429,7 @@ class JointTrajectoryController(ControllerBase):
 
     def _check(
         self,
-        out: Output,
+        out: ControllerOutput,
         trajectory: SampledTrajectory,
         state: JointReadings,
         actual: Point,
@@ -513,13 +513,13 @@ class JointTrajectoryController(ControllerBase):
             self.holding = desired
         return err_pos, err_vel
 
-    def _end(self, out: Output, goal: int, code: int, text: str) -> None:
+    def _end(self, out: ControllerOutput, goal: int, code: int, text: str) -> None:
         self._flush_feedback(out, 0, force=True)
         out.results.append(self._result(goal, code, text, GOAL_ABORTED))
         out.logs.append(LogLine(30, f"{text}"))
         self.goal = None
 
-    def _flush_feedback(self, out: Output, now: int, force: bool = False) -> None:
+    def _flush_feedback(self, out: ControllerOutput, now: int, force: bool = False) -> None:
         pending = self._pending_feedback
         if pending is None:
             return

@@ -28,7 +28,13 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from harness.controllers.base import Controller, JointReadings, LogLine, Output, SensorInterfaces
+from harness.controllers.base import (
+    Controller,
+    ControllerOutput,
+    JointReadings,
+    LogLine,
+    SensorInterfaces,
+)
 from harness.controllers.broadcaster import Unsupported
 from harness.controllers.config import ControllersConfig, ControllerSpec
 from harness.controllers.errors import ControllersConfigError, UnknownControllerType
@@ -148,9 +154,9 @@ class ControllerManager:
 
     # ----------------------------------------------------------------------------- lifecycle
 
-    def start(self) -> Output:
+    def start(self) -> ControllerOutput:
         """Load, configure and activate the configuration's controllers."""
-        out = Output()
+        out = ControllerOutput()
         for name, controller in self.built.items():
             entry = LoadedController(controller, "unconfigured")
             self.loaded[name] = entry
@@ -169,11 +175,11 @@ class ControllerManager:
             out.extend(self._activate(entry))
         return out
 
-    def _activate(self, entry: LoadedController) -> Output:
+    def _activate(self, entry: LoadedController) -> ControllerOutput:
         entry.state = "active"
         return entry.controller.activate(self._read())
 
-    def _deactivate(self, entry: LoadedController) -> Output:
+    def _deactivate(self, entry: LoadedController) -> ControllerOutput:
         entry.state = "inactive"
         return entry.controller.deactivate(self._read())
 
@@ -233,9 +239,9 @@ class ControllerManager:
         """The active controllers, in load order."""
         return [e.controller for e in self.loaded.values() if e.state == "active"]
 
-    def restart(self) -> Output:
+    def restart(self) -> ControllerOutput:
         """Deactivate and reactivate every active controller (after a reset)."""
-        out = Output()
+        out = ControllerOutput()
         for entry in self.loaded.values():
             if entry.state == "active":
                 out.extend(self._deactivate(entry))
@@ -244,14 +250,18 @@ class ControllerManager:
 
     # ----------------------------------------------------------------------------- services
 
-    def handle(self, service: str, request: Mapping[str, Any]) -> tuple[dict[str, Any], Output]:
+    def handle(
+        self, service: str, request: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         """Answer ``controller_manager/<service>``: the response values and what the change
         produced (an aborted goal, ...)."""
         handler = getattr(self, f"_srv_{service}")
-        result: tuple[dict[str, Any], Output] = handler(request)
+        result: tuple[dict[str, Any], ControllerOutput] = handler(request)
         return result
 
-    def _srv_list_controllers(self, request: Mapping[str, Any]) -> tuple[dict[str, Any], Output]:
+    def _srv_list_controllers(
+        self, request: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         controllers = []
         claimed = self.claimed()
         for name, entry in self.loaded.items():
@@ -275,13 +285,13 @@ class ControllerManager:
                     else [],
                 }
             )
-        return {"controller": controllers}, Output()
+        return {"controller": controllers}, ControllerOutput()
 
     def _srv_list_controller_types(
         self, request: Mapping[str, Any]
-    ) -> tuple[dict[str, Any], Output]:
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         types = list(known_types())
-        return {"types": types, "base_classes": [_BASE_CLASS] * len(types)}, Output()
+        return {"types": types, "base_classes": [_BASE_CLASS] * len(types)}, ControllerOutput()
 
     def _interfaces(self) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
         claimed = self.claimed()
@@ -302,13 +312,13 @@ class ControllerManager:
 
     def _srv_list_hardware_interfaces(
         self, request: Mapping[str, Any]
-    ) -> tuple[dict[str, Any], Output]:
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         command, state = self._interfaces()
-        return {"command_interfaces": command, "state_interfaces": state}, Output()
+        return {"command_interfaces": command, "state_interfaces": state}, ControllerOutput()
 
     def _srv_list_hardware_components(
         self, request: Mapping[str, Any]
-    ) -> tuple[dict[str, Any], Output]:
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         command, state = self._interfaces()
         component = {
             "name": self.robot,
@@ -318,11 +328,13 @@ class ControllerManager:
             "command_interfaces": command,
             "state_interfaces": state,
         }
-        return {"component": [component]}, Output()
+        return {"component": [component]}, ControllerOutput()
 
-    def _srv_load_controller(self, request: Mapping[str, Any]) -> tuple[dict[str, Any], Output]:
+    def _srv_load_controller(
+        self, request: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         name = str(request["name"])
-        out = Output()
+        out = ControllerOutput()
         if name in self.loaded:
             out.logs.append(LogLine(40, f"load_controller: {name!r} is already loaded"))
             return {"ok": False}, out
@@ -336,9 +348,9 @@ class ControllerManager:
 
     def _srv_configure_controller(
         self, request: Mapping[str, Any]
-    ) -> tuple[dict[str, Any], Output]:
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         name = str(request["name"])
-        out = Output()
+        out = ControllerOutput()
         entry = self.loaded.get(name)
         if entry is None or not entry.supported or entry.state == "active":
             why = (
@@ -353,9 +365,11 @@ class ControllerManager:
         entry.state = "inactive"
         return {"ok": True}, out
 
-    def _srv_unload_controller(self, request: Mapping[str, Any]) -> tuple[dict[str, Any], Output]:
+    def _srv_unload_controller(
+        self, request: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         name = str(request["name"])
-        out = Output()
+        out = ControllerOutput()
         entry = self.loaded.get(name)
         if entry is None or entry.state == "active":
             why = "is not loaded" if entry is None else "is active (deactivate it first)"
@@ -364,7 +378,9 @@ class ControllerManager:
         del self.loaded[name]
         return {"ok": True}, out
 
-    def _srv_switch_controller(self, request: Mapping[str, Any]) -> tuple[dict[str, Any], Output]:
+    def _srv_switch_controller(
+        self, request: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], ControllerOutput]:
         """ros2_control's ``switch_controller_cb``, in its order and with its messages."""
         activate = [*request.get("activate_controllers", ()), *request.get("start_controllers", ())]
         deactivate = [
@@ -372,9 +388,9 @@ class ControllerManager:
             *request.get("stop_controllers", ()),
         ]
         strict = int(request.get("strictness", 0)) == STRICT
-        out = Output()
+        out = ControllerOutput()
 
-        def refuse(text: str) -> tuple[dict[str, Any], Output]:
+        def refuse(text: str) -> tuple[dict[str, Any], ControllerOutput]:
             out.logs.append(LogLine(40, f"switch_controller: {text}"))
             return {"ok": False}, out
 

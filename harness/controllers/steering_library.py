@@ -35,9 +35,9 @@ from typing import Any
 from harness.controllers.base import (
     Command,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     Publication,
     TopicEndpoint,
 )
@@ -191,24 +191,24 @@ class SteeringController(ControllerBase):
 
     # ----------------------------------------------------------------------------- lifecycle
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Start: no reference, odometry from here."""
         self.active = True
         self.reference = None
         self._previous = self._traction_values(state) if self.position_feedback else None
         self.steer = [state.position[j] for j in self.steering_state]
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop the traction wheels."""
         self.active = False
-        return Output(commands=[Command(j, velocity=0.0) for j in self.traction])
+        return ControllerOutput(commands=[Command(j, velocity=0.0) for j in self.traction])
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A reference: taken at the next update."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, reference ignored", connection))
             return out
@@ -220,9 +220,9 @@ class SteeringController(ControllerBase):
         self.reference_ns = state.sim_time_ns
         return out
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Odometry, then the commands of the reference (stop after the timeout)."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             return out
         dt = period_ns / _NS

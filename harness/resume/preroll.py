@@ -21,7 +21,7 @@ from harness.recording import Recording, to_plain
 from harness.replay import open_recording
 from harness.resume.errors import ResumeError
 from harness.resume.seek import Fork
-from harness.rosbridge import Output
+from harness.rosbridge import OutgoingFrame
 
 __all__ = ["install_preroll", "preroll_frames"]
 
@@ -63,9 +63,9 @@ def install_preroll(fork: Fork, path: str | Path, seconds: float) -> None:
         return
     first_live = bridge.opened + 1
     served: set[tuple[int, str]] = set()
-    receive: Callable[[int, str | bytes, int], list[Output]] = bridge.receive
+    receive: Callable[[int, str | bytes, int], list[OutgoingFrame]] = bridge.receive
 
-    def with_preroll(connection: int, data: str | bytes, now_ns: int) -> list[Output]:
+    def with_preroll(connection: int, data: str | bytes, now_ns: int) -> list[OutgoingFrame]:
         out = receive(connection, data, now_ns)
         if connection < first_live or not isinstance(data, str) or '"subscribe"' not in data:
             return out
@@ -76,7 +76,7 @@ def install_preroll(fork: Fork, path: str | Path, seconds: float) -> None:
             return out
         if topic in frames and (connection, topic) not in served:
             served.add((connection, topic))
-            out = [Output(connection, f, "publish", topic) for f in frames[topic]] + out
+            out = [OutgoingFrame(connection, f, "publish", topic) for f in frames[topic]] + out
         return out
 
     setattr(bridge, "receive", with_preroll)  # noqa: B010 (the instance's, not the class's)

@@ -2,12 +2,12 @@
 ROS 2 message validation and a client for external rosbridge servers. Knows nothing of MuJoCo.
 
 - :class:`Bridge` (``protocol.py``): the shared graph and per-connection state;
-  ``receive(connection, frame, now_ns) -> list[Output]`` (frame parsing, the op table);
+  ``receive(connection, frame, now_ns) -> list[OutgoingFrame]`` (frame parsing, the op table);
   in-process publishers, subscribers, service and action servers; the frames it saw
   (``frames()``).
 - its rooms: ``topics.py``, ``services.py``, ``actions.py``, ``fragments.py``, ``budget.py``
   (ops of those concerns, per-client send budgets: mixed into :class:`Bridge`),
-  ``outgoing.py`` (every frame out: :class:`Output`, :class:`TapRecord`, numbering,
+  ``outgoing.py`` (every frame out: :class:`OutgoingFrame`, :class:`TapRecord`, numbering,
   fragmenting, ``status``), ``frames.py`` (frame fields, connection state); ``limits.py``:
   every bound on what one client can make the bridge hold or do;
 - ``graph.py``: the graph's records (topics, services, actions) and its queries;
@@ -25,7 +25,7 @@ from harness.rosbridge.client import BridgeClient
 from harness.rosbridge.connection import is_loopback
 from harness.rosbridge.errors import ExposedServerWarning
 from harness.rosbridge.graph import Message
-from harness.rosbridge.outgoing import DIRECTION_IN, DIRECTION_OUT, Output, TapRecord
+from harness.rosbridge.outgoing import DIRECTION_IN, DIRECTION_OUT, OutgoingFrame, TapRecord
 from harness.rosbridge.protocol import Bridge
 from harness.rosbridge.sending import ConnectionMetrics
 from harness.rosbridge.server import BridgeServer
@@ -43,7 +43,7 @@ __all__ = [
     "ConnectionMetrics",
     "ExposedServerWarning",
     "Message",
-    "Output",
+    "OutgoingFrame",
     "ServiceCall",
     "TapRecord",
     "TypeRegistry",

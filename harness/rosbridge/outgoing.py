@@ -17,13 +17,20 @@ from harness.rosbridge.budget import BudgetOps
 from harness.rosbridge.convert import dumps
 from harness.rosbridge.frames import LEVELS
 
-__all__ = ["DIRECTION_IN", "DIRECTION_OUT", "OutgoingOps", "Output", "TapRecord", "png_frame"]
+__all__ = [
+    "DIRECTION_IN",
+    "DIRECTION_OUT",
+    "OutgoingFrame",
+    "OutgoingOps",
+    "TapRecord",
+    "png_frame",
+]
 
 DIRECTION_IN: Final = 0
 DIRECTION_OUT: Final = 1
 
 
-class Output(NamedTuple):
+class OutgoingFrame(NamedTuple):
     """One frame to send: ``queue_limit`` > 0 marks a subscription frame the server may drop
     (oldest first, per ``(connection, name)``) when the client reads too slowly."""
 
@@ -74,9 +81,9 @@ class OutgoingOps(BudgetOps):
 
     _frames: list[TapRecord] | None
     _seq: int
-    _outbox: list[Output]
+    _outbox: list[OutgoingFrame]
 
-    def drain(self) -> list[Output]:
+    def drain(self) -> list[OutgoingFrame]:
         """Every output produced so far and not yet taken."""
         out, self._outbox = self._outbox, []
         return out
@@ -105,13 +112,13 @@ class OutgoingOps(BudgetOps):
         conn = self._conns.get(connection)
         if conn is None:
             return
-        if queue_limit and conn.budget is not None:  # a subscription's frame (see Output)
+        if queue_limit and conn.budget is not None:  # a subscription's frame (see OutgoingFrame)
             self._charge(conn, conn.budget, len(data), self._now_ns)
         if self._frames is None:
             self._seq += 1  # what _tap does when no frames are kept
         else:
             self._tap(connection, DIRECTION_OUT, data, op, name)
-        self._outbox.append(Output(connection, data, op, name, queue_limit))
+        self._outbox.append(OutgoingFrame(connection, data, op, name, queue_limit))
 
     def _send(
         self,

@@ -2,7 +2,7 @@
 
 One :class:`Bridge` holds the shared graph (topics, services, actions, params) and the state
 of every connection. ``receive(connection, text_or_bytes, now_ns)`` processes one incoming
-frame and returns the :class:`Output` frames to send; there are no sockets and no clocks: the
+frame and returns the :class:`OutgoingFrame` frames to send; there are no sockets and no clocks: the
 caller passes the current simulation time. The simulation side uses the same graph
 in-process (:meth:`Bridge.advertise`, :meth:`Bridge.publish`, :meth:`Bridge.subscribe`,
 :meth:`Bridge.advertise_service`, :meth:`Bridge.advertise_action`), each registration under a
@@ -42,7 +42,7 @@ from harness.rosbridge.limits import (
     MIN_FRAGMENT_SIZE,
     SendBudget,
 )
-from harness.rosbridge.outgoing import DIRECTION_IN, Output, TapRecord
+from harness.rosbridge.outgoing import DIRECTION_IN, OutgoingFrame, TapRecord
 from harness.rosbridge.rosapi import install as install_rosapi
 from harness.rosbridge.services import ServiceOps, _PendingCall
 from harness.rosbridge.topics import TopicOps
@@ -118,7 +118,7 @@ class Bridge(ServiceOps, ActionOps, TopicOps):
         self._goals_of: dict[int, int] = {}
         self._goal_by_provider: dict[tuple[int, str], int] = {}
         self._goal_by_caller: dict[tuple[int, Any, str], int] = {}
-        self._outbox: list[Output] = []
+        self._outbox: list[OutgoingFrame] = []
         self._now_ns = 0
         if rosapi:
             install_rosapi(self)
@@ -147,7 +147,7 @@ class Bridge(ServiceOps, ActionOps, TopicOps):
         """How many connections were ever opened (ids are given in order from 1)."""
         return self._next_conn - 1
 
-    def disconnect(self, connection: int) -> list[Output]:
+    def disconnect(self, connection: int) -> list[OutgoingFrame]:
         """Close a connection: its publishers, subscriptions, services and actions go; calls
         routed to its services fail; returns the outputs this produced."""
         if self._conns.pop(connection, None) is None:
@@ -176,7 +176,7 @@ class Bridge(ServiceOps, ActionOps, TopicOps):
 
     # -- incoming -----------------------------------------------------------------------
 
-    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
+    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[OutgoingFrame]:
         """Process one incoming frame (several concatenated JSON objects are processed in
         order); returns every output produced, bad input answered with a ``status``."""
         if connection not in self._conns:
@@ -295,7 +295,7 @@ class Bridge(ServiceOps, ActionOps, TopicOps):
         except RecursionError:
             self.status(connection, "error", f"{op}: message nested too deeply", msg_id)
 
-    def time_out_call(self, key: int) -> list[Output]:
+    def time_out_call(self, key: int) -> list[OutgoingFrame]:
         """Fail a pending service call or action goal that ran past its timeout (no-op if
         answered); a timed-out goal is also canceled at its action server."""
         pending = self._calls.get(key)

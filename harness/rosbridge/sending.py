@@ -19,7 +19,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.frames import Opcode
 from websockets.protocol import State
 
-from harness.rosbridge.outgoing import Output
+from harness.rosbridge.outgoing import OutgoingFrame
 from harness.rosbridge.protocol import Bridge
 
 __all__ = [
@@ -166,14 +166,14 @@ class SendOps:
             self._writing = False
             self._write_batches()
 
-    def _dispatch(self, outputs: list[Output]) -> None:
+    def _dispatch(self, outputs: list[OutgoingFrame]) -> None:
         peers = self._peers
         for out in outputs:
             peer = peers.get(out.connection)
             if peer is not None:
                 self._enqueue(peer, out)
 
-    def _enqueue(self, peer: Peer, out: Output) -> None:
+    def _enqueue(self, peer: Peer, out: OutgoingFrame) -> None:
         data = out.data
         if peer.batch:
             # A batch is open (its socket was open and keeping up when it opened; nothing

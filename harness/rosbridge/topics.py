@@ -24,7 +24,13 @@ from harness.rosbridge.graph import (
     TopicEntry,
     normalize,
 )
-from harness.rosbridge.outgoing import DIRECTION_OUT, OutgoingOps, Output, TapRecord, png_frame
+from harness.rosbridge.outgoing import (
+    DIRECTION_OUT,
+    OutgoingFrame,
+    OutgoingOps,
+    TapRecord,
+    png_frame,
+)
 
 __all__ = ["TopicOps"]
 
@@ -144,7 +150,7 @@ class TopicOps(FragmentOps, OutgoingOps, Graph):
                     TapRecord(self._seq, cid, DIRECTION_OUT, frame, "publish", t.name, now)
                 )
             self._seq += 1
-            self._outbox.append(Output(cid, frame, "publish", t.name, limit))
+            self._outbox.append(OutgoingFrame(cid, frame, "publish", t.name, limit))
             return
         if compression == "cbor":
             data = to_cbor(self.registry, t.type, sub.spelled, msg)

@@ -18,8 +18,8 @@ from harness.sensors.spec import SensorSpec
 
 __all__ = [
     "Mount",
-    "Output",
     "Sensor",
+    "SensorTopic",
     "View",
     "cross",
     "find_object",
@@ -157,7 +157,7 @@ class View:
 
 
 @dataclass(frozen=True)
-class Output:
+class SensorTopic:
     """One topic of a sensor: ``key`` (one of its kind's outputs,
     :attr:`~harness.sensors.registry.SensorKind.outputs`), resolved ``topic``, message type,
     and whether it goes into the recording."""
@@ -175,7 +175,7 @@ class Sensor(Protocol):
     :meth:`harness.sensors.SensorSuite.interfaces`."""
 
     spec: SensorSpec
-    outputs: tuple[Output, ...]
+    outputs: tuple[SensorTopic, ...]
     frame_id: str
     """The frame its messages are stamped in."""
 

@@ -14,7 +14,7 @@ from typing import Any
 import mujoco
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_WRENCH, header, wrench_msg
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.sdf_values import element_noise, element_text
@@ -41,7 +41,9 @@ class ForceTorqueSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs: tuple[Output, ...] = (Output("wrench", topics["wrench"], TYPE_WRENCH),)
+        self.outputs: tuple[SensorTopic, ...] = (
+            SensorTopic("wrench", topics["wrench"], TYPE_WRENCH),
+        )
         self._root = int(model.body_rootid[mount.body])
         self._parent = int(model.body_parentid[mount.body])
         self.state_interfaces = FT_INTERFACES

@@ -31,7 +31,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.sensors.base import Output, Sensor, View, mount_of
+from harness.sensors.base import Sensor, SensorTopic, View, mount_of
 from harness.sensors.declare import declared_in_sources
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import static_tf_msg
@@ -68,7 +68,7 @@ class RobotMount:
 class Due:
     """One message due now: publish/record it on ``output.topic`` (``build`` makes it)."""
 
-    output: Output
+    output: SensorTopic
     build: Callable[[], Mapping[str, Any]]
 
 

@@ -12,7 +12,7 @@ from typing import Any, ClassVar, Protocol
 
 from harness.events import JointSample, LogMessage, SinkReport
 from harness.events.events import Event
-from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Message, Output, TapRecord
+from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Message, OutgoingFrame, TapRecord
 from harness.rosbridge.limits import SendBudget
 from harness.session.core.markers import (
     MARKER_CALL_TIMEOUT,
@@ -120,17 +120,17 @@ class SessionBridge(Bridge):
             text = json.dumps(args, sort_keys=True)
             self._frames.append(TapRecord(self.seq, 0, DIRECTION_IN, text, "", topic, self._now_ns))
 
-    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[Output]:
+    def receive(self, connection: int, data: str | bytes, now_ns: int) -> list[OutgoingFrame]:
         """Process one frame at the simulation's time (``now_ns`` is ignored: a step request
         earlier in the same batch may have moved time)."""
         return super().receive(connection, data, self._clock())
 
-    def disconnect(self, connection: int) -> list[Output]:
+    def disconnect(self, connection: int) -> list[OutgoingFrame]:
         if connection in self.connections:
             self.mark(MARKER_DISCONNECT, {"connection": connection})
         return super().disconnect(connection)
 
-    def time_out_call(self, key: int) -> list[Output]:
+    def time_out_call(self, key: int) -> list[OutgoingFrame]:
         self.mark(MARKER_CALL_TIMEOUT, {"call": key})
         return super().time_out_call(key)
 

@@ -42,7 +42,7 @@ from typing import Any
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 
-from harness.rosbridge import Output
+from harness.rosbridge import OutgoingFrame
 from harness.rosbridge.offer import Offer, offer_of
 from harness.session.core.bridge import SessionBridge
 from harness.session.errors import SessionError
@@ -357,7 +357,7 @@ class UpstreamPort:
         for output in self.bridge.drain():
             self._forward(output)
 
-    def _forward(self, output: Output) -> None:
+    def _forward(self, output: OutgoingFrame) -> None:
         if output.connection != self.connection or output.op not in _FORWARD:
             return
         text = output.data if isinstance(output.data, str) else output.data.decode("utf-8")
