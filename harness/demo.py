@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import ConfigError, SimulationError
-from harness.models.description import CONTROL_MODE_INPUTS, CONTROL_MODES, ControlMode
+from harness.models import CONTROL_MODE_INPUTS, CONTROL_MODES, ControlMode
 from harness.vocabulary import Actuation
 
 if TYPE_CHECKING:

@@ -38,6 +38,7 @@ from harness.controllers.base import (
     SensorInterfaces,
     TopicEndpoint,
 )
+from harness.controllers.command_topics import FORWARD_TOPICS, Reporter, RobotCommands, Trajectory
 from harness.controllers.config import (
     ControllersConfig,
     ControllerSpec,
@@ -45,22 +46,34 @@ from harness.controllers.config import (
     default_controllers,
     load_controllers,
 )
+from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.errors import (
+    CommandRefused,
     ControllerError,
     ControllersConfigError,
     UnknownControllerType,
 )
+from harness.controllers.gazebo_plugins import BASE_CONTROLLER_TYPES, robot_controllers
+from harness.controllers.listed import ListedJoints
 from harness.controllers.manager import SERVICES, ControllerManager, make_controller
+from harness.controllers.planar import TYPE_PLANAR
 from harness.controllers.registry import RobotInterfaces, controller_type, known_types
+from harness.controllers.substitutions import ARG_NAME
 
 __all__ = [
+    "ARG_NAME",
+    "BASE_CONTROLLER_TYPES",
+    "FORWARD_TOPICS",
     "GOAL_ABORTED",
     "GOAL_CANCELED",
     "GOAL_SUCCEEDED",
     "SERVICES",
+    "TYPE_DIFF_DRIVE",
+    "TYPE_PLANAR",
     "ActionEndpoint",
     "BaseVelocity",
     "Command",
+    "CommandRefused",
     "Controller",
     "ControllerBase",
     "ControllerError",
@@ -71,12 +84,16 @@ __all__ = [
     "ControllersConfigError",
     "Feedback",
     "JointReadings",
+    "ListedJoints",
     "LogLine",
     "Publication",
+    "Reporter",
     "Result",
+    "RobotCommands",
     "RobotInterfaces",
     "SensorInterfaces",
     "TopicEndpoint",
+    "Trajectory",
     "UnknownControllerType",
     "builtin_controllers",
     "controller_type",
@@ -84,4 +101,5 @@ __all__ = [
     "known_types",
     "load_controllers",
     "make_controller",
+    "robot_controllers",
 ]

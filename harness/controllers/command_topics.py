@@ -49,7 +49,7 @@ from harness.controllers.base import (
 )
 from harness.controllers.errors import CommandRefused
 from harness.controllers.listed import ListedJoints
-from harness.models.description import ControlMode
+from harness.models import ControlMode
 from harness.sim import CommandError, CommandField, Notice
 
 __all__ = [

@@ -43,8 +43,7 @@ from harness.controllers.config import (
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.errors import ControllersConfigError
 from harness.controllers.planar import TYPE_PLANAR
-from harness.models.build.drive_plugins import drive_plugin_elements
-from harness.models.files.xmlsafe import parse_xml
+from harness.models import drive_plugin_elements, parse_xml
 
 __all__ = ["BASE_CONTROLLER_TYPES", "ROS2_CONTROL_PLUGINS", "drive_plugins", "robot_controllers"]
 

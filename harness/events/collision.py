@@ -15,7 +15,7 @@ import mujoco
 from harness.events.errors import LoggerConfigError
 from harness.events.events import CollisionBegin, CollisionEnd, Event, NearMiss
 from harness.events.logger import StepContext
-from harness.sim.collisions import (
+from harness.sim import (
     CollisionTracker,
     CollisionTransition,
     NearMissRecord,

@@ -18,7 +18,7 @@ import numpy.typing as npt
 from harness.events.errors import LoggerConfigError
 from harness.events.events import Event, JointLimitViolation, JointSample, VelocityLimitExceeded
 from harness.events.logger import StepContext, period_ns_from_hz
-from harness.models.description import RobotModel
+from harness.models import RobotModel
 
 __all__ = [
     "JointLimitLogger",

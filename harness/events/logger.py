@@ -15,7 +15,7 @@ import mujoco
 
 from harness.events.events import Event
 from harness.events.sinks.base import Sink, SinkReport
-from harness.sim.contacts import ContactSet
+from harness.sim import ContactSet
 
 __all__ = ["EventHub", "Logger", "SimulationView", "StepContext", "period_ns_from_hz"]
 

@@ -17,6 +17,10 @@ flat path (``harness.models.compiler``) still imports, with a deprecation warnin
 release."""
 
 from harness._moved import alias_modules
+from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
+from harness.models.build.compiler import spec_from_file
+from harness.models.build.decompose import DECOMPOSITION_FOLDER, MeshCollision, check_mesh_collision
+from harness.models.build.drive_plugins import drive_plugin_elements
 from harness.models.build.load import (
     DEMO_URDF,
     SCENES,
@@ -26,6 +30,7 @@ from harness.models.build.load import (
     load_world,
 )
 from harness.models.description import (
+    CONTROL_MODE_INPUTS,
     CONTROL_MODES,
     ControlMode,
     Geometry,
@@ -39,8 +44,18 @@ from harness.models.description import (
     RobotModel,
     Shape,
 )
+from harness.models.errors import CompileError, ModelError, OutsideReferenceError, XacroError
+from harness.models.files.confine import confined_to
+from harness.models.files.limits import ModelLimitError, check_model_limits, check_spec
+from harness.models.files.meshes import mesh_cache_dir
+from harness.models.files.resolve import MODEL_PATH_VARIABLES, resolve_uri
+from harness.models.files.xmlsafe import parse_xml
+from harness.models.mjcf.files import check_mjcf_files, generated_from
+from harness.models.sdf.worldfile import is_sdf_world, load_world_file, world_timestep
 from harness.models.urdf.ros2_control import HardwareReplacedWarning, Ros2Control
 from harness.models.world.records import (
+    OBJECT_SIZES,
+    BaseKind,
     DuplicateNamespaceError,
     InvalidNamespaceError,
     JointAddress,
@@ -48,14 +63,22 @@ from harness.models.world.records import (
     LoadedWorld,
     PoseLike,
     RobotSpec,
+    SelfCollision,
     WorldObject,
+    add_object,
 )
 from harness.models.xacro.expand import UnusedRobotArgWarning, XacroOrigin, expand_xacro
 
 __all__ = [
     "CONTROL_MODES",
+    "CONTROL_MODE_INPUTS",
+    "DECOMPOSITION_FOLDER",
     "DEMO_URDF",
+    "MODEL_PATH_VARIABLES",
+    "OBJECT_SIZES",
     "SCENES",
+    "BaseKind",
+    "CompileError",
     "ControlMode",
     "DuplicateNamespaceError",
     "Geometry",
@@ -69,21 +92,46 @@ __all__ = [
     "LoadedRobot",
     "LoadedRobotView",
     "LoadedWorld",
+    "MeshCollision",
     "Mimic",
+    "ModelError",
     "ModelFrame",
+    "ModelLimitError",
+    "OutsideReferenceError",
     "Pose",
     "PoseLike",
     "RobotModel",
     "RobotSpec",
     "Ros2Control",
+    "SelfCollision",
     "Shape",
     "UnusedRobotArgWarning",
     "WorldObject",
+    "XacroError",
     "XacroOrigin",
+    "add_load_options",
+    "add_object",
+    "add_robot_arg_option",
+    "check_mesh_collision",
+    "check_mjcf_files",
+    "check_model_limits",
+    "check_spec",
+    "confined_to",
+    "drive_plugin_elements",
     "expand_xacro",
+    "generated_from",
+    "is_sdf_world",
     "load_description",
+    "load_options",
     "load_robot",
     "load_world",
+    "load_world_file",
+    "mesh_cache_dir",
+    "parse_xml",
+    "resolve_uri",
+    "robot_args",
+    "spec_from_file",
+    "world_timestep",
 ]
 
 

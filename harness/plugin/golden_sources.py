@@ -110,8 +110,8 @@ def write_golden(
     temporary file in the same folder and a rename. ``sources``: ``"carry"`` or
     ``"project"`` (refer to the files of ``rootdir``, leaving ``skip`` folders out)."""
     from harness.errors import HarnessError
-    from harness.recording.layout import ATTACHMENT_MODEL_BINARY, ATTACHMENT_SOURCE_PREFIX
-    from harness.replay.source import open_recording, rebuild_run
+    from harness.recording import ATTACHMENT_MODEL_BINARY, ATTACHMENT_SOURCE_PREFIX
+    from harness.replay import open_recording, rebuild_run
 
     drop: set[str] = set()
     add: dict[str, bytes] = {}
@@ -141,7 +141,7 @@ def write_golden(
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     try:
-        from harness.recording.copying import copy_recording
+        from harness.recording import copy_recording
 
         copy_recording(recording, Path(tmp), drop=drop, add=add)
         os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a project file
@@ -154,7 +154,7 @@ def write_golden(
 
 def _read_reference(golden: Path, rootdir: Path, name: str, ref: object) -> bytes:
     """The bytes of the project file ``ref`` names, checked (see the module docstring)."""
-    from harness.replay.gate import is_xacro_source, source_name
+    from harness.replay import is_xacro_source, source_name
 
     where = f"{golden}: {ATTACHMENT_SOURCE_REFS}"
     if not isinstance(ref, dict) or not all(
@@ -190,8 +190,7 @@ def resolved_golden(golden: Path, rootdir: Path) -> Iterator[Path]:
     a temporary copy carrying them (checked by path and SHA-256 under ``rootdir``; raises
     :class:`GoldenSourcesChanged` with one line otherwise)."""
     from harness.errors import RecordingError
-    from harness.recording import Recording
-    from harness.recording.layout import ATTACHMENT_SOURCE_PREFIX
+    from harness.recording import ATTACHMENT_SOURCE_PREFIX, Recording
 
     try:
         with Recording(golden) as rec:
@@ -219,7 +218,7 @@ def resolved_golden(golden: Path, rootdir: Path) -> Iterator[Path]:
     }
     with tempfile.TemporaryDirectory(prefix="harness-golden-") as tmp:
         full = Path(tmp) / golden.name
-        from harness.recording.copying import copy_recording
+        from harness.recording import copy_recording
 
         copy_recording(golden, full, drop={ATTACHMENT_SOURCE_REFS}, add=add)
         yield full

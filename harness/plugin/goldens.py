@@ -77,7 +77,7 @@ class Golden:
             resolved_golden,
             write_golden,
         )
-        from harness.recording.fingerprint import compare_fingerprints
+        from harness.recording import compare_fingerprints
         from harness.replay import PlatformMismatchError, Tolerances, diff
 
         run = self._run

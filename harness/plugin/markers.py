@@ -67,7 +67,7 @@ def first_robot_keys() -> Mapping[str, str]:
     applies to the first robot without another edit."""
     from dataclasses import fields
 
-    from harness.models.world.records import RobotSpec
+    from harness.models import RobotSpec
 
     keys = marker_keys()
     spelled = ((_SPEC_SPELLINGS.get(f.name, f.name), f.name) for f in fields(RobotSpec))
@@ -195,7 +195,7 @@ def resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
     if text.startswith("package://"):
         # the package search starts at the test's folder (else a load error names the search)
         from harness.errors import HarnessError
-        from harness.models.files.resolve import resolve_uri
+        from harness.models import resolve_uri
 
         try:
             return resolve_uri(text, base_dir=item.path.parent, what="robot file")

@@ -23,9 +23,8 @@ def scenario_session(path: Path, folder: Path) -> Any:
     """The scenario's session (:func:`harness.scenario.session_options.scenario_session`: the
     translation ``harness run`` uses), with the marker's default clock (``lockstep``) when
     the file has no ``clock`` section; a bad file fails the test with its problems."""
-    from harness.scenario import Scenario, ScenarioError
-    from harness.scenario.scenario import Clock
-    from harness.scenario.session_options import scenario_session as translate
+    from harness.scenario import Clock, Scenario, ScenarioError
+    from harness.scenario import scenario_session as translate
 
     try:
         return translate(Scenario.load(path), folder, default_clock=Clock(ClockMode.LOCKSTEP))

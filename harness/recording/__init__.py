@@ -8,16 +8,37 @@ still being written with :func:`complete_prefix`. Layout: :mod:`harness.recordin
 
 from __future__ import annotations
 
-from harness.recording.convert import to_plain
+from harness.recording.convert import from_rosbridge, to_plain
+from harness.recording.copying import copy_recording
 from harness.recording.describe import LoadedRobotLike, RunDescription, describe_run
 from harness.recording.errors import (
+    RecordingBusyError,
     RecordingDamagedError,
     RecordingDamagedWarning,
     RecordingFormatError,
     RecordingLimitError,
     RecordingWriteError,
 )
-from harness.recording.layout import FORMAT_VERSION
+from harness.recording.fingerprint import (
+    Fingerprint,
+    PlatformComparison,
+    compare_fingerprints,
+    platform_fingerprint,
+    recorded_fingerprint,
+)
+from harness.recording.layout import (
+    ATTACHMENT_MODEL,
+    ATTACHMENT_MODEL_BINARY,
+    ATTACHMENT_SOURCE_PREFIX,
+    FORMAT_VERSION,
+    TOPIC_BRIDGE,
+    TOPIC_CLOCK,
+    TOPIC_EPOCH,
+    TOPIC_STATE,
+    is_latched,
+    typestore,
+)
+from harness.recording.meshes import mesh_attachment_name
 from harness.recording.periodic import ClockRecord, JointStateRecord, TfRecord
 from harness.recording.recorder import FlushInfo, Recorder, RecorderStats
 from harness.recording.recording import LostRange, Recording, TopicInfo
@@ -32,15 +53,35 @@ from harness.recording.records import (
     RosoutRecord,
 )
 from harness.recording.snapshot import complete_prefix
-from harness.recording.stateslot import PhysicsStateSlot
+from harness.recording.sourcelinks import (
+    ATTACHMENT_SOURCE_LINKS,
+    ATTACHMENT_SOURCE_REFS,
+    MAX_LINKED_BYTES,
+    PROJECT_REFERENCE_REFUSAL,
+    parse_source_links,
+)
+from harness.recording.stateslot import PhysicsStateSlot, forwarding_slot
+from harness.recording.tail import TailFile
 
 __all__ = [
+    "ATTACHMENT_MODEL",
+    "ATTACHMENT_MODEL_BINARY",
+    "ATTACHMENT_SOURCE_LINKS",
+    "ATTACHMENT_SOURCE_PREFIX",
+    "ATTACHMENT_SOURCE_REFS",
     "FORMAT_VERSION",
+    "MAX_LINKED_BYTES",
+    "PROJECT_REFERENCE_REFUSAL",
+    "TOPIC_BRIDGE",
+    "TOPIC_CLOCK",
+    "TOPIC_EPOCH",
+    "TOPIC_STATE",
     "AppliedInput",
     "BridgeFrame",
     "ClockRecord",
     "CollisionEvent",
     "Epoch",
+    "Fingerprint",
     "FlushInfo",
     "JointStateRecord",
     "LoadedRobotLike",
@@ -48,10 +89,12 @@ __all__ = [
     "PhysicsState",
     "PhysicsStateArrays",
     "PhysicsStateSlot",
+    "PlatformComparison",
     "RecordedMessage",
     "Recorder",
     "RecorderStats",
     "Recording",
+    "RecordingBusyError",
     "RecordingDamagedError",
     "RecordingDamagedWarning",
     "RecordingFormatError",
@@ -59,9 +102,20 @@ __all__ = [
     "RecordingWriteError",
     "RosoutRecord",
     "RunDescription",
+    "TailFile",
     "TfRecord",
     "TopicInfo",
+    "compare_fingerprints",
     "complete_prefix",
+    "copy_recording",
     "describe_run",
+    "forwarding_slot",
+    "from_rosbridge",
+    "is_latched",
+    "mesh_attachment_name",
+    "parse_source_links",
+    "platform_fingerprint",
+    "recorded_fingerprint",
     "to_plain",
+    "typestore",
 ]

@@ -61,8 +61,7 @@ def mesh_attachments(sources: Mapping[str, bytes], source_path: str | None) -> d
     out (see the module docstring)."""
     if not source_path or not Path(source_path).is_file():
         return {}
-    from harness.models.files.resolve import resolve_uri
-    from harness.models.files.xmlsafe import parse_xml
+    from harness.models import parse_xml, resolve_uri
 
     base = Path(source_path).parent
     out: dict[str, bytes] = {}
@@ -94,7 +93,7 @@ def visual_only_attachments(sources: Mapping[str, bytes]) -> set[str]:
     """The ``source/...`` attachment names of the files only the visuals of the URDF model
     files among ``sources`` use: meshes referenced by ``<visual>`` elements and by no
     ``<collision>``, and textures."""
-    from harness.models.files.xmlsafe import parse_xml
+    from harness.models import parse_xml
 
     out: set[str] = set()
     for name, blob in sorted(sources.items()):

@@ -17,6 +17,7 @@ from harness.replay.errors import (
     RecordedDataError,
     VersionMismatchError,
 )
+from harness.replay.gate import is_xacro_source, source_name
 from harness.replay.play import Player
 from harness.replay.resim import resimulate
 from harness.replay.resim_report import Finding, ResimReport, Thresholds
@@ -47,9 +48,11 @@ __all__ = [
     "VerifyReport",
     "VersionMismatchError",
     "diff",
+    "is_xacro_source",
     "open_recording",
     "rebuild_run",
     "resimulate",
     "resolve_model",
+    "source_name",
     "verify",
 ]

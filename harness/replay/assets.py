@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from urllib.parse import quote, unquote, urlsplit
 
-from harness.recording.meshes import mesh_attachment_name
+from harness.recording import mesh_attachment_name
 
 __all__ = ["AssetServer", "rewrite_mesh_uris"]
 

@@ -29,9 +29,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.controllers.config import ControllersConfig, ControllerSpec
-from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
-from harness.controllers.planar import TYPE_PLANAR
+from harness.controllers import TYPE_DIFF_DRIVE, TYPE_PLANAR, ControllersConfig, ControllerSpec
 from harness.models import LoadedRobot, LoadedWorld
 from harness.replay.base_checks import contact_pairs, encoder_distance, robot_bodies
 from harness.replay.errors import LevelUnavailableError

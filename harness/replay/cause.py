@@ -19,8 +19,7 @@ import mujoco
 import numpy as np
 
 from harness.recording import AppliedInput, BridgeFrame, Recording
-from harness.sim.bits import differing, same_bits
-from harness.sim.inputs import ARRAY_FIELDS
+from harness.sim import ARRAY_FIELDS, differing, same_bits
 
 __all__ = [
     "Cause",

@@ -38,8 +38,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.recording import CollisionEvent, Recording
-from harness.recording.layout import TOPIC_BRIDGE
+from harness.recording import TOPIC_BRIDGE, CollisionEvent, Recording
 from harness.replay.cause import (
     FirstDivergence,
     divergence_order,

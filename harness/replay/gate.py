@@ -65,19 +65,23 @@ from typing import NamedTuple
 import mujoco
 
 from harness.errors import HarnessError
-from harness.models.build.compiler import spec_from_file
-from harness.models.errors import CompileError, OutsideReferenceError, XacroError
-from harness.models.files.confine import confined_to
-from harness.models.files.limits import check_model_limits, check_spec
-from harness.recording import Recording, RecordingDamagedError
-from harness.recording.layout import (
+from harness.models import (
+    CompileError,
+    OutsideReferenceError,
+    XacroError,
+    check_model_limits,
+    check_spec,
+    confined_to,
+    spec_from_file,
+)
+from harness.recording import (
     ATTACHMENT_MODEL,
     ATTACHMENT_MODEL_BINARY,
-    ATTACHMENT_SOURCE_PREFIX,
-)
-from harness.recording.sourcelinks import (
     ATTACHMENT_SOURCE_LINKS,
+    ATTACHMENT_SOURCE_PREFIX,
     MAX_LINKED_BYTES,
+    Recording,
+    RecordingDamagedError,
     parse_source_links,
 )
 from harness.replay.errors import (

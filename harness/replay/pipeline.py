@@ -47,9 +47,16 @@ import numpy.typing as npt
 from harness.errors import HarnessError
 from harness.events import EventHub, Level, Logger
 from harness.models import LoadedRobot, LoadedWorld
-from harness.recording import AppliedInput, BridgeFrame, Epoch, PhysicsState, Recording
-from harness.recording.layout import TOPIC_EPOCH
-from harness.recording.stateslot import PhysicsStateSlot, forwarding_slot
+from harness.recording import (
+    TOPIC_EPOCH,
+    AppliedInput,
+    BridgeFrame,
+    Epoch,
+    PhysicsState,
+    PhysicsStateSlot,
+    Recording,
+    forwarding_slot,
+)
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.sensor_check import SensorCheck
 from harness.replay.source import open_recording, read_states, rebuild_run, resolve_model
@@ -60,8 +67,7 @@ from harness.session.core import (
     SessionCore,
     is_marker,
 )
-from harness.sim.bits import differing, same_bits
-from harness.sim.inputs import ARRAY_FIELDS
+from harness.sim import ARRAY_FIELDS, differing, same_bits
 
 __all__ = ["MismatchKind", "PipelineMismatch", "PipelineReport", "replay_pipeline"]
 

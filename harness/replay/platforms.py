@@ -13,10 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from harness.recording import Recording
-from harness.recording.fingerprint import (
+from harness.recording import (
     Fingerprint,
     PlatformComparison,
+    Recording,
     compare_fingerprints,
     platform_fingerprint,
     recorded_fingerprint,

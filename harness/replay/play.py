@@ -43,11 +43,16 @@ from typing import Any, Literal
 import cbor2
 
 from harness.errors import RecordingError
-from harness.recording import Recording
-from harness.recording.convert import to_plain
-from harness.recording.layout import ATTACHMENT_SOURCE_PREFIX, TOPIC_CLOCK, is_latched
-from harness.recording.meshes import mesh_attachment_name
-from harness.recording.sourcelinks import ATTACHMENT_SOURCE_LINKS, parse_source_links
+from harness.recording import (
+    ATTACHMENT_SOURCE_LINKS,
+    ATTACHMENT_SOURCE_PREFIX,
+    TOPIC_CLOCK,
+    Recording,
+    is_latched,
+    mesh_attachment_name,
+    parse_source_links,
+    to_plain,
+)
 from harness.replay.assets import AssetServer, rewrite_mesh_uris
 from harness.replay.errors import RecordedDataError
 from harness.replay.source import open_recording

@@ -70,8 +70,7 @@ from harness.replay.source import (
     run_description,
 )
 from harness.replay.verify import Progress
-from harness.sim import InstabilityError
-from harness.sim.inputs import advance
+from harness.sim import InstabilityError, advance
 from harness.vocabulary import ACTUATIONS, Actuation, LimitPolicy
 
 __all__ = ["parse_actuation", "resimulate"]

@@ -18,9 +18,7 @@ import numpy.typing as npt
 
 from harness.models import RobotModel
 from harness.replay.resim_report import Finding, JointSummary, RunSummary, Thresholds
-from harness.sim.collisions import CollisionTracker
-from harness.sim.inputs import AppliedInput
-from harness.sim.metrics import energy
+from harness.sim import AppliedInput, CollisionTracker, energy
 
 __all__ = [
     "F64",
@@ -64,7 +62,7 @@ class Trace:
         self.qvel.append(data.qvel.copy())
         depth = data.contact.dist[: data.ncon]
         self.pen.append(max(0.0, -float(depth.min())) if depth.size else 0.0)
-        from harness.sim.contacts import extract_contacts
+        from harness.sim import extract_contacts
 
         for t in self.tracker.update(step, step * dt_ns, extract_contacts(self.model, data)):
             if t.kind == "begin":

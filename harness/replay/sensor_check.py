@@ -18,10 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from harness.recording import Recording
-from harness.recording.convert import from_rosbridge
-from harness.recording.layout import typestore
-from harness.recording.records import RecordedMessage
+from harness.recording import RecordedMessage, Recording, from_rosbridge, typestore
 from harness.sensors import METADATA_RECORD, RendererInfo
 
 __all__ = ["SensorCheck"]

@@ -37,29 +37,35 @@ import numpy.typing as npt
 
 from harness.errors import HarnessError, ModelError
 from harness.models import (
+    CONTROL_MODES,
+    DECOMPOSITION_FOLDER,
     DEMO_URDF,
     SCENES,
+    ControlMode,
     LoadedRobot,
     LoadedWorld,
+    ModelLimitError,
+    OutsideReferenceError,
     Pose,
     RobotModel,
     RobotSpec,
     WorldObject,
+    XacroError,
+    check_mesh_collision,
     load_robot,
     load_world,
 )
-from harness.models.build.decompose import DECOMPOSITION_FOLDER, check_mesh_collision
-from harness.models.description import CONTROL_MODES, ControlMode
-from harness.models.errors import OutsideReferenceError, XacroError
-from harness.models.files.limits import ModelLimitError
-from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
-from harness.recording.layout import (
+from harness.recording import (
     ATTACHMENT_MODEL,
     ATTACHMENT_MODEL_BINARY,
     ATTACHMENT_SOURCE_PREFIX,
+    ATTACHMENT_SOURCE_REFS,
+    PROJECT_REFERENCE_REFUSAL,
     TOPIC_STATE,
+    Recording,
+    RecordingDamagedError,
+    RecordingFormatError,
 )
-from harness.recording.sourcelinks import ATTACHMENT_SOURCE_REFS, PROJECT_REFERENCE_REFUSAL
 from harness.replay.errors import (
     ModelAttachmentError,
     RecordedDataError,
@@ -75,7 +81,7 @@ from harness.replay.gate import (
     source_name,
     warn_left_out,
 )
-from harness.sim.inputs import AppliedInput
+from harness.sim import AppliedInput
 
 __all__ = [
     "RecordedStates",

@@ -30,8 +30,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.recording import Epoch, Recording, RecordingDamagedError
-from harness.recording.layout import TOPIC_STATE
+from harness.recording import TOPIC_STATE, Epoch, Recording, RecordingDamagedError
 from harness.replay.errors import LevelUnavailableError, RecordedDataError
 from harness.replay.layout import StateLayout, rotation_angle
 from harness.replay.platforms import check_platform
@@ -44,8 +43,7 @@ from harness.replay.source import (
     resolve_model,
     state_blocks,
 )
-from harness.sim.bits import differing, same_bits
-from harness.sim.inputs import AppliedInput, write_input
+from harness.sim import AppliedInput, differing, same_bits, write_input
 
 if TYPE_CHECKING:
     from harness.replay.pipeline import PipelineReport

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from harness.ros2.env import Ros2Install, find_ros2
 from harness.ros2.errors import Ros2Error
-from harness.rosbridge.offer import Offer
+from harness.rosbridge import Offer
 
 __all__ = ["Ros2Gateway"]
 

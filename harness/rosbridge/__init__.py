@@ -25,6 +25,8 @@ from harness.rosbridge.client import BridgeClient
 from harness.rosbridge.connection import is_loopback
 from harness.rosbridge.errors import ExposedServerWarning
 from harness.rosbridge.graph import Message
+from harness.rosbridge.limits import SendBudget
+from harness.rosbridge.offer import Offer, offer_of
 from harness.rosbridge.outgoing import DIRECTION_IN, DIRECTION_OUT, OutgoingFrame, TapRecord
 from harness.rosbridge.protocol import Bridge
 from harness.rosbridge.sending import ConnectionMetrics
@@ -43,9 +45,12 @@ __all__ = [
     "ConnectionMetrics",
     "ExposedServerWarning",
     "Message",
+    "Offer",
     "OutgoingFrame",
+    "SendBudget",
     "ServiceCall",
     "TapRecord",
     "TypeRegistry",
     "is_loopback",
+    "offer_of",
 ]

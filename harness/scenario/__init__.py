@@ -39,10 +39,12 @@ from harness.scenario.scenario import (
     BUILTIN_MAPS,
     BUILTIN_ROBOTS,
     ClientSpec,
+    Clock,
     Criteria,
     Scenario,
     ScenarioRobot,
 )
+from harness.scenario.session_options import scenario_session
 
 __all__ = [
     "BUILTIN_MAPS",
@@ -51,6 +53,7 @@ __all__ = [
     "BridgeHost",
     "ClientOutcome",
     "ClientSpec",
+    "Clock",
     "CollisionSummary",
     "Criteria",
     "DaskBackend",
@@ -78,6 +81,7 @@ __all__ = [
     "run_client",
     "run_iterations",
     "run_scenarios",
+    "scenario_session",
     "session_iteration_runner",
     "stop_group",
     "write_reports",

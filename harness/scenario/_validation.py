@@ -96,7 +96,7 @@ def load_document(path: Path) -> Any:
 
 def validator(schema_name: str) -> Any:
     """A jsonschema validator of schema ``schema_name`` with the schemas it references."""
-    from harness.events.config import LOGGING_SCHEMA
+    from harness.events import LOGGING_SCHEMA
 
     return validation.validator(schema(schema_name), [LOGGING_SCHEMA])
 
@@ -104,7 +104,7 @@ def validator(schema_name: str) -> Any:
 def schema_problems(document: Any, schema_name: str, source: str) -> list[str]:
     """Every violation of schema ``schema_name`` in ``document``, one line each, in key order
     (the scenario schema's ``logging`` section is :data:`harness.events.LOGGING_SCHEMA`)."""
-    from harness.events.config import LOGGING_SCHEMA
+    from harness.events import LOGGING_SCHEMA
 
     return validation.schema_problems(
         document, schema(schema_name), source, resources=[LOGGING_SCHEMA]

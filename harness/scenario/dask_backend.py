@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness.recording.tail import TailFile
+from harness.recording import TailFile
 from harness.scenario import interrupt
 from harness.scenario.bundle import (
     BlobStore,

@@ -29,9 +29,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from harness.errors import ConfigError
-from harness.recording.copying import copy_recording
-from harness.recording.layout import ATTACHMENT_MODEL_BINARY
-from harness.replay.diff import Tolerances
+from harness.recording import ATTACHMENT_MODEL_BINARY, copy_recording
+from harness.replay import Tolerances
 from harness.scenario.runfile import load_run_file
 from harness.scenario.runner import iteration_specs
 
@@ -134,7 +133,7 @@ class GoldenCheck:
 def check(name: str, work_dir: Path, scenario: Path | None = None) -> GoldenCheck:
     """Run bundled scenario ``name`` (or ``scenario``, e.g. an edited copy) and compare it
     with ``recordings/scenarios/<name>.mcap``."""
-    from harness.replay.diff import diff
+    from harness.replay import diff
 
     golden = golden_path(name)
     if not golden.is_file():

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
-from harness.recording.errors import RecordingBusyError
+from harness.recording import RecordingBusyError
 from harness.scenario import interrupt
 from harness.scenario.errors import ScenarioError
 from harness.scenario.results import IterationResult, IterationRunner, IterationSpec, Verdict

@@ -26,11 +26,16 @@ from typing import Any, Literal
 
 from harness.controllers import ControllersConfig, ControllersConfigError, load_controllers
 from harness.errors import ModelError
-from harness.events.config import LoggingConfig, logging_config_from_scene
-from harness.events.errors import LoggerConfigError
-from harness.models.description import ControlMode, Pose
-from harness.models.files.resolve import resolve_uri
-from harness.models.world.records import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
+from harness.events import LoggerConfigError, LoggingConfig, logging_config_from_scene
+from harness.models import (
+    OBJECT_SIZES,
+    BaseKind,
+    ControlMode,
+    Pose,
+    SelfCollision,
+    WorldObject,
+    resolve_uri,
+)
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
 from harness.session import TransportOptions

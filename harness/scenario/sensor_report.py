@@ -24,7 +24,7 @@ def camera_frames_html(recording: Path | None) -> str:
     if recording is None or not recording.is_file():
         return ""
     from harness.recording import Recording
-    from harness.sensors.messages import png_bytes
+    from harness.sensors import png_bytes
 
     try:
         with Recording(recording) as rec:

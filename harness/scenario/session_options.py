@@ -41,8 +41,7 @@ from harness.events import (
     Sink,
     velocity_limits,
 )
-from harness.models import LoadedWorld
-from harness.models.build.decompose import check_mesh_collision
+from harness.models import LoadedWorld, check_mesh_collision
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Clock, CollisionLoggerSpec, JointLoggerSpec, Scenario

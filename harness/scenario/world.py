@@ -41,15 +41,18 @@ from harness.models import (
     ControlMode,
     LoadedRobot,
     LoadedWorld,
+    RobotModel,
+    add_object,
+    check_mesh_collision,
+    check_mjcf_files,
+    generated_from,
+    is_sdf_world,
     load_description,
     load_world,
+    load_world_file,
+    world_timestep,
 )
 from harness.models import RobotSpec as WorldRobot
-from harness.models.build.decompose import check_mesh_collision
-from harness.models.description import RobotModel
-from harness.models.mjcf.files import check_mjcf_files, generated_from
-from harness.models.sdf.worldfile import is_sdf_world, load_world_file, world_timestep
-from harness.models.world.records import add_object
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Scenario, ScenarioRobot

@@ -27,10 +27,11 @@ from harness.sensors.errors import (
     UnknownSensorType,
 )
 from harness.sensors.force_torque import ForceTorqueSensor
+from harness.sensors.hook import record_metadata, sensor_interfaces, session_sensors
 from harness.sensors.imu import ImuSensor
 from harness.sensors.lidar import LidarSensor
-from harness.sensors.messages import TYPE_TF
-from harness.sensors.registry import Mounted, SensorKind, known_types, register_kind
+from harness.sensors.messages import TYPE_TF, png_bytes
+from harness.sensors.registry import Mounted, SensorKind, kind_of, known_types, register_kind
 from harness.sensors.render import OffscreenRenderer, RendererInfo, contexts_created
 from harness.sensors.spec import SensorSpec
 from harness.sensors.suite import (
@@ -70,10 +71,15 @@ __all__ = [
     "View",
     "contexts_created",
     "declared_in_sources",
+    "kind_of",
     "known_types",
+    "png_bytes",
+    "record_metadata",
     "register_kind",
+    "sensor_interfaces",
     "sensors_from_sdf",
     "sensors_from_urdf",
+    "session_sensors",
 ]
 
 

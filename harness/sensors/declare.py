@@ -30,8 +30,7 @@ from typing import Any
 
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.models.errors import ModelError
-from harness.models.files.xmlsafe import parse_xml
+from harness.models import ModelError, parse_xml
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.registry import gazebo_kind
 from harness.sensors.sdf_values import element_number, element_text

@@ -65,7 +65,7 @@ alias_modules(
     }
 )
 
-from harness.controllers.command_topics import FORWARD_TOPICS, Trajectory  # noqa: E402
+from harness.controllers import FORWARD_TOPICS, Trajectory  # noqa: E402
 from harness.session.core import (  # noqa: E402
     DEFAULT_MAX_STEP_REQUEST,
     FAILURE_PREFIX,

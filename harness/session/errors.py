@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from harness.controllers.errors import CommandRefused
+from harness.controllers import CommandRefused
 from harness.errors import ConfigError, HarnessError
 
 __all__ = [

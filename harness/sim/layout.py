@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models.description import CONTROL_MODES, ControlMode, RobotModel
+from harness.models import CONTROL_MODES, ControlMode, RobotModel
 from harness.sim.errors import ControlConfigError, TimestepError
 from harness.vocabulary import LimitPolicy
 

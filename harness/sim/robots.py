@@ -17,7 +17,7 @@ from types import MappingProxyType
 import numpy as np
 import numpy.typing as npt
 
-from harness.models.description import ControlMode
+from harness.models import ControlMode
 from harness.sim.commands import Notice
 from harness.sim.errors import CommandError
 from harness.sim.simulation import Simulation

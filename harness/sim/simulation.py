@@ -35,8 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.errors import SimulationError
-from harness.models.description import ControlMode, RobotModel
-from harness.models.world.records import LoadedWorld
+from harness.models import ControlMode, LoadedWorld, RobotModel
 from harness.sim.capture import capture_input
 from harness.sim.commands import (
     CommandField,

@@ -19,7 +19,7 @@ from harness.events.events import (
     NearMiss,
 )
 from harness.events.sinks.base import SinkReport
-from harness.recording.records import CollisionEvent, RosoutRecord
+from harness.recording import CollisionEvent, RosoutRecord
 
 __all__ = ["KIND_BEGIN", "KIND_END", "KIND_NEAR_MISS", "EventRecorder", "RecordingSink"]
 

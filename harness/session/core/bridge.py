@@ -10,10 +10,16 @@ import json
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, Protocol
 
-from harness.events import JointSample, LogMessage, SinkReport
-from harness.events.events import Event
-from harness.rosbridge import DIRECTION_IN, ActionGoal, Bridge, Message, OutgoingFrame, TapRecord
-from harness.rosbridge.limits import SendBudget
+from harness.events import Event, JointSample, LogMessage, SinkReport
+from harness.rosbridge import (
+    DIRECTION_IN,
+    ActionGoal,
+    Bridge,
+    Message,
+    OutgoingFrame,
+    SendBudget,
+    TapRecord,
+)
 from harness.session.core.markers import (
     MARKER_CALL_TIMEOUT,
     MARKER_DISCONNECT,

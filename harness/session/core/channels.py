@@ -13,8 +13,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.controllers.command_topics import FORWARD_TOPICS, Reporter, RobotCommands
-from harness.controllers.listed import ListedJoints
+from harness.controllers import FORWARD_TOPICS, ListedJoints, Reporter, RobotCommands
 from harness.models import LoadedRobot, LoadedWorld, RobotModel
 from harness.recording import JointStateRecord
 from harness.session.core.tf import RobotFrames

@@ -38,7 +38,7 @@ from harness.controllers import (
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
-from harness.sensors.hook import sensor_interfaces
+from harness.sensors import sensor_interfaces
 from harness.session.core.bridge import Publisher
 from harness.session.core.topics import node_name
 from harness.sim import CommandError, ControlConfigError, Notice
@@ -106,7 +106,7 @@ def resolve_default(
 
 def with_drive_plugins(config: ControllersConfig, robot: LoadedRobot) -> ControllersConfig:
     """``config`` plus a diff drive controller per drive plugin the robot's file declares."""
-    from harness.controllers.gazebo_plugins import robot_controllers
+    from harness.controllers import robot_controllers
 
     return robot_controllers(config, robot.sources)
 
@@ -116,7 +116,7 @@ def base_driven(
 ) -> tuple[str, ...]:
     """The namespaces of the robots a base controller (diff drive, planar) drives under
     ``config`` (``namespace``: a single robot's)."""
-    from harness.controllers.gazebo_plugins import BASE_CONTROLLER_TYPES, robot_controllers
+    from harness.controllers import BASE_CONTROLLER_TYPES, robot_controllers
 
     if config == _CONFIG_NONE:
         return ()
@@ -369,7 +369,7 @@ def _robot_sources(loaded: Any, index: int) -> Mapping[str, bytes]:
 
 def _robot_default(joints: Any, sources: Mapping[str, bytes]) -> ControllersConfig:
     """A robot's default set with its drive plugins (the translation of :func:`resolve_default`)."""
-    from harness.controllers.gazebo_plugins import robot_controllers
+    from harness.controllers import robot_controllers
 
     return robot_controllers(default_controllers(joints.joint_names, joints.control), sources)
 

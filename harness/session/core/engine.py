@@ -66,7 +66,7 @@ from harness.events import EventHub, Level, LogMessage, SinkReport, StepContext
 from harness.models import LoadedRobot, LoadedWorld
 from harness.recording import BridgeFrame, ClockRecord, Epoch, PhysicsStateSlot
 from harness.rosbridge import DIRECTION_IN
-from harness.sensors.hook import record_metadata, session_sensors
+from harness.sensors import record_metadata, session_sensors
 from harness.session.core.bridge import (
     BridgePort,
     Graph,
@@ -132,9 +132,7 @@ from harness.session.errors import (
     SessionConfigError,
     SessionError,
 )
-from harness.sim import Notice, Simulation
-from harness.sim.inputs import AppliedInput
-from harness.sim.state import qpos_qvel_slices
+from harness.sim import AppliedInput, Notice, Simulation, qpos_qvel_slices
 from harness.vocabulary import CLOCK_MODES, ClockMode
 
 __all__ = [

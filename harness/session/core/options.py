@@ -28,9 +28,15 @@ from types import MappingProxyType
 from typing import Any, Literal, NamedTuple, TypedDict
 
 from harness.controllers import ControllersConfig
-from harness.models import ControlMode, LoadedWorld, RobotSpec, WorldObject
-from harness.models.build.decompose import MeshCollision
-from harness.models.world.records import BaseKind, SelfCollision
+from harness.models import (
+    BaseKind,
+    ControlMode,
+    LoadedWorld,
+    MeshCollision,
+    RobotSpec,
+    SelfCollision,
+    WorldObject,
+)
 from harness.sensors import SensorSpec
 from harness.session.core.control import (
     ControllersOption,

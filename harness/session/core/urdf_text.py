@@ -20,7 +20,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
+from harness.models import Geometry, Joint, Link, Pose, RobotModel, Shape
 
 __all__ = ["description_text", "urdf_of"]
 

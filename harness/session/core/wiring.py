@@ -16,8 +16,7 @@ from typing import Any
 
 import mujoco
 
-from harness.sensors import TOPIC_TF_STATIC
-from harness.sensors.suite import SensorSuite
+from harness.sensors import TOPIC_TF_STATIC, SensorSuite
 from harness.session.core.bridge import Graph, Publisher
 from harness.session.core.channels import CLOCK, ROSOUT, RobotChannels, robot_frames
 from harness.session.core.tf import TfTree

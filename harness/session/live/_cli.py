@@ -19,7 +19,7 @@ from types import FrameType
 from typing import Any
 
 from harness.errors import HarnessError, RecordingError
-from harness.models._cli import add_load_options, add_robot_arg_option, load_options, robot_args
+from harness.models import add_load_options, add_robot_arg_option, load_options, robot_args
 from harness.session.live._cli_resume import run_resumed
 from harness.vocabulary import CLOCK_MODES, CONTROL_MODE_INPUTS, LIMIT_POLICIES, ControlMode
 
@@ -138,7 +138,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _controllers_arg(text: str) -> tuple[str, str]:
     """One ``--controllers-arg NAME:=VALUE``."""
-    from harness.controllers.substitutions import ARG_NAME
+    from harness.controllers import ARG_NAME
 
     name, sep, value = text.partition(":=")
     if not sep or not ARG_NAME.match(name):

@@ -75,7 +75,7 @@ def start_ros2(
     """Start the ROS 2 gateway (:mod:`harness.ros2`) as a client of ``url`` on ``domain_id``,
     offering what ``bridge`` serves (read through ``call``, on the session's thread)."""
     from harness.ros2 import Ros2Gateway
-    from harness.rosbridge.offer import offer_of
+    from harness.rosbridge import offer_of
 
     offer = call(lambda: offer_of(bridge))
     return Ros2Gateway.start(url, offer, domain_id)

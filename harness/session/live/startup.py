@@ -12,16 +12,18 @@ from pathlib import Path
 from typing import Any
 
 from harness.models import (
+    BaseKind,
     ControlMode,
     LoadedRobot,
     LoadedWorld,
+    MeshCollision,
     RobotSpec,
+    SelfCollision,
     WorldObject,
+    check_mesh_collision,
     load_robot,
     load_world,
 )
-from harness.models.build.decompose import MeshCollision, check_mesh_collision
-from harness.models.world.records import BaseKind, SelfCollision
 from harness.recording import Recorder, describe_run
 from harness.session.core.bridge import SessionBridge
 from harness.session.core.options import (
@@ -91,8 +93,7 @@ def load_run(
 def _renders(sources: Mapping[str, bytes], sensors: Sequence[Mapping[str, Any]]) -> bool:
     """Whether a sensor the robot's ``sources`` declare, or one of ``sensors``, renders.
     Unknown types are left to the sensor suite, which names them."""
-    from harness.sensors.declare import declared_in_sources
-    from harness.sensors.registry import kind_of, known_types
+    from harness.sensors import declared_in_sources, kind_of, known_types
 
     types = [str(item.get("type", "")) for item in sensors if isinstance(item, Mapping)]
     types += [spec.type for spec in declared_in_sources(sources)]

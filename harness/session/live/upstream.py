@@ -42,8 +42,7 @@ from typing import Any
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 
-from harness.rosbridge import OutgoingFrame
-from harness.rosbridge.offer import Offer, offer_of
+from harness.rosbridge import Offer, OutgoingFrame, offer_of
 from harness.session.core.bridge import SessionBridge
 from harness.session.errors import SessionError
 
