@@ -8,7 +8,7 @@ recording, against the bare loop (``sim.set_positions(...)``, ``sim.step()``) in
 and against a bare ``websockets`` server answering the same client (the ratio issue 20 asks
 for). The same client sending its command and its step request in one WebSocket message
 (two JSON objects, which rosbridge v2 allows) is measured too, and so is the session with its
-busy-polling off (:mod:`harness.session.polling`: the loop blocks at once while it waits for the
+busy-polling off (:mod:`harness.session.live.polling`: the loop blocks at once while it waits for the
 client, as the raw server's does; the CPU rows are measured so). Where the server's time goes:
 its CPU per step without sockets (the same frames handed to the bridge on its thread), and
 live split into the bridge's ``receive`` (the frames' work) and the rest (the transport:
@@ -137,7 +137,7 @@ def _lockstep(
 ) -> tuple[float, float]:
     """Steps/s the client saw, and the session thread's CPU microseconds per step (its
     polling included). ``poll=False``: the session's loop blocks at once while waiting for
-    the client (:mod:`harness.session.polling` off)."""
+    the client (:mod:`harness.session.live.polling` off)."""
     with Session(robot, record_to=record) as session:
         if not poll:
             session._runner.selector.max_ns = 0
@@ -356,7 +356,7 @@ def run(quick: bool) -> list[Row]:
                 "st/s",
                 "(info)",
                 True,
-                note="harness.session.polling: the session's loop polls its sockets for up to "
+                note="harness.session.live.polling: the session's loop polls its sockets for up to "
                 f"300 us before blocking; server CPU per step {cpu_blocking:.0f} us blocking, "
                 f"{cpu_ours:.0f} us polling (the polling counted)",
             )

@@ -39,7 +39,7 @@ resolve against the test file's folder), ``scenario`` (a scenario file, see belo
 (``JointLimitLogger`` keyword arguments, or False; its default ``tolerance`` is the solver's
 soft-limit zone of each joint, :func:`harness.events.solver_limit_tolerance`, as in ``harness
 run``'s verdicts), ``connect`` (``connect_to``), and every other field of the session's
-options objects (:mod:`harness.session.options`: ``rate``, ``namespace``, ``state_every``,
+options objects (:mod:`harness.session.core.options`: ``rate``, ``namespace``, ``state_every``,
 ``joint_states_hz``, ``tf_hz``, ``clock_hz``, ``kinematic_limits``, ``seed``,
 ``joint_command_topic``, ``start``, ``controllers`` (a ros2_control controllers YAML, relative
 to the test file's folder, a list of them merged in order, or False), ``controllers_args`` (its

@@ -8,7 +8,7 @@ FollowJointTrajectory action, interpolation and tolerances in :mod:`~harness.con
 :mod:`~harness.controllers.forward_command`, :mod:`~harness.controllers.gripper_action`,
 :mod:`~harness.controllers.broadcaster`; the controllers YAML (:mod:`~harness.controllers.config`)
 and the controller manager with its services (:mod:`~harness.controllers.manager`). The session
-binds them to the bridge (:mod:`harness.session.control`).
+binds them to the bridge (:mod:`harness.session.core.control`).
 
 The room's rule: **a new controller is one module in this room and touches no core file.** The
 module subclasses :class:`ControllerBase` (the no-op defaults) and registers a factory for its

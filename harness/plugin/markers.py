@@ -51,7 +51,7 @@ _SPEC_SPELLINGS = {"source": "robot", "control": "mode"}  # as Session(robot=, m
 @functools.cache
 def marker_keys() -> frozenset[str]:
     """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept: the
-    session's options fields (:data:`harness.session.options.SESSION_KEYWORDS`) but where
+    session's options fields (:data:`harness.session.core.options.SESSION_KEYWORDS`) but where
     the plugin decides (the free port, the recording path), and the marker's own keys."""
     from harness.session import SESSION_KEYWORDS
 

@@ -266,7 +266,7 @@ def frames_after_last_step(rec: Recording) -> int:
     (applied at a boundary no step followed: sent after the last step, or the session's
     close) to the end, in recorded order, the outgoing frames they caused included. Whether
     a client's frames sent while a session closes arrive in time is wall-clock timing
-    (:mod:`harness.session.session`, "Closing"); nothing before them is."""
+    (:mod:`harness.session.live.session`, "Closing"); nothing before them is."""
     if TOPIC_BRIDGE not in rec.topics:
         return 0
     last = rec.last_step

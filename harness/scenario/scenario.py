@@ -185,7 +185,7 @@ class ScenarioRobot:
 @dataclass(frozen=True)
 class ScenarioBridgeSection:
     """The ``ros.bridge`` section as the file spells it (the original's ``ip``, ``connect``);
-    :meth:`transport` is the session's :class:`harness.session.options.TransportOptions`.
+    :meth:`transport` is the session's :class:`harness.session.core.options.TransportOptions`.
     ``port``: where a session started from the scenario listens (None: a free port; ``harness
     run`` and the pytest marker always take a free port: iterations and test workers run side
     by side). ``connect``: the URL of an external rosbridge server to connect to instead

@@ -21,7 +21,7 @@ from harness.replay.source import rebuild_robot, rebuild_run
 from harness.scenario import Scenario, ScenarioError
 from harness.scenario._validation import schema
 from harness.session import Session
-from harness.session._cli import add_arguments as serve_arguments
+from harness.session.live._cli import add_arguments as serve_arguments
 from harness.vocabulary import BASE_KINDS, SELF_COLLISION_POLICIES, RobotBase, SelfCollisionPolicy
 
 from .conftest import DATA

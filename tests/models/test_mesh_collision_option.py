@@ -19,8 +19,8 @@ from harness.replay.source import rebuild_run
 from harness.scenario import Scenario, ScenarioError
 from harness.scenario._validation import schema
 from harness.session import Session
-from harness.session._cli import add_arguments as serve_arguments
-from harness.session.options import SESSION_KEYWORDS
+from harness.session.core.options import SESSION_KEYWORDS
+from harness.session.live._cli import add_arguments as serve_arguments
 from harness.vocabulary import MESH_COLLISION_MODES as VOCABULARY
 
 from .test_mesh_decomposition import _wall, _wall_contacts

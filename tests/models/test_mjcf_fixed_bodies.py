@@ -8,8 +8,8 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 from harness.models import load_robot
-from harness.session.tf import RobotFrames, TfTree
-from harness.session.urdf_text import urdf_of
+from harness.session.core.tf import RobotFrames, TfTree
+from harness.session.core.urdf_text import urdf_of
 
 _MJCF = """
 <mujoco>

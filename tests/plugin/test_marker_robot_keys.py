@@ -11,7 +11,7 @@ from pathlib import Path
 from harness.models import RobotSpec
 from harness.plugin.markers import first_robot_keys, marker_keys
 from harness.plugin.scenario import over_scenario, scenario_session
-from harness.session.options import SESSION_KEYWORDS
+from harness.session.core.options import SESSION_KEYWORDS
 
 TWO_LINK = Path(__file__).parents[1] / "data" / "scenario" / "robots" / "two_link.urdf"
 SCENARIO = """

@@ -24,9 +24,9 @@ from harness.rosbridge.limits import (
     SendBudget,
 )
 from harness.session import Session
-from harness.session.bridge import SessionBridge
 from harness.session.core import CoreOptions, SessionCore
-from harness.session.markers import MARKER_UNBUDGETED, replay_marker
+from harness.session.core.bridge import SessionBridge
+from harness.session.core.markers import MARKER_UNBUDGETED, replay_marker
 from tests.rosbridge.helpers import install_test_graph
 from tests.session.session_helpers import Client
 

@@ -79,7 +79,7 @@ def tf_trees(model: mujoco.MjModel, robots: Iterable[RobotChannels]) -> tuple[Tf
 
 def advertise_and_subscribe(graph: Graph, published: Iterable[TopicDef]) -> None:
     """Advertise every published topic. The robots' command topics are their controllers'
-    (:class:`~harness.session.control.ControlHost` subscribes them, the harness's own ones
+    (:class:`~harness.session.core.control.ControlHost` subscribes them, the harness's own ones
     too: one command path)."""
     for defined in published:
         graph.advertise(defined.name, defined.type, node=defined.node, latch=defined.latched)
