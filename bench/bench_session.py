@@ -8,9 +8,9 @@ recording, against the bare loop (``sim.set_positions(...)``, ``sim.step()``) in
 and against a bare ``websockets`` server answering the same client (the ratio issue 20 asks
 for). The same client sending its command and its step request in one WebSocket message
 (two JSON objects, which rosbridge v2 allows) is measured too, and so is the session with its
-busy-polling off (:mod:`harness.session.live.polling`: the loop blocks at once while it waits for the
-client, as the raw server's does; the CPU rows are measured so). Where the server's time goes:
-its CPU per step without sockets (the same frames handed to the bridge on its thread), and
+busy-polling off (:mod:`harness.session.live.polling`: the loop blocks at once while it waits
+for the client, as the raw server's does; the CPU rows are measured so). Where the server's time
+goes: its CPU per step without sockets (the same frames handed to the bridge on its thread), and
 live split into the bridge's ``receive`` (the frames' work) and the rest (the transport:
 sockets, websockets, the loop), the latter against the raw server's whole CPU; a cProfile of
 the session's thread during a run without recording, by area (printed).
