@@ -332,6 +332,8 @@ def default_controllers(
 
 
 def _forward_specs(joints: Sequence[str]) -> list[ControllerSpec]:
+    if not joints:  # a robot without controllable joints (a box, a cage) has no command topic
+        return []
     return [
         ControllerSpec(
             f"forward_{interface}_controller",

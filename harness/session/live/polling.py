@@ -79,8 +79,9 @@ def peer_in_process(sock: socket.socket) -> bool:
                     next(f)
                     for line in f:
                         fields = line.split()
-                        if fields[1] == want:
-                            return fields[9] in mine
+                        # an earlier connection's TIME_WAIT entry on the same port has inode 0
+                        if fields[1] == want and fields[9] != "0" and fields[9] in mine:
+                            return True
             except OSError:
                 continue
     except (OSError, ValueError, IndexError):
