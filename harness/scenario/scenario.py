@@ -32,6 +32,7 @@ from harness.models.resolve import resolve_uri
 from harness.models.world import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
+from harness.scenario.script import ScriptCommand, script_commands
 from harness.session.options import TransportOptions
 from harness.vocabulary import (
     LIMIT_POLICY_KEY,
@@ -281,6 +282,11 @@ class Scenario:
     controllers_args: Mapping[str, str] = field(default_factory=dict)
     """The values the controllers YAML's ``$(var NAME)`` took (already expanded in
     ``controllers``)."""
+    script: tuple[ScriptCommand, ...] = ()
+    """In-process commands on a timeline (:mod:`harness.scenario.script`), in file order
+    (applied in time order, ties in file order)."""
+    explore: Mapping[str, Any] | None = None
+    """The ``explore`` section as written (schema-checked; :mod:`harness.explore` reads it)."""
 
     @classmethod
     def load(cls, path: str | Path) -> Scenario:
@@ -405,7 +411,18 @@ class _Builder:
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
             source=source,
+            script=self.script(data),
+            explore=data.get("explore"),
         )
+
+    def script(self, data: dict[str, Any]) -> tuple[ScriptCommand, ...]:
+        """The ``script`` timeline; refused beside a ``client`` (one drives the run)."""
+        items = data.get("script", [])
+        if items and "client" in data:
+            self.problem(
+                ["script"], f"[{len(items)} command(s)]", "cannot be given with a client command"
+            )
+        return script_commands(items)
 
     def references(self, data: Any) -> None:
         """Check the robot and world references of a document that failed the schema."""
