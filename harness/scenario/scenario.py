@@ -653,7 +653,7 @@ class _Builder:
     def client(self, data: dict[str, Any], path: list[str | int]) -> ClientSpec:
         return ClientSpec(
             command=command_tuple(data["command"]),
-            cwd=self.base,
+            cwd=(self.base / data["cwd"]).resolve() if "cwd" in data else self.base,
             env=dict(data.get("env", {})),
             readiness_timeout=float(data.get("readiness_timeout", 30.0)),
             wall_timeout=float(data.get("wall_timeout", 600.0)),
