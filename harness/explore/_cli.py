@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         database=(args.database or out / ".hypothesis").resolve(),
         keep_passing=args.keep_passing,
         scheduler=args.scheduler if args.backend == "dask" else None,
-        fast=False,  # the compiled-world reuse lands with harness.explore.fast
+        fast=not args.cold,
     )
     console = Console()
     result = search(plan, options)

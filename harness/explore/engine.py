@@ -136,6 +136,7 @@ def run_engine(
     outcome = EngineOutcome(worker=episodes.worker, seed=options.seed)
     classes: dict[str, type[ExampleFailed]] = {}
     kept_passing = 0
+    kept_values: set[str] = set()
     keep_root = episodes.scratch / "kept"
 
     def record(example: Example) -> Example:
@@ -159,12 +160,14 @@ def run_engine(
                 raise _Stop
         values = to_values(plan, deltas)
         keep = None
-        if kept_passing < options.keep_passing and not shrinking:
+        key = repr(sorted(values.items()))
+        if kept_passing < options.keep_passing and not shrinking and key not in kept_values:
             keep = keep_root / f"w{episodes.worker}-{episodes.count:05d}"
         example = episodes.run(values, keep=keep)
         example = replace(example, phase="shrink" if shrinking else "generate")
         if keep is not None and example.passed:
             kept_passing += 1
+            kept_values.add(key)
         if plan.target is not None:
             value = drive_value(plan.target, example.margins)
             if value is not None:

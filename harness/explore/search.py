@@ -43,7 +43,7 @@ class SearchOptions:
     database: Path | None = None
     keep_passing: int = 0
     scheduler: str | None = None
-    fast: bool = False
+    fast: bool = True
 
 
 @dataclass
