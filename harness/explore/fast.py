@@ -26,7 +26,7 @@ FAST_CHUNK = 1_000_000
 """Steps per session request on the fast path (in effect: a whole span)."""
 
 
-def FastRunner() -> IterationRunner:  # noqa: N802 - a runner factory, named as the runner
+def FastRunner() -> IterationRunner:
     """The product's iteration runner with whole spans per step request (see the module
     docstring)."""
     runner: object = session_iteration_runner()
