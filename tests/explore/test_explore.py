@@ -77,6 +77,7 @@ def _check_minimal(out: Path, tmp_path: Path) -> dict:
     return summary
 
 
+@pytest.mark.slow
 def test_planted_obstacle_in_the_sweep_is_found_and_shrunk(tmp_path: Path) -> None:
     """Budget: 60 examples. The obstacle box is 1.0 x 1.2 m around the arm; the sweep's arc
     crosses it."""
@@ -101,6 +102,7 @@ def test_planted_obstacle_in_the_sweep_is_found_and_shrunk(tmp_path: Path) -> No
     assert "objects.obstacle.position[0]" in html
 
 
+@pytest.mark.slow
 def test_planted_two_parameter_client_bug_is_found(tmp_path: Path) -> None:
     """Budget: 20 examples (6 combinations). Only TARGET_X 0.3 with MODE fast fails."""
     out = tmp_path / "out"
@@ -118,6 +120,20 @@ def test_planted_two_parameter_client_bug_is_found(tmp_path: Path) -> None:
         if not r["passed"]
     }
     assert failing == {("0.3", "fast")}
+
+
+@pytest.mark.slow
+def test_planted_mobile_overshoot_above_a_speed_is_found(tmp_path: Path) -> None:
+    """Budget: 10 examples (5 speeds). The controller stops by odometry without a braking
+    distance: at 0.5 m/s it overshoots into the wall; 0.1-0.4 m/s stop short of it."""
+    out = tmp_path / "out"
+    code = cli.main(["explore", str(DATA / "approach.yaml"), "--examples", "10", "--out", str(out)])
+    assert code == 1
+    summary = _check_minimal(out, tmp_path)
+    assert summary["minimal"]["parameters"] == {"client.env.SPEED": "0.5"}
+    assert "wall" in summary["minimal"]["signature"]
+    runs = [json.loads(line) for line in (out / "examples.jsonl").read_text().splitlines()]
+    assert {r["values"]["client.env.SPEED"] for r in runs if not r["passed"]} == {"0.5"}
 
 
 def test_no_failure_in_range_exits_0(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
