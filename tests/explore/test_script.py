@@ -50,13 +50,6 @@ def test_script_moves_the_arm_and_replays(tmp_path: Path) -> None:
     assert report.reproduced, report
 
 
-def test_script_without_it_holds_the_pose(tmp_path: Path) -> None:
-    path = write_variant(tmp_path, "still.yaml", "sweep.yaml", {"script": None, "explore": None})
-    result = _run(Scenario.load(path), tmp_path / "out")
-    trace = {j.joint: j for j in result.traces.joints}["joint1"]
-    assert max(abs(p) for p in trace.position) < 1e-3
-
-
 def test_script_with_a_client_is_refused(tmp_path: Path) -> None:
     path = write_variant(tmp_path, "both.yaml", "sweep.yaml", {"client": {"command": "true"}})
     with pytest.raises(ScenarioError, match=r"both\.yaml: script: .*cannot be given with a client"):
