@@ -14,6 +14,9 @@ Rows (each measured in this run):
 - examples/s where each example runs the client program (target: >= 5/s);
 - examples/s with 2 local Dask workers against 1 (one engine per worker);
 - seconds to find and shrink the planted 2 % region with 2 workers (target: <= 60 s).
+
+Each rate is examples run over a fixed span of search (``--time``), so the benchmark's length
+does not depend on the machine's speed.
 """
 
 from __future__ import annotations
@@ -32,14 +35,15 @@ from harness.explore import SearchOptions, load_plan, search
 DATA = Path(__file__).resolve().parents[1] / "tests" / "explore" / "data"
 
 
-def _rate(source: Path, folder: Path, examples: int, workers: int, fast: bool = True,
-          scheduler: str | None = None) -> float:
-    options = SearchOptions(work=folder, examples=examples, workers=workers, fast=fast,
-                            seed=11, scheduler=scheduler)  # fmt: skip
+def _rate(source: Path, folder: Path, seconds: float, workers: int, fast: bool = True,
+          scheduler: str | None = None, failing: bool = False) -> float:
+    """Examples per second over ``seconds`` of search (--time: generation stops then)."""
+    options = SearchOptions(work=folder, examples=100_000, seconds=seconds, workers=workers,
+                            fast=fast, seed=11, scheduler=scheduler)  # fmt: skip
     start = time.perf_counter()
     result = search(load_plan(source), options)
     elapsed = time.perf_counter() - start
-    assert not result.failures, list(result.failures)
+    assert failing or not result.failures, list(result.failures)
     return len(result.examples) / elapsed
 
 
@@ -54,7 +58,7 @@ def _planted(folder: Path) -> Path:
     return path
 
 
-def _dask_rates(folder: Path, examples: int) -> tuple[float, float]:
+def _dask_rates(folder: Path, seconds: float) -> tuple[float, float]:
     import distributed
 
     rates = []
@@ -76,9 +80,9 @@ def _dask_rates(folder: Path, examples: int) -> tuple[float, float]:
             try:
                 with distributed.Client(address) as client:
                     client.wait_for_workers(n, timeout=120)
-                _rate(DATA / "clear.yaml", folder / f"warm{n}", n, n, scheduler=address)
+                _rate(DATA / "clear.yaml", folder / f"warm{n}", 0.5, n, scheduler=address)
                 rates.append(
-                    _rate(DATA / "clear.yaml", folder / f"dask{n}", examples, n, scheduler=address)
+                    _rate(DATA / "clear.yaml", folder / f"dask{n}", seconds, n, scheduler=address)
                 )
             finally:
                 for w in workers:
@@ -88,35 +92,36 @@ def _dask_rates(folder: Path, examples: int) -> tuple[float, float]:
 
 
 def run(quick: bool) -> list[Row]:
-    examples = 12 if quick else 40
+    span = 8.0 if quick else 30.0  # seconds of search per rate
+    budget = 30.0 if quick else 60.0  # the planted failure's --time
     rows: list[Row] = []
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         clear = DATA / "clear.yaml"
-        _rate(clear, folder / "warm", 2, 1)  # imports, first world
-        one = _rate(clear, folder / "one", examples, 1)
-        two = _rate(clear, folder / "two", examples, 2)
+        _rate(clear, folder / "warm", 0.5, 1)  # imports, first world
+        one = _rate(clear, folder / "one", span, 1)
+        two = _rate(clear, folder / "two", span, 2)
         rows.append(Row(
-            name=f"explore scripted (1.5 s episodes): {examples} examples, 2 vs 1 worker",
+            name=f"explore scripted (1.5 s episodes): {span:g} s of search, 2 vs 1 worker",
             ours=two, limit=one, unit="ex/s", target="2 workers >= 50 ex/s",
             passed=two >= 50, note=f"1 worker {one:.2f} ex/s, 2 workers {two:.2f} ex/s",
         ))  # fmt: skip
-        cold = _rate(clear, folder / "cold", examples, 1, fast=False)
+        cold = _rate(clear, folder / "cold", span, 1, fast=False)
         rows.append(Row(
-            name=f"explore scripted: fast path vs cold (--cold), 1 worker, {examples} examples",
+            name=f"explore scripted: fast path vs cold (--cold), 1 worker, {span:g} s",
             ours=one, limit=cold, unit="ex/s", target="ratio >= 1",
             passed=one >= cold, note=f"cold {cold:.2f} ex/s",
         ))  # fmt: skip
-        n = 6 if quick else 12
-        client = _rate(DATA / "reach.yaml", folder / "client", n, 1)
+        # reach.yaml's planted bug is found and shrunk too: every example counts
+        client = _rate(DATA / "reach.yaml", folder / "client", span, 1, failing=True)
         rows.append(Row(
-            name=f"explore with a client program per example: {n} examples, 1 worker",
+            name=f"explore with a client program per example: {span:g} s, 1 worker",
             ours=client, limit=5.0, unit="ex/s", target=">= 5 ex/s",
             passed=client >= 5.0,
         ))  # fmt: skip
-        d1, d2 = _dask_rates(folder, examples)
+        d1, d2 = _dask_rates(folder, span)
         rows.append(Row(
-            name=f"explore --backend dask: {examples} examples, 2 vs 1 local Dask worker",
+            name=f"explore --backend dask: {span:g} s, 2 vs 1 local Dask worker",
             ours=d2, limit=d1, unit="ex/s", target="ratio >= 1.5",
             passed=d2 >= 1.5 * d1, note=f"1 worker {d1:.2f} ex/s, 2 workers {d2:.2f} ex/s",
         ))  # fmt: skip
@@ -124,7 +129,7 @@ def run(quick: bool) -> list[Row]:
         start = time.perf_counter()
         result = search(
             load_plan(planted),
-            SearchOptions(work=folder / "planted", examples=2000, seconds=60.0, workers=2,
+            SearchOptions(work=folder / "planted", examples=100_000, seconds=budget, workers=2,
                           seed=5),
         )  # fmt: skip
         found = time.perf_counter() - start

@@ -72,6 +72,14 @@ def run(args: argparse.Namespace) -> int:
     if args.keep_passing < 0:
         raise ConfigError(f"--keep-passing: {args.keep_passing} must be >= 0")
     plan = load_plan(args.file)
+    clock = plan.document.get("clock")
+    if not isinstance(clock, dict) or clock.get("mode", "realtime") == "realtime":
+        print(
+            f"harness explore: note: {plan.source.name} runs a realtime clock (no clock section "
+            "or mode realtime): every example takes its duration in wall time; "
+            "clock: {mode: lockstep} makes examples as fast as the machine",
+            file=sys.stderr,
+        )
     out: Path = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     for stale in ("minimal.yaml", "minimal.mcap", "test_minimal.py"):

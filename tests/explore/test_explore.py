@@ -178,3 +178,43 @@ def test_bad_file_exits_2_with_one_line(tmp_path: Path, edit: dict, message: str
     assert lines[0].startswith("harness explore: error: ")
     assert "bad.yaml" in lines[0]
     assert message in lines[0]
+
+
+@pytest.mark.slow
+def test_dask_backend_runs_one_engine_per_worker(tmp_path: Path) -> None:
+    """Two engines as tasks on two local ``dask worker`` processes (127.0.0.1): each runs its
+    share with its own seed; nothing in range fails, so both run to their budget."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=0,
+        processes=False,
+        protocol="tcp://",
+        host="127.0.0.1",
+        dashboard_address="127.0.0.1:0",
+    ) as cluster:
+        address = cluster.scheduler_address
+        command = [sys.executable, "-m", "distributed.cli.dask_worker", address, "--host",
+                   "127.0.0.1", "--nthreads", "1", "--no-nanny", "--no-dashboard"]  # fmt: skip
+        env = {**os.environ, "PYTHONPATH": str(ROOT)}
+        workers = [
+            subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            for _ in range(2)
+        ]
+        try:
+            with distributed.Client(address) as client:
+                client.wait_for_workers(2, timeout=120)
+            out = tmp_path / "out"
+            code = cli.main(
+                ["explore", str(DATA / "clear.yaml"), "--examples", "4", "--workers", "2",
+                 "--backend", "dask", "--scheduler", address, "--out", str(out)]
+            )  # fmt: skip
+        finally:
+            for worker in workers:
+                worker.terminate()
+                worker.wait(timeout=30)
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert [(e["worker"], e["seed"], e["examples"]) for e in summary["engines"]] == [
+        (0, 0, 2),
+        (1, 1, 2),
+    ]
