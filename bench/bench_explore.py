@@ -35,8 +35,15 @@ from harness.explore import SearchOptions, load_plan, search
 DATA = Path(__file__).resolve().parents[1] / "tests" / "explore" / "data"
 
 
-def _rate(source: Path, folder: Path, seconds: float, workers: int, fast: bool = True,
-          scheduler: str | None = None, failing: bool = False) -> float:
+def _rate(
+    source: Path,
+    folder: Path,
+    seconds: float,
+    workers: int,
+    fast: bool = True,
+    scheduler: str | None = None,
+    failing: bool = False,
+) -> float:
     """Examples per second over ``seconds`` of search (--time: generation stops then)."""
     options = SearchOptions(work=folder, examples=100_000, seconds=seconds, workers=workers,
                             fast=fast, seed=11, scheduler=scheduler)  # fmt: skip
