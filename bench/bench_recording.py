@@ -211,7 +211,7 @@ class _SimLoop:
     def __init__(self, path: Path) -> None:
         from harness.models import load_robot
         from harness.recording.templates import JointStateCdr
-        from harness.session.tf import RobotFrames, TfTree
+        from harness.session.core.tf import RobotFrames, TfTree
 
         self.robot = load_robot(path, control="position")
         model = self.robot.model
@@ -258,7 +258,7 @@ class _SimLoop:
                 )  # fmt: skip
                 recorder.write_message(
                     "/tf", "tf2_msgs/msg/TFMessage",
-                    tree.moving_cdr(partial(tree.moving_poses, qpos, sim.body_poses), t),
+                    tree.moving_record(partial(tree.moving_poses, qpos, sim.body_poses), t),
                     sim_time_ns=t,
                 )  # fmt: skip
                 recorder.write_message(

@@ -32,7 +32,7 @@ def run(quick: bool) -> list[Row]:
     sys.path.insert(0, str(ROOT))
     from harness.errors import HarnessError
     from harness.models import load_robot
-    from harness.models.check import check_model
+    from harness.models.check.report import check_model
 
     warnings.simplefilter("ignore")  # the loader's notes and MuJoCo's attach notice
     urdfs = sorted(robots_dir().rglob("*.urdf"))

@@ -38,7 +38,7 @@ def _wall(args: list[str]) -> float:
 
 def run(quick: bool) -> list[Row]:
     sys.path.insert(0, str(ROOT))
-    from harness.models.xacro import expand_xacro
+    from harness.models.xacro.expand import expand_xacro
 
     runs = 5 if quick else 15
     with tempfile.TemporaryDirectory(prefix="bench_xacro_") as folder:

@@ -38,7 +38,7 @@ class Command(NamedTuple):
 COMMANDS: dict[str, Command] = {
     "demo": Command("harness.demo", "run the embedded demo end to end"),
     "inspect-model": Command("harness.models._cli", "links, joints and frames of a robot model"),
-    "check-model": Command("harness.models._check_cli", "does a robot load, hold, step, stand"),
+    "check-model": Command("harness.models.check._cli", "does a robot load, hold, step, stand"),
     "run": Command("harness.scenario._cli", "run a scenario or runner file's iterations"),
     "explore": Command(
         "harness.explore._cli", "search a scenario's parameters for a failure and shrink it"
@@ -47,7 +47,7 @@ COMMANDS: dict[str, Command] = {
     "repair": Command(
         "harness.recording._cli_repair", "rewrite a damaged recording's intact parts"
     ),
-    "serve": Command("harness.session._cli", "serve a simulated robot on a rosbridge server"),
+    "serve": Command("harness.session.live._cli", "serve a simulated robot on a rosbridge server"),
     "replay": Command("harness.replay._cli_replay", "verify a recording replays bit for bit"),
     "play": Command("harness.replay._cli_play", "serve a recording's frames to rosbridge clients"),
     "diff": Command("harness.replay._cli_diff", "compare two recordings with tolerances"),

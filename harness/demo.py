@@ -328,7 +328,7 @@ def _showcase(scenario_path: Path, out: Path) -> _Showcase:
         glance = load_run_file(MOBILE_SCENARIO).simulations
         config = dataclasses.replace(config, simulations=(*config.simulations, *glance))
     robot = scenario.robots[0]
-    recorded_modes = {c.mode for c in robot.controllers} or {ControlMode.POSITION}
+    recorded_modes = {c.mode for c in robot.modes} or {ControlMode.POSITION}
     other = Actuation.SERVO if recorded_modes == {"kinematic"} else Actuation.KINEMATIC
     print(
         f"harness demo: {scenario.name}: {scenario.description}\n"

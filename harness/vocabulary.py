@@ -109,7 +109,7 @@ class _Vocabulary(str, Enum):
 
 class SelfCollisionPolicy(_Vocabulary):
     """Which pairs of a robot's own links collide (option ``self_collision``, see
-    ``harness.models.selfcollision``): ``auto`` (MoveIt-style: adjacent pairs, pairs in
+    ``harness.models.build.selfcollision``): ``auto`` (MoveIt-style: adjacent pairs, pairs in
     contact at the initial configuration and pairs nearly always in contact are ignored),
     ``off`` (none: Gazebo's default), ``on`` (every pair but parent/child) or ``srdf`` (the
     SRDF's ``<disable_collisions>``)."""
@@ -151,7 +151,7 @@ class RobotBase(_Vocabulary):
 
 class MeshCollisionMode(_Vocabulary):
     """How a colliding non-convex mesh collides (option ``mesh_collision``, see
-    ``harness.models.decompose``): ``decompose`` (convex pieces within 2 cm of its
+    ``harness.models.build.decompose``): ``decompose`` (convex pieces within 2 cm of its
     triangles, as Gazebo collides the triangles) or ``hull`` (MuJoCo's convex hull of the
     whole mesh)."""
 

@@ -107,11 +107,11 @@ def test_scenario_clock_and_limit_policy_become_members():
         "<scenario>: clock.mode: \"wallclock\" is not one of 'lockstep', 'fast', 'realtime'"
     )
     for key in ("kinematic_limits", "beyond_limits"):  # the earlier spelling is still read
-        robot = {"robot": "demo", "controllers": [{"mode": "dynamic", key: "allow"}]}
-        controller = Scenario.from_mapping({"robots": [robot]}).robots[0].controllers[0]
+        robot = {"robot": "demo", "modes": [{"mode": "dynamic", key: "allow"}]}
+        controller = Scenario.from_mapping({"robots": [robot]}).robots[0].modes[0]
         assert controller.kinematic_limits is LimitPolicy.ALLOW
         assert controller.mode == "position"
-    bad = {"robot": "demo", "controllers": [{"mode": "kinematic", "kinematic_limits": "free"}]}
+    bad = {"robot": "demo", "modes": [{"mode": "kinematic", "kinematic_limits": "free"}]}
     with pytest.raises(ScenarioError, match=r"kinematic_limits: \"free\" is not one of 'clamp'"):
         Scenario.from_mapping({"robots": [bad]})
 

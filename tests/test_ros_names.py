@@ -8,8 +8,8 @@ import json
 import pytest
 
 from harness.models.errors import ResolveError
-from harness.models.resolve import resolve_uri
-from harness.models.world import InvalidNamespaceError, check_namespace
+from harness.models.files.resolve import resolve_uri
+from harness.models.world.records import InvalidNamespaceError, check_namespace
 from harness.names import InvalidNameError, check_name, name_problem, package_problem
 from harness.rosbridge import Bridge, TypeRegistry
 from harness.session import SessionConfigError

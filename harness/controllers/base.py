@@ -2,8 +2,8 @@
 
 A controller never touches a socket, a clock or the simulation: the session hands it the joints'
 :class:`JointReadings` and the simulation time at a step boundary (a message, a goal, a cancel,
-an update) and applies the :class:`Output` it returns: joint commands, messages to publish,
-action feedback and results, log lines. A controller that reads a sensor (a broadcaster) is
+an update) and applies the :class:`ControllerOutput` it returns: joint commands, messages to
+publish, action feedback and results, log lines. A controller that reads a sensor (a broadcaster) is
 given the robot's :class:`SensorInterfaces` when it is built.
 """
 
@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal, Protocol
+from types import MappingProxyType
+from typing import Any, Literal, NamedTuple, Protocol
 
 __all__ = [
     "GOAL_ABORTED",
@@ -22,10 +23,10 @@ __all__ = [
     "Command",
     "Controller",
     "ControllerBase",
+    "ControllerOutput",
     "Feedback",
     "JointReadings",
     "LogLine",
-    "Output",
     "Publication",
     "Result",
     "SensorInterfaces",
@@ -38,21 +39,28 @@ GOAL_ABORTED = 6
 
 LifecycleState = Literal["unconfigured", "inactive", "active", "finalized"]
 
+_NOTHING: Mapping[str, float] = MappingProxyType({})
 
-@dataclass(frozen=True)
-class JointReadings:
-    """The state interfaces of a robot's joints at one instant (``sim_time_ns``)."""
+
+class JointReadings(NamedTuple):
+    """The state interfaces of a robot's joints at one instant (``sim_time_ns``), and the
+    value each joint's command interface holds (``command``: what was last commanded, in the
+    unit of its mode's field; empty where a caller gives none). A tuple: the session makes
+    one at every step for a controller updated every step."""
 
     sim_time_ns: int
     position: Mapping[str, float]
     velocity: Mapping[str, float]
     effort: Mapping[str, float]
+    command: Mapping[str, float] = _NOTHING
 
 
-@dataclass(frozen=True)
-class Command:
-    """A command for one joint: the session uses the field its control mode takes
-    (``position`` for position and kinematic joints, ``velocity``, ``effort``)."""
+class Command(NamedTuple):
+    """A command for one joint, the one form every command takes on its way to the
+    simulation (whatever topic, action or controller it came from). With one field given
+    (the common case) that field is written; with several, the one the joint's control
+    mode takes (``position`` for position and kinematic joints, ``velocity``, ``effort``).
+    A tuple, so that a controller may emit one per joint per message cheaply."""
 
     joint: str
     position: float | None = None
@@ -108,7 +116,7 @@ class LogLine:
 
 
 @dataclass
-class Output:
+class ControllerOutput:
     """What one call of a controller produced, in order of effect."""
 
     commands: list[Command] = field(default_factory=list)
@@ -117,8 +125,11 @@ class Output:
     results: list[Result] = field(default_factory=list)
     logs: list[LogLine] = field(default_factory=list)
     base: BaseVelocity | None = None
+    where: str = ""
+    """What its log lines and the notices of its commands are prefixed with (default: the
+    topic of the message it answers, else the controller's name)."""
 
-    def extend(self, other: Output) -> None:
+    def extend(self, other: ControllerOutput) -> None:
         """Append ``other``'s items."""
         self.commands += other.commands
         self.publications += other.publications
@@ -131,10 +142,12 @@ class Output:
 
 @dataclass(frozen=True)
 class TopicEndpoint:
-    """A topic a controller subscribes (``~/name`` relative to the controller)."""
+    """A topic a controller subscribes (``~/name`` relative to the controller); ``node``:
+    the node it belongs to on the graph (default: the controller's)."""
 
     name: str
     type: str
+    node: str = ""
 
 
 @dataclass(frozen=True)
@@ -173,21 +186,21 @@ class Controller(Protocol):
     @property
     def actions(self) -> Sequence[ActionEndpoint]: ...
 
-    def activate(self, state: JointReadings) -> Output: ...
+    def activate(self, state: JointReadings) -> ControllerOutput: ...
 
-    def deactivate(self, state: JointReadings) -> Output: ...
+    def deactivate(self, state: JointReadings) -> ControllerOutput: ...
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output: ...
+    ) -> ControllerOutput: ...
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output: ...
+    ) -> ControllerOutput: ...
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output: ...
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput: ...
 
-    def update(self, state: JointReadings, period_ns: int) -> Output: ...
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput: ...
 
 
 class SensorInterfaces(Protocol):
@@ -216,38 +229,56 @@ class ControllerBase:
     actions: Sequence[ActionEndpoint] = ()
     command_interfaces: tuple[str, ...] = ()
     state_interfaces: tuple[str, ...] = ()
+    reference_interfaces: tuple[str, ...] = ()
+    """``<name>/<joint>/<interface>`` it offers other controllers (a multiplexer's)."""
+    multiplexes = False
+    """Whether it is a multiplexer: the one controller of a set that claims the joints'
+    command interfaces, which the set's other controllers command through (its
+    :attr:`reference_interfaces`, shared: exempt from the one-claim rule). It is told of
+    every command written through it (:meth:`taken`)."""
+    every_step = False
+    """Whether the session updates it at every simulation step (a harness-owned controller
+    interpolating a command), instead of at its update rate; its :meth:`update` is then
+    given the time only (reading a joint raises)."""
+    notice_key = 0
+    """Notices of its cyclic commands (a value clamped, ...) are said once per joint and
+    kind for each value of this key (a controller changes it when a new command starts)."""
 
     def __init__(self, name: str, type: str) -> None:
         self.name = name
         self.type = type
         self.active = False
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Become active."""
         self.active = True
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Become inactive."""
         self.active = False
-        return Output()
+        return ControllerOutput()
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """No topics: nothing."""
-        return Output()
+        return ControllerOutput()
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """No actions: nothing."""
-        return Output()
+        return ControllerOutput()
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput:
         """No actions: nothing."""
-        return Output()
+        return ControllerOutput()
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Nothing to do per cycle."""
-        return Output()
+        return ControllerOutput()
+
+    def taken(self, commands: Sequence[Command], by: str) -> None:
+        """A multiplexer's hook: controller ``by`` (another, or this one answering a
+        message; "" for Python) wrote ``commands``. Nothing by default."""

@@ -1,8 +1,9 @@
 """``joint_state_broadcaster/JointStateBroadcaster`` and controllers of types the harness does not
 implement.
 
-The session itself publishes ``/joint_states`` (every joint's position, velocity, effort at
-``joint_states_hz``): the broadcaster is the controller the manager lists for it. A controller
+The session itself publishes ``/joint_states`` (every joint's position, velocity, effort): at
+``joint_states_hz`` with the harness's default set, at the broadcaster's update rate while it
+is active with a YAML's (:class:`JointStateBroadcaster`). A controller
 of any other unknown type is loaded and listed (``unconfigured``) but cannot be configured or
 activated: a robot's YAML with, say, a vendor's IO controller still configures the session.
 """
@@ -19,7 +20,12 @@ __all__ = ["JointStateBroadcaster", "Unsupported"]
 
 
 class JointStateBroadcaster(ControllerBase):
-    """Lists the session's ``/joint_states`` publisher as a controller."""
+    """Lists the session's ``/joint_states`` publisher as a controller. In a set a YAML or
+    robot file names, ``/joint_states`` is published while it is active, at its update rate
+    (its own ``update_rate``, at most the manager's, else the manager's)."""
+
+    publishes_joint_states = True
+    """The session publishes the robot's ``/joint_states`` on its schedule."""
 
     def __init__(self, spec: ControllerSpec, joints: Sequence[str]) -> None:
         super().__init__(spec.name, spec.type)

@@ -1,5 +1,7 @@
 """The command topics: what they do to the simulation (sans-I/O: messages in, simulation
-commands out) and one robot's topics bound together (:class:`RobotCommands`).
+commands out) and the harness's multiplexer (:class:`RobotCommands`, controller
+``command_mux``), which serves the harness's own topics as a controller of the robot's
+controller manager like any other.
 
 Three command styles, all taking effect at the next step boundary:
 
@@ -17,8 +19,13 @@ refused as a whole (:class:`~harness.controllers.errors.CommandRefused`; nothing
 beyond a joint's limits are clamped by the simulation (dynamic modes always, kinematic mode when
 ``kinematic_limits="clamp"``) and reported as :class:`~harness.sim.Notice`\\ s.
 
-Each function acts on a :class:`CommandTarget`: a :class:`~harness.sim.Simulation` (every joint,
+The functions act on a :class:`CommandTarget`: a :class:`~harness.sim.Simulation` (every joint,
 MuJoCo names) or one robot's :class:`~harness.sim.RobotJoints` (its own, unprefixed, names).
+In a session every command topic is a controller (the forward topics are
+:mod:`~harness.controllers.forward_command` controllers of the default set, ``joint_command``
+and ``joint_trajectory`` the multiplexer's), and every command reaches the simulation in one
+form, :class:`~harness.controllers.base.Command`, through one path
+(:class:`harness.session.ControlHost`).
 """
 
 from __future__ import annotations
@@ -32,17 +39,28 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from harness.controllers.base import (
+    Command,
+    ControllerBase,
+    ControllerOutput,
+    JointReadings,
+    LogLine,
+    TopicEndpoint,
+)
 from harness.controllers.errors import CommandRefused
 from harness.controllers.listed import ListedJoints
 from harness.models.description import ControlMode
-from harness.sim import CommandError, CommandField, Notice, RobotJoints
+from harness.sim import CommandError, CommandField, Notice
 
 __all__ = [
     "FORWARD_TOPICS",
+    "MUX_NAME",
+    "TYPE_COMMAND_MUX",
     "CommandTarget",
     "Reporter",
     "RobotCommands",
     "Trajectory",
+    "TrajectoryBase",
     "apply_forward",
     "apply_joint_state",
     "parse_trajectory",
@@ -193,7 +211,21 @@ class Trajectory:
         )
 
 
-def parse_trajectory(sim: CommandTarget, msg: Mapping[str, Any], now_ns: int) -> Trajectory:
+class TrajectoryBase(Protocol):
+    """What :func:`parse_trajectory` reads of the joints (a :class:`CommandTarget` has it)."""
+
+    @property
+    def joint_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def control(self) -> Mapping[str, ControlMode]: ...
+
+    def joint_positions(self) -> F64: ...
+
+    def joint_commands(self) -> F64: ...
+
+
+def parse_trajectory(sim: TrajectoryBase, msg: Mapping[str, Any], now_ns: int) -> Trajectory:
     """Validate a ``trajectory_msgs/msg/JointTrajectory`` (canonical rosbridge dict) received at
     simulation time ``now_ns``. It starts at ``header.stamp`` when that is non-zero, else at
     ``now_ns``."""
@@ -261,8 +293,9 @@ def parse_trajectory(sim: CommandTarget, msg: Mapping[str, Any], now_ns: int) ->
 
 
 class Reporter(Protocol):
-    """Where a robot's command topics report (the session: a ``status`` to the sending client
-    when ``connection`` is not 0, and a log event)."""
+    """Where command refusals and notices were reported before the command topics became a
+    controller (kept for callers that still pass one; :class:`RobotCommands` reports through
+    its :class:`~harness.controllers.base.ControllerOutput`)."""
 
     def refuse(self, topic: str, connection: int, reason: str) -> None:
         """A command on ``topic`` was refused as a whole (``reason``)."""
@@ -273,104 +306,240 @@ class Reporter(Protocol):
         ...
 
 
-MessageHandler = Callable[[Mapping[str, Any], int], None]
+TYPE_COMMAND_MUX = "harness/CommandMux"
+"""The plugin type the harness's multiplexer lists as (harness-owned: no YAML names it)."""
+MUX_NAME = "command_mux"
+"""The multiplexer's controller name."""
+_HARNESS_NODE = "/harness"  # rosbridge's HARNESS_NODE: the built-in topics' node as before
+_TYPE_JOINT_STATE = "sensor_msgs/msg/JointState"
+_TYPE_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
+_FIELD_OF_MODE: Mapping[str, CommandField] = {
+    "kinematic": "position",
+    "position": "position",
+    "velocity": "velocity",
+    "effort": "effort",
+}
+_FIELDS: tuple[CommandField, ...] = ("position", "velocity", "effort")
+_IDLE = ControllerOutput()
+"""The multiplexer's update without a trajectory (every step: one shared, never changed)."""
 
 
-class RobotCommands:
-    """One robot's command topics: ``joint_command`` (``sensor_msgs/msg/JointState``, joints
-    listed but not controllable dropped by ``listed``), the forward commands and
-    ``joint_trajectory`` (the trajectory in progress, driven by :meth:`setpoint` before each
-    step). ``positions`` returns the positions of the joints ``listed`` knows (in its order);
-    every refusal and notice goes to ``report``."""
+class _Joints(Protocol):
+    @property
+    def joint_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def control(self) -> Mapping[str, ControlMode]: ...
+
+
+class _AtInstant:
+    """A :class:`CommandTarget` that only reads: the joints' positions and commands of one
+    :class:`~harness.controllers.base.JointReadings` (what :func:`parse_trajectory` reads)."""
+
+    def __init__(self, joints: _Joints, state: JointReadings) -> None:
+        self.joint_names = tuple(joints.joint_names)
+        self.control = joints.control
+        self._state = state
+
+    def joint_positions(self) -> F64:
+        position = self._state.position
+        return np.array([position[n] for n in self.joint_names], dtype=np.float64)
+
+    def joint_commands(self) -> F64:
+        command = self._state.command
+        return np.array([command[n] for n in self.joint_names], dtype=np.float64)
+
+
+class RobotCommands(ControllerBase):
+    """The harness's multiplexer of one robot (controller :data:`MUX_NAME`, type
+    :data:`TYPE_COMMAND_MUX`), in the default set and with ``controllers=False``: it claims
+    every controllable joint's command interface and offers them to the set's other
+    controllers as shared reference interfaces (``command_mux/<joint>/<interface>``: the
+    forward commands, the trajectory and gripper controllers all command through it, the
+    last command of a joint wins), so it is the one controller exempt from ros2_control's
+    one-claim rule. It serves the harness's own command topics:
+
+    - ``joint_command`` (``sensor_msgs/msg/JointState``): joints listed on
+      ``joint_states`` but not controllable dropped by ``listed`` (``positions``: the
+      current positions of the joints ``listed`` knows, in its order), then per joint the
+      field its mode takes (the others given for it are reported as ignored);
+    - ``joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``, :class:`Trajectory`):
+      its setpoint is commanded at every step (:meth:`update`) until its end or until
+      another command takes its joints (:meth:`taken`).
+
+    Its commands and reports are its :class:`~harness.controllers.base.ControllerOutput`, like any
+    controller's (``report`` is accepted for older callers and unused)."""
+
+    multiplexes = True
+    every_step = True
 
     def __init__(
         self,
-        joints: RobotJoints,
+        joints: _Joints,
         listed: ListedJoints,
         positions: Callable[[], F64],
-        report: Reporter,
+        report: Reporter | None = None,
         *,
         joint_command: str,
         joint_trajectory: str,
     ) -> None:
+        super().__init__(MUX_NAME, TYPE_COMMAND_MUX)
         self.joints = joints
         self.listed = listed
         self._positions = positions
-        self._report = report
         self.joint_command_topic = joint_command
         self.joint_trajectory_topic = joint_trajectory
+        names = tuple(joints.joint_names)
+        control = joints.control
+        self.command_interfaces = tuple(f"{j}/{_FIELD_OF_MODE[control[j]]}" for j in names)
+        self.reference_interfaces = tuple(f"{MUX_NAME}/{j}/{f}" for j in names for f in _FIELDS)
+        self.subscriptions = (
+            TopicEndpoint(joint_command, _TYPE_JOINT_STATE, _HARNESS_NODE),
+            TopicEndpoint(joint_trajectory, _TYPE_TRAJECTORY, _HARNESS_NODE),
+        )
+        self._known = frozenset(names)
         self.trajectory: Trajectory | None = None
         self.trajectory_topic = ""
-        self.trajectory_warned: set[str] = set()
+
+    # ----------------------------------------------------------------------------- lifecycle
+
+    def activate(self, state: JointReadings) -> ControllerOutput:
+        """Become active (no trajectory in progress)."""
+        self.active = True
+        self.trajectory = None
+        return ControllerOutput()
+
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
+        """Become inactive: the trajectory in progress ends where it is."""
+        self.active = False
+        self.trajectory = None
+        return ControllerOutput()
+
+    # ----------------------------------------------------------------------------- inputs
+
+    def on_message(
+        self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
+    ) -> ControllerOutput:
+        """A ``joint_command`` or ``joint_trajectory`` message from ``connection``."""
+        out = ControllerOutput()
+        if not self.active:
+            out.logs.append(LogLine(40, "inactive, command ignored", connection))
+            return out
+        if topic == self.joint_trajectory_topic:
+            self._on_trajectory(topic, msg, connection, state, out)
+            return out
+        stripped, notices = self.listed.strip(msg, self._positions())
+        try:
+            commands = self.joint_state_commands(stripped)
+        except CommandRefused as exc:
+            out.logs.append(LogLine(40, f"command refused: {exc}", connection))
+            return out
+        out.logs += [LogLine(30, n.message, connection) for n in notices]
+        out.commands = commands
+        # checked as the simulation checks it, so it is written: every joint it names is
+        # taken from the trajectory (also one named without a value, as before)
+        self.drop_from_trajectory(msg["name"])
+        return out
+
+    def joint_state_commands(self, msg: Mapping[str, Any]) -> list[Command]:
+        """The commands of a ``sensor_msgs/msg/JointState`` (checked as the simulation checks
+        it: the same refusals, in the same order): per joint the field its mode takes, else
+        every field given for it (the simulation reports those as ignored)."""
+        names: Sequence[str] = msg["name"]
+        _check_names(names, "joint state command")
+        given: dict[CommandField, Sequence[float]] = {}
+        for field in ("effort", "velocity", "position"):
+            values: Sequence[float] = msg[field]
+            if len(values) > len(names):
+                raise CommandRefused(
+                    f"joint state command has {len(values)} {field} values for {len(names)} names"
+                )
+            given[field] = values
+        known = self._known
+        for field, values in given.items():
+            for i, raw in enumerate(values):
+                joint = names[i]
+                if joint not in known:
+                    listing = ", ".join(self.joints.joint_names) or "none"
+                    raise CommandRefused(
+                        f"unknown joint {joint!r} (controllable joints: {listing})"
+                    )
+                try:
+                    value = float(raw)
+                except (TypeError, ValueError):
+                    raise CommandRefused(
+                        f"joint {joint!r}: {field} {raw!r} is not a number"
+                    ) from None
+                if not math.isfinite(value):
+                    raise CommandRefused(f"joint {joint!r}: {field} {value!r} is not finite")
+        position, velocity, effort = given["position"], given["velocity"], given["effort"]
+        control = self.joints.control
+        commands: list[Command] = []
+        for i, joint in enumerate(names):
+            mode = control.get(joint)
+            if mode is None:
+                continue  # named without a value: nothing to check or write
+            wanted = _FIELD_OF_MODE[mode]
+            p = float(position[i]) if i < len(position) else None
+            v = float(velocity[i]) if i < len(velocity) else None
+            e = float(effort[i]) if i < len(effort) else None
+            if wanted == "position" and p is not None:
+                commands.append(Command(joint, p))
+            elif wanted == "velocity" and v is not None:
+                commands.append(Command(joint, None, v))
+            elif wanted == "effort" and e is not None:
+                commands.append(Command(joint, None, None, e))
+            else:  # nothing for its mode: each field given, reported as ignored
+                if e is not None:
+                    commands.append(Command(joint, None, None, e))
+                if v is not None:
+                    commands.append(Command(joint, None, v))
+                if p is not None:
+                    commands.append(Command(joint, p))
+        return commands
+
+    def _on_trajectory(
+        self,
+        topic: str,
+        msg: Mapping[str, Any],
+        connection: int,
+        state: JointReadings,
+        out: ControllerOutput,
+    ) -> None:
+        try:
+            trajectory = parse_trajectory(_AtInstant(self.joints, state), msg, state.sim_time_ns)
+        except CommandRefused as exc:
+            out.logs.append(LogLine(40, f"command refused: {exc}", connection))
+            return
+        self.trajectory = trajectory
+        self.trajectory_topic = topic
+        self.notice_key += 1  # a new trajectory: its notices are said again
+
+    def taken(self, commands: Sequence[Command], by: str) -> None:
+        """``commands`` were written (by a message or another controller): the trajectory in
+        progress lets go of their joints."""
+        if self.trajectory is not None:
+            self.trajectory = self.trajectory.without({c[0] for c in commands})
 
     def drop_from_trajectory(self, joints: Iterable[str]) -> None:
         """Stop the trajectory driving ``joints`` (the robot's own names)."""
         if self.trajectory is not None:
             self.trajectory = self.trajectory.without(set(joints))
 
-    def _command(
-        self,
-        topic: str,
-        connection: int,
-        apply: Callable[[], list[Notice]],
-        joints: Iterable[str],
-    ) -> None:
-        try:
-            notices = apply()
-        except CommandRefused as exc:
-            self._report.refuse(topic, connection, str(exc))
-            return
-        self.drop_from_trajectory(joints)
-        self._report.notices(topic, connection, notices)
+    # ----------------------------------------------------------------------------- cycle
 
-    def on_joint_command(self, msg: Mapping[str, Any], connection: int) -> None:
-        """A ``joint_command`` message from ``connection``."""
-
-        def apply() -> list[Notice]:
-            stripped, notices = self.listed.strip(msg, self._positions())
-            return notices + apply_joint_state(self.joints, stripped)
-
-        self._command(self.joint_command_topic, connection, apply, msg["name"])
-
-    def forward_handler(self, command_field: CommandField, topic: str) -> MessageHandler:
-        """The handler of the forward command ``topic`` of ``command_field``."""
-
-        def handle(msg: Mapping[str, Any], connection: int) -> None:
-            self._command(
-                topic,
-                connection,
-                lambda: apply_forward(self.joints, command_field, msg),
-                self.joints.joint_names,
-            )
-
-        return handle
-
-    def on_trajectory(self, msg: Mapping[str, Any], connection: int, now_ns: int) -> None:
-        """A ``joint_trajectory`` message from ``connection`` at sim time ``now_ns``."""
-        topic = self.joint_trajectory_topic
-        try:
-            trajectory = parse_trajectory(self.joints, msg, now_ns)
-        except CommandRefused as exc:
-            self._report.refuse(topic, connection, str(exc))
-            return
-        self.trajectory = trajectory
-        self.trajectory_topic = topic
-        self.trajectory_warned = set()
-
-    def setpoint(self, t_next_ns: int) -> None:
-        """Command the trajectory in progress (if any) for the step ending at ``t_next_ns``;
-        a notice is reported once per joint and trajectory."""
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
+        """The trajectory's setpoint for the step ending at ``sim_time_ns + period_ns`` (it
+        is updated every step); its notices are said once per joint and trajectory."""
         trajectory = self.trajectory
         if trajectory is None:
-            return
-        positions, velocities = trajectory.commands(t_next_ns)
-        joints = self.joints
-        notices = joints.set_positions(positions) if positions else []
-        if velocities:
-            notices += joints.set_velocities(velocities)
-        fresh = [n for n in notices if n.joint not in self.trajectory_warned]
-        if fresh:
-            self.trajectory_warned.update(n.joint for n in fresh)
-            self._report.notices(self.trajectory_topic, 0, fresh)
-        if t_next_ns >= trajectory.end_ns:
+            return _IDLE
+        out = ControllerOutput()
+        t_next = state.sim_time_ns + period_ns
+        positions, velocities = trajectory.commands(t_next)
+        out.commands = [Command(j, p) for j, p in positions.items()]
+        out.commands += [Command(j, None, v) for j, v in velocities.items()]
+        out.where = self.trajectory_topic
+        if t_next >= trajectory.end_ns:
             self.trajectory = None
+        return out

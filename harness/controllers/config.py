@@ -46,12 +46,15 @@ __all__ = [
     "ControllerSpec",
     "ControllersConfig",
     "ControllersSource",
+    "builtin_controllers",
     "default_controllers",
     "load_controllers",
 ]
 
 DEFAULT_UPDATE_RATE = 100.0
 """controller_manager's ``update_rate`` default (Hz)."""
+_MANAGER_GROUPS = frozenset({"hardware_components_initial_state"})
+"""controller_manager parameters that are mappings, not controllers."""
 TYPE_JOINT_STATE_BROADCASTER = "joint_state_broadcaster/JointStateBroadcaster"
 TYPE_JOINT_TRAJECTORY = "joint_trajectory_controller/JointTrajectoryController"
 TYPE_FORWARD = "forward_command_controller/ForwardCommandController"
@@ -87,9 +90,11 @@ class ControllersConfig:
     controllers: tuple[ControllerSpec, ...] = ()
     source: str = "controllers"
     exclusive: bool = True
-    """Whether two active controllers may not claim one command interface (as in
-    ros2_control); the default set turns it off to keep every command path of earlier
-    versions active at once."""
+    """Whether it is a set a YAML or a robot file names (its controllers obey ros2_control's
+    one-claim rule, and it replaces the harness's command topics); False for a set the
+    harness makes (:func:`default_controllers`, :func:`builtin_controllers`), whose
+    controllers share the joints through the robot's multiplexer (``command_mux``, added by
+    the session) and which keeps the harness's ``joint_command`` and ``joint_trajectory``."""
 
     def to_json(self) -> str:
         """A canonical JSON text (the recording's metadata holds it)."""
@@ -136,6 +141,22 @@ def _node_name(key: object) -> str:
     return str(key).rstrip("/").rsplit("/", 1)[-1]
 
 
+def _one_manager(where: str, key: str, name: str, spaces: dict[str, str]) -> None:
+    """Refuse a node configured under two explicit namespaces (``/rrbot_1/forward_position_
+    controller`` and ``/rrbot_2/...``): that is several controller managers, one per namespace,
+    and the harness gives one configuration to every robot of a session."""
+    space = key.rstrip("/").rpartition("/")[0]
+    if not space or "*" in space:
+        return
+    other = spaces.setdefault(name, space)
+    if other != space:
+        raise ControllersConfigError(
+            f"{where}: {other}/{name} and {space}/{name}: several controller managers (one "
+            "per namespace) are not supported: the harness gives one controllers configuration "
+            "to every robot of a session"
+        )
+
+
 ControllersSource = str | Path | Mapping[str, Any]
 """One controllers YAML: a file path, YAML text, or the parsed mapping."""
 
@@ -163,6 +184,7 @@ def load_controllers(
     sections: dict[str, dict[str, Any]] = {}
     common: dict[str, Any] = {}
     names: list[str] = []
+    spaces: dict[str, str] = {}
     for one in sources:
         where, data = _read(one, values)
         names.append(where)
@@ -173,6 +195,7 @@ def load_controllers(
                 )
             params = dict(body.get(_PARAMS) or {})
             name = _node_name(key)
+            _one_manager(where, str(key), name, spaces)
             _merge(common if name == "**" else sections.setdefault(name, {}), params)
     where = " + ".join(names)
     manager = sections.get(_MANAGER)
@@ -198,8 +221,8 @@ def load_controllers(
             del manager[key]
     specs: list[ControllerSpec] = []
     for name, entry in manager.items():
-        if not isinstance(entry, Mapping):
-            continue  # a manager parameter (update_rate, ...)
+        if not isinstance(entry, Mapping) or name in _MANAGER_GROUPS:
+            continue  # a manager parameter (update_rate, hardware_components_initial_state...)
         own = {**common, **sections.get(name, {})}
         ctype = entry.get("type", own.get("type"))
         if not isinstance(ctype, str) or "/" not in ctype:
@@ -278,7 +301,9 @@ def default_controllers(
     over the arm joints (controllable joints not driven by effort, fingers excluded);
     ``gripper_controller`` on the first finger joint when the robot has fingers (a joint named
     ``*finger*``, ``*gripper*`` or ``*jaw*``); and ``forward_{position,velocity,effort}_controller``
-    over every controllable joint (the forward command topics the session always had)."""
+    over every controllable joint (the forward command topics the session always had). The
+    session adds the robot's multiplexer (``command_mux``: ``joint_command``,
+    ``joint_trajectory``), through which they all share the joints."""
     fingers = [j for j in joints if _is_finger(j) and control.get(j) != "effort"]
     arm = [j for j in joints if j not in fingers and control.get(j) != "effort"]
     specs = [ControllerSpec("joint_state_broadcaster", TYPE_JOINT_STATE_BROADCASTER)]
@@ -302,12 +327,28 @@ def default_controllers(
                 {"joint": fingers[0]},
             )
         )
-    for interface in ("position", "velocity", "effort"):
-        specs.append(
-            ControllerSpec(
-                f"forward_{interface}_controller",
-                TYPE_FORWARD,
-                {"joints": list(joints), "interface_name": interface},
-            )
-        )
+    specs += _forward_specs(joints)
     return ControllersConfig(update_rate, tuple(specs), "default controllers", exclusive=False)
+
+
+def _forward_specs(joints: Sequence[str]) -> list[ControllerSpec]:
+    return [
+        ControllerSpec(
+            f"forward_{interface}_controller",
+            TYPE_FORWARD,
+            {"joints": list(joints), "interface_name": interface},
+        )
+        for interface in ("position", "velocity", "effort")
+    ]
+
+
+def builtin_controllers(
+    joints: Sequence[str], update_rate: float = DEFAULT_UPDATE_RATE
+) -> ControllersConfig:
+    """The harness's command topics without ros2_control's controllers
+    (``controllers=False``): ``forward_{position,velocity,effort}_controller`` over every
+    controllable joint (with the multiplexer's ``joint_command`` and ``joint_trajectory``,
+    which the session adds)."""
+    return ControllersConfig(
+        update_rate, tuple(_forward_specs(joints)), "harness command topics", exclusive=False
+    )

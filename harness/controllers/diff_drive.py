@@ -13,10 +13,13 @@ command the wheels are commanded to stop. ``linear.x.*`` and ``angular.z.*`` lim
 command every update, as the controller's speed limiter does (jerk limits are not applied).
 
 Output: ``nav_msgs/msg/Odometry`` on ``~/odom`` (``odom_topic`` remaps it) at
-``publish_rate`` Hz, integrated from the wheels' encoder positions (mean per side;
-``position_feedback: false`` or ``open_loop: true`` integrate the commanded velocity
-instead), and, with ``enable_odom_tf`` (default true), ``odom_frame_id`` ->
-``base_frame_id`` on ``/tf``.
+``publish_rate`` Hz, integrated from the wheels' encoder positions (the mean of each side's
+wheels: a skid-steer base lists several per side), from their velocities with
+``position_feedback: false`` (the ``velocity`` state interfaces, times the update period), or
+from the commanded velocity with ``open_loop: true``; and, with ``enable_odom_tf`` (default
+true), ``odom_frame_id`` -> ``base_frame_id`` on ``/tf``. As in ros2_controllers, both sides
+name as many wheels, and ``wheels_per_side`` is read but the name lists decide (the controller
+overwrites it with their length).
 """
 
 from __future__ import annotations
@@ -29,9 +32,9 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     Publication,
 )
 from harness.controllers.config import ControllerSpec
@@ -136,6 +139,12 @@ class DiffDriveController(ControllerBase):
         self.right = p.joints(p.strings("right_wheel_names"), controllable)
         if set(self.left) & set(self.right):
             raise p.error("a joint is both a left and a right wheel")
+        if len(self.left) != len(self.right):
+            raise p.error(
+                f"the number of left wheels [{len(self.left)}] and the number of right wheels "
+                f"[{len(self.right)}] are different"
+            )
+        p.number("wheels_per_side", 0, minimum=0)  # read, then the name lists decide
         self.separation = p.number("wheel_separation", 0.0, minimum=0.0) * p.number(
             "wheel_separation_multiplier", 1.0
         )
@@ -145,13 +154,15 @@ class DiffDriveController(ControllerBase):
         if self.separation <= 0 or self.left_radius <= 0 or self.right_radius <= 0:
             raise p.error("wheel_separation and wheel_radius must be given and positive")
         self.settings = BaseSettings.read(p)
-        self.open_loop = p.flag("open_loop", False) or not p.flag("position_feedback", True)
+        self.open_loop = p.flag("open_loop", False)
+        self.position_feedback = p.flag("position_feedback", True)
+        feedback = "position" if self.position_feedback else "velocity"
         self.linear_limits = SpeedLimits(p, "linear.x")
         self.angular_limits = SpeedLimits(p, "angular.z")
         self.subscriptions = self.settings.subscriptions
         self.publishers = self.settings.publishers
         self.command_interfaces = tuple(f"{j}/velocity" for j in (*self.left, *self.right))
-        self.state_interfaces = tuple(f"{j}/position" for j in (*self.left, *self.right))
+        self.state_interfaces = tuple(f"{j}/{feedback}" for j in (*self.left, *self.right))
         self.odometry = Odometry()
         self.wanted = (0.0, 0.0)
         self.applied = (0.0, 0.0)
@@ -159,23 +170,24 @@ class DiffDriveController(ControllerBase):
         self.last_publish_ns: int | None = None
         self.previous: tuple[float, float] | None = None
 
-    def _sides(self, state: JointReadings) -> tuple[float, float]:
-        left = sum(state.position[j] for j in self.left) / len(self.left)
-        right = sum(state.position[j] for j in self.right) / len(self.right)
+    def _sides(self, state: JointReadings, source: str = "position") -> tuple[float, float]:
+        values = state.position if source == "position" else state.velocity
+        left = sum(values[j] for j in self.left) / len(self.left)
+        right = sum(values[j] for j in self.right) / len(self.right)
         return left, right
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Start: odometry from the current wheel positions, zero velocity."""
         self.active = True
         self.previous = self._sides(state)
         self.wanted = self.applied = (0.0, 0.0)
         self.last_command_ns = None
-        return Output(commands=self._wheel_commands(0.0, 0.0))
+        return ControllerOutput(commands=self._wheel_commands(0.0, 0.0))
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop the wheels."""
         self.active = False
-        return Output(commands=self._wheel_commands(0.0, 0.0))
+        return ControllerOutput(commands=self._wheel_commands(0.0, 0.0))
 
     def _wheel_commands(self, linear: float, angular: float) -> list[Command]:
         half = angular * self.separation / 2
@@ -185,11 +197,25 @@ class DiffDriveController(ControllerBase):
             Command(j, velocity=right) for j in self.right
         ]
 
+    def set_parameter(self, name: str, value: float) -> None:
+        """Change a speed limit while running (``linear.x.`` or ``angular.z.`` +
+        ``max_velocity``, ``min_velocity``, ``max_acceleration``, ``max_deceleration``; NaN:
+        unlimited), from the next update on. Raises ``ValueError`` naming what is wrong."""
+        axis, _, field = name.rpartition(".")
+        limits = {"linear.x": self.linear_limits, "angular.z": self.angular_limits}.get(axis)
+        fields = ("max_velocity", "min_velocity", "max_acceleration", "max_deceleration")
+        if limits is None or field not in fields:
+            raise ValueError(
+                f"{self.name}: {name!r} is not a parameter that can change while running "
+                f"(linear.x.* or angular.z.*: {', '.join(fields)})"
+            )
+        setattr(limits, field, None if math.isnan(value) else float(value))
+
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A velocity command: taken at the next update."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
@@ -204,9 +230,9 @@ class DiffDriveController(ControllerBase):
         self.last_command_ns = state.sim_time_ns
         return out
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Odometry, the timeout, the speed limiter, the wheel commands, the publications."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             return out
         dt = period_ns / _NS
@@ -214,6 +240,12 @@ class DiffDriveController(ControllerBase):
         sides = self._sides(state)
         if self.open_loop or self.previous is None:
             distance, rotation = self.applied[0] * dt, self.applied[1] * dt
+        elif not self.position_feedback:
+            speeds = self._sides(state, "velocity")
+            d_left = speeds[0] * dt * self.left_radius
+            d_right = speeds[1] * dt * self.right_radius
+            distance = (d_left + d_right) / 2
+            rotation = (d_right - d_left) / self.separation
         else:
             d_left = (sides[0] - self.previous[0]) * self.left_radius
             d_right = (sides[1] - self.previous[1]) * self.right_radius
@@ -230,7 +262,7 @@ class DiffDriveController(ControllerBase):
         out.commands += self._wheel_commands(linear, angular)
         period = self.settings.publish_period_ns
         due = period == 0 or self.last_publish_ns is None
-        due = due or now - (self.last_publish_ns or 0) >= period
+        due = due or now // period > (self.last_publish_ns or 0) // period  # each period's first
         if due:
             self.last_publish_ns = now
             out.publications += self._publications(now)

@@ -14,9 +14,9 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     TopicEndpoint,
 )
 from harness.controllers.config import TYPE_FORWARD, ControllerSpec
@@ -33,6 +33,7 @@ FORWARD_TYPES: Mapping[str, str | None] = {
 }
 """Plugin name -> the interface it writes (None: the ``interface_name`` parameter)."""
 _INTERFACES = ("position", "velocity", "effort")
+_new = tuple.__new__
 
 
 class ForwardCommandController(ControllerBase):
@@ -61,11 +62,13 @@ class ForwardCommandController(ControllerBase):
         simulation refuses non-finite values)."""
         data = self._data(msg)
         interface = self.interface
-        if interface == "position":  # positional arguments: a message every step, for less
-            return [Command(j, float(v)) for j, v in zip(self.joints, data, strict=True)]
+        # tuple.__new__: a message may come every step (the same Command, for less)
+        pairs = zip(self.joints, data, strict=True)
+        if interface == "position":
+            return [_new(Command, (j, float(v), None, None)) for j, v in pairs]
         if interface == "velocity":
-            return [Command(j, None, float(v)) for j, v in zip(self.joints, data, strict=True)]
-        return [Command(j, None, None, float(v)) for j, v in zip(self.joints, data, strict=True)]
+            return [_new(Command, (j, None, float(v), None)) for j, v in pairs]
+        return [_new(Command, (j, None, None, float(v))) for j, v in pairs]
 
     def _data(self, msg: Mapping[str, Any]) -> list[Any]:
         data = list(msg["data"])
@@ -76,17 +79,11 @@ class ForwardCommandController(ControllerBase):
             )
         return data
 
-    def targets(self, msg: Mapping[str, Any]) -> dict[str, float]:
-        """What :meth:`commands` gives, as joint -> value of :attr:`interface` (each joint
-        once, in :attr:`joints` order): the session writes it at once (a command may come
-        every step); ``ValueError`` when refused."""
-        return dict(zip(self.joints, map(float, self._data(msg)), strict=True))
-
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A command message: applied at once (the simulation holds it)."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out

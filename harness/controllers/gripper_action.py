@@ -23,9 +23,9 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     Result,
 )
 from harness.controllers.config import TYPE_GRIPPER, ControllerSpec
@@ -61,15 +61,15 @@ class GripperActionController(ControllerBase):
         self.target = 0.0
         self._last_movement = 0
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Hold the current position."""
         self.active = True
         self.target = state.position[self.joint]
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop; an active goal ends canceled."""
-        out = Output()
+        out = ControllerOutput()
         if self.goal is not None:
             out.results.append(Result(self.goal, self._values(state, False, False), GOAL_CANCELED))
             self.goal = None
@@ -86,9 +86,9 @@ class GripperActionController(ControllerBase):
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A GripperCommand goal: preempts the active goal, sets the position command."""
-        out = Output()
+        out = ControllerOutput()
         position = float(values["command"]["position"])
         if not self.active or not math.isfinite(position):
             why = "controller is not active" if not self.active else f"position is {position!r}"
@@ -103,9 +103,9 @@ class GripperActionController(ControllerBase):
         out.commands.append(Command(self.joint, position=position, velocity=0.0))
         return out
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput:
         """Cancel: hold the current position."""
-        out = Output()
+        out = ControllerOutput()
         if goal == self.goal:
             self.target = state.position[self.joint]
             out.commands.append(Command(self.joint, position=self.target, velocity=0.0))
@@ -113,9 +113,9 @@ class GripperActionController(ControllerBase):
             self.goal = None
         return out
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Check the active goal for success or a stall."""
-        out = Output()
+        out = ControllerOutput()
         goal = self.goal
         if not self.active or goal is None:
             return out

@@ -24,8 +24,8 @@ from typing import Any
 from harness.controllers.base import (
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
-    Output,
     Publication,
     TopicEndpoint,
 )
@@ -104,9 +104,9 @@ class ImuSensorBroadcaster(ControllerBase):
             "linear_acceleration_covariance": list(self.covariance["linear_acceleration"]),
         }
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Publish the sensor's values."""
-        out = Output()
+        out = ControllerOutput()
         if self.active:
             out.publications.append(Publication("~/imu", TYPE_IMU, self.message(state.sim_time_ns)))
         return out

@@ -42,10 +42,10 @@ from harness.controllers.base import (
     Command,
     Controller,
     ControllerBase,
+    ControllerOutput,
     Feedback,
     JointReadings,
     LogLine,
-    Output,
     Publication,
     Result,
     TopicEndpoint,
@@ -139,6 +139,10 @@ class JointTrajectoryController(ControllerBase):
         constraints = p.get("constraints", {})
         if not isinstance(constraints, Mapping):
             raise p.error(f"constraints must be a mapping, not {constraints!r}")
+        self.constraints: dict[str, Any] = {
+            str(k): dict(v) if isinstance(v, Mapping) else v for k, v in constraints.items()
+        }
+        """The ``constraints`` parameters (changed by :meth:`set_parameter`)."""
         try:
             self.default_tolerances = params_tolerances(self.joints, constraints)
         except ValueError as exc:
@@ -163,15 +167,15 @@ class JointTrajectoryController(ControllerBase):
 
     # ----------------------------------------------------------------------------- lifecycle
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Start holding the current position (no trajectory)."""
         self.active = True
         self._hold(state)
-        return Output()
+        return ControllerOutput()
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop; an active goal is aborted as the real controller does."""
-        out = Output()
+        out = ControllerOutput()
         if self.goal is not None:
             out.results.append(
                 self._result(
@@ -284,11 +288,41 @@ class JointTrajectoryController(ControllerBase):
             order(effort, None),
         )
 
+    def set_parameter(self, name: str, value: float) -> None:
+        """Change a ``constraints`` parameter while running (``constraints.goal_time``,
+        ``constraints.stopped_velocity_tolerance``, ``constraints.<joint>.trajectory|goal``),
+        as ros2_control's JTC re-reads its parameters: the default tolerances change for the
+        goals that follow (and the topic interface); a goal in flight keeps the tolerances it
+        was accepted with. Raises ``ValueError`` naming what is wrong."""
+        parts = name.split(".")
+        scalar = ("goal_time", "stopped_velocity_tolerance")
+        if not (
+            (len(parts) == 2 and parts[0] == "constraints" and parts[1] in scalar)
+            or (len(parts) == 3 and parts[0] == "constraints" and parts[1] in self.joints
+                and parts[2] in ("trajectory", "goal"))
+        ):  # fmt: skip
+            raise ValueError(
+                f"{self.name}: {name!r} is not a parameter that can change while running "
+                "(constraints.goal_time, constraints.stopped_velocity_tolerance, "
+                "constraints.<joint>.trajectory, constraints.<joint>.goal)"
+            )
+        constraints = {
+            k: dict(v) if isinstance(v, dict) else v for k, v in self.constraints.items()
+        }
+        if len(parts) == 2:
+            constraints[parts[1]] = float(value)
+        else:
+            constraints.setdefault(parts[1], {})[parts[2]] = float(value)
+        self.default_tolerances = params_tolerances(self.joints, constraints)
+        self.constraints = constraints
+        if self.goal is None:
+            self.tolerances = self.default_tolerances
+
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A trajectory on ``~/joint_trajectory`` replaces the current one."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, trajectory ignored", connection))
             return out
@@ -300,9 +334,9 @@ class JointTrajectoryController(ControllerBase):
 
     def on_goal(
         self, action: str, goal: int, values: Mapping[str, Any], state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A FollowJointTrajectory goal: validated, then preempts the active goal."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.results.append(
                 self._result(goal, INVALID_GOAL, "controller is not active", GOAL_ABORTED)
@@ -332,9 +366,9 @@ class JointTrajectoryController(ControllerBase):
             out.logs.append(LogLine(40, f"{note}"))
         return out
 
-    def on_cancel(self, action: str, goal: int, state: JointReadings) -> Output:
+    def on_cancel(self, action: str, goal: int, state: JointReadings) -> ControllerOutput:
         """Cancel the active goal: canceled, holding the current position."""
-        out = Output()
+        out = ControllerOutput()
         if goal == self.goal:
             out.results.append(Result(goal, {"error_code": 0, "error_string": ""}, GOAL_CANCELED))
             self.goal = None
@@ -359,9 +393,9 @@ class JointTrajectoryController(ControllerBase):
         )
         return Point(0, tuple(state.position[j] for j in self.joints), velocities)
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """One control cycle at ``state.sim_time_ns``."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             return out
         now = state.sim_time_ns
@@ -388,13 +422,14 @@ class JointTrajectoryController(ControllerBase):
             )
         self._flush_feedback(out, now)
         if self.state_period_ns == 0 or now >= self._state_next:
-            self._state_next = now + self.state_period_ns
+            # the first update at or after each period (no drift: the mean rate is the rate)
+            self._state_next = (now // max(1, self.state_period_ns) + 1) * self.state_period_ns
             out.publications.append(self._state_msg(now, actual, desired, error))
         return out
 
     def _check(
         self,
-        out: Output,
+        out: ControllerOutput,
         trajectory: SampledTrajectory,
         state: JointReadings,
         actual: Point,
@@ -478,13 +513,13 @@ class JointTrajectoryController(ControllerBase):
             self.holding = desired
         return err_pos, err_vel
 
-    def _end(self, out: Output, goal: int, code: int, text: str) -> None:
+    def _end(self, out: ControllerOutput, goal: int, code: int, text: str) -> None:
         self._flush_feedback(out, 0, force=True)
         out.results.append(self._result(goal, code, text, GOAL_ABORTED))
         out.logs.append(LogLine(30, f"{text}"))
         self.goal = None
 
-    def _flush_feedback(self, out: Output, now: int, force: bool = False) -> None:
+    def _flush_feedback(self, out: ControllerOutput, now: int, force: bool = False) -> None:
         pending = self._pending_feedback
         if pending is None:
             return

@@ -99,6 +99,12 @@ class Params:
         if not names:
             raise self.error("names no joints")
         for name in names:
+            if name not in known and "/" in name:
+                controller = name.partition("/")[0]
+                raise self.error(
+                    f"joint {name!r} is a reference interface of controller {controller!r}: "
+                    "chained controllers are not supported by the harness"
+                )
             if name not in known:
                 raise self.error(
                     f"joint {name!r} is not a controllable joint of the robot "

@@ -22,9 +22,9 @@ from harness.controllers.base import (
     BaseVelocity,
     Controller,
     ControllerBase,
+    ControllerOutput,
     JointReadings,
     LogLine,
-    Output,
     Publication,
 )
 from harness.controllers.config import ControllerSpec
@@ -64,24 +64,24 @@ class PlanarController(ControllerBase):
     def _base(self, velocity: tuple[float, float, float]) -> BaseVelocity:
         return BaseVelocity(self.base_joint, *velocity)
 
-    def activate(self, state: JointReadings) -> Output:
+    def activate(self, state: JointReadings) -> ControllerOutput:
         """Start at rest."""
         self.active = True
         self.wanted = self.applied = (0.0, 0.0, 0.0)
         self.last_command_ns = None
-        return Output(base=self._base(self.applied))
+        return ControllerOutput(base=self._base(self.applied))
 
-    def deactivate(self, state: JointReadings) -> Output:
+    def deactivate(self, state: JointReadings) -> ControllerOutput:
         """Stop the base."""
         self.active = False
         self.applied = (0.0, 0.0, 0.0)
-        return Output(base=self._base(self.applied))
+        return ControllerOutput(base=self._base(self.applied))
 
     def on_message(
         self, topic: str, msg: Mapping[str, Any], connection: int, state: JointReadings
-    ) -> Output:
+    ) -> ControllerOutput:
         """A velocity command: taken at the next update."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             out.logs.append(LogLine(40, "inactive, command ignored", connection))
             return out
@@ -95,9 +95,9 @@ class PlanarController(ControllerBase):
         self.last_command_ns = state.sim_time_ns
         return out
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Odometry, the timeout, the speed limits, the base velocity, the publications."""
-        out = Output()
+        out = ControllerOutput()
         if not self.active:
             return out
         dt = period_ns / _NS
@@ -118,7 +118,7 @@ class PlanarController(ControllerBase):
         self.applied = (applied[0], applied[1], applied[2])
         period = self.settings.publish_period_ns
         due = period == 0 or self.last_publish_ns is None
-        due = due or now - (self.last_publish_ns or 0) >= period
+        due = due or now // period > (self.last_publish_ns or 0) // period  # each period's first
         if due:
             self.last_publish_ns = now
             out.publications += self._publications(now)

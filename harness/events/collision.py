@@ -7,6 +7,7 @@ body and geom names.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable, Sequence
 
 import mujoco
@@ -41,7 +42,8 @@ class CollisionLogger:
     """Collision begin/end events per body pair, observed every step.
 
     The robot's bodies are ``robot_bodies`` (names) and/or the subtree of ``robot_root``;
-    they decide what counts as a self-collision (``self_collision``) and what
+    they decide what counts as the robot's contact with itself (``self_contacts``: reported
+    or not; ``self_collision=`` is its earlier spelling, read with a warning) and what
     ``robot_vs_world_only`` keeps (only pairs of one robot body and one other body).
     ``ignore``: body-name pairs never reported (either order). ``min_force``: contacts below
     this normal force (N) do not count. ``debounce_steps``: steps without contact before a
@@ -55,14 +57,23 @@ class CollisionLogger:
         *,
         robot_root: str | None = None,
         robot_bodies: Iterable[str] = (),
-        self_collision: bool = True,
+        self_contacts: bool = True,
         robot_vs_world_only: bool = False,
         ignore: Iterable[tuple[str, str]] = (),
         min_force: float = 0.0,
         debounce_steps: int = 5,
         near_miss_distance: float | None = None,
         name: str = "collisions",
+        self_collision: bool | None = None,
     ) -> None:
+        if self_collision is not None:
+            warnings.warn(
+                "CollisionLogger(self_collision=) is spelled self_contacts= now "
+                "(self_collision is the robot's link-pair policy)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            self_contacts = self_collision
         self._name = name
         self._bodies = body_names(model)
         self._geoms = geom_names(model)
@@ -99,7 +110,7 @@ class CollisionLogger:
         allowed = allowed_pairs(
             model.nbody,
             robot_bodies=robot,
-            self_collision=self_collision,
+            self_contacts=self_contacts,
             robot_vs_world_only=robot_vs_world_only,
             ignore=pairs,
         )

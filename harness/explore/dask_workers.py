@@ -44,7 +44,7 @@ def run_dask_engine(
     source: str, options: Any, worker: int, wall_deadline: float | None, event: str
 ) -> EngineOutcome:
     """One engine on a Dask worker (a task)."""
-    from harness.explore.search import run_worker
+    from harness.explore.workers import run_worker
 
     deadline = None
     if wall_deadline is not None:

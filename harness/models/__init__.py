@@ -1,7 +1,23 @@
 """Robot descriptions: URDF (plain or xacro), SDF and MJCF into one `RobotModel` and a compiled
-MuJoCo model."""
+MuJoCo model.
 
-from harness.models.build import (
+One subpackage per concern; a newcomer reads them in this order:
+
+- ``description.py``: :class:`RobotModel`, the one description every format becomes.
+- ``files/``: reading files safely (references resolved, reads confined, safe XML, limits,
+  Fuel cache, in-memory assets, mesh conversion).
+- ``urdf/``, ``xacro/``, ``sdf/``, ``mjcf/``: one reader per format (SDF also reads worlds).
+- ``build/``: a robot into MuJoCo (spec, compile, actuators and drives, passive joints,
+  inertia and collision meshes, self-collision policy); ``load_robot``/``load_world``.
+- ``world/``: several robots, objects and a map in one compiled world.
+- ``check/``: ``harness check-model``.
+
+Dependencies point down this list (a format reader never imports ``build/``); a module's old
+flat path (``harness.models.compiler``) still imports, with a deprecation warning, for one
+release."""
+
+from harness._moved import alias_modules
+from harness.models.build.load import (
     DEMO_URDF,
     SCENES,
     LoadedRobot,
@@ -23,8 +39,8 @@ from harness.models.description import (
     RobotModel,
     Shape,
 )
-from harness.models.ros2_control import HardwareReplacedWarning, Ros2Control
-from harness.models.world import (
+from harness.models.urdf.ros2_control import HardwareReplacedWarning, Ros2Control
+from harness.models.world.records import (
     DuplicateNamespaceError,
     InvalidNamespaceError,
     JointAddress,
@@ -34,7 +50,7 @@ from harness.models.world import (
     RobotSpec,
     WorldObject,
 )
-from harness.models.xacro import UnusedRobotArgWarning, XacroOrigin, expand_xacro
+from harness.models.xacro.expand import UnusedRobotArgWarning, XacroOrigin, expand_xacro
 
 __all__ = [
     "CONTROL_MODES",
@@ -69,3 +85,40 @@ __all__ = [
     "load_robot",
     "load_world",
 ]
+
+
+# Modules that moved into subpackages (issue 32): their old paths work for one release.
+alias_modules(
+    {
+        "harness.models.resolve": "harness.models.files.resolve",
+        "harness.models.confine": "harness.models.files.confine",
+        "harness.models.xmlsafe": "harness.models.files.xmlsafe",
+        "harness.models.limits": "harness.models.files.limits",
+        "harness.models.assets": "harness.models.files.assets",
+        "harness.models.meshes": "harness.models.files.meshes",
+        "harness.models.urdf_source": "harness.models.urdf.source",
+        "harness.models.lenient": "harness.models.urdf.lenient",
+        "harness.models.surfaces": "harness.models.urdf.surfaces",
+        "harness.models.ros2_control": "harness.models.urdf.ros2_control",
+        "harness.models.xacro_eval": "harness.models.xacro.evaluate",
+        "harness.models.xacro_meter": "harness.models.xacro.meter",
+        "harness.models.mjcf_files": "harness.models.mjcf.files",
+        "harness.models.worldfile": "harness.models.sdf.worldfile",
+        "harness.models.fuel": "harness.models.files.fuel",
+        "harness.models.worldbuild": "harness.models.world.build",
+        "harness.models.keyframes": "harness.models.world.keyframes",
+        "harness.models.placement": "harness.models.world.placement",
+        "harness.models.robot_build": "harness.models.build.robot",
+        "harness.models.compiler": "harness.models.build.compiler",
+        "harness.models.setup": "harness.models.build.setup",
+        "harness.models.actuators": "harness.models.build.actuators",
+        "harness.models.drives": "harness.models.build.drives",
+        "harness.models.passive": "harness.models.build.passive",
+        "harness.models.inertia": "harness.models.build.inertia",
+        "harness.models.decompose": "harness.models.build.decompose",
+        "harness.models.selfcollision": "harness.models.build.selfcollision",
+        "harness.models.drive_plugins": "harness.models.build.drive_plugins",
+        "harness.models.base_hint": "harness.models.check.base_hint",
+        "harness.models._check_cli": "harness.models.check._cli",
+    }
+)

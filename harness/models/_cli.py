@@ -25,7 +25,7 @@ __all__ = [
 
 def _robot_arg(text: str) -> tuple[str, str]:
     from harness.models.errors import XacroError
-    from harness.models.xacro import parse_robot_arg
+    from harness.models.xacro.expand import parse_robot_arg
 
     try:
         return parse_robot_arg(text)
@@ -204,8 +204,8 @@ def run(args: argparse.Namespace) -> int:
     """Print the description of ``args.file``."""
     from pathlib import Path
 
-    from harness.models.build import load_description
-    from harness.models.worldfile import is_sdf_world, world_description
+    from harness.models.build.load import load_description
+    from harness.models.sdf.worldfile import is_sdf_world, world_description
 
     if is_sdf_world(Path(args.file)):  # every model of the world, names scoped model::link
         model = world_description(args.file)

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -20,13 +21,13 @@ import numpy.typing as npt
 from harness.vocabulary import CONTROL_MODE_INPUTS, CONTROL_MODES, DYNAMIC_ALIAS, ControlMode
 
 if TYPE_CHECKING:
-    from harness.models.ros2_control import Ros2Control
-    from harness.models.xacro import XacroOrigin
+    from harness.models.urdf.ros2_control import Ros2Control
 
 __all__ = [
     "CONTROL_MODES",
     "CONTROL_MODE_INPUTS",
     "DYNAMIC_ALIAS",
+    "Appearance",
     "ControlMode",
     "Geometry",
     "Inertial",
@@ -39,6 +40,7 @@ __all__ = [
     "Pose",
     "RobotModel",
     "Shape",
+    "XacroOrigin",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -210,12 +212,30 @@ class Geometry:
 
 
 @dataclass(frozen=True)
+class Appearance:
+    """How a visual is drawn (its material), in MuJoCo's terms: ``rgba`` the colour the lights
+    and the ambient light scale (Gazebo's diffuse), ``emission`` the part of it drawn unlit,
+    ``specular`` and ``shininess`` (0-1), ``texture`` an image file (PNG) multiplied with
+    ``rgba``; ``source``: where it was read (for messages)."""
+
+    rgba: tuple[float, float, float, float]
+    emission: float = 0.0
+    specular: float = 0.5
+    shininess: float = 0.5
+    texture: str | None = None
+    source: str = ""
+
+
+@dataclass(frozen=True)
 class Shape:
-    """A collision or visual element of a link; ``pose`` is in the model frame at zero config."""
+    """A collision or visual element of a link; ``pose`` is in the model frame at zero config;
+    ``appearance``: a visual's material, when its file gives one (not part of equality: it
+    changes no geometry)."""
 
     name: str
     pose: Pose
     geometry: Geometry
+    appearance: Appearance | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -290,10 +310,22 @@ class ModelFrame:
 
 
 @dataclass(frozen=True)
+class XacroOrigin:
+    """Where an expanded description came from: ``source`` (the entry file as the user named
+    it: a path or ``package://pkg/...``), the ``args`` it was expanded with and the keys of
+    the source files it read (see :attr:`Expansion.sources`)."""
+
+    source: str
+    args: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    files: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class RobotModel:
     """A robot description in the model frame at the zero configuration.
 
-    ``ros2_control``: the URDF's ``<ros2_control>`` blocks (:mod:`harness.models.ros2_control`);
+    ``ros2_control``: the URDF's ``<ros2_control>`` blocks
+    (:mod:`harness.models.urdf.ros2_control`);
     ``xacro``: where an expanded xacro description came from (entry file and arguments)."""
 
     name: str
@@ -324,6 +356,15 @@ class RobotModel:
         for joint in self.joints:
             found.setdefault(joint.name, joint)
         return found
+
+    @property
+    def root_link(self) -> str | None:
+        """The first link that is no other link's child (the body a floating base moves),
+        or None."""
+        link_names = {link.name for link in self.links}
+        children = {joint.child for joint in self.joints if joint.parent in link_names}
+        roots = [link.name for link in self.links if link.name not in children]
+        return roots[0] if roots else None
 
     @property
     def controllable_joints(self) -> tuple[Joint, ...]:

@@ -34,7 +34,7 @@ class ResolveError(ModelError):
 
 class OutsideReferenceError(ResolveError):
     """A model rebuilt from a recording names a file outside the recording's attachments
-    (:mod:`harness.models.confine`)."""
+    (:mod:`harness.models.files.confine`)."""
 
 
 class UnknownPackageError(ResolveError):

@@ -12,9 +12,9 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from harness.models.build import LoadedRobot, load_robot
+from harness.models.build.load import LoadedRobot, load_robot
 from harness.models.bundled import DATA
-from harness.models.world import PoseLike
+from harness.models.world.records import PoseLike
 
 __all__ = [
     "GROUND_TRUTH_SENSOR",

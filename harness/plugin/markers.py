@@ -40,6 +40,7 @@ _MARKER_OWN = frozenset(
         "joint_limits",
         "connect",  # the marker's spelling of Session(connect_to=)
         "world",  # a Gazebo world as the map: the same option as scene (harness serve --world)
+        "resume",  # continue a recording from a step (harness.resume)
     }
 )
 _NOT_MARKER = frozenset({"host", "port", "token", "record_to"})  # the plugin's own choice
@@ -52,7 +53,7 @@ def marker_keys() -> frozenset[str]:
     """The keys ``@pytest.mark.harness`` and ``harness_session_factory`` accept: the
     session's options fields (:data:`harness.session.options.SESSION_KEYWORDS`) but where
     the plugin decides (the free port, the recording path), and the marker's own keys."""
-    from harness.session.options import SESSION_KEYWORDS
+    from harness.session import SESSION_KEYWORDS
 
     return frozenset((set(SESSION_KEYWORDS) - _NOT_MARKER) | _MARKER_OWN)
 
@@ -66,7 +67,7 @@ def first_robot_keys() -> Mapping[str, str]:
     applies to the first robot without another edit."""
     from dataclasses import fields
 
-    from harness.models.world import RobotSpec
+    from harness.models.world.records import RobotSpec
 
     keys = marker_keys()
     spelled = ((_SPEC_SPELLINGS.get(f.name, f.name), f.name) for f in fields(RobotSpec))
@@ -194,7 +195,7 @@ def resolve_path(value: Any, item: pytest.Item, rootdir: Path) -> Any:
     if text.startswith("package://"):
         # the package search starts at the test's folder (else a load error names the search)
         from harness.errors import HarnessError
-        from harness.models.resolve import resolve_uri
+        from harness.models.files.resolve import resolve_uri
 
         try:
             return resolve_uri(text, base_dir=item.path.parent, what="robot file")

@@ -111,6 +111,8 @@ class HarnessRun:
             pytest.fail(f"{self.item.nodeid}: this test's sessions already ended", pytrace=False)
         rootdir = self.settings.rootdir
         opts = dict(options)
+        if "resume" in opts:
+            return self._resumed(opts.pop("resume"), opts)
         scenario = opts.pop("scenario", None)
         index = len(self.recordings)
         path = self.recording_path(index)
@@ -209,6 +211,46 @@ class HarnessRun:
                 session.close()
                 raise
         self.modes.append(mode)
+        self.sinks.append(sink)
+        return session
+
+    def _resumed(self, resume: Any, opts: Mapping[str, Any]) -> Session:
+        """A session continuing a recording (marker key ``resume``: a mapping with ``from``,
+        the recording, and ``at`` (a step) or ``at_time`` (seconds), optionally ``edits`` and
+        ``preroll``; ``Session.resume``), recorded as the test's."""
+        from harness.events import CollectingSink
+        from harness.session import Session
+
+        where = f"{self.item.nodeid}: harness marker: resume="
+        keys = {"from", "at", "at_time", "edits", "preroll"}
+        if not isinstance(resume, Mapping) or "from" not in resume or set(resume) - keys:
+            pytest.fail(
+                f"{where} takes a mapping with 'from' (a recording) and 'at' (a step) or "
+                f"'at_time' (seconds), optionally 'edits' and 'preroll'; got {resume!r}",
+                pytrace=False,
+            )
+        other = sorted(opts)
+        if other:
+            pytest.fail(
+                f"{where} continues what the recording simulated: {', '.join(other)} "
+                "do(es) not apply",
+                pytrace=False,
+            )
+        path = self.recording_path(len(self.recordings))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.recordings.append(path)
+        sink = CollectingSink()
+        session = Session.resume(
+            resolve_path(resume["from"], self.item, self.settings.rootdir),
+            step=resume.get("at"),
+            at_time=resume.get("at_time"),
+            edits=list(resume.get("edits", ())),
+            preroll=float(resume.get("preroll", 0.0)),
+            record_to=path,
+            sinks=[sink],
+        )
+        self.sessions.append(session)
+        self.modes.append(None)
         self.sinks.append(sink)
         return session
 

@@ -17,7 +17,7 @@ rebuilds the same world (``harness.replay.source.rebuild_run``):
 
 ``control_modes`` then holds every robot's joints by MuJoCo (prefixed) name.
 
-A xacro robot (see ``harness.models.xacro``) adds ``robot_xacro`` (the entry file as the user
+A xacro robot (see ``harness.models.xacro.expand``) adds ``robot_xacro`` (the entry file as the user
 named it) and ``robot_args`` (JSON object of its arguments) to the metadata, or ``xacro`` and
 ``robot_args`` to its entry in ``robots``; its expanded URDF is the ``source/model/...``
 attachment, the files the expansion read are ``source/xacro/...`` and the meshes it names

@@ -4,7 +4,7 @@ The compiled model (``model.mjb``) holds every mesh as MuJoCo decoded it, which 
 bit-exact replay needs; but rebuilding the robot from its sources (``source/model/...``), on a
 machine without the robot's package, needs the mesh files too. :func:`mesh_attachments`
 resolves each ``<mesh filename=...>`` of the URDF sources as loading did
-(:func:`harness.models.resolve.resolve_uri`: ``ROS_PACKAGE_PATH``, the folders above the
+(:func:`harness.models.files.resolve.resolve_uri`: ``ROS_PACKAGE_PATH``, the folders above the
 file) and names it where the rebuild looks first (replay writes ``source/`` attachments into
 one folder): ``package://pkg/rest`` as ``source/pkg/rest`` (the folder named like the package
 next to ``model/``), a relative path as ``source/`` + the path from ``model/``. References that
@@ -61,8 +61,8 @@ def mesh_attachments(sources: Mapping[str, bytes], source_path: str | None) -> d
     out (see the module docstring)."""
     if not source_path or not Path(source_path).is_file():
         return {}
-    from harness.models.resolve import resolve_uri
-    from harness.models.xmlsafe import parse_xml
+    from harness.models.files.resolve import resolve_uri
+    from harness.models.files.xmlsafe import parse_xml
 
     base = Path(source_path).parent
     out: dict[str, bytes] = {}
@@ -94,7 +94,7 @@ def visual_only_attachments(sources: Mapping[str, bytes]) -> set[str]:
     """The ``source/...`` attachment names of the files only the visuals of the URDF model
     files among ``sources`` use: meshes referenced by ``<visual>`` elements and by no
     ``<collision>``, and textures."""
-    from harness.models.xmlsafe import parse_xml
+    from harness.models.files.xmlsafe import parse_xml
 
     out: set[str] = set()
     for name, blob in sorted(sources.items()):

@@ -71,6 +71,7 @@ from harness.recording.messages import (
     rosout_message,
 )
 from harness.recording.metadata import build_metadata, definitions_text, media_type, package_version
+from harness.recording.periodic import PERIODIC_RECORDS
 from harness.recording.records import (
     AppliedInput,
     BridgeFrame,
@@ -259,8 +260,11 @@ class Recorder:
     # -- writing ---------------------------------------------------------------------------
 
     def write_message(self, topic: str, msgtype: str, msg: Any, *, sim_time_ns: int) -> None:
-        """Record ``msg`` on ``topic``: a dict in rosbridge JSON form, a rosbags object, or
-        ``bytes``: the message's CDR, written as it is (see :mod:`harness.recording.templates`)."""
+        """Record ``msg`` on ``topic``: a dict in rosbridge JSON form, a rosbags object, a
+        periodic record (:mod:`harness.recording.periodic`) or ``bytes``: the message's CDR,
+        written as it is (see :mod:`harness.recording.templates`)."""
+        if type(msg) in PERIODIC_RECORDS:
+            msg = msg.cdr()
         if type(msg) is bytes:
             if not msg.startswith(CDR_HEADER):
                 raise RecordingWriteError(

@@ -18,7 +18,9 @@ from harness.replay.errors import (
     VersionMismatchError,
 )
 from harness.replay.play import Player
-from harness.replay.resim import Finding, ResimReport, Thresholds, resimulate
+from harness.replay.resim import resimulate
+from harness.replay.resim_report import Finding, ResimReport, Thresholds
+from harness.replay.source import open_recording, rebuild_run, resolve_model
 from harness.replay.verify import (
     BodyDelta,
     Divergence,
@@ -45,6 +47,9 @@ __all__ = [
     "VerifyReport",
     "VersionMismatchError",
     "diff",
+    "open_recording",
+    "rebuild_run",
     "resimulate",
+    "resolve_model",
     "verify",
 ]

@@ -66,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
         )
         args.actuation = args.mode
     if args.actuation is not None:
-        from harness.replay.resim import Thresholds, resimulate
+        from harness.replay.resim import resimulate
+        from harness.replay.resim_report import Thresholds
 
         defaults = Thresholds()
         thresholds = Thresholds(

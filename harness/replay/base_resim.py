@@ -7,20 +7,20 @@ The recorded base controller (a ``diff_drive_controller/DiffDriveController`` or
 command topic. ``kinematic`` re-runs with a planar controller taking the recorded controller's
 topic, message type, timeout and ``linear.x``/``angular.z`` limits; ``servo`` needs the
 wheels, so a recorded diff drive (a planar recording has no wheel geometry and is refused).
-The re-run is a live :class:`~harness.session.Session` of the robot rebuilt from the
-recording's sources: every recorded incoming ``publish`` frame on the command topic is sent
-at the step it was recorded at, and the base's free joint pose is compared step by step with
-the recorded physics states: path deviation (the largest and mean planar distance between
-the two bases at the same step), final pose error (distance and heading), and each path's
-length.
+The re-run drives a fresh :class:`~harness.session.SessionCore` of the robot rebuilt from
+the recording's sources, as :mod:`harness.replay.pipeline` does (no socket, thread or file):
+every recorded incoming ``publish`` frame on the command topic is applied at the step
+boundary it was recorded at, by one connection of the core's bridge, and the base's free
+joint pose is compared step by step with the recorded physics states: path deviation (the
+largest and mean planar distance between the two bases at the same step), final pose error
+(distance and heading), and each path's length.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -32,7 +32,7 @@ import numpy.typing as npt
 from harness.controllers.config import ControllersConfig, ControllerSpec
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.planar import TYPE_PLANAR
-from harness.models import LoadedWorld
+from harness.models import LoadedRobot, LoadedWorld
 from harness.replay.base_checks import contact_pairs, encoder_distance, robot_bodies
 from harness.replay.errors import LevelUnavailableError
 from harness.replay.resim import parse_actuation
@@ -174,15 +174,66 @@ def _poses(model: mujoco.MjModel, qpos: F64, adr: int) -> F64:
     return np.column_stack([xy, heading])
 
 
+def _rerun(
+    robot: LoadedRobot,
+    controllers: ControllersConfig,
+    topic: str,
+    msg_type: str,
+    frames: Sequence[tuple[int, Mapping[str, Any]]],
+    last: int,
+    where: str,
+) -> F64:
+    """The re-run: a fresh :class:`~harness.session.SessionCore` of ``robot`` with
+    ``controllers`` (no sockets, threads or files), each recorded command published on
+    ``topic`` as ``msg_type`` by one connection at the step boundary it was recorded at
+    (``step - 1``; advertised before the first), stepped up to ``last`` (or the last command).
+    Returns every step's ``qpos`` (row ``k``: after step ``k``). A step that fails ends the
+    re-run with :class:`LevelUnavailableError` naming it (and ``where``, the recording)."""
+    from harness.session.core import CoreOptions, SessionCore
+
+    core = SessionCore(robot, CoreOptions(controllers=controllers))
+    bridge = core.bridge
+    assert bridge is not None
+    sim = core.sim
+    rows = []
+    try:
+        core.start()
+        core.publish_initial()
+        rows.append(sim.data.qpos.copy())
+        connection = bridge.connect()
+        advertise = {"op": "advertise", "topic": topic, "type": msg_type, "id": "base-rerun"}
+
+        def advance_to(target: int) -> None:
+            while sim.step_index < target:
+                try:
+                    core.advance()
+                except Exception as exc:
+                    raise LevelUnavailableError(
+                        f"{where}: the base re-run failed at step {sim.step_index}: "
+                        f"{type(exc).__name__}: {exc}"
+                    ) from None
+                bridge.drain()
+                rows.append(sim.data.qpos.copy())
+
+        for i, (step, msg) in enumerate(frames):
+            advance_to(step - 1)
+            publish = {"op": "publish", "topic": topic, "msg": dict(msg)}
+            for frame in (advertise, publish) if i == 0 else (publish,):
+                bridge.receive(connection, json.dumps(frame), sim.sim_time_ns)
+            bridge.drain()
+        advance_to(last)
+    finally:
+        core.finish()
+    return np.stack(rows)
+
+
 def resimulate_base(
     path: str | Path, actuation: Actuation | str, *, allow_damaged: bool = False
 ) -> BaseResimReport:
     """Re-run the recording's base commands with ``actuation`` (``kinematic``: a planar
     base; ``servo``: the diff drive; see the module docstring)."""
     mode = parse_actuation(actuation)
-    from harness.session import Session
-    from harness.session.control import controllers_from_metadata
-    from harness.testing import connect
+    from harness.session.core import controllers_from_metadata
 
     rec = open_recording(path, allow_damaged=allow_damaged)
     try:
@@ -200,7 +251,7 @@ def resimulate_base(
         joint, adr = _free_joint(robot.model, spec)
         topic = _topic(spec)
         frames = [
-            (f.step, json.loads(f.text))
+            (f.step, json.loads(f.text).get("msg", {}))
             for f in rec.bridge_frames()
             if f.direction == 0 and f.op == "publish" and f.topic == topic and not f.binary
         ]
@@ -217,28 +268,11 @@ def resimulate_base(
         config,
         controllers=tuple(alternate if c is spec else c for c in config.controllers),
     )
-    last = int(recorded.steps[-1])
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "rerun.mcap"
-        session = Session(robot, controllers=controllers, record_to=out)
-        with session, connect(session.url) as client:
-            now = 0
-            for step, frame in frames:
-                if step - 1 > now:
-                    client.step(step - 1 - now)
-                    now = step - 1
-                msg: Mapping[str, Any] = frame.get("msg", {})
-                client.publish(topic, msg_type, msg)
-            if last > now:
-                client.step(last - now)
-        rerun_rec = open_recording(out)
-        try:
-            rerun = read_states(rerun_rec)
-        finally:
-            rerun_rec.close()
-    common, ia, ib = np.intersect1d(recorded.steps, rerun.steps, return_indices=True)
+    rerun = _rerun(robot, controllers, topic, msg_type, frames, int(recorded.steps[-1]), str(path))
+    steps = np.arange(rerun.shape[0], dtype=np.int64)
+    common, ia, ib = np.intersect1d(recorded.steps, steps, return_indices=True)
     a = _poses(robot.model, recorded.qpos[ia], adr)
-    b = _poses(robot.model, rerun.qpos[ib], adr)
+    b = _poses(robot.model, rerun[ib], adr)
     if not common.size:
         raise LevelUnavailableError(f"{path}: the re-run shares no step with the recording")
     deviation = np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])
@@ -257,7 +291,7 @@ def resimulate_base(
     slip = wheels and radius > 0 and spec.type == TYPE_DIFF_DRIVE
     bodies = robot_bodies(robot.model, joint)
     before = contact_pairs(robot.model, recorded.qpos[ia], bodies)
-    after = contact_pairs(robot.model, rerun.qpos[ib], bodies)
+    after = contact_pairs(robot.model, rerun[ib], bodies)
 
     return BaseResimReport(
         path=str(path),
@@ -276,7 +310,7 @@ def resimulate_base(
             encoder_distance(robot.model, recorded.qpos[ia], wheels, radius) if slip else None
         ),
         resimulated_encoder_distance=(
-            encoder_distance(robot.model, rerun.qpos[ib], wheels, radius) if slip else None
+            encoder_distance(robot.model, rerun[ib], wheels, radius) if slip else None
         ),
         collisions_appearing=tuple(sorted(after - before)),
         collisions_disappearing=tuple(sorted(before - after)),
@@ -285,7 +319,7 @@ def resimulate_base(
 
 def is_base_recording(path: str | Path) -> bool:
     """Whether the recording's run had a base controller (``--actuation`` then re-runs the base)."""
-    from harness.session.control import controllers_from_metadata
+    from harness.session.core import controllers_from_metadata
 
     rec = open_recording(path, allow_damaged=True)
     try:

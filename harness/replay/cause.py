@@ -11,8 +11,9 @@ client reacting to a different state), not a cause.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Any, Literal, Protocol
 
 import mujoco
 import numpy as np
@@ -21,12 +22,39 @@ from harness.recording import AppliedInput, BridgeFrame, Recording
 from harness.sim.bits import differing, same_bits
 from harness.sim.inputs import ARRAY_FIELDS
 
-if TYPE_CHECKING:
-    from harness.replay.diff import DiffEntry
-
-__all__ = ["Cause", "FirstDivergence", "divergence_order", "first_cause", "first_divergence"]
+__all__ = [
+    "Cause",
+    "DivergenceRow",
+    "FirstDivergence",
+    "divergence_order",
+    "first_cause",
+    "first_divergence",
+]
 
 _EXCERPT = 48
+
+
+class DivergenceRow(Protocol):
+    """What the first divergence reads of a diff's row (a :class:`~harness.replay.diff.DiffEntry`,
+    whose module imports this one)."""
+
+    @property
+    def quantity(self) -> str: ...
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def step(self) -> int: ...
+
+    @property
+    def a(self) -> Any: ...
+
+    @property
+    def b(self) -> Any: ...
+
+    @property
+    def delta(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -191,7 +219,7 @@ def first_cause(
 
 
 def first_divergence(
-    entries: list[DiffEntry], cause: Cause | None, dt_ns: int
+    entries: Sequence[DivergenceRow], cause: Cause | None, dt_ns: int
 ) -> FirstDivergence | None:
     """The first-divergence line of a diff: the first state row (:func:`divergence_order`)
     and the cause, when it comes no later than that row."""
@@ -214,7 +242,7 @@ def first_divergence(
 _RANK = {"joint_position": 0, "joint_velocity": 1, "link_position": 2, "link_rotation": 3}
 
 
-def divergence_order(entry: DiffEntry) -> tuple[bool, int, int, float, str, str]:
+def divergence_order(entry: DivergenceRow) -> tuple[bool, int, int, float, str, str]:
     """The order of a diff's rows; the first is *the* first divergence (the golden failure's
     headline, the FIRST DIVERGENCE line, the table's first row): by the step it is first
     beyond its tolerance (rows without a step last), joints before links, then the largest

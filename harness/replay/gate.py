@@ -23,7 +23,7 @@ serves attached mesh bytes, nothing else).
   name and its target checked as above, the target one of the recording's ``source/``
   attachments, at most 10,000 links and 1 GiB laid out through them.
 - **References** (:func:`rebuild_folder`): the sources are written into a fresh private
-  folder and the model is loaded inside :func:`harness.models.confine.confined_to` it: every
+  folder and the model is loaded inside :func:`harness.models.files.confine.confined_to` it: every
   file reference (mesh, ``package://``, ``model://``, ``file://``, absolute, ``..``, SDF
   ``<uri>``/``<include>``, MJCF ``file``/``meshdir``/``texturedir``/``<include>``) must lie
   inside it, decided on the reference's text before any file is looked at, or the rebuild is
@@ -32,7 +32,7 @@ serves attached mesh bytes, nothing else).
   folder. MuJoCo is given no path: URDF and SDF meshes reach it as in-memory assets (its
   virtual file system); an MJCF source is read in Python, its ``<include>`` files inlined,
   and parsed from the string, every file it references then embedded as an asset
-  (:func:`harness.models.compiler.spec_from_file` while confined).
+  (:func:`harness.models.build.compiler.spec_from_file` while confined).
 - **Binary model** (:func:`model_from_mjb`): ``model.mjb`` is first loaded in a child process
   with limits on memory and CPU time (:data:`MJB_CPU_SECONDS`, :func:`mjb_memory_limit`):
   MuJoCo's binary reader allocates what the file's header declares before the model limits
@@ -65,10 +65,10 @@ from typing import NamedTuple
 import mujoco
 
 from harness.errors import HarnessError
-from harness.models.compiler import spec_from_file
-from harness.models.confine import confined_to
+from harness.models.build.compiler import spec_from_file
 from harness.models.errors import CompileError, OutsideReferenceError, XacroError
-from harness.models.limits import check_model, check_spec
+from harness.models.files.confine import confined_to
+from harness.models.files.limits import check_model_limits, check_spec
 from harness.recording import Recording, RecordingDamagedError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
@@ -104,7 +104,7 @@ __all__ = [
 XACRO_NAMESPACE = b"http://www.ros.org/wiki/xacro"
 _XACRO_USE = re.compile(rb"<\s*xacro:|\$\{|\$\(")
 _XACRO_NAME = re.compile(rb"<\s*/?\s*xacro:|xmlns:xacro", re.I)
-_COMMENT = re.compile(rb"<!--.*?-->", re.S)  # as harness.models.xacro.is_xacro strips them
+_COMMENT = re.compile(rb"<!--.*?-->", re.S)  # as harness.models.xacro.expand.is_xacro strips them
 _XML_SUFFIXES = (".urdf", ".xml", ".sdf", ".world", ".mjcf", ".srdf", ".xacro", ".launch")
 
 MJB_CPU_SECONDS = 60
@@ -131,10 +131,10 @@ def is_xacro_source(name: str, blob: bytes) -> bool:
     """Whether the attachment ``name`` is a xacro source: a ``.xacro`` file, or a file whose
     text names the xacro namespace (or a ``xacro:`` element) and uses xacro (an element or a
     ``${...}``/``$(...)`` expression outside comments). A wider test than the loader's
-    (:func:`harness.models.xacro.is_xacro`: the whole file, any spelling of the namespace),
+    (:func:`harness.models.xacro.expand.is_xacro`: the whole file, any spelling of the namespace),
     so what the loader would expand is always caught here; a URDF xacro wrote (which may keep
     the namespace declaration) is not xacro. (While a rebuild is confined, the loader refuses
-    to expand xacro too: :func:`harness.models.urdf_source.read_urdf_source`.)"""
+    to expand xacro too: :func:`harness.models.urdf.source.read_urdf_source`.)"""
     if name.lower().endswith(".xacro"):
         return True
     named = XACRO_NAMESPACE in blob or _XACRO_NAME.search(blob) is not None
@@ -359,13 +359,13 @@ def _preflight(blob: bytes) -> None:
 def model_from_mjb(blob: bytes) -> mujoco.MjModel:
     """``model.mjb`` from memory, after a child process loaded it within limits; the model
     limits checked before any ``MjData`` allocates what it declares. Raises
-    :class:`ValueError` when it does not load, :class:`~harness.models.limits.ModelLimitError`
+    :class:`ValueError` when it does not load, :class:`~harness.models.files.limits.ModelLimitError`
     when it is too large."""
     _preflight(blob)
     model = mujoco.MjModel.from_binary_path(
         ATTACHMENT_MODEL_BINARY, {ATTACHMENT_MODEL_BINARY: blob}
     )
-    check_model(model, ATTACHMENT_MODEL_BINARY)
+    check_model_limits(model, ATTACHMENT_MODEL_BINARY)
     return model
 
 

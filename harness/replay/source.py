@@ -48,10 +48,10 @@ from harness.models import (
     load_robot,
     load_world,
 )
-from harness.models.decompose import DECOMPOSITION_FOLDER, check_mesh_collision
+from harness.models.build.decompose import DECOMPOSITION_FOLDER, check_mesh_collision
 from harness.models.description import CONTROL_MODES, ControlMode
 from harness.models.errors import OutsideReferenceError, XacroError
-from harness.models.limits import ModelLimitError
+from harness.models.files.limits import ModelLimitError
 from harness.recording import Recording, RecordingDamagedError, RecordingFormatError
 from harness.recording.layout import (
     ATTACHMENT_MODEL,
@@ -176,8 +176,10 @@ def _scene(sources: Mapping[str, bytes], root: Path) -> str | Path | None:
     scenes = [n for n in sources if n.startswith("scene/")]
     if not scenes:
         return None
-    # the scene file itself, not a model an SDF world includes (scene/include/...)
-    scenes = [n for n in scenes if "/" not in n[6:]] or scenes
+    # the scene file itself, not a model an SDF world includes (scene/include/...) nor a
+    # file its visuals read beside it (scene/wall.png)
+    top = [n for n in scenes if "/" not in n[6:]]
+    scenes = [n for n in top if n.lower().endswith((".world", ".sdf", ".xml"))] or top or scenes
     for named, scene_path in SCENES.items():
         if sources[scenes[0]] == scene_path.read_bytes():
             return named

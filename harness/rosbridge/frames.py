@@ -1,6 +1,7 @@
 """Frame fields and per-connection state shared by the rosbridge protocol's rooms
-(:mod:`~harness.rosbridge.protocol`, :mod:`~harness.rosbridge.services`,
-:mod:`~harness.rosbridge.actions`): typed field access with rosbridge's error texts, the
+(:mod:`~harness.rosbridge.protocol`, :mod:`~harness.rosbridge.topics`,
+:mod:`~harness.rosbridge.services`, :mod:`~harness.rosbridge.actions`,
+:mod:`~harness.rosbridge.outgoing`): typed field access with rosbridge's error texts, the
 ``status`` levels, and :class:`BridgeHost`, what a room needs of the bridge it is part of."""
 
 from __future__ import annotations

@@ -10,15 +10,17 @@ oldest first, counted in :attr:`BridgeServer.metrics` and reported to the client
 While a connection's queue is empty and its socket keeps up (write buffer below the
 high-water mark), frames skip the queue: those produced together (one
 :meth:`BridgeServer.process_pending`, one loop iteration) are framed and written together,
-one write per connection instead of one per frame.
+one write per connection instead of one per frame (the send side:
+:mod:`harness.rosbridge.sending`, mixed into :class:`BridgeServer`).
 Everything runs on one event loop; call the bridge's in-process API from that loop, then
 :meth:`BridgeServer.flush` to send what it produced.
 
 Incoming messages reach the server from the connection's ``data_received`` callback (see
-:class:`_Connection`), not through a reader task per connection: a frame is queued (or, in
-immediate mode, processed) in the same loop iteration that read it from the socket, and the
-answers of a :meth:`BridgeServer.process_pending` leave before it returns. A lockstep client's
-request and its answer so cost one loop iteration less each way.
+:class:`~harness.rosbridge.connection.MessageConnection`), not through a reader task per
+connection: a frame is queued (or, in immediate mode, processed) in the same loop iteration
+that read it from the socket, and the answers of a :meth:`BridgeServer.process_pending` leave
+before it returns. A lockstep client's request and its answer so cost one loop iteration less
+each way.
 """
 
 from __future__ import annotations
@@ -27,204 +29,33 @@ import asyncio
 import collections
 import contextlib
 import hmac
-import ipaddress
-import struct
 import time
 import urllib.parse
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from http import HTTPStatus
 from types import TracebackType
 from typing import Any
 
 from websockets.asyncio.server import Server, ServerConnection, serve
-from websockets.exceptions import ConnectionClosed
-from websockets.frames import DATA_OPCODES, CloseCode, Frame, Opcode
 from websockets.http11 import Request, Response
-from websockets.protocol import Event, State
+from websockets.protocol import State
 
 from harness.errors import ConfigError
+from harness.rosbridge.connection import MessageConnection, is_loopback, presented_token
 from harness.rosbridge.deadlines import Deadlines
 from harness.rosbridge.errors import ExposedServerWarning, FrameError
 from harness.rosbridge.limits import MAX_FRAME_BYTES, MAX_QUEUED_BYTES, SEND_QUEUE_BYTES
-from harness.rosbridge.protocol import Bridge, Output
+from harness.rosbridge.protocol import Bridge
+from harness.rosbridge.sending import ConnectionMetrics, Peer, SendOps
 
-__all__ = ["BridgeServer", "ConnectionMetrics", "is_loopback"]
+__all__ = ["BridgeServer"]
 
 _CLOSE = object()
 _TIMEOUT = object()
 
 
-@dataclass
-class ConnectionMetrics:
-    """Counters of one connection: frames received, sent, dropped (per topic)."""
-
-    received: int = 0
-    sent: int = 0
-    dropped: dict[str, int] = field(default_factory=dict)
-
-
-class _Connection(ServerConnection):
-    """A ``websockets`` server connection that hands each complete data message to
-    :attr:`on_message` from ``data_received``, instead of queueing it for ``recv()``
-    (``serve(create_connection=...)``; everything else, handshake, pings, closing, size
-    limits, is the library's). Messages that arrive before the server attaches wait in
-    :attr:`early`. Fragmented messages are joined here (the library bounds their total size
-    by ``max_size``); a text message that is not UTF-8 fails the connection with 1007, as
-    ``recv()`` would."""
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self.on_message: Callable[[str | bytes], None] | None = None
-        self.after_read: Callable[[], None] | None = None
-        self.early: list[str | bytes] = []
-        self._parts = bytearray()
-        self._text = False
-
-    def data_received(self, data: bytes) -> None:
-        super().data_received(data)
-        if self.after_read is not None:
-            self.after_read()
-
-    def eof_received(self) -> None:
-        super().eof_received()
-        if self.after_read is not None:
-            self.after_read()
-
-    def process_event(self, event: Event) -> None:
-        if not isinstance(event, Frame) or event.opcode not in DATA_OPCODES:
-            super().process_event(event)  # the handshake request, pings, pongs, close
-            return
-        if event.opcode is not Opcode.CONT:
-            self._text = event.opcode is Opcode.TEXT
-        if not event.fin:
-            self._parts += event.data
-            return
-        data = bytes(event.data)
-        if self._parts:
-            data, self._parts = bytes(self._parts + data), bytearray()
-        message: str | bytes = data
-        if self._text:
-            try:
-                message = data.decode()
-            except UnicodeDecodeError as exc:
-                self.set_connection_exc(exc)
-                self.protocol.fail(CloseCode.INVALID_DATA, f"{exc.reason} at position {exc.start}")
-                self.send_data()
-                return
-        if self.on_message is None:
-            self.early.append(message)
-        else:
-            self.on_message(message)
-
-
-class _Entry:
-    __slots__ = ("alive", "data", "key")
-
-    def __init__(self, data: str | bytes, key: str | None) -> None:
-        self.data = data
-        self.key = key
-        self.alive = True
-
-
-class _Peer:
-    """One WebSocket client: its frames batched for the next write (fast path) and its
-    bounded queue (slow path, while the socket is backed up)."""
-
-    def __init__(self, cid: int, ws: ServerConnection) -> None:
-        self.cid = cid
-        self.ws = ws
-        self.queue: collections.deque[_Entry] = collections.deque()
-        self.by_key: dict[str, collections.deque[_Entry]] = {}
-        self.bytes = 0
-        self.wake = asyncio.Event()
-        self.unreported: dict[str, int] = {}
-        self.metrics = ConnectionMetrics()
-        self.writer: asyncio.Task[None] | None = None
-        self.transport = ws.transport
-        self.high_water = self.transport.get_write_buffer_limits()[1]
-        self.batch: list[str | bytes] = []
-        self.batch_bytes = 0
-        self.batch_room = 0
-        self.paused = False
-
-
-_HEAD_16 = struct.Struct("!BBH")
-_HEAD_64 = struct.Struct("!BBQ")
-_FIN_TEXT = 0x80 | Opcode.TEXT.value
-_FIN_BINARY = 0x80 | Opcode.BINARY.value
-
-
-def frame_head(first: int, length: int) -> bytes:
-    """The header of an unmasked WebSocket frame (a server's) with first byte ``first``
-    (FIN, opcode) and a payload of ``length`` bytes, as ``Frame.serialize`` writes it."""
-    if length < 126:
-        return bytes((first, length))
-    if length < 65536:
-        return _HEAD_16.pack(first, 126, length)
-    return _HEAD_64.pack(first, 127, length)
-
-
-def _write_frames(peer: _Peer, frames: list[str | bytes]) -> None:
-    """Write ``frames`` to the peer's socket in one write (what ``send`` does per frame)."""
-    ws = peer.ws
-    if not frames or ws.state is not State.OPEN:
-        return  # closing: lost like frames a failed ``send`` could not write
-    protocol = ws.protocol
-    # Only these frames: the protocol is open and the connection flushes everything else
-    # (pongs, close frames) as soon as it is produced.
-    parts = protocol.data_to_send()
-    if protocol.extensions or protocol.debug or protocol.expect_continuation_frame:
-        for data in frames:
-            if isinstance(data, str):
-                protocol.send_text(data.encode())
-            else:
-                protocol.send_binary(data)
-        parts += protocol.data_to_send()
-    else:
-        # The bytes protocol.send_text / send_binary would produce (a server's frames are
-        # not masked; no extension: compression is off), framed here: a frame object, its
-        # checks and a BytesIO per frame cost more than the rest of a relayed frame's send.
-        append = parts.append
-        for data in frames:
-            if isinstance(data, str):
-                raw = data.encode()
-                append(frame_head(_FIN_TEXT, len(raw)))
-            else:
-                raw = data
-                append(frame_head(_FIN_BINARY, len(raw)))
-            append(raw)
-    peer.transport.writelines(parts)
-    peer.metrics.sent += len(frames)
-
-
-def _write_batch(peer: _Peer) -> None:
-    batch, peer.batch, peer.batch_bytes = peer.batch, [], 0
-    _write_frames(peer, batch)
-
-
-def is_loopback(host: str) -> bool:
-    """Whether ``host`` names only this machine (``localhost``, 127.0.0.0/8, ``::1``)."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
-
-
-def _presented_token(request: Request) -> str | None:
-    """The token a client presents: ``?token=`` on the URL, else ``Authorization: Bearer``."""
-    query = urllib.parse.parse_qs(urllib.parse.urlsplit(request.path).query)
-    if query.get("token"):
-        return query["token"][0]
-    auth = request.headers.get("Authorization", "")
-    scheme, _, value = auth.partition(" ")
-    return value.strip() if scheme.lower() == "bearer" else None
-
-
-class BridgeServer:
+class BridgeServer(SendOps):
     """Serve ``bridge`` over WebSocket on ``host:port`` (port 0: any free port, see
     :attr:`url`). ``clock`` returns the ``now_ns`` passed to the bridge in immediate mode
     (default: wall time, for standalone use; the session passes sim time).
@@ -282,14 +113,14 @@ class BridgeServer:
         loop iteration less), else False."""
         self._unannounced = False  # input queued by the current read, pending_event not set
         self._pending: collections.deque[tuple[int, Any]] = collections.deque()
-        self._paused: list[_Peer] = []
-        self._peers: dict[int, _Peer] = {}
+        self._paused: list[Peer] = []
+        self._peers: dict[int, Peer] = {}
         self._server: Server | None = None
         self._deadlines = Deadlines()
         self._deadline_timer: asyncio.TimerHandle | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._closers: set[asyncio.Future[None]] = set()
-        self._batched: list[_Peer] = []
+        self._batched: list[Peer] = []
         self._writing = False  # in a call that writes the batches before it returns
         self._stopped = False
 
@@ -316,7 +147,7 @@ class BridgeServer:
             ping_timeout=self.ping_timeout,
             compression=None,
             process_request=self._check_token if self.token is not None else None,
-            create_connection=_Connection,
+            create_connection=MessageConnection,
         )
         self.port = self._server.sockets[0].getsockname()[1]
         return self.url
@@ -328,7 +159,7 @@ class BridgeServer:
             return connection.respond(
                 HTTPStatus.BAD_REQUEST, "more than one Authorization header\n"
             )
-        presented = _presented_token(request)
+        presented = presented_token(request)
         if presented is not None and hmac.compare_digest(
             presented.encode("utf-8"), self.token.encode("utf-8")
         ):
@@ -376,10 +207,10 @@ class BridgeServer:
     # -- input --------------------------------------------------------------------------
 
     async def _handle(self, ws: ServerConnection) -> None:
-        assert isinstance(ws, _Connection)
+        assert isinstance(ws, MessageConnection)
         peer_name = "{}:{}".format(*ws.remote_address[:2]) if ws.remote_address else ""
         cid = self.bridge.connect(peer_name)
-        peer = _Peer(cid, ws)
+        peer = Peer(cid, ws)
         self._peers[cid] = peer
         self.metrics[cid] = peer.metrics
         if self.queued:
@@ -408,7 +239,7 @@ class BridgeServer:
                 await peer.writer
             self._forget_queue(peer)
 
-    def _receiver(self, peer: _Peer) -> Callable[[str | bytes], None]:
+    def _receiver(self, peer: Peer) -> Callable[[str | bytes], None]:
         """What the connection calls with each message it reads (from ``data_received``)."""
         cid, metrics, pending = peer.cid, peer.metrics, self._pending
 
@@ -521,160 +352,6 @@ class BridgeServer:
                 self._dispatch(self.bridge.time_out_call(key))
                 self._take_deadlines()
                 self._write_batches()
-
-    # -- output -------------------------------------------------------------------------
-
-    def flush(self) -> None:
-        """Send whatever the bridge produced outside the server's own calls (in-process
-        publishes, deferred answers): whoever calls the bridge's in-process API on the
-        server's loop calls this after it (the bridge is sans-I/O: nothing wakes the
-        server)."""
-        outputs = self.bridge.drain()
-        if not outputs and not self._batched:  # the common case at a step boundary
-            self._take_deadlines()
-            return
-        self._writing = True  # no write scheduled for later: it happens below
-        try:
-            self._dispatch(outputs)
-            self._take_deadlines()
-        finally:
-            self._writing = False
-            self._write_batches()
-
-    def _dispatch(self, outputs: list[Output]) -> None:
-        peers = self._peers
-        for out in outputs:
-            peer = peers.get(out.connection)
-            if peer is not None:
-                self._enqueue(peer, out)
-
-    def _enqueue(self, peer: _Peer, out: Output) -> None:
-        data = out.data
-        if peer.batch:
-            # A batch is open (its socket was open and keeping up when it opened; nothing
-            # written since): frames join it while it stays within the room it had.
-            if peer.batch_bytes <= peer.batch_room:
-                peer.batch.append(data)
-                peer.batch_bytes += len(data)
-                return
-        elif not peer.queue and peer.ws.state is State.OPEN:
-            room = peer.high_water - peer.transport.get_write_buffer_size()
-            if room >= 0:
-                # Nothing waits before this frame and the socket keeps up: it goes to the
-                # socket as ``send`` would put it there, without the writer task. Frames
-                # for one peer produced together are written together (one syscall).
-                if not self._batched and not self._writing:
-                    assert self._loop is not None  # peers exist only once started
-                    self._loop.call_soon(self._write_batches)
-                self._batched.append(peer)
-                peer.batch_room = room
-                peer.batch.append(data)
-                peer.batch_bytes += len(data)
-                return
-        entry = _Entry(out.data, out.name if out.queue_limit else None)
-        if out.queue_limit:
-            same = peer.by_key.setdefault(out.name, collections.deque())
-            while len(same) >= out.queue_limit:
-                self._drop(peer, same.popleft())
-            same.append(entry)
-        peer.queue.append(entry)
-        peer.bytes += len(out.data)
-        self.queued_bytes += len(out.data)
-        if peer.bytes > self.send_queue_bytes and entry.key is not None:
-            same = peer.by_key[entry.key]
-            while peer.bytes > self.send_queue_bytes and len(same) > 1:
-                self._drop(peer, same.popleft())
-        if peer.bytes > self.send_queue_bytes:
-            self._overflow(peer, "send queue overflow")
-            return
-        peer.wake.set()
-        if self.queued_bytes > self.max_queued_bytes:
-            # Every queue together is over the server-wide cap: the slowest clients go.
-            for slow in sorted(self._peers.values(), key=lambda p: p.bytes, reverse=True):
-                if self.queued_bytes <= self.max_queued_bytes or not slow.bytes:
-                    break
-                self._overflow(slow, "send queues over the server-wide limit")
-
-    def _forget_queue(self, peer: _Peer) -> None:
-        self.queued_bytes -= peer.bytes
-        peer.queue.clear()
-        peer.by_key.clear()
-        peer.bytes = 0
-
-    def _overflow(self, peer: _Peer, reason: str) -> None:
-        """Close a client whose unsent frames are over a limit (WebSocket status 1008, the
-        reason counted in :attr:`closed`)."""
-        self._forget_queue(peer)
-        self.closed[reason] = self.closed.get(reason, 0) + 1
-        self._peers.pop(peer.cid, None)  # nothing more is queued for it
-        self._close_later(peer.ws, 1008, reason)
-
-    def _close_later(self, ws: ServerConnection, code: int = 1000, reason: str = "") -> None:
-        # Held until done (an unreferenced task may be collected mid-close), then forgotten.
-        closer = asyncio.ensure_future(ws.close(code, reason))
-        self._closers.add(closer)
-        closer.add_done_callback(self._closers.discard)
-
-    def _drop(self, peer: _Peer, entry: _Entry) -> None:
-        entry.alive = False
-        peer.bytes -= len(entry.data)
-        self.queued_bytes -= len(entry.data)
-        assert entry.key is not None
-        peer.metrics.dropped[entry.key] = peer.metrics.dropped.get(entry.key, 0) + 1
-        peer.unreported[entry.key] = peer.unreported.get(entry.key, 0) + 1
-
-    def _write_batches(self) -> None:
-        batched, self._batched = self._batched, []
-        for peer in batched:
-            _write_batch(peer)
-
-    async def _write(self, peer: _Peer) -> None:
-        """Slow path: the socket is backed up; move queued frames to it as it drains."""
-        ws = peer.ws
-        while True:
-            if peer.batch:  # frames batched before the queue started go first
-                _write_batch(peer)
-            if not peer.queue:
-                if peer.unreported:
-                    for key, n in sorted(peer.unreported.items()):
-                        self.bridge.transport_status(
-                            peer.cid,
-                            "warning",
-                            f"dropped {n} messages on {key}: the client reads slower than "
-                            "they are published (raise queue_length to keep more)",
-                        )
-                    peer.unreported.clear()
-                    self.flush()
-                    continue
-                peer.wake.clear()
-                await peer.wake.wait()
-                continue
-            # Take what fits below the high-water mark (at least one frame): those leave
-            # the queue and can no longer be dropped, as if ``send`` had been called on each.
-            room = peer.high_water - peer.transport.get_write_buffer_size()
-            frames: list[str | bytes] = []
-            while peer.queue:
-                entry = peer.queue[0]
-                if entry.alive and frames and len(entry.data) > room:
-                    break
-                peer.queue.popleft()
-                if not entry.alive:
-                    continue
-                if entry.key is not None:
-                    peer.by_key[entry.key].popleft()
-                peer.bytes -= len(entry.data)
-                self.queued_bytes -= len(entry.data)
-                room -= len(entry.data)
-                frames.append(entry.data)
-            if not frames:
-                continue
-            last = frames.pop()
-            _write_frames(peer, frames)
-            try:
-                await ws.send(last)  # written after the others; waits while backed up
-            except ConnectionClosed:
-                return
-            peer.metrics.sent += 1
 
     # -- convenience --------------------------------------------------------------------
 

@@ -36,8 +36,8 @@ from pathlib import Path, PurePath
 from types import MappingProxyType
 from typing import Any, TypeVar
 
-from harness.models.meshes import mesh_cache_dir
-from harness.models.resolve import MODEL_PATH_VARIABLES
+from harness.models.files.meshes import mesh_cache_dir
+from harness.models.files.resolve import MODEL_PATH_VARIABLES
 from harness.scenario.errors import RunnerError
 from harness.scenario.results import IterationSpec
 from harness.scenario.scenario import Scenario

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import difflib
 import shlex
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,12 +29,12 @@ from harness.errors import ModelError
 from harness.events.config import LoggingConfig, logging_config_from_scene
 from harness.events.errors import LoggerConfigError
 from harness.models.description import ControlMode, Pose
-from harness.models.resolve import resolve_uri
-from harness.models.world import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
+from harness.models.files.resolve import resolve_uri
+from harness.models.world.records import OBJECT_SIZES, BaseKind, SelfCollision, WorldObject
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
 from harness.scenario.script import ScriptCommand, script_commands
-from harness.session.options import TransportOptions
+from harness.session import TransportOptions
 from harness.vocabulary import (
     LIMIT_POLICY_KEY,
     LIMIT_POLICY_OLD_KEY,
@@ -53,7 +54,9 @@ __all__ = [
     "Criteria",
     "Environment",
     "JointLoggerSpec",
+    "JointModes",
     "LoggerSpec",
+    "ResumeSpec",
     "Scenario",
     "ScenarioBridgeSection",
     "ScenarioRecordingSection",
@@ -75,7 +78,7 @@ Vector3 = tuple[float, float, float]
 class Environment:
     """``map`` is a built-in scene name or the resolved world file; ``mesh_collision`` how
     its (and the robots') non-convex collision meshes collide (``decompose`` or ``hull``, see
-    :mod:`harness.models.decompose`); the rest is metadata."""
+    :mod:`harness.models.build.decompose`); the rest is metadata."""
 
     map: str | Path = "empty"
     weather: str | None = None
@@ -92,14 +95,20 @@ class Subscriber:
 
 
 @dataclass(frozen=True)
-class Controller:
-    """Control mode for ``joints`` (empty = every joint of the robot); ``kinematic_limits``:
-    kinematic commands beyond a limit are clamped or allowed (the file may spell it
-    ``beyond_limits``, its earlier name)."""
+class JointModes:
+    """One entry of a robot's ``modes:``: the control mode of ``joints`` (empty = every joint
+    of the robot); ``kinematic_limits``: kinematic commands beyond a limit are clamped or
+    allowed (the file may spell it ``beyond_limits``, its earlier name). The robot key was
+    spelled ``controllers:`` (the original framework's ``JointController``), which is also the
+    scenario's ros2_control YAML key: that spelling is still read, with a warning."""
 
     mode: ControlMode
     joints: tuple[str, ...] = ()
     kinematic_limits: LimitPolicy = LimitPolicy.CLAMP
+
+
+Controller = JointModes
+"""Earlier name of :class:`JointModes` (read for one release)."""
 
 
 @dataclass(frozen=True)
@@ -108,7 +117,7 @@ class CollisionLoggerSpec:
 
     debounce_steps: int = 0
     ignore_pairs: tuple[tuple[str, str], ...] = ()
-    self_collision: bool = True
+    self_contacts: bool = True
     robot_vs_world_only: bool = False
     min_force: float = 0.0
     near_miss_distance: float | None = None
@@ -128,6 +137,7 @@ _LOGGER_KEYS: dict[str, tuple[str, ...]] = {
     "CollisionLogger": (
         "debounce_steps",
         "ignore_pairs",
+        "self_contacts",
         "self_collision",
         "robot_vs_world_only",
         "min_force",
@@ -157,7 +167,7 @@ class ScenarioRobot:
     orientation: Vector3 = (0.0, 0.0, 0.0)
     initial_joint_positions: Mapping[str, float] = field(default_factory=dict)
     subscribers: tuple[Subscriber, ...] = ()
-    controllers: tuple[Controller, ...] = ()
+    modes: tuple[JointModes, ...] = ()
     loggers: tuple[LoggerSpec, ...] = ()
     named: bool = False
     robot_args: Mapping[str, str] = field(default_factory=dict)
@@ -250,6 +260,19 @@ class ClientSpec:
 
 
 @dataclass(frozen=True)
+class ResumeSpec:
+    """The ``resume`` section: continue the recording ``source`` from ``step`` (or from
+    ``at_time`` seconds; its last step when neither) with ``edits`` and ``preroll``
+    (``Session.resume``)."""
+
+    source: Path
+    step: int | None = None
+    at_time: float | None = None
+    edits: tuple[str, ...] = ()
+    preroll: float = 0.0
+
+
+@dataclass(frozen=True)
 class Scenario:
     """A validated scenario. Build it with :meth:`load` or :meth:`from_mapping`."""
 
@@ -276,6 +299,9 @@ class Scenario:
     recording: ScenarioRecordingSection = ScenarioRecordingSection()
     criteria: Criteria = Criteria()
     client: ClientSpec | None = None
+    resume: ResumeSpec | None = None
+    """Continue a recording from a step instead of starting at step 0 (``duration`` still
+    counts from step 0)."""
     source: Path | None = None
     controllers: ControllersConfig | None = None
     """The ros2_control controllers (None: each robot's default set)."""
@@ -410,6 +436,7 @@ class _Builder:
                 ),
             ),
             client=self.client(data["client"], ["client"]) if "client" in data else None,
+            resume=self.resume(data["resume"]) if "resume" in data else None,
             source=source,
             script=self.script(data),
             explore=data.get("explore"),
@@ -544,6 +571,20 @@ class _Builder:
             self.problem(["ros", "bridge", "port"], value, "is not a TCP port (0-65535)")
         return port
 
+    def modes(self, data: dict[str, Any], path: list[str | int]) -> list[dict[str, Any]]:
+        """A robot's ``modes:`` entries; its earlier spelling ``controllers:`` is read with a
+        warning (that word names the scenario's ros2_control YAML)."""
+        if "controllers" not in data:
+            return list(data.get("modes", []))
+        warnings.warn(
+            f"{self.where}: {format_path([*path, 'controllers'])}: a robot's control modes are "
+            "spelled 'modes:' now ('controllers:' is the scenario's ros2_control YAML); the old "
+            "spelling is read until the next release",
+            FutureWarning,
+            stacklevel=2,
+        )
+        return list(data["controllers"])
+
     def robot(self, data: dict[str, Any], index: int) -> ScenarioRobot:
         path: list[str | int] = ["robots", index]
         robot = self.robot_source(data["robot"], [*path, "robot"])
@@ -568,15 +609,15 @@ class _Builder:
                 )
                 for s in data.get("subscribers", [])
             ),
-            controllers=tuple(
-                Controller(
+            modes=tuple(
+                JointModes(
                     mode=ControlMode.parse(c["mode"]),
                     joints=tuple(c.get("joints", ())),
                     kinematic_limits=LimitPolicy(
                         c.get(LIMIT_POLICY_KEY, c.get(LIMIT_POLICY_OLD_KEY, "clamp"))
                     ),
                 )
-                for c in data.get("controllers", [])
+                for c in self.modes(data, path)
             ),
             loggers=tuple(
                 self.logger(lg, [*path, "loggers", i])
@@ -613,11 +654,25 @@ class _Builder:
         return CollisionLoggerSpec(
             debounce_steps=data.get("debounce_steps", 0),
             ignore_pairs=tuple((a, b) for a, b in data.get("ignore_pairs", [])),
-            self_collision=data.get("self_collision", True),
+            self_contacts=self.self_contacts(data, path),
             robot_vs_world_only=data.get("robot_vs_world_only", False),
             min_force=float(data.get("min_force", 0.0)),
             near_miss_distance=None if near is None else float(near),
         )
+
+    def self_contacts(self, data: dict[str, Any], path: list[str | int]) -> bool:
+        """A CollisionLogger's ``self_contacts``; its earlier spelling ``self_collision`` (the
+        robot's link-pair policy has that name) is read with a warning."""
+        if "self_collision" not in data:
+            return bool(data.get("self_contacts", True))
+        warnings.warn(
+            f"{self.where}: {format_path([*path, 'self_collision'])}: a collision logger's "
+            "flag is spelled 'self_contacts' now ('self_collision' is the robot's link-pair "
+            "policy); the old spelling is read until the next release",
+            FutureWarning,
+            stacklevel=2,
+        )
+        return bool(data["self_collision"])
 
     def logging(self, data: dict[str, Any] | None) -> LoggingConfig:
         """The ``logging`` section (schema-valid already): logging off without one."""
@@ -657,6 +712,15 @@ class _Builder:
             env=dict(data.get("env", {})),
             readiness_timeout=float(data.get("readiness_timeout", 30.0)),
             wall_timeout=float(data.get("wall_timeout", 600.0)),
+        )
+
+    def resume(self, data: dict[str, Any]) -> ResumeSpec:
+        return ResumeSpec(
+            source=(self.base / data["from"]).resolve(),
+            step=data.get("at"),
+            at_time=None if data.get("at_time") is None else float(data["at_time"]),
+            edits=tuple(data.get("edits", ())),
+            preroll=float(data.get("preroll", 0.0)),
         )
 
 

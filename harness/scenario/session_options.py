@@ -42,14 +42,19 @@ from harness.events import (
     velocity_limits,
 )
 from harness.models import LoadedWorld
-from harness.models.decompose import check_mesh_collision
+from harness.models.build.decompose import check_mesh_collision
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Clock, CollisionLoggerSpec, JointLoggerSpec, Scenario
 from harness.scenario.world import kinematic_limits, plan_world
-from harness.session import SessionConfigError
-from harness.session.control import controllers_option
-from harness.session.options import CoreOptions, LoadOptions, RecordOptions, TransportOptions
+from harness.session import (
+    CoreOptions,
+    LoadOptions,
+    RecordOptions,
+    SessionConfigError,
+    TransportOptions,
+    controllers_option,
+)
 
 __all__ = [
     "DEFAULT_DEBOUNCE_STEPS",
@@ -173,7 +178,7 @@ def scenario_loggers(scenario: Scenario, world: LoadedWorld) -> list[Logger]:
                         CollisionLogger(
                             model,
                             robot_bodies=links,
-                            self_collision=spec.self_collision,
+                            self_contacts=spec.self_contacts,
                             robot_vs_world_only=spec.robot_vs_world_only,
                             ignore=[
                                 (_body(view, model, a), _body(view, model, b))

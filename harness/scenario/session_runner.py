@@ -78,9 +78,9 @@ from harness.scenario.results import (
     criteria_settings,
     judge,
 )
-from harness.scenario.scenario import ClientSpec, Scenario
+from harness.scenario.scenario import ClientSpec, ResumeSpec, Scenario
 from harness.scenario.script import run_script
-from harness.scenario.session_options import is_body, scenario_session
+from harness.scenario.session_options import ScenarioSession, is_body, scenario_session
 from harness.scenario.travel import BaseTracker, travel_verdict
 from harness.scenario.world import effective_timestep
 from harness.session import Session, SessionError
@@ -232,6 +232,38 @@ def _client_command(client: ClientSpec) -> ClientSpec:
     return client
 
 
+def _resumed(
+    resume: ResumeSpec,
+    planned: ScenarioSession,
+    spec: IterationSpec,
+    loggers: list[Callable[[Session], Logger]],
+    sinks: list[Sink],
+) -> Session:
+    """The iteration's session continuing ``resume``'s recording (the scenario's ``resume``
+    section): the recording's world and options, the iteration's port and recording path,
+    a free-running clock started (a resumed one waits paused)."""
+    session = Session.resume(
+        resume.source,
+        step=resume.step,
+        at_time=resume.at_time,
+        edits=resume.edits,
+        preroll=resume.preroll,
+        transport=replace(planned.transport, host=spec.host, port=spec.port),
+        record_to=spec.recording_path if spec.scenario.recording.enabled else None,
+        loggers=loggers,
+        sinks=sinks,
+    )
+    if session.world is None:
+        session.close()
+        raise ConfigError(
+            f"resume: {resume.source} is a one-robot session's recording: a scenario resumes "
+            "a scenario's recording (a world)"
+        )
+    if session.clock != "lockstep":
+        session.resume()
+    return session
+
+
 def _run_world(session: Session, limit: int, chunk: int) -> None:
     """Without a client: run the world to ``limit`` steps (lockstep: in chunks from here; a
     free-running clock: its own, paused at the limit)."""
@@ -282,27 +314,30 @@ class SessionIterationRunner:
         options = replace(planned.options, seed=spec.seed)
         if options.clock != "lockstep" and spec.client is not None:
             options = replace(options, start="on_client")
-        session = Session(
-            options=options,
-            # a free port per iteration: iterations run side by side
-            transport=replace(planned.transport, host=spec.host, port=spec.port),
-            record=replace(
-                planned.record,
-                record_to=spec.recording_path if scenario.recording.enabled else None,
-            ),
-            load=planned.load,
-            loggers=[observer],
-            sinks=sinks,
-        )
-        try:
-            assert session.world is not None
-            for logger in planned.loggers(session.world):
-                session.add_logger(logger)  # before the first step: as if given above
-            for watcher in self.watchers:
-                session.add_logger(watcher(session))
-        except BaseException:
-            session.close()
-            raise
+        if scenario.resume is not None:
+            session = _resumed(scenario.resume, planned, spec, [observer], sinks)
+        else:
+            session = Session(
+                options=options,
+                # a free port per iteration: iterations run side by side
+                transport=replace(planned.transport, host=spec.host, port=spec.port),
+                record=replace(
+                    planned.record,
+                    record_to=spec.recording_path if scenario.recording.enabled else None,
+                ),
+                load=planned.load,
+                loggers=[observer],
+                sinks=sinks,
+            )
+            try:
+                assert session.world is not None
+                for logger in planned.loggers(session.world):
+                    session.add_logger(logger)  # before the first step: as if given above
+                for watcher in self.watchers:
+                    session.add_logger(watcher(session))
+            except BaseException:
+                session.close()
+                raise
         dt_ns = session.dt_ns
         limit = steps_for(spec.sim_time_limit, dt_ns)
         outcome: ClientOutcome | None = None

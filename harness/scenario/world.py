@@ -45,11 +45,11 @@ from harness.models import (
     load_world,
 )
 from harness.models import RobotSpec as WorldRobot
-from harness.models.decompose import check_mesh_collision
+from harness.models.build.decompose import check_mesh_collision
 from harness.models.description import RobotModel
-from harness.models.mjcf_files import check_mjcf_files, generated_from
-from harness.models.world import add_object
-from harness.models.worldfile import is_sdf_world, load_world_file, world_timestep
+from harness.models.mjcf.files import check_mjcf_files, generated_from
+from harness.models.sdf.worldfile import is_sdf_world, load_world_file, world_timestep
+from harness.models.world.records import add_object
 from harness.scenario._validation import format_path
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Scenario, ScenarioRobot
@@ -116,10 +116,10 @@ def check_runnable(scenario: Scenario) -> list[str]:
                     sub.topic,
                     f"is not served: trajectories are taken on {served!r} only",
                 )
-        limits = {c.kinematic_limits for c in robot.controllers if c.mode == "kinematic"}
+        limits = {c.kinematic_limits for c in robot.modes if c.mode == "kinematic"}
         if len(limits) > 1:
             problem(
-                ["robots", index, "controllers"],
+                ["robots", index, "modes"],
                 sorted(limits),
                 "mix kinematic_limits values: kinematic joints of one robot share one policy",
             )
@@ -127,7 +127,7 @@ def check_runnable(scenario: Scenario) -> list[str]:
     for index, policy in enumerate(policies[1:], start=1):
         if policy != policies[0]:
             problem(
-                ["robots", index, "controllers"],
+                ["robots", index, "modes"],
                 policy,
                 f"differs from robots[0]'s kinematic_limits ({policies[0]!r}): the kinematic "
                 "joints of one run share one policy",
@@ -146,17 +146,19 @@ def require_runnable(scenario: Scenario) -> None:
 def control_modes(
     robot: ScenarioRobot, description: RobotModel, path: list[str | int], where: str = "<scenario>"
 ) -> dict[str, ControlMode]:
-    """Every controllable joint's mode from ``robots[].controllers`` (``path``: the robot's
+    """Every controllable joint's mode from ``robots[].modes`` (``path``: the robot's
     key path): a controller without ``joints`` covers every joint; later controllers win;
-    joints no controller names are ``position``."""
+    joints no controller names are left out, so that they get the loader's default (position,
+    or what the robot file's drive plugin or ``<ros2_control>`` interfaces drive them with, as
+    for ``Session`` and ``harness serve``)."""
     controllable = [j.name for j in description.controllable_joints]
-    modes: dict[str, ControlMode] = dict.fromkeys(controllable, ControlMode.POSITION)
+    modes: dict[str, ControlMode] = {}
     problems = []
-    for i, controller in enumerate(robot.controllers):
+    for i, controller in enumerate(robot.modes):
         for joint in controller.joints or controllable:
-            if joint not in modes:
+            if joint not in controllable:
                 problems.append(
-                    f"{where}: {format_path([*path, 'controllers', i, 'joints'])}: {joint!r} "
+                    f"{where}: {format_path([*path, 'modes', i, 'joints'])}: {joint!r} "
                     f"is not a controllable joint of the robot (controllable: "
                     f"{', '.join(controllable)})"
                 )
@@ -170,7 +172,7 @@ def control_modes(
 def kinematic_limits(robot: ScenarioRobot) -> LimitPolicy:
     """``allow`` when a kinematic controller lets commands pass the limits, else ``clamp``."""
     allow = any(
-        c.mode == "kinematic" and c.kinematic_limits == LimitPolicy.ALLOW for c in robot.controllers
+        c.mode == "kinematic" and c.kinematic_limits == LimitPolicy.ALLOW for c in robot.modes
     )
     return LimitPolicy.ALLOW if allow else LimitPolicy.CLAMP
 

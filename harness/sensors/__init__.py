@@ -16,7 +16,7 @@ one line naming it and the known types. A kind whose sensors declare ``state_int
 ``imu_sensor_broadcaster``.
 """
 
-from harness.sensors.base import Output, Sensor, View
+from harness.sensors.base import Sensor, SensorTopic, View
 from harness.sensors.camera import CameraSensor
 from harness.sensors.contact import ContactSensor
 from harness.sensors.declare import declared_in_sources, sensors_from_sdf, sensors_from_urdf
@@ -55,7 +55,6 @@ __all__ = [
     "LidarSensor",
     "Mounted",
     "OffscreenRenderer",
-    "Output",
     "RenderBackendError",
     "RendererInfo",
     "RobotMount",
@@ -66,6 +65,7 @@ __all__ = [
     "SensorSpec",
     "SensorStateInterfaces",
     "SensorSuite",
+    "SensorTopic",
     "UnknownSensorType",
     "View",
     "contexts_created",

@@ -13,12 +13,13 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.sensors.errors import SensorConfigError
+from harness.sensors.registry import Mount
 from harness.sensors.spec import SensorSpec
 
 __all__ = [
     "Mount",
-    "Output",
     "Sensor",
+    "SensorTopic",
     "View",
     "cross",
     "find_object",
@@ -62,21 +63,6 @@ def quat_of(rotation: F64) -> F64:
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).reshape(9))
     return quat
-
-
-@dataclass(frozen=True)
-class Mount:
-    """A sensor frame fixed to a body: ``position``/``rotation`` in the body frame."""
-
-    body: int
-    body_name: str
-    position: F64
-    rotation: F64
-
-    def world(self, data: mujoco.MjData) -> tuple[F64, F64]:
-        """The sensor frame in the world: (position, rotation matrix)."""
-        body_rot = data.xmat[self.body].reshape(3, 3)
-        return data.xpos[self.body] + body_rot @ self.position, body_rot @ self.rotation
 
 
 def find_object(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
@@ -171,7 +157,7 @@ class View:
 
 
 @dataclass(frozen=True)
-class Output:
+class SensorTopic:
     """One topic of a sensor: ``key`` (one of its kind's outputs,
     :attr:`~harness.sensors.registry.SensorKind.outputs`), resolved ``topic``, message type,
     and whether it goes into the recording."""
@@ -189,7 +175,7 @@ class Sensor(Protocol):
     :meth:`harness.sensors.SensorSuite.interfaces`."""
 
     spec: SensorSpec
-    outputs: tuple[Output, ...]
+    outputs: tuple[SensorTopic, ...]
     frame_id: str
     """The frame its messages are stamped in."""
 

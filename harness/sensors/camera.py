@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.sensors.base import F64, Mount, Output, View, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, noise_rng, quat_of
 from harness.sensors.messages import (
     TYPE_CAMERA_INFO,
     TYPE_COMPRESSED_IMAGE,
@@ -91,7 +91,7 @@ class CameraSensor:
         wants_rgb = spec.type in ("camera", "rgbd")
         record_raw = spec.record == "raw"
         self.outputs = tuple(
-            Output(
+            SensorTopic(
                 key,
                 topics[key],
                 _TYPES[key],

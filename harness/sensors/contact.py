@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.sensors.base import F64, Mount, Output, View, find_object, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, find_object, quat_of
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import TYPE_CONTACTS, contact_state, header
 from harness.sensors.registry import Mounted, SensorKind, register_kind
@@ -37,7 +37,9 @@ class ContactSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs: tuple[Output, ...] = (Output("contacts", topics["contacts"], TYPE_CONTACTS),)
+        self.outputs: tuple[SensorTopic, ...] = (
+            SensorTopic("contacts", topics["contacts"], TYPE_CONTACTS),
+        )
         if spec.collision:
             geom = find_object(model, mujoco.mjtObj.mjOBJ_GEOM, prefix + spec.collision)
             if geom < 0:

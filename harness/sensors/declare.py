@@ -4,6 +4,8 @@
   gz-sim spellings); a sensor in a ``<gazebo>`` block without ``reference`` is refused.
 - SDF (1.4-1.11): ``<sensor>`` elements of a ``<link>`` (pose in the link frame) and of a
   ``<joint>`` (force-torque: mounted on the joint's child link).
+- Ground truth plugins: Gazebo Classic's ``libgazebo_ros_p3d.so`` and gz-sim's
+  ``OdometryPublisher`` system are ``ground_truth`` sensors.
 - MJCF has no rate or topic: its ``<camera>`` and ``<site>`` elements are used by name from a
   ``sensors:`` list (``camera: wrist``, ``site: imu``); nothing is published unasked.
 
@@ -12,11 +14,13 @@ Sensor types: each sensor module registers the Gazebo spellings of its kind
 ``rgbd``), ``depth_camera``; ``rgbd_camera``; ``ray``, ``gpu_ray``, ``lidar``, ``gpu_lidar``;
 ``imu``; ``force_torque``; ``contact``. Other types (``gps``, ``altimeter``...) are skipped.
 
-Topic names (overridable per output with ``topics``): with a ``<topic>`` (gz-sim) the main
-output is on it (a camera's ``camera_info`` beside it); without one, Gazebo Classic's plugin
-names under ``<camera_name>`` or the sensor name (``image_raw``, ``camera_info``,
-``depth/image_raw``, ``points``; ``scan``; ``imu``; ``wrench``; ``contacts``). The frame id
-is the plugin's ``<frame_name>``, else ``<gz_frame_id>``, else the sensor name.
+Topic names (overridable per output with ``topics``): a Gazebo ROS plugin's (``<remapping>``
+of ``~/out``, ROS 1's ``<topicName>``, under its ``<ros><namespace>``/``<robotNamespace>``);
+else with a ``<topic>`` (gz-sim) the main output is on it (a camera's ``camera_info`` beside
+it); without one, Gazebo Classic's plugin names under ``<camera_name>`` or the sensor name
+(``image_raw``, ``camera_info``, ``depth/image_raw``, ``points``; ``scan``; ``imu``;
+``wrench``; ``contacts``). The frame id is the plugin's ``<frame_name>`` (``<frameName>``),
+else ``<gz_frame_id>``, else the sensor name.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from typing import Any
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.models.errors import ModelError
-from harness.models.xmlsafe import parse_xml
+from harness.models.files.xmlsafe import parse_xml
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.registry import gazebo_kind
 from harness.sensors.sdf_values import element_number, element_text
@@ -53,7 +57,9 @@ def _pose(el: etree._Element, where: str) -> tuple[float, ...] | None:
 
 
 def _plugin(sensor: etree._Element) -> tuple[str, str, str]:
-    """(camera name, frame name, remapped ``~/out``-style topic) from a Gazebo ROS plugin."""
+    """(camera name, frame name, topic) from a Gazebo ROS plugin: the topic remapped from
+    ``~/out`` (ROS 2) or named by ``<topicName>`` (ROS 1), under the plugin's ``<ros><namespace>``
+    (ROS 1: ``<robotNamespace>``) when relative; a camera's name under it too."""
     camera = frame = topic = ""
     for plugin in sensor.findall("plugin"):
         camera = camera or (
@@ -62,17 +68,64 @@ def _plugin(sensor: etree._Element) -> tuple[str, str, str]:
         frame = frame or (
             element_text(plugin, "frame_name") or element_text(plugin, "frameName") or ""
         )
-        topic = topic or (element_text(plugin, "topicName") or "")
-        namespace = element_text(plugin, "ros/namespace") or ""
+        namespace = (
+            element_text(plugin, "ros/namespace") or element_text(plugin, "robotNamespace") or ""
+        ).rstrip("/")
+        own = ""
         for remap in plugin.findall("ros/remapping") + plugin.findall("ros/argument"):
             text = (remap.text or "").strip()
             if ":=" in text:
                 left, right = (s.strip() for s in text.split(":=", 1))
-                if left in ("~/out", "out") and not topic:
-                    topic = f"{namespace.rstrip('/')}/{right}" if namespace else right
+                if left in ("~/out", "out", "/out") and right:
+                    own = own or right
+        own = own or element_text(plugin, "topicName") or ""
+        if own and not topic:
+            topic = own if own.startswith("/") or not namespace else f"{namespace}/{own}"
         if namespace and camera and not camera.startswith("/"):
-            camera = f"{namespace.rstrip('/')}/{camera}"
+            camera = f"{namespace}/{camera}"
     return camera, frame, topic
+
+
+def _remapped_outputs(sensor: etree._Element, topics: Mapping[str, str]) -> dict[str, str]:
+    """``topics`` (output -> name) with a plugin's remappings of its other outputs applied
+    (``~/image_raw:=image``, ``front_camera/camera_info:=info``: matched by their last names),
+    relative ones under the plugin's namespace."""
+    out = dict(topics)
+    for plugin in sensor.findall("plugin"):
+        namespace = (
+            element_text(plugin, "ros/namespace") or element_text(plugin, "robotNamespace") or ""
+        ).rstrip("/")
+        for remap in plugin.findall("ros/remapping") + plugin.findall("ros/argument"):
+            left, _, right = ((remap.text or "").strip()).partition(":=")
+            name, right = left.strip().removeprefix("~").strip("/"), right.strip()
+            if not right or not name or name == "out":
+                continue
+            target = right if right.startswith("/") or not namespace else f"{namespace}/{right}"
+            for key, topic in topics.items():
+                own = topic.strip("/")
+                if own == name or own.endswith("/" + name):
+                    out[key] = target
+    return out
+
+
+_PLUGIN_RATES = ("updateRateHZ", "updateRate", "update_rate")
+"""A Gazebo ROS plugin's own publishing rate (ROS 1 plugins; 0 or absent: the sensor's)."""
+
+
+def _plugin_rate(sensor: etree._Element, where: str) -> float | None:
+    for plugin in sensor.findall("plugin"):
+        for tag in _PLUGIN_RATES:
+            value = element_number(plugin, tag, where)
+            if value is not None and value > 0:
+                return value
+    return None
+
+
+def _rate(sensor: float | None, plugin: float | None) -> float | None:
+    """The rate messages come at: the sensor's, throttled by its plugin's."""
+    if plugin is None or (sensor is not None and 0 < sensor <= plugin):
+        return sensor
+    return plugin
 
 
 def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -> SensorSpec | None:
@@ -85,9 +138,10 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
     if not name:
         raise SensorConfigError(f"{where}: a sensor needs a name")
     camera_name, frame_name, plugin_topic = _plugin(sensor)
-    topic = element_text(sensor, "topic") or plugin_topic
+    # a ROS plugin's topic is the one ROS sees; <topic> is Gazebo's own (bridged by gz-sim)
+    topic = plugin_topic or element_text(sensor, "topic")
     params: dict[str, Any] = {}
-    rate = element_number(sensor, "update_rate", where)
+    rate = _rate(element_number(sensor, "update_rate", where), _plugin_rate(sensor, where))
     if rate is not None:
         params["update_rate"] = rate
     pose = _pose(sensor, where)
@@ -102,7 +156,9 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
             parent=parent,
             joint=joint,
             topic=topic or "",
-            topics=kind.default_topics(topic or "", camera_name or sensor_token(name)),
+            topics=_remapped_outputs(
+                sensor, kind.default_topics(topic or "", camera_name or sensor_token(name))
+            ),
             frame_id=frame_id,
             source=source,
             **params,
@@ -111,8 +167,69 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
         raise SensorConfigError(f"{where}: {exc}") from None
 
 
-def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpec]:
-    """The sensors of the URDF ``<gazebo reference>`` blocks in ``data``."""
+_P3D = ("libgazebo_ros_p3d.so",)
+_ODOMETRY_PUBLISHER = (
+    "gz-sim-odometry-publisher-system",
+    "libgz-sim-odometry-publisher-system.so",
+    "ignition-gazebo-odometry-publisher-system",
+    "libignition-gazebo-odometry-publisher-system.so",
+)
+
+
+def _ground_truth_plugins(root: etree._Element, source: str, base: str) -> list[SensorSpec]:
+    """Gazebo Classic's ``libgazebo_ros_p3d.so`` (``<body_name>``/``<bodyName>``, its
+    ``odom`` topic remapped or ROS 1's ``<topicName>``, ``<frame_name>``, ``<update_rate>``)
+    and gz-sim's ``OdometryPublisher`` (``<robot_base_frame>``, ``<odom_topic>``,
+    ``<odom_frame>``, ``<odom_publish_frequency>``) as ``ground_truth`` sensors; ``base``: the
+    link a gz-sim plugin without ``<robot_base_frame>`` follows."""
+    out: list[SensorSpec] = []
+    for plugin in root.iter("plugin"):
+        filename = plugin.get("filename", "")
+        if filename not in _P3D + _ODOMETRY_PUBLISHER:
+            continue
+        name = plugin.get("name") or "ground_truth"
+        where = f"{source}: line {plugin.sourceline}: <plugin filename={filename!r}>"
+        namespace = (
+            element_text(plugin, "ros/namespace") or element_text(plugin, "robotNamespace") or ""
+        ).rstrip("/")
+        if filename in _P3D:
+            body = element_text(plugin, "body_name") or element_text(plugin, "bodyName") or ""
+            topic = element_text(plugin, "topicName") or "odom"
+            for remap in plugin.findall("ros/remapping"):
+                left, _, right = (remap.text or "").partition(":=")
+                if left.strip().removeprefix("~").lstrip("/") == "odom" and right.strip():
+                    topic = right.strip()
+            frame = element_text(plugin, "frame_name") or element_text(plugin, "frameName")
+            rate = element_number(plugin, "update_rate", where) or element_number(
+                plugin, "updateRate", where
+            )
+        else:
+            body = element_text(plugin, "robot_base_frame") or base
+            topic = element_text(plugin, "odom_topic") or "odom"
+            frame = element_text(plugin, "odom_frame") or "odom"
+            rate = element_number(plugin, "odom_publish_frequency", where)
+        if not body:
+            raise SensorConfigError(f"{where}: needs <body_name>")
+        if namespace and not topic.startswith("/"):
+            topic = f"{namespace}/{topic}"
+        try:
+            out.append(
+                SensorSpec(
+                    name=name, type="ground_truth", parent=body, topic=topic,
+                    topics={"odom": topic}, frame_id=frame or "world", source=source,
+                    update_rate=rate or None,
+                )
+            )  # fmt: skip
+        except SensorConfigError as exc:
+            raise SensorConfigError(f"{where}: {exc}") from None
+    return out
+
+
+def sensors_from_urdf(
+    data: bytes, source: str = "robot.urdf", *, plugins: bool = True
+) -> list[SensorSpec]:
+    """The sensors of the URDF ``<gazebo reference>`` blocks in ``data`` (``plugins``: and its
+    ground truth plugins)."""
     root = parse_xml(data, source)
     out: list[SensorSpec] = []
     # Gazebo force-torque sensors reference a joint: they sit on its child link.
@@ -138,11 +255,14 @@ def sensors_from_urdf(data: bytes, source: str = "robot.urdf") -> list[SensorSpe
                 spec = _sensor(sensor, reference, source)
             if spec is not None:
                 out.append(spec)
-    return out
+    return out + (_ground_truth_plugins(root, source, "") if plugins else [])
 
 
-def sensors_from_sdf(data: bytes, source: str = "model.sdf") -> list[SensorSpec]:
-    """The sensors of the SDF ``<link>`` and ``<joint>`` elements in ``data``."""
+def sensors_from_sdf(
+    data: bytes, source: str = "model.sdf", *, plugins: bool = True
+) -> list[SensorSpec]:
+    """The sensors of the SDF ``<link>`` and ``<joint>`` elements in ``data`` (``plugins``: and
+    its ground truth plugins)."""
     root = parse_xml(data, source)
     out: list[SensorSpec] = []
     for link in root.iter("link"):
@@ -156,7 +276,10 @@ def sensors_from_sdf(data: bytes, source: str = "model.sdf") -> list[SensorSpec]
             spec = _sensor(sensor, child, source, joint=joint.get("name", ""))
             if spec is not None:
                 out.append(spec)
-    return out
+    if not plugins:
+        return out
+    first = next(iter(root.iter("link")), None)
+    return out + _ground_truth_plugins(root, source, "" if first is None else first.get("name", ""))
 
 
 def declared_in_sources(sources: Mapping[str, bytes]) -> list[SensorSpec]:
@@ -169,10 +292,11 @@ def declared_in_sources(sources: Mapping[str, bytes]) -> list[SensorSpec]:
             continue
         lower = name.lower()
         try:
+            # a ground truth plugin follows a robot's link: the robot's own files only
             if lower.endswith(_URDF_SUFFIXES):
-                out.extend(sensors_from_urdf(blob, name))
+                out.extend(sensors_from_urdf(blob, name, plugins=role == "model"))
             elif lower.endswith(_SDF_SUFFIXES):
-                out.extend(sensors_from_sdf(blob, name))
+                out.extend(sensors_from_sdf(blob, name, plugins=role == "model"))
         except ModelError as exc:
             raise SensorConfigError(f"{name}: cannot read sensors: {exc}") from None
     return out

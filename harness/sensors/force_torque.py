@@ -14,13 +14,17 @@ from typing import Any
 import mujoco
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_WRENCH, header, wrench_msg
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.sdf_values import element_noise, element_text
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["ForceTorqueSensor"]
+__all__ = ["FT_INTERFACES", "ForceTorqueSensor"]
+
+FT_INTERFACES = ("force.x", "force.y", "force.z", "torque.x", "torque.y", "torque.z")
+"""A force-torque sensor's state interfaces, in ros2_control's order (what a
+``force_torque_sensor_broadcaster`` reads)."""
 
 
 class ForceTorqueSensor:
@@ -37,9 +41,12 @@ class ForceTorqueSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs: tuple[Output, ...] = (Output("wrench", topics["wrench"], TYPE_WRENCH),)
+        self.outputs: tuple[SensorTopic, ...] = (
+            SensorTopic("wrench", topics["wrench"], TYPE_WRENCH),
+        )
         self._root = int(model.body_rootid[mount.body])
         self._parent = int(model.body_parentid[mount.body])
+        self.state_interfaces = FT_INTERFACES
 
     def values(self, view: View) -> tuple[F64, F64]:
         """(force, torque) in the configured frame and direction."""
@@ -65,6 +72,11 @@ class ForceTorqueSensor:
             )
             force, torque = force + noise[:3], torque + noise[3:]
         return force, torque
+
+    def interface_values(self, view: View) -> tuple[float, ...]:
+        """The values of :data:`FT_INTERFACES` at this step (those of its message)."""
+        force, torque = self.values(view)
+        return (*map(float, force), *map(float, torque))
 
     def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
         """The ``WrenchStamped`` builder at this step."""

@@ -13,7 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.sensors.base import F64, Mount, Output, View, cross, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, cross, quat_of
 from harness.sensors.messages import header
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.spec import SensorSpec
@@ -36,7 +36,9 @@ class GroundTruthSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs: tuple[Output, ...] = (Output("odom", topics["odom"], TYPE_ODOMETRY),)
+        self.outputs: tuple[SensorTopic, ...] = (
+            SensorTopic("odom", topics["odom"], TYPE_ODOMETRY),
+        )
 
     def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
         """The ``Odometry`` builder at this step."""

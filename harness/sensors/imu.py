@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.sensors.base import F64, Mount, Output, View, cross, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, cross, noise_rng, quat_of
 from harness.sensors.messages import TYPE_IMU, header, imu_msg
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.sdf_values import element_noise
@@ -67,7 +67,7 @@ class ImuSensor:
         self.spec = spec
         self.mount = mount
         self.frame_id = frame_id
-        self.outputs: tuple[Output, ...] = (Output("imu", topics["imu"], TYPE_IMU),)
+        self.outputs: tuple[SensorTopic, ...] = (SensorTopic("imu", topics["imu"], TYPE_IMU),)
         self.state_interfaces = IMU_INTERFACES
 
     def values(self, view: View) -> tuple[F64, F64, F64]:

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.sensors.base import F64, Mount, Output, View, noise_rng, quat_of
+from harness.sensors.base import F64, Mount, SensorTopic, View, noise_rng, quat_of
 from harness.sensors.messages import (
     TYPE_LASER_SCAN,
     TYPE_POINT_CLOUD2,
@@ -54,8 +54,8 @@ class LidarSensor:
         self.frame_id = frame_id
         self.planar = spec.vertical_samples == 1
         key = "scan" if self.planar else "points"
-        self.outputs: tuple[Output, ...] = (
-            Output(key, topics[key], TYPE_LASER_SCAN if self.planar else TYPE_POINT_CLOUD2),
+        self.outputs: tuple[SensorTopic, ...] = (
+            SensorTopic(key, topics[key], TYPE_LASER_SCAN if self.planar else TYPE_POINT_CLOUD2),
         )
         self._model = model
         horizontal = _angles(spec.samples, spec.min_angle, spec.max_angle)

@@ -14,17 +14,19 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+import numpy.typing as npt
+
 from harness.rooms import Room
 from harness.sensors.errors import UnknownSensorType
 
 if TYPE_CHECKING:
     import mujoco
 
-    from harness.sensors.base import Mount, Sensor
     from harness.sensors.render import OffscreenRenderer
-    from harness.sensors.spec import SensorSpec
 
 __all__ = [
+    "Mount",
     "Mounted",
     "SensorKind",
     "gazebo_kind",
@@ -32,6 +34,24 @@ __all__ = [
     "known_types",
     "register_kind",
 ]
+
+
+F64 = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Mount:
+    """A sensor frame fixed to a body: ``position``/``rotation`` in the body frame."""
+
+    body: int
+    body_name: str
+    position: F64
+    rotation: F64
+
+    def world(self, data: mujoco.MjData) -> tuple[F64, F64]:
+        """The sensor frame in the world: (position, rotation matrix)."""
+        body_rot = data.xmat[self.body].reshape(3, 3)
+        return data.xpos[self.body] + body_rot @ self.position, body_rot @ self.rotation
 
 
 @dataclass(frozen=True)
@@ -74,7 +94,10 @@ class SensorKind:
     type: str
     outputs: tuple[str, ...]
     rate: float
-    build: Callable[[SensorSpec, Mounted], Sensor]
+    build: Callable[[Any, Mounted], Any]
+    """Typed where it is defined (each kind's module: its :class:`SensorSpec` and a
+    :class:`~harness.sensors.base.Sensor`): this mapping sits below the spec and the base
+    module in the room, so it names neither."""
     gazebo: tuple[str, ...] = ()
     topics: Callable[[str, str], dict[str, str]] | None = None
     params: Callable[[Any, str], dict[str, Any]] = field(default=_no_params)

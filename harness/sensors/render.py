@@ -10,7 +10,9 @@ images are byte-identical only on the same renderer.
 Cameras are drawn with MuJoCo's renderer (``mjv_updateScene`` + ``mjr_render``) after the
 scene camera is placed at the sensor's pose with the sensor's frustum, so a camera needs no
 camera element in the model. Shadows and reflections are off (software rendering speed), sites
-are hidden.
+are hidden. A model with a :data:`BACKGROUND` numeric (an SDF world's ``<scene><background>``,
+set by the world loader) shows that colour where nothing is drawn, as a Gazebo camera does
+(MuJoCo's own background is black; its skybox would be a surface in the depth image).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from harness.sensors.errors import RenderBackendError
 
 __all__ = [
     "BACKENDS",
+    "BACKGROUND",
     "DEBIAN_PACKAGES",
     "OffscreenRenderer",
     "RendererInfo",
@@ -37,6 +40,8 @@ __all__ = [
 ]
 
 BACKENDS = ("egl", "osmesa")
+BACKGROUND = "harness:background"
+"""The name of the model numeric holding the background colour (r, g, b in 0-1)."""
 DEBIAN_PACKAGES = "libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 (EGL) or libosmesa6 (OSMesa)"
 """What to install on Debian/Ubuntu when no back-end works (``make system-deps`` does)."""
 
@@ -126,6 +131,12 @@ class OffscreenRenderer:
         self._option.sitegroup[:] = 0
         self._free = mujoco.MjvCamera()
         mujoco.mjv_defaultFreeCamera(model, self._free)
+        self._background: npt.NDArray[np.uint8] | None = None
+        index = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, BACKGROUND))
+        if index >= 0 and int(model.numeric_size[index]) == 3:
+            start = int(model.numeric_adr[index])
+            color = np.clip(model.numeric_data[start : start + 3], 0.0, 1.0)
+            self._background = np.round(color * 255).astype(np.uint8)
 
     def new_scene(self) -> mujoco.MjvScene:
         """A scene for one camera."""
@@ -169,9 +180,15 @@ class OffscreenRenderer:
         shape = (rgb if rgb is not None else depth).shape  # type: ignore[union-attr]
         rect = mujoco.MjrRect(0, 0, shape[1], shape[0])
         mujoco.mjr_render(rect, scene, self._mjr)
-        mujoco.mjr_readPixels(rgb, depth, rect, self._mjr)
+        background = self._background if rgb is not None else None
+        depth_buffer = depth
+        if depth_buffer is None and background is not None:  # tells where nothing was drawn
+            depth_buffer = np.empty(shape[:2], np.float32)
+        mujoco.mjr_readPixels(rgb, depth_buffer, rect, self._mjr)
         if rgb is not None:
             rgb[:] = rgb[::-1].copy()
+            if background is not None and depth_buffer is not None:
+                rgb[depth_buffer[::-1] <= 0.0] = background  # the cleared depth: nothing drawn
         if depth is not None:
             # Reversed-Z depth buffer (1 at near, 0 at far) back to metres.
             z = depth[::-1].astype(np.float64)

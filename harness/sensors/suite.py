@@ -2,9 +2,10 @@
 ``/tf_static`` of the sensor frames and the recording's sensor metadata.
 
 The session asks :meth:`SensorSuite.due` at every step and publishes/records what it returns;
-the suite knows nothing of sockets or MCAP. A sensor with rate ``r`` Hz is due at steps that
-are multiples of ``round(1 / (r * dt))`` (every step for ``r = 0`` or ``r`` above the step
-rate), counted in simulation steps, never on the wall clock.
+the suite knows nothing of sockets or MCAP. A sensor with rate ``r`` Hz is due at step 0 and at
+the first step at or after each of its periods (``n / r`` seconds), so that its mean rate is
+``r`` whatever the step (every step for ``r = 0`` or ``r`` above the step rate); counted in
+simulation steps, never on the wall clock.
 
 Sensors read a private copy of the simulation state (``mj_getState``/``mj_setState`` of
 ``mjSTATE_INTEGRATION`` + ``mj_forward``), so the poses, velocities, accelerations, contacts and
@@ -24,17 +25,19 @@ import functools
 import json
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from fractions import Fraction
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from harness.sensors.base import Output, Sensor, View, mount_of
+from harness.sensors.base import Sensor, SensorTopic, View, mount_of
 from harness.sensors.declare import declared_in_sources
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import static_tf_msg
 from harness.sensors.registry import Mounted, kind_of
 from harness.sensors.render import OffscreenRenderer, RendererInfo
+from harness.sensors.ros2_control_sensors import ros2_control_sensors
 from harness.sensors.spec import SensorSpec
 
 __all__ = [
@@ -65,7 +68,7 @@ class RobotMount:
 class Due:
     """One message due now: publish/record it on ``output.topic`` (``build`` makes it)."""
 
-    output: Output
+    output: SensorTopic
     build: Callable[[], Mapping[str, Any]]
 
 
@@ -91,6 +94,22 @@ class _Reading:
         return self._builders[key]()
 
 
+class _Schedule:
+    """When a sensor of ``rate`` Hz is due: at step 0 and at the first step at or after each
+    period; exact integer arithmetic (the rate as a fraction), so it repeats bit for bit."""
+
+    def __init__(self, rate: float, dt_ns: int) -> None:
+        ratio = Fraction(rate).limit_denominator(10**6) if rate else Fraction(0)
+        self._num = ratio.numerator * dt_ns  # periods elapsed by step k: k * num // den
+        self._den = ratio.denominator * 1_000_000_000
+        self._every_step = not rate or ratio * dt_ns >= 1_000_000_000
+
+    def due(self, step: int) -> bool:
+        if self._every_step or step <= 0:
+            return True
+        return step * self._num // self._den != (step - 1) * self._num // self._den
+
+
 class SensorSuite:
     """Every sensor of a session. ``specs`` with the robot each belongs to; ``seed``: the
     session seed (noise); ``dt_ns``: the step."""
@@ -111,7 +130,7 @@ class SensorSuite:
         self.on_renderer: Callable[[RendererInfo], None] | None = None
         """Called once when the first camera frame starts OpenGL (the session records it)."""
         self.sensors: list[Sensor] = []
-        self._every: list[int] = []
+        self._every: list[_Schedule] = []
         self._parents: list[str] = []
         topics_seen: dict[str, str] = {}
         for spec, robot in specs:
@@ -125,7 +144,7 @@ class SensorSuite:
                 topics_seen[out.topic] = spec.name
             self.sensors.append(sensor)
             rate = spec.period_hz
-            self._every.append(1 if not rate else max(1, round(1e9 / rate / dt_ns)))
+            self._every.append(_Schedule(rate, dt_ns))
         self._data = mujoco.MjData(model)
         spec_int = mujoco.mjtState.mjSTATE_INTEGRATION.value
         self._state_spec = spec_int
@@ -147,9 +166,10 @@ class SensorSuite:
         }
         frame_id = robot.prefix + (spec.frame_id or spec.token)
         self._parents.append(mount.body_name)
-        return kind.build(
+        sensor: Sensor = kind.build(
             spec, Mounted(self.model, mount, topics, frame_id, robot.prefix, self.renderer)
         )
+        return sensor
 
     @classmethod
     def for_robots(
@@ -168,7 +188,8 @@ class SensorSuite:
         found: dict[tuple[str, str], tuple[SensorSpec, RobotMount]] = {}
         by_namespace = {robot.namespace: robot for robot in robots}
         for robot in (*robots, *world):
-            for spec in declared_in_sources(robot.sources):
+            declared = declared_in_sources(robot.sources)
+            for spec in [*declared, *ros2_control_sensors(robot.sources, declared)]:
                 spec = replace(spec, namespace=robot.namespace)
                 found[(spec.namespace, spec.name)] = (spec, robot)
         for i, item in enumerate(extra):
@@ -221,13 +242,13 @@ class SensorSuite:
         out: list[Due] = []
         self._view = None  # a reset may repeat a step number: never reuse an older copy
         for i in self._claimed:
-            if not step % self._every[i]:
+            if self._every[i].due(step):
                 sensor = self.sensors[i]
                 self._held[i] = sensor.interface_values(  # type: ignore[attr-defined]
                     self.view(data, step, sim_time_ns)
                 )
         for sensor, every in zip(self.sensors, self._every, strict=True):
-            if step % every:
+            if not every.due(step):
                 continue
             reading = _Reading(self, sensor, data, step, sim_time_ns)
             for output in sensor.outputs:

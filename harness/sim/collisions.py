@@ -57,14 +57,14 @@ def allowed_pairs(
     nbody: int,
     *,
     robot_bodies: Iterable[int] = (),
-    self_collision: bool = True,
+    self_contacts: bool = True,
     robot_vs_world_only: bool = False,
     ignore: Iterable[tuple[int, int]] = (),
 ) -> BoolMatrix:
     """A symmetric ``(nbody, nbody)`` matrix: True where a body pair is reported.
 
     Pair classes: *self* (both bodies are the robot's), *robot-world* (one is), *environment*
-    (neither). Self pairs are reported when ``self_collision``; environment pairs unless
+    (neither). Self pairs are reported when ``self_contacts``; environment pairs unless
     ``robot_vs_world_only`` (which also drops self pairs). ``ignore`` pairs are never reported.
     """
     robot = np.zeros(nbody, dtype=bool)
@@ -72,7 +72,7 @@ def allowed_pairs(
     both = robot[:, None] & robot[None, :]
     neither = ~robot[:, None] & ~robot[None, :]
     allowed = np.ones((nbody, nbody), dtype=bool)
-    if not self_collision or robot_vs_world_only:
+    if not self_contacts or robot_vs_world_only:
         allowed &= ~both
     if robot_vs_world_only:
         allowed &= ~neither

@@ -1,6 +1,6 @@
 """How a :class:`~harness.sim.Simulation` lays a control map onto a compiled model, checked.
 
-:func:`check_model` checks what the whole run depends on (a timestep of whole nanoseconds, no
+:func:`check_run_layout` checks what the whole run depends on (a timestep of whole nanoseconds, no
 sleeping bodies, an initial keyframe at time 0). :func:`build_layout` turns ``control`` (joint
 name -> mode) into a :class:`JointLayout`: one row per controllable joint with its addresses,
 actuator and command range, and the kinematic writes (the kinematic joints, then the mimic
@@ -30,7 +30,7 @@ __all__ = [
     "JointLayout",
     "WriteKey",
     "build_layout",
-    "check_model",
+    "check_run_layout",
     "kinematic_targets",
     "object_name",
     "write_target",
@@ -50,7 +50,7 @@ def object_name(model: mujoco.MjModel, obj: mujoco.mjtObj, index: int) -> str:
     return mujoco.mj_id2name(model, obj, index) or ""
 
 
-def check_model(model: mujoco.MjModel, keyframe: str | None) -> tuple[float, int, int]:
+def check_run_layout(model: mujoco.MjModel, keyframe: str | None) -> tuple[float, int, int]:
     """``(dt, dt_ns, keyframe id)`` of a model fit to simulate (keyframe id -1: ``qpos0``)."""
     dt = float(model.opt.timestep)
     dt_ns = round(dt * 1e9)

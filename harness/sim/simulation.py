@@ -36,7 +36,7 @@ import numpy.typing as npt
 
 from harness.errors import SimulationError
 from harness.models.description import ControlMode, RobotModel
-from harness.models.world import LoadedWorld
+from harness.models.world.records import LoadedWorld
 from harness.sim.capture import capture_input
 from harness.sim.commands import (
     CommandField,
@@ -52,7 +52,7 @@ from harness.sim.inputs import AppliedInput
 from harness.sim.instability import failure, warning_names
 from harness.sim.layout import (
     build_layout,
-    check_model,
+    check_run_layout,
     kinematic_targets,
     object_name,
     write_target,
@@ -158,7 +158,7 @@ class Simulation:
             limit_policy = LimitPolicy.parse(kinematic_limits)
         except ValueError as exc:
             raise ControlConfigError(str(exc)) from None
-        dt, dt_ns, self._keyframe = check_model(model, keyframe)
+        dt, dt_ns, self._keyframe = check_run_layout(model, keyframe)
         self.model = model
         self.data = mujoco.MjData(model)
         self.dt_ns = dt_ns

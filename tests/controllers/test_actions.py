@@ -124,9 +124,12 @@ def test_cancel_and_gripper(roslibpy_run: Any) -> None:
 def test_controller_manager_lists_the_default_set(roslibpy_run: Any) -> None:
     listing = {c["name"]: c for c in roslibpy_run[0]["list_controllers"]["controllers"]}
     assert listing["joint_trajectory_controller"]["state"] == "active"
+    # the default set commands through the harness's multiplexer, which claims the joints
     assert listing["joint_trajectory_controller"]["claimed_interfaces"] == [
-        f"{j}/position" for j in JOINTS
+        f"command_mux/{j}/position" for j in JOINTS
     ]
+    assert listing["command_mux"]["state"] == "active"
+    assert set(listing["command_mux"]["claimed_interfaces"]) >= {f"{j}/position" for j in JOINTS}
     assert listing["gripper_controller"]["type"] == "position_controllers/GripperActionController"
     assert listing["joint_state_broadcaster"]["state"] == "active"
     assert "forward_position_controller" in listing

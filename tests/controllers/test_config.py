@@ -158,7 +158,10 @@ def test_conflicting_controllers_stay_inactive_and_switch_semantics() -> None:
         "switch_controller", {"activate_controllers": ["fwd"], "strictness": 2}
     )
     assert ok == {"ok": False}
-    assert "claimed by active controller 'traj'" in out.logs[0].text
+    assert out.logs[0].text == (
+        "switch_controller: Unable to activate controller 'fwd' since the command interface "
+        "'a/position' is currently claimed by another controller."
+    )
     assert _states(manager) == {"traj": "active", "fwd": "inactive"}
     # both ways at once succeeds
     ok, _ = manager.handle(

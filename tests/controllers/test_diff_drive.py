@@ -133,3 +133,42 @@ def test_missing_geometry_is_a_config_error() -> None:
         _controller(wheel_separation=0.0)
     with pytest.raises(ControllersConfigError, match="'nope'"):
         _controller(left_wheel_names=["nope"])
+
+
+def test_skid_steer_velocity_feedback_integrates_the_wheel_speeds() -> None:
+    # position_feedback: false reads the wheels' velocity interfaces (ros2_controllers'
+    # updateFromVelocity), not the command: a wheel slower than commanded shows in the odometry
+    ctrl, wheels = _controller(cmd_vel_timeout=10.0, position_feedback=False), IdealWheels()
+    assert ctrl.state_interfaces == ("fl/velocity", "rl/velocity", "fr/velocity", "rr/velocity")
+    ctrl.activate(wheels.readings())
+    ctrl.on_message("~/cmd_vel", _twist(0.2, 0.0), 1, wheels.readings())
+    published = []
+    for _ in range(200):  # 2 s; the rear wheels turn at half the command (slip on that axle)
+        out = ctrl.update(wheels.readings(), PERIOD)
+        for command in out.commands:
+            assert command.velocity is not None
+            factor = 0.5 if command.joint in ("rl", "rr") else 1.0
+            wheels.velocity[command.joint] = command.velocity * factor
+        published += out.publications
+        wheels.time += PERIOD
+    odom = [p for p in published if p.topic == "~/odom"][-1].msg
+    # the mean per side is 0.75 of the command: 0.15 m/s over the 1.9 s before the last publication
+    assert odom["pose"]["pose"]["position"]["x"] == pytest.approx(0.15 * 1.9, rel=0.02)
+
+
+def test_sides_with_different_wheel_counts_are_refused_as_ros2_controllers_does() -> None:
+    with pytest.raises(ControllersConfigError) as info:
+        _controller(left_wheel_names=["fl", "rl"], right_wheel_names=["fr"])
+    assert "the number of left wheels [2] and the number of right wheels [1] are different" in str(
+        info.value
+    )
+
+
+def test_wheels_per_side_is_read_and_the_name_lists_decide() -> None:
+    ctrl, wheels = _controller(cmd_vel_timeout=10.0, wheels_per_side=1), IdealWheels()
+    ctrl.activate(wheels.readings())
+    ctrl.on_message("~/cmd_vel", _twist(0.2, 0.0), 1, wheels.readings())
+    wheels.run(ctrl, 0.5)
+    assert wheels.velocity["rl"] == wheels.velocity["fl"] == pytest.approx(0.2 / 0.05)
+    with pytest.raises(ControllersConfigError, match="wheels_per_side must be a number"):
+        _controller(wheels_per_side="two")

@@ -9,9 +9,9 @@ from harness.controllers import (
     Controller,
     ControllerBase,
     ControllerManager,
+    ControllerOutput,
     ControllerSpec,
     JointReadings,
-    Output,
     RobotInterfaces,
     UnknownControllerType,
     controller_type,
@@ -61,9 +61,9 @@ class _Blinker(ControllerBase):
         super().__init__(spec.name, spec.type)
         self.count = 0
 
-    def update(self, state: JointReadings, period_ns: int) -> Output:
+    def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         self.count += 1
-        return Output()
+        return ControllerOutput()
 
 
 @pytest.mark.usefixtures("private_registry")
@@ -82,7 +82,7 @@ def test_a_registered_type_is_built_listed_and_driven_without_a_core_edit() -> N
     types = manager.handle("list_controller_types", {})[0]["types"]
     assert "blink_controller/Blinker" in types
     # the base's no-op defaults
-    assert active.on_goal("~/x", 1, {}, _state()) == Output()
+    assert active.on_goal("~/x", 1, {}, _state()) == ControllerOutput()
     assert active.command_interfaces == ()
     assert active.subscriptions == ()
     with pytest.raises(ValueError, match="registered twice"):

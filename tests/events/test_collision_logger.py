@@ -105,12 +105,12 @@ def fold(k, data):
     data.qvel[:] = 0.0
 
 
-@pytest.mark.parametrize("self_collision", [True, False])
-def test_self_collision_reported_or_filtered(scene, self_collision):
+@pytest.mark.parametrize("self_contacts", [True, False])
+def test_self_contacts_reported_or_filtered(scene, self_contacts):
     model = scene.model("folding_arm.xml")
-    sink, _ = run_logger(scene, model, fold, 400, robot_root="base", self_collision=self_collision)
+    sink, _ = run_logger(scene, model, fold, 400, robot_root="base", self_contacts=self_contacts)
     found = pairs(sink.events)
-    if self_collision:
+    if self_contacts:
         assert found == {("link1", "link3")}
         (begin,) = sink.of_kind(CollisionBegin)
         assert begin.geom1 == "link1_geom"

@@ -88,7 +88,7 @@ def test_contacts_inside_the_margin_without_force_do_not_count():
 
 
 def test_allowed_pairs_classes():
-    allowed = allowed_pairs(5, robot_bodies=[1, 2], self_collision=False)
+    allowed = allowed_pairs(5, robot_bodies=[1, 2], self_contacts=False)
     assert not allowed[1, 2]
     assert allowed[1, 3]
     assert allowed[3, 4]

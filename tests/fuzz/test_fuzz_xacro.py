@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from harness.errors import ModelError
-from harness.models.xacro import expand_xacro
+from harness.models.xacro.expand import expand_xacro
 from tests.fuzz.fuzzlib import mutate_bytes
 from tests.fuzz.xacrofuzz import XACRO_SEED, fuzz_xacro, raw_expansions, write
 

@@ -1,7 +1,7 @@
 """The xacro fuzz target, its seed and a generator of xacro documents, shared by the hypothesis
 tests (test_fuzz_xacro.py) and the atheris driver (atheris_fuzz.py ``xacro``).
 
-The target expands a document with :func:`harness.models.xacro.expand_xacro`: it works or
+The target expands a document with :func:`harness.models.xacro.expand.expand_xacro`: it works or
 raises a ModelError (one line; the expansion limits among them), never anything else, and
 never runs past the limits. :func:`raw_expansions` runs xacro's own expansion with and without
 the harness's meter on the same file: the meter's splice must not change a byte of output.
@@ -13,9 +13,9 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from harness.models import xacro as harness_xacro
-from harness.models.limits import XACRO_LIMITS
-from harness.models.xacro_meter import XacroMeter, metered
+from harness.models.files.limits import XACRO_LIMITS
+from harness.models.xacro import expand as harness_xacro
+from harness.models.xacro.meter import XacroMeter, metered
 
 __all__ = ["XACRO_SEED", "fuzz_xacro", "raw_expansions", "target", "write"]
 

@@ -27,7 +27,7 @@ EXPECTED_LOAD_FAILURES = {
 # below the gravity torque it carries at the zero configuration (the real PR2 and Baxter
 # shoulders carry their arms on counterbalance springs the URDF does not describe). Baxter's
 # file declares <transmission>s for its grippers only: its arm joints are passive (no servo to
-# hold; harness.models.passive), so it is not listed.
+# hold; harness.models.build.passive), so it is not listed.
 EXPECTED_HOLD_FAILURES = {
     "pr2_description/urdf/pr2.urdf": "below the gravity load",
     "romeo_description/urdf/romeo_laas_small.urdf": "below the gravity load",
@@ -89,7 +89,7 @@ def run_corpus(cache: Path) -> list[Row]:
     """Load, hold and stand every robot (the numbers of the README table)."""
     from harness.errors import HarnessError
     from harness.models import load_robot
-    from harness.models.check import check_loaded
+    from harness.models.check.report import check_loaded
     from harness.models.errors import ModelWarning
 
     root = robots_dir()

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from harness.cli import main
-from harness.models.check import HOLD_RAD
+from harness.models.check.report import HOLD_RAD
 
 DESCRIPTIONS = Path(__file__).resolve().parents[1] / "data" / "descriptions"
 UR = DESCRIPTIONS / "ur_description/urdf/ur_mocked.urdf.xacro"

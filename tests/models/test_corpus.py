@@ -16,7 +16,7 @@ import pytest
 
 from harness.errors import HarnessError
 from harness.models import load_robot
-from harness.models.check import HOLD_RAD, check_loaded
+from harness.models.check.report import HOLD_RAD, check_loaded
 from harness.models.errors import ModelWarning
 from tests.models.paths import robots_dir
 

@@ -13,9 +13,9 @@ import pytest
 
 from harness.cli import main
 from harness.models import load_robot
-from harness.models._check_cli import add_arguments as check_arguments
 from harness.models._cli import add_arguments as inspect_arguments
-from harness.models.world import BaseKind, SelfCollision
+from harness.models.check._cli import add_arguments as check_arguments
+from harness.models.world.records import BaseKind, SelfCollision
 from harness.recording import Recording
 from harness.replay.source import rebuild_robot, rebuild_run
 from harness.scenario import Scenario, ScenarioError

@@ -15,8 +15,8 @@ import mujoco
 import pytest
 
 from harness.models import LoadedRobot, LoadedWorld, RobotSpec, load_robot, load_world
-from harness.models.assets import asset_name
 from harness.models.errors import ResolveError
+from harness.models.files.assets import asset_name
 
 MESH_ARM = Path(__file__).resolve().parents[1] / "data" / "models" / "mesh_arm"
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.models import decompose as decompose_module
-from harness.models._check_cli import add_arguments as check_arguments
-from harness.models.decompose import MESH_COLLISION_MODES
+from harness.models.build import decompose as decompose_module
+from harness.models.build.decompose import MESH_COLLISION_MODES
+from harness.models.check._cli import add_arguments as check_arguments
 from harness.plugin.markers import parse_load_options
 from harness.recording import Recording
 from harness.replay.source import rebuild_run

@@ -12,7 +12,7 @@ import pytest
 import trimesh
 
 from harness.models import RobotSpec, load_world
-from harness.models import decompose as decompose_module
+from harness.models.build import decompose as decompose_module
 from harness.models.errors import ModelStructureError, ModelWarning
 
 SIDE, THICKNESS, HEIGHT = 5.0, 0.15, 0.5

@@ -9,8 +9,8 @@ import pytest
 
 from harness.models import load_robot
 from harness.models.errors import ResolveError, UnknownPackageError
-from harness.models.meshes import mesh_cache_dir, prepare_mesh
-from harness.models.resolve import resolve_uri
+from harness.models.files.meshes import mesh_cache_dir, prepare_mesh
+from harness.models.files.resolve import resolve_uri
 
 
 @pytest.fixture

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from harness.models import load_robot
+from harness.models.build.selfcollision import SAMPLES
 from harness.models.errors import ModelStructureError, ModelWarning
-from harness.models.selfcollision import SAMPLES
 from harness.recording.describe import describe_run
 from tests.models.paths import robots_dir
 
@@ -242,8 +242,8 @@ def test_a_link_self_collide_is_honoured_as_gazebo_does(tmp_path):
 
 
 def test_sdf_links_self_collide_are_read():
-    from harness.models.selfcollision import declared_link_self_collide
-    from harness.models.xmlsafe import read_xml_file
+    from harness.models.build.selfcollision import declared_link_self_collide
+    from harness.models.files.xmlsafe import read_xml_file
 
     path = DATA.parent / "gazebo_models/double_pendulum_with_base/model.sdf"
     root = read_xml_file(path)[0]

@@ -14,7 +14,7 @@ import pytest
 from harness.errors import ModelError
 from harness.models import load_robot
 from harness.models.errors import ResolveError, UnknownPackageError
-from harness.models.resolve import find_package, resolve_uri
+from harness.models.files.resolve import find_package, resolve_uri
 
 INERTIAL = (
     '<inertial><mass value="1"/>'
@@ -145,7 +145,7 @@ def test_ament_prefix_share_by_name(tmp_path: Path, clean_env: pytest.MonkeyPatc
 def test_a_rebuild_from_a_recording_does_not_search_the_environment(
     tmp_path: Path, clean_env: pytest.MonkeyPatch
 ) -> None:
-    from harness.models.confine import confined_to
+    from harness.models.files.confine import confined_to
 
     root = tmp_path / "src"
     _package(root / "folder", "crawled_pkg")

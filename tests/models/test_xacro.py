@@ -14,8 +14,8 @@ import pytest
 from harness.cli import main
 from harness.models import load_description, load_robot
 from harness.models.errors import UnknownPackageError, XacroError
-from harness.models.ros2_control import HardwareReplacedWarning
-from harness.models.xacro import (
+from harness.models.urdf.ros2_control import HardwareReplacedWarning
+from harness.models.xacro.expand import (
     UnusedRobotArgWarning,
     clear_cache,
     expand_xacro,
@@ -113,7 +113,7 @@ def test_franka_fake_hardware_is_simulated_without_a_notice():
     assert robot.description.ros2_control.blocks[0].plugin == "fake_components/GenericSystem"
 
 
-@pytest.mark.filterwarnings("ignore::harness.models.ros2_control.HardwareReplacedWarning")
+@pytest.mark.filterwarnings("ignore::harness.models.urdf.ros2_control.HardwareReplacedWarning")
 def test_mobile_base_takes_its_control_modes_from_its_command_interfaces():
     with pytest.warns(HardwareReplacedWarning, match="clearpath_platform/PumaHardware"):
         robot = load_robot(DD100)

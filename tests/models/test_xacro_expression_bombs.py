@@ -2,7 +2,7 @@
 repetition, power, shift, widening string method, comprehension, range, method or lambda
 called in a loop, or a class C code iterates without end, that would make gigabytes or run
 for hours inside one ``eval`` is stopped before it runs, with one
-:class:`~harness.models.limits.ModelLimitError` line naming the file (exit 2 on the CLI).
+:class:`~harness.models.files.limits.ModelLimitError` line naming the file (exit 2 on the CLI).
 
 Each bomb runs in ``harness check-model`` in a subprocess with a memory limit (1 GiB of
 address space) and a hang guard; before the guard each ran out of memory or past the guard
@@ -21,9 +21,9 @@ from typing import Any
 
 import pytest
 
-from harness.models.limits import XACRO_LIMITS, ModelLimitError, XacroLimits
-from harness.models.xacro_eval import guarded_eval
-from harness.models.xacro_meter import XacroMeter
+from harness.models.files.limits import XACRO_LIMITS, ModelLimitError, XacroLimits
+from harness.models.xacro.evaluate import guarded_eval
+from harness.models.xacro.meter import XacroMeter
 
 HEAD = '<?xml version="1.0"?>\n<robot name="bomb" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
 HANG_GUARD = 120  # seconds: each bomb is refused in well under one on an idle machine

@@ -1,6 +1,6 @@
 """xacro expansion bounded while it runs: a 2 KB file of doubling macros, a string that doubles,
 a YAML file of aliases, comments that multiply and runaway recursion are each stopped at a
-limit of :class:`~harness.models.limits.XacroLimits` with one line naming the file, what ran
+limit of :class:`~harness.models.files.limits.XacroLimits` with one line naming the file, what ran
 over and the limit (exit 2 on the CLI), long before they hold the machine; every limit can be
 changed by its ``HARNESS_MAX_XACRO_*`` variable; real robots expand far below the defaults.
 
@@ -18,8 +18,8 @@ from pathlib import Path
 import pytest
 
 from harness.models.errors import XMLError
-from harness.models.limits import ModelLimitError
-from harness.models.xacro import clear_cache, expand_xacro
+from harness.models.files.limits import ModelLimitError
+from harness.models.xacro.expand import clear_cache, expand_xacro
 
 DESCRIPTIONS = Path(__file__).resolve().parents[1] / "data" / "descriptions"
 UR = DESCRIPTIONS / "ur_description" / "urdf" / "ur_mocked.urdf.xacro"

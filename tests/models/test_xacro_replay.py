@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from harness import Session
-from harness.models.ros2_control import HardwareReplacedWarning
+from harness.models.urdf.ros2_control import HardwareReplacedWarning
 from harness.recording import Recording
 from harness.replay import diff, verify
 from harness.replay.source import open_recording, rebuild_run

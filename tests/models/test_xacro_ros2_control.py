@@ -11,7 +11,7 @@ import pytest
 
 from harness.models import load_description, load_robot
 from harness.models.errors import ModelStructureError
-from harness.models.ros2_control import HardwareReplacedWarning
+from harness.models.urdf.ros2_control import HardwareReplacedWarning
 
 JOINT = """
   <joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>

@@ -17,7 +17,7 @@ TWO_LINK = Path(__file__).parents[1] / "data" / "scenario" / "robots" / "two_lin
 SCENARIO = """
 robots:
   - robot: two_link.urdf
-    controllers: [{type: JointController, mode: velocity}]
+    modes: [{type: JointController, mode: velocity}]
   - robot: demo
     name: second
 """

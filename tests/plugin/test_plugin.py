@@ -418,7 +418,7 @@ def test_scenario_marker(pytester, run):
         robots:
           - robot: demo
             name: arm
-            controllers: [{type: JointController, mode: velocity}]
+            modes: [{type: JointController, mode: velocity}]
             loggers: [{type: CollisionLogger, ignore_pairs: [[box, table]]}]
         seed: 7
         recording: {state_every: 4}

@@ -9,7 +9,7 @@ from types import ModuleType
 import pytest
 
 from harness.cli import main
-from harness.replay.resim import Thresholds, resimulate
+from harness.replay import Thresholds, resimulate
 
 # Step 30: joint7 commanded 0.4 rad past its upper limit (2.8973); step 100: the arm is
 # teleported into the box on the table (hand 25 mm deep in it).

@@ -14,7 +14,7 @@ import pytest
 
 from harness.models import load_robot
 from harness.recording import Recording
-from harness.rosbridge import Bridge, Output, TypeRegistry
+from harness.rosbridge import Bridge, OutgoingFrame, TypeRegistry
 from harness.rosbridge.limits import (
     MAX_PENDING_CALLS,
     MAX_PENDING_CALLS_PER_CLIENT,
@@ -36,11 +36,11 @@ TRIGGER = "std_srvs/srv/Trigger"
 FIBONACCI = "example_interfaces/action/Fibonacci"
 
 
-def send(bridge: Bridge, conn: int, frame: dict[str, Any], now_ns: int = 0) -> list[Output]:
+def send(bridge: Bridge, conn: int, frame: dict[str, Any], now_ns: int = 0) -> list[OutgoingFrame]:
     return bridge.receive(conn, json.dumps(frame), now_ns)
 
 
-def parsed(outputs: list[Output], conn: int) -> list[dict[str, Any]]:
+def parsed(outputs: list[OutgoingFrame], conn: int) -> list[dict[str, Any]]:
     return [json.loads(o.data) for o in outputs if o.connection == conn]
 
 
@@ -114,7 +114,7 @@ def _provider(bridge: Bridge) -> int:
     return provider
 
 
-def _call(bridge: Bridge, conn: int, n: int) -> list[Output]:
+def _call(bridge: Bridge, conn: int, n: int) -> list[OutgoingFrame]:
     return send(bridge, conn, {"op": "call_service", "service": "/never", "id": f"c{n}"})
 
 
@@ -188,7 +188,7 @@ def test_pending_calls_are_capped_in_total() -> None:
 # -- pending action goals -------------------------------------------------------------------
 
 
-def _goal(bridge: Bridge, conn: int, n: int) -> list[Output]:
+def _goal(bridge: Bridge, conn: int, n: int) -> list[OutgoingFrame]:
     frame = {"op": "send_action_goal", "action": "/fib", "args": {"order": 1}, "id": f"g{n}"}
     return send(bridge, conn, frame)
 
@@ -255,10 +255,10 @@ def _greedy_setup(bridge: Bridge) -> tuple[int, int]:
     return greedy, polite
 
 
-def _run_steps(bridge: Bridge, greedy: int, polite: int, steps: int) -> list[Output]:
+def _run_steps(bridge: Bridge, greedy: int, polite: int, steps: int) -> list[OutgoingFrame]:
     """Per step: a 100 kB message on /big, then the polite client's service call; returns
     every output."""
-    outputs: list[Output] = []
+    outputs: list[OutgoingFrame] = []
     for k in range(1, steps + 1):
         now = k * STEP_NS
         bridge.publish("/big", STRING, {"data": "x" * 100_000}, now)

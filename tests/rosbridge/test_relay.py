@@ -13,7 +13,7 @@ from websockets.frames import Frame, Opcode
 from harness.rosbridge import DIRECTION_IN, DIRECTION_OUT, Bridge, TypeRegistry
 from harness.rosbridge.convert import from_json
 from harness.rosbridge.errors import ConversionError
-from harness.rosbridge.server import frame_head
+from harness.rosbridge.sending import frame_head
 
 
 def test_relay_frames_and_taps_per_subscription_kind() -> None:

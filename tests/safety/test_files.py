@@ -13,10 +13,10 @@ import pytest
 from harness.errors import ModelError
 from harness.models import load_robot
 from harness.models.errors import ResolveError, XMLError
-from harness.models.meshes import prepare_mesh
-from harness.models.resolve import resolve_uri
+from harness.models.files.meshes import prepare_mesh
+from harness.models.files.resolve import resolve_uri
+from harness.models.files.xmlsafe import MAX_XML_BYTES, parse_xml
 from harness.models.sdf import read_sdf
-from harness.models.xmlsafe import MAX_XML_BYTES, parse_xml
 
 INERTIAL = (
     '<inertial><mass value="1"/>'

@@ -12,7 +12,7 @@ import pytest
 
 from harness.models import load_robot
 from harness.models.errors import ResolveError
-from harness.models.mjcf_files import check_mjcf_files
+from harness.models.mjcf.files import check_mjcf_files
 
 BODY = '<worldbody><body><geom size=".1"/></body></worldbody>'
 

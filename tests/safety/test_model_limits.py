@@ -15,7 +15,7 @@ import mujoco
 import pytest
 
 from harness.models import load_robot
-from harness.models.limits import ModelLimitError, ModelLimits, check_spec
+from harness.models.files.limits import ModelLimitError, ModelLimits, check_spec
 
 CHILD_MEMORY = 1536 * 2**20
 INERTIAL = (

@@ -508,11 +508,11 @@ def test_model_mjb_is_loaded_first_in_a_limited_child(
 def test_nothing_recorded_is_unpickled_or_evaluated() -> None:
     """No module of the harness unpickles, ``eval``\\ s, ``exec``\\ s or loads YAML with an
     unsafe loader (xacro's own ``eval`` runs only on local files, never on a recording; so
-    does the one ``eval`` allowed here: :mod:`harness.models.xacro_eval`, xacro's expression
+    does the one ``eval`` allowed here: :mod:`harness.models.xacro.evaluate`, xacro's expression
     evaluated with its steps bounded, which the payload tests above show a replay never
     reaches)."""
     root = Path(__file__).resolve().parents[2] / "harness"
-    allowed = {"models/xacro_eval.py: return eval(_compiled(text), symbols, locals_)"}
+    allowed = {"models/xacro/evaluate.py: return eval(_compiled(text), symbols, locals_)"}
     banned = ("pickle.load", "marshal.load", "yaml.unsafe_load", "yaml.full_load", "shelve.")
     calls = (" eval(", " exec(", "(eval(", "(exec(")
     found: list[str] = []
@@ -539,7 +539,7 @@ def test_a_source_name_that_is_also_a_folder_is_one_line(
 def test_a_world_including_a_bundled_gazebo_model_still_rebuilds(tmp_path: Path) -> None:
     """The harness's own data (here the bundled ``model://ground_plane`` a world includes)
     is part of the program, not of the machine: a rebuild may read it."""
-    import harness.models.worldfile as worldfile
+    import harness.models.sdf.worldfile as worldfile
 
     path = tmp_path / "world.mcap"
     with Session("demo", scene=worldfile.BUNDLED_MODELS.parent / "worlds" / "mobile_room.world",

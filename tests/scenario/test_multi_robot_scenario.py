@@ -29,7 +29,7 @@ def _original_two_robots(tmp_path: Path, **extra) -> Path:
     robot = {
         "robot": "two_link.urdf",
         "subscribers": [{"type": "JointStateSubscriber", "topic": "/arm/cmd"}],
-        "controllers": [{"type": "JointController", "mode": "position"}],
+        "modes": [{"type": "JointController", "mode": "position"}],
     }
     doc = {
         "environment": {"map": "empty"},

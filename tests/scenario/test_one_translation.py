@@ -40,7 +40,7 @@ robots:
   - robot: {simple_arm}
     name: right
     position: [0.0, 0.4, 0.0]
-    controllers: [{type: JointController, mode: kinematic}]
+    modes: [{type: JointController, mode: kinematic}]
 logging:
   enable: true
   frequency: 50

@@ -67,7 +67,7 @@ def test_original_scene_config_port_as_number():
     assert s.environment == sc.Environment("empty", "sunny", "noon")
     assert s.robots[0].robot == (DATA / "robots" / "two_link.urdf").resolve()
     assert s.robots[0].subscribers == (sc.Subscriber("JointStateSubscriber", "/joint/states"),)
-    assert s.robots[0].controllers == (sc.Controller("kinematic"),)
+    assert s.robots[0].modes == (sc.JointModes("kinematic"),)
     assert s.logging.enable
     assert s.logging.destinations == (SinkSpec("seq", (("endpoint", "http://localhost:5341"),)),)
 
@@ -79,7 +79,7 @@ def test_original_scene_config_port_as_string_and_dynamic_mode():
     assert s.environment == sc.Environment("table", "rainy", "night")
     assert s.robots[0].position == (0.5, 0.0, 0.0)
     # The original's dynamic mode drove position motors; its subscriber default topic is kept.
-    assert s.robots[0].controllers[0].mode == "position"
+    assert s.robots[0].modes[0].mode == "position"
     assert s.robots[0].subscribers[0].topic == "/joint/states"
 
 
@@ -243,7 +243,7 @@ def test_schema_and_dataclasses_agree():
     bridge = set(top["ros"]["properties"]["bridge"]["properties"])
     assert bridge == _fields(sc.ScenarioBridgeSection)
     assert _props("environment") == _fields(sc.Environment)
-    assert _props("robot") == _fields(sc.ScenarioRobot) - {"named"}
+    assert _props("robot") - {"controllers"} == _fields(sc.ScenarioRobot) - {"named"}
     assert _props("subscriber") == _fields(sc.Subscriber)
     assert _props("controller") - {"type", "beyond_limits"} == _fields(sc.Controller)
     # an object is a WorldObject: the file's position and orientation are its pose
@@ -254,10 +254,12 @@ def test_schema_and_dataclasses_agree():
     assert top["logging"]["$ref"] == "logging.schema.json"
     assert LOGGING_SCHEMA["$id"].endswith("/logging.schema.json")
     assert _props("client") == _fields(sc.ClientSpec)  # cwd: the file's folder by default
-    assert _props("logger") - {"type"} == _fields(sc.CollisionLoggerSpec) | _fields(
-        sc.JointLoggerSpec
+    assert _props("logger") - {"type", "self_collision"} == _fields(
+        sc.CollisionLoggerSpec
+    ) | _fields(sc.JointLoggerSpec)
+    assert set(sc._LOGGER_KEYS["CollisionLogger"]) - {"self_collision"} == _fields(
+        sc.CollisionLoggerSpec
     )
-    assert set(sc._LOGGER_KEYS["CollisionLogger"]) == _fields(sc.CollisionLoggerSpec)
     assert set(sc._LOGGER_KEYS["JointLogger"]) == _fields(sc.JointLoggerSpec)
     enum = schema("scenario")["$defs"]["logger"]["properties"]["type"]["enum"]
     assert set(enum) == set(sc._LOGGER_KEYS)

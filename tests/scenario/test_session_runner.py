@@ -227,9 +227,7 @@ def test_scenarios_the_runner_cannot_run_are_refused_with_the_key_path(tmp_path,
         {
             "robot": "demo",
             "name": "second",
-            "controllers": [
-                {"type": "JointController", "mode": "kinematic", "beyond_limits": "allow"}
-            ],
+            "modes": [{"type": "JointController", "mode": "kinematic", "beyond_limits": "allow"}],
         }
     )
     doc["robots"][0]["subscribers"].append(
@@ -238,7 +236,7 @@ def test_scenarios_the_runner_cannot_run_are_refused_with_the_key_path(tmp_path,
     two.write_text(yaml.safe_dump(doc))
     assert cli.main(["run", str(two), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert "robots[1].controllers: 'allow' differs from robots[0]'s kinematic_limits" in err
+    assert "robots[1].modes: 'allow' differs from robots[0]'s kinematic_limits" in err
     assert (
         "robots[0].subscribers[1].topic: '/arm/trajectory' is not served: trajectories are "
         "taken on '/two_link/joint_trajectory' only"

@@ -16,7 +16,7 @@ from harness.vocabulary import CONTROL_MODE_INPUTS, ControlMode
 def _scenario(destination, mode="position"):
     return Scenario.from_mapping(
         {
-            "robots": [{"robot": "demo", "controllers": [{"mode": mode}]}],
+            "robots": [{"robot": "demo", "modes": [{"mode": mode}]}],
             "logging": {"enable": True, "destination": destination},
         }
     )
@@ -54,7 +54,7 @@ def test_dynamic_is_position_in_every_layer():
     with pytest.raises(ValueError, match=r"marker: unknown control mode 'servo' \(one of "):
         ControlMode.parse("servo", "marker")
     scenario = _scenario({"type": "Logging"}, mode="dynamic")
-    assert scenario.robots[0].controllers[0].mode is ControlMode.POSITION
+    assert scenario.robots[0].modes[0].mode is ControlMode.POSITION
     robot = load_robot("demo", control="dynamic")
     assert set(robot.control.values()) == {ControlMode.POSITION}
     assert robot.sha256 == load_robot("demo", control="position").sha256
@@ -83,8 +83,8 @@ def test_runner_wall_timeout_in_one_spelling_at_a_time(tmp_path):
 
 def test_kinematic_limits_is_spelled_as_in_session_marker_and_cli():
     for key in ("kinematic_limits", "beyond_limits"):
-        doc = {"robots": [{"robot": "demo", "controllers": [{"mode": "kinematic", key: "allow"}]}]}
-        assert Scenario.from_mapping(doc).robots[0].controllers[0].kinematic_limits == "allow"
+        doc = {"robots": [{"robot": "demo", "modes": [{"mode": "kinematic", key: "allow"}]}]}
+        assert Scenario.from_mapping(doc).robots[0].modes[0].kinematic_limits == "allow"
     both = {"mode": "kinematic", "kinematic_limits": "allow", "beyond_limits": "clamp"}
     with pytest.raises(ScenarioError, match="give only one of 'kinematic_limits' and 'beyond_l"):
-        Scenario.from_mapping({"robots": [{"robot": "demo", "controllers": [both]}]})
+        Scenario.from_mapping({"robots": [{"robot": "demo", "modes": [both]}]})

@@ -19,7 +19,7 @@ from harness.sensors import (
     sensors_from_sdf,
 )
 from harness.sensors import registry as sensors_registry
-from harness.sensors.base import F64, Output, View, quat_of
+from harness.sensors.base import F64, SensorTopic, View, quat_of
 from harness.sensors.registry import Mounted, SensorKind
 from harness.sensors.sdf_values import element_number
 from tests.sensors.sensor_helpers import RIG
@@ -53,7 +53,7 @@ class _Altimeter:
         self.spec = spec
         self.mount = at.mount
         self.frame_id = at.frame_id
-        self.outputs = (Output("height", at.topics["height"], "std_msgs/msg/Float64"),)
+        self.outputs = (SensorTopic("height", at.topics["height"], "std_msgs/msg/Float64"),)
 
     def read(self, view: View) -> Mapping[str, Callable[[], dict[str, Any]]]:
         return {"height": lambda: {"data": float(self.mount.world(view.data)[0][2])}}

@@ -18,7 +18,7 @@ from harness.recording import Recording
 from harness.replay.pipeline import replay_pipeline
 from harness.rosbridge import BridgeServer
 from harness.session import Session
-from harness.session.upstream import UpstreamError
+from harness.session.live.upstream import UpstreamError
 from tests.session.session_helpers import Client
 
 
@@ -157,7 +157,7 @@ def test_a_send_to_a_dropped_link_is_counted_logged_and_recorded(
     url = restartable.start()
     path = tmp_path / "dropped.mcap"
     with (
-        caplog.at_level(logging.WARNING, logger="harness.session.upstream"),
+        caplog.at_level(logging.WARNING, logger="harness.session.live.upstream"),
         Session(demo_position, connect_to=url, record_to=path) as session,
     ):
         stats = session.upstream
@@ -168,7 +168,7 @@ def test_a_send_to_a_dropped_link_is_counted_logged_and_recorded(
         assert stats.send_failures >= 1
         assert "could not send publish /" in stats.last_send_failure
         session.step(1)  # the report is applied (and recorded) at a step boundary
-    logged = [r.getMessage() for r in caplog.records if r.name == "harness.session.upstream"]
+    logged = [r.getMessage() for r in caplog.records if r.name == "harness.session.live.upstream"]
     assert any("could not send publish /" in m for m in logged), logged
     with Recording(path) as rec:
         reports = [f for f in rec.bridge_frames() if f.topic == "harness/transport_status"]

@@ -1,12 +1,14 @@
 """A realtime session holds the process's heap out of full collections while it runs
-(harness.session.heap) and gives it back at its close; other clocks leave the collector alone."""
+(harness.session.live.heap) and gives it back at its close; other clocks leave the collector
+alone."""
 
 from __future__ import annotations
 
 import gc
 
 from harness.models import LoadedRobot
-from harness.session import Session, heap
+from harness.session import Session
+from harness.session.live import heap
 
 
 def test_a_realtime_session_freezes_the_heap_until_its_close(demo_position: LoadedRobot) -> None:

@@ -1,10 +1,11 @@
-"""The realtime clock's pacing (harness.session.pacing), sans I/O: wall times given, not read."""
+"""The realtime clock's pacing (harness.session.live.pacing), sans I/O: wall times given, not
+read."""
 
 from __future__ import annotations
 
 import pytest
 
-from harness.session.pacing import BEHIND_S, frames_until, pace
+from harness.session.live.pacing import BEHIND_S, frames_until, pace
 
 DT_NS = 2_000_000  # 2 ms steps
 
@@ -44,7 +45,7 @@ def test_frames_wait_until_the_next_step_is_due_less_a_quarter_step():
 
 
 def test_input_read_while_the_clock_waits_applies_until_a_quarter_step_before_the_next():
-    from harness.session.pacing import waiting_until
+    from harness.session.live.pacing import waiting_until
 
     period = DT_NS / 1e9
     assert waiting_until(None, 3, DT_NS, 1.0) is None  # no anchor: the boundary decides

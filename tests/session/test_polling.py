@@ -1,4 +1,4 @@
-"""Busy-polling while time stands still (harness.session.polling): it runs for lockstep clients
+"""Busy-polling while time stands still (harness.session.live.polling): it runs for lockstep clients
 in other processes only, adapts its window, backs off when a thread of ours wants the GIL, and
 never changes what is recorded."""
 
@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from harness.models import LoadedRobot
 from harness.session import Session
-from harness.session.polling import (
+from harness.session.live.polling import (
     GROW_START_NS,
     MAX_NS,
     PollingSelector,

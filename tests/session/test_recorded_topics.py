@@ -1,8 +1,9 @@
-"""What the recording keeps of /joint_states, /tf and /clock (CDR laid out once per run) is
-byte for byte what the message a subscriber gets serialises to, on real robots at random
-states: an arm, a mobile manipulator on a floating base, and a world of two robots (frame
-prefixes). The /tf transforms (posed from the joints where one joint moves a link) equal those
-from the bodies' world poses to rounding."""
+"""What the recording keeps of /joint_states, /tf and /clock (the records the core hands the
+recorder, their CDR laid out once per set of names) is byte for byte what the message a
+subscriber gets serialises to, on real robots at random states: an arm, a mobile manipulator
+on a floating base, and a world of two robots (frame prefixes). The /tf transforms (posed from
+the joints where one joint moves a link) equal those from the bodies' world poses to
+rounding."""
 
 from __future__ import annotations
 
@@ -14,17 +15,17 @@ import numpy as np
 import pytest
 
 from harness.models import RobotSpec, load_robot, load_world
+from harness.recording import ClockRecord
 from harness.recording.convert import from_rosbridge
 from harness.recording.layout import typestore
-from harness.recording.templates import clock_cdr
 from harness.session import Session
-from harness.session.channels import (
+from harness.session.core.channels import (
     joint_state_arrays,
-    joint_state_cdr,
     joint_state_message,
     joint_state_of,
+    joint_state_record,
 )
-from harness.session.topics import clock_msg
+from harness.session.core.topics import clock_msg
 from tests.models.paths import robots_dir
 
 
@@ -67,17 +68,17 @@ def _compare(session: Session, seed: int) -> int:
                     arrays(), (data.qpos[channels.js_qadr], data.qvel[dof], effort), strict=True
                 ):
                     np.testing.assert_array_equal(got, want)
-                assert joint_state_cdr(now, channels, arrays) == expected
+                assert joint_state_record(now, channels, arrays).cdr() == expected
                 assert joint_state_message(now, channels, arrays) == joint_state_of(sim, channels)
             for _, _, tree in core._tf_trees:
                 relative = partial(tree.moving_poses, sim.data.qpos, sim.body_poses)
                 msg = tree.moving_message(relative, t)
                 # the same transforms as from the bodies' world poses (to rounding)
                 _assert_close(msg, tree.message(tree.moving, sim.link_poses(), t))
-                got = tree.moving_cdr(relative, t)
+                got = tree.moving_record(relative, t).cdr()
                 assert got == _serialised("tf2_msgs/msg/TFMessage", msg)
                 count += len(msg["transforms"])
-            assert clock_cdr(t) == _serialised("rosgraph_msgs/msg/Clock", clock_msg(t))
+            assert ClockRecord(t).cdr() == _serialised("rosgraph_msgs/msg/Clock", clock_msg(t))
         return count
 
     return session.call(check)

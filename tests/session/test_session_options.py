@@ -12,7 +12,7 @@ from harness.controllers import load_controllers
 from harness.pytest_plugin import marker_keys
 from harness.recording import Recording
 from harness.session import Session, SessionConfigError
-from harness.session.options import (
+from harness.session.core.options import (
     SESSION_KEYWORDS,
     CoreOptions,
     LoadOptions,

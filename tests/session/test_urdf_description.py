@@ -14,7 +14,7 @@ import yourdfpy
 
 from harness.models import load_robot
 from harness.session import Session
-from harness.session.urdf_text import urdf_of
+from harness.session.core.urdf_text import urdf_of
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 

@@ -13,7 +13,7 @@ import mujoco
 import pytest
 
 from harness.models.sdf import SdfIncludeError, SdfStructureError, load_document
-from harness.models.worldfile import load_world_file
+from harness.models.sdf.worldfile import load_world_file
 
 TB3 = Path(__file__).resolve().parents[1] / "data" / "worlds" / "turtlebot3"
 WORLD = TB3 / "worlds" / "turtlebot3_world.world"
@@ -253,9 +253,9 @@ def test_a_mesh_named_by_a_fuel_file_uri_comes_from_the_cache(
 def test_a_rebuild_from_a_recording_reads_no_fuel_cache(
     tmp_path: Path, no_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from harness.models.confine import confined_to
     from harness.models.errors import OutsideReferenceError
-    from harness.models.fuel import STOCK_FOLDER, find_fuel_model, parse_fuel_uri
+    from harness.models.files.confine import confined_to
+    from harness.models.files.fuel import STOCK_FOLDER, find_fuel_model, parse_fuel_uri
 
     cache = tmp_path / "cache"
     _cached_model(cache / "fuel.gazebosim.org" / "acme" / "models" / "crate" / "1", "crate", 1.0)

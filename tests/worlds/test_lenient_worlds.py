@@ -15,7 +15,7 @@ import pytest
 from harness.models import RobotSpec, load_robot, load_world
 from harness.models.errors import CompileError, ModelWarning
 from harness.models.sdf import SdfInertiaError, read_sdf
-from harness.models.worldfile import load_world_file
+from harness.models.sdf.worldfile import load_world_file
 from harness.scenario.errors import ScenarioError
 from harness.scenario.scenario import Scenario
 from harness.scenario.world import effective_timestep, scene_for
@@ -123,7 +123,7 @@ def test_a_compile_error_blames_strict_only_when_strict_was_asked() -> None:
     body.explicitinertial = True
     body.mass = 1.0
     body.inertia = [0.001, 0.001, 1.0]
-    from harness.models.compiler import compile_spec
+    from harness.models.build.compiler import compile_spec
 
     with pytest.raises(CompileError) as lenient:
         compile_spec(spec.copy(), "x.sdf")

@@ -13,7 +13,7 @@ import pytest
 from harness import Session
 from harness.models import load_robot
 from harness.models.errors import ModelStructureError
-from harness.models.worldfile import load_world_file
+from harness.models.sdf.worldfile import load_world_file
 from harness.replay import verify
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "worlds"

@@ -20,14 +20,15 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from harness.models.assets import mesh_asset
-from harness.models.confine import check_confined
-from harness.models.description import Geometry, Joint, Link, Pose, RobotModel, Shape
-from harness.models.errors import ModelStructureError
-from harness.models.inertia import principal_on_edge
+from harness.models.build.inertia import principal_on_edge
+from harness.models.description import Appearance, Geometry, Joint, Link, Pose, RobotModel, Shape
+from harness.models.errors import ModelStructureError, ResolveError
+from harness.models.files.assets import asset_name, mesh_asset
+from harness.models.files.confine import check_confined
 from harness.models.sdf.errors import SdfWarning
+from harness.models.sdf.materials import collada_appearance
 
-__all__ = ["SpanningTree", "build_spec", "spanning_tree"]
+__all__ = ["COLLISION_GROUP", "SpanningTree", "build_spec", "spanning_tree"]
 
 
 def _pos_quat(pose: Pose) -> tuple[list[float], list[float]]:
@@ -186,9 +187,11 @@ def _add_geom(
     visual: bool,
     assets: dict[str, bytes],
     cache_dir: str | Path | None,
-) -> None:
+) -> mujoco.MjsGeom:
     """Add the geom of ``shape``; a mesh's file goes into ``assets`` (name -> bytes)."""
     name = f"{link.name}/{shape.name}"
+    if visual and spec.geom(name) is not None:  # a visual named like a collision
+        name = f"{link.name}/visual:{shape.name}"
     where = f"link {link.name!r} {'visual' if visual else 'collision'} {shape.name!r}"
     pos, quat = _pos_quat(link.pose.inverse() * shape.pose)
     geometry = shape.geometry
@@ -210,6 +213,64 @@ def _add_geom(
         geom.conaffinity = 0
         geom.group = 1
         geom.density = 0.0
+        appearance = shape.appearance
+        if appearance is None and geometry.kind == "mesh":  # drawn in its own material
+            appearance = collada_appearance(geometry.mesh_path or "")
+        if appearance is not None:
+            _add_material(spec, geom, appearance, assets, where)
+    return geom
+
+
+def _drawable(link: Link, shape: Shape) -> bool:
+    """Whether a visual can be drawn: a visual mesh that is not at hand is left out with a
+    warning, as Gazebo draws nothing for it (it carries no physics)."""
+    path = shape.geometry.mesh_path
+    if shape.geometry.kind != "mesh" or (path and "://" not in path and Path(path).is_file()):
+        return True
+    warnings.warn(
+        SdfWarning(
+            f"link {link.name!r} visual {shape.name!r}: mesh not found: {path!r} (not drawn)"
+        ),
+        stacklevel=4,
+    )
+    return False
+
+
+COLLISION_GROUP = 3
+"""The geom group of collision geoms in a model built with its visuals: cameras draw groups
+0-2, so they see the visuals only, as Gazebo's cameras do."""
+
+
+def _add_material(
+    spec: mujoco.MjSpec,
+    geom: mujoco.MjsGeom,
+    appearance: Appearance,
+    assets: dict[str, bytes],
+    where: str,
+) -> None:
+    """A material for ``appearance`` (named by geom), with its texture (named by content)."""
+    material = spec.add_material(
+        name=f"material:{geom.name}",
+        rgba=list(appearance.rgba),
+        emission=appearance.emission,
+        specular=appearance.specular,
+        shininess=appearance.shininess,
+    )
+    if appearance.texture is not None:
+        try:
+            data = Path(appearance.texture).read_bytes()
+        except OSError as exc:
+            raise ResolveError(
+                f"{where}: cannot read texture {appearance.texture!r}: {exc.strerror}"
+            ) from None
+        name = asset_name(appearance.texture, data)
+        if name not in assets:
+            assets[name] = data
+            spec.add_texture(name=f"texture:{name}", type=mujoco.mjtTexture.mjTEXTURE_2D, file=name)
+        textures = list(material.textures)
+        textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = f"texture:{name}"
+        material.textures = textures
+    geom.material = material.name
 
 
 def _add_inertial(body: mujoco.MjsBody, link: Link, welded: bool) -> None:
@@ -278,12 +339,13 @@ def build_spec(
     model: RobotModel, *, visuals: bool = False, cache_dir: str | Path | None = None
 ) -> mujoco.MjSpec:
     """The bodies, joints, inertials, collision geoms (and, with ``visuals``, visual geoms
-    that do not collide, group 1) and loop/mimic equalities of ``model``; the worldbody is
-    the model frame. Actuators and the scene are the caller's.
+    that do not collide, group 1, with their materials, the collision geoms then in group
+    :data:`COLLISION_GROUP`) and loop/mimic equalities of ``model``; the worldbody is the
+    model frame. Actuators and the scene are the caller's.
 
     Meshes are in ``spec.assets`` under content-derived names (see
-    :mod:`harness.models.assets`): the spec does not depend on where the files are.
-    ``cache_dir``: the converted-mesh cache (see :mod:`harness.models.meshes`)."""
+    :mod:`harness.models.files.assets`): the spec does not depend on where the files are.
+    ``cache_dir``: the converted-mesh cache (see :mod:`harness.models.files.meshes`)."""
     spec = mujoco.MjSpec()
     spec.modelname = model.name or "robot"
     spec.compiler.degree = False
@@ -306,10 +368,13 @@ def build_spec(
         )
         _add_inertial(body, link, welded[name])
         for shape in link.collisions:
-            _add_geom(spec, body, link, shape, False, assets, cache_dir)
+            geom = _add_geom(spec, body, link, shape, False, assets, cache_dir)
+            if visuals:
+                geom.group = COLLISION_GROUP
         if visuals:
             for shape in link.visuals:
-                _add_geom(spec, body, link, shape, True, assets, cache_dir)
+                if _drawable(link, shape):
+                    _add_geom(spec, body, link, shape, True, assets, cache_dir)
     if assets:
         spec.assets = assets
     for joint in tree.loops:

@@ -34,7 +34,7 @@ from harness.models.description import (
     Shape,
 )
 from harness.models.errors import OutsideReferenceError, ResolveError
-from harness.models.resolve import resolve_uri
+from harness.models.files.resolve import resolve_uri
 from harness.models.sdf.build import spanning_tree
 from harness.models.sdf.document import (
     Axis,
@@ -44,6 +44,7 @@ from harness.models.sdf.document import (
     load_document,
 )
 from harness.models.sdf.errors import SdfStructureError, SdfSyntaxError, SdfWarning
+from harness.models.sdf.materials import sdf_appearance
 
 __all__ = [
     "FREE_JOINT_SUFFIX",
@@ -160,10 +161,12 @@ class _Converter:
             pose,
             inertial,
             tuple(self.shape(entity, s, pose) for s in entity.collisions),
-            tuple(self.shape(entity, s, pose) for s in entity.visuals),
+            tuple(self.shape(entity, s, pose, visual=True) for s in entity.visuals),
         )
 
-    def shape(self, link: Entity, spec: ShapeSpec, link_pose: Pose) -> Shape:
+    def shape(
+        self, link: Entity, spec: ShapeSpec, link_pose: Pose, *, visual: bool = False
+    ) -> Shape:
         where = f"{link.source}: line {spec.element.sourceline}: <{spec.geometry_kind}>"
         if spec.raw_pose.relative_to:
             frame = self.doc.lookup(
@@ -204,7 +207,38 @@ class _Converter:
             )
         else:
             raise SdfStructureError(f"{where}: geometry <{kind}> is not supported")
-        return Shape(spec.name, pose, geometry)
+        element = spec.element.getparent()  # <geometry>, in the <visual>
+        appearance = None
+        if visual and element is not None and element.getparent() is not None:
+            try:
+                appearance = sdf_appearance(
+                    element.getparent(),
+                    str(link.source),
+                    lambda uri, at: self.texture_path(uri, link, at),
+                    mesh=kind == "mesh",
+                )
+            except SdfSyntaxError as exc:  # only drawing needs it: the model still loads
+                warnings.warn(SdfWarning(f"{exc} (drawn grey)"), stacklevel=2)
+        return Shape(spec.name, pose, geometry, appearance)
+
+    def texture_path(self, uri: str, link: Entity, where: str) -> str | None:
+        """The file of a texture ``uri`` (None, with a warning, when it is not at hand:
+        the visual is drawn in its colour)."""
+        try:
+            return str(
+                resolve_uri(
+                    uri,
+                    base_dir=link.source.parent,
+                    search_paths=self.search_paths,
+                    context=where,
+                    what="texture",
+                )
+            )
+        except OutsideReferenceError:
+            raise
+        except ResolveError as exc:
+            warnings.warn(SdfWarning(f"{exc}: drawn without it"), stacklevel=2)
+            return None
 
     def mesh_path(self, uri: str, link: Entity, where: str) -> str:
         if not uri:

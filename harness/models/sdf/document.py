@@ -24,6 +24,7 @@ from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.models.description import Pose
 from harness.models.errors import ModelWarning
+from harness.models.files.xmlsafe import describe, read_xml_file
 from harness.models.sdf.errors import (
     SdfCycleError,
     SdfFrameError,
@@ -34,7 +35,6 @@ from harness.models.sdf.errors import (
     SdfVersionError,
 )
 from harness.models.sdf.includes import SUPPORTED_VERSIONS, include_file
-from harness.models.xmlsafe import describe, read_xml_file
 
 __all__ = [
     "SUPPORTED_VERSIONS",

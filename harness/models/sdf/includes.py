@@ -1,5 +1,5 @@
 """``<include>`` URIs to SDF files: ``model://`` (the Gazebo resource paths), Fuel URIs (the
-local Fuel cache, :mod:`harness.models.fuel`), ``file://`` and paths; a model folder gives the
+local Fuel cache, :mod:`harness.models.files.fuel`), ``file://`` and paths; a model folder gives the
 newest SDF file of a supported version its ``model.config`` lists."""
 
 from __future__ import annotations
@@ -8,12 +8,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from harness.errors import ModelError
-from harness.models.confine import check_confined
 from harness.models.errors import OutsideReferenceError, ResolveError
-from harness.models.fuel import LIGHT_ONLY_MODELS, FuelUri, find_fuel_model, parse_fuel_uri
-from harness.models.resolve import find_model
+from harness.models.files.confine import check_confined
+from harness.models.files.fuel import LIGHT_ONLY_MODELS, FuelUri, find_fuel_model, parse_fuel_uri
+from harness.models.files.resolve import find_model
+from harness.models.files.xmlsafe import read_xml_file
 from harness.models.sdf.errors import SdfIncludeError
-from harness.models.xmlsafe import read_xml_file
 
 __all__ = ["SUPPORTED_VERSIONS", "include_file"]
 

@@ -1,0 +1,47 @@
+"""A world of robots, objects and a map: its records, its build into one compiled MuJoCo model,
+keyframes and placement on the floor.
+"""
+
+from harness.models.world.records import (
+    BASE_KINDS,
+    OBJECT_SIZES,
+    SELF_COLLISION_POLICIES,
+    BaseKind,
+    DuplicateNamespaceError,
+    IgnoredPair,
+    InvalidNamespaceError,
+    JointAddress,
+    LoadedRobotView,
+    LoadedWorld,
+    ObjectShape,
+    PoseLike,
+    RobotSpec,
+    SelfCollision,
+    SelfCollisionReport,
+    WorldObject,
+    add_object,
+    check_namespace,
+    placement_pose,
+)
+
+__all__ = [
+    "BASE_KINDS",
+    "OBJECT_SIZES",
+    "SELF_COLLISION_POLICIES",
+    "BaseKind",
+    "DuplicateNamespaceError",
+    "IgnoredPair",
+    "InvalidNamespaceError",
+    "JointAddress",
+    "LoadedRobotView",
+    "LoadedWorld",
+    "ObjectShape",
+    "PoseLike",
+    "RobotSpec",
+    "SelfCollision",
+    "SelfCollisionReport",
+    "WorldObject",
+    "add_object",
+    "check_namespace",
+    "placement_pose",
+]
