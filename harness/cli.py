@@ -40,6 +40,9 @@ COMMANDS: dict[str, Command] = {
     "inspect-model": Command("harness.models._cli", "links, joints and frames of a robot model"),
     "check-model": Command("harness.models.check._cli", "does a robot load, hold, step, stand"),
     "run": Command("harness.scenario._cli", "run a scenario or runner file's iterations"),
+    "explore": Command(
+        "harness.explore._cli", "search a scenario's parameters for a failure and shrink it"
+    ),
     "inspect": Command("harness.recording._cli", "contents and validity of a recording"),
     "repair": Command(
         "harness.recording._cli_repair", "rewrite a damaged recording's intact parts"

@@ -9,6 +9,7 @@ typed events to every :class:`~harness.events.sinks.Sink`. At the end of the run
 
 from __future__ import annotations
 
+from harness.events.clearance import Clearance, ClearanceLogger
 from harness.events.collision import CollisionLogger
 from harness.events.config import (
     LOGGING_SCHEMA,
@@ -49,6 +50,8 @@ from harness.events.sinks import (
 
 __all__ = [
     "LOGGING_SCHEMA",
+    "Clearance",
+    "ClearanceLogger",
     "CollectingSink",
     "CollisionBegin",
     "CollisionEnd",

@@ -38,6 +38,7 @@ from harness.models import (
 )
 from harness.scenario._validation import format_path, load_document, schema_problems
 from harness.scenario.errors import ScenarioError
+from harness.scenario.script import ScriptCommand, script_commands
 from harness.session import TransportOptions
 from harness.vocabulary import (
     LIMIT_POLICY_KEY,
@@ -312,6 +313,11 @@ class Scenario:
     controllers_args: Mapping[str, str] = field(default_factory=dict)
     """The values the controllers YAML's ``$(var NAME)`` took (already expanded in
     ``controllers``)."""
+    script: tuple[ScriptCommand, ...] = ()
+    """In-process commands on a timeline (:mod:`harness.scenario.script`), in file order
+    (applied in time order, ties in file order)."""
+    explore: Mapping[str, Any] | None = None
+    """The ``explore`` section as written (schema-checked; :mod:`harness.explore` reads it)."""
 
     @classmethod
     def load(cls, path: str | Path) -> Scenario:
@@ -437,7 +443,18 @@ class _Builder:
             client=self.client(data["client"], ["client"]) if "client" in data else None,
             resume=self.resume(data["resume"]) if "resume" in data else None,
             source=source,
+            script=self.script(data),
+            explore=data.get("explore"),
         )
+
+    def script(self, data: dict[str, Any]) -> tuple[ScriptCommand, ...]:
+        """The ``script`` timeline; refused beside a ``client`` (one drives the run)."""
+        items = data.get("script", [])
+        if items and "client" in data:
+            self.problem(
+                ["script"], f"[{len(items)} command(s)]", "cannot be given with a client command"
+            )
+        return script_commands(items)
 
     def references(self, data: Any) -> None:
         """Check the robot and world references of a document that failed the schema."""
@@ -696,7 +713,7 @@ class _Builder:
     def client(self, data: dict[str, Any], path: list[str | int]) -> ClientSpec:
         return ClientSpec(
             command=command_tuple(data["command"]),
-            cwd=self.base,
+            cwd=(self.base / data["cwd"]).resolve() if "cwd" in data else self.base,
             env=dict(data.get("env", {})),
             readiness_timeout=float(data.get("readiness_timeout", 30.0)),
             wall_timeout=float(data.get("wall_timeout", 600.0)),

@@ -65,6 +65,7 @@ from harness.events import (
 )
 from harness.models import LoadedWorld
 from harness.scenario.client import run_client
+from harness.scenario.errors import ScenarioError
 from harness.scenario.results import (
     ClientOutcome,
     CollisionSummary,
@@ -77,16 +78,14 @@ from harness.scenario.results import (
     criteria_settings,
     judge,
 )
-from harness.scenario.scenario import (
-    ClientSpec,
-    ResumeSpec,
-)
+from harness.scenario.scenario import ClientSpec, ResumeSpec, Scenario
+from harness.scenario.script import run_script
 from harness.scenario.session_options import ScenarioSession, is_body, scenario_session
 from harness.scenario.travel import BaseTracker, travel_verdict
 from harness.scenario.world import effective_timestep
 from harness.session import Session, SessionError
 
-__all__ = ["SessionHost", "SessionIterationRunner", "robot_links", "steps_for"]
+__all__ = ["SessionHost", "SessionIterationRunner", "check_script", "robot_links", "steps_for"]
 
 F64 = npt.NDArray[np.float64]
 _PYTHON = ("python", "python3")
@@ -288,6 +287,9 @@ class SessionIterationRunner:
     grace: float = 3.0
     trace_samples: int = 500
     chunk: int = 10
+    watchers: tuple[Callable[[Session], Logger], ...] = ()
+    """Extra logger factories, called once the world is loaded (``harness explore``'s margin
+    loggers); they must emit no events, or the recording would differ from ``harness run``'s."""
 
     def __call__(self, spec: IterationSpec) -> IterationResult:
         started = time.monotonic()
@@ -331,6 +333,8 @@ class SessionIterationRunner:
                 assert session.world is not None
                 for logger in planned.loggers(session.world):
                     session.add_logger(logger)  # before the first step: as if given above
+                for watcher in self.watchers:
+                    session.add_logger(watcher(session))
             except BaseException:
                 session.close()
                 raise
@@ -345,7 +349,11 @@ class SessionIterationRunner:
                 session.pause_at(limit)  # before the clock starts
             if spec.client is None:
                 try:
-                    _run_world(session, limit, self.chunk)
+                    if scenario.script:
+                        check_script(scenario, session.joint_names)
+                        run_script(session, scenario.script, dt_ns, limit, self.chunk)
+                    else:
+                        _run_world(session, limit, self.chunk)
                 except SessionError as exc:
                     stepper_error = exc
             else:
@@ -394,6 +402,20 @@ class SessionIterationRunner:
             notes=notes,
             settings=criteria_settings(scenario.criteria),
         )
+
+
+def check_script(scenario: Scenario, joints: tuple[str, ...]) -> None:
+    """Refuse a ``script`` command naming a joint the world does not have."""
+    where = str(scenario.source) if scenario.source is not None else "<scenario>"
+    problems = [
+        f"{where}: script[{i}]: joint {joint!r} is not a joint of the world "
+        f"(its joints: {', '.join(joints)})"
+        for i, command in enumerate(scenario.script)
+        for joint in command.joints()
+        if joint not in joints
+    ]
+    if problems:
+        raise ScenarioError(problems)
 
 
 def robot_links(world: LoadedWorld | None) -> list[str]:

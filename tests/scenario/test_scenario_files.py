@@ -253,7 +253,7 @@ def test_schema_and_dataclasses_agree():
     assert _props("clock") == _fields(sc.Clock)
     assert top["logging"]["$ref"] == "logging.schema.json"
     assert LOGGING_SCHEMA["$id"].endswith("/logging.schema.json")
-    assert _props("client") == _fields(sc.ClientSpec) - {"cwd"}
+    assert _props("client") == _fields(sc.ClientSpec)  # cwd: the file's folder by default
     assert _props("logger") - {"type", "self_collision"} == _fields(
         sc.CollisionLoggerSpec
     ) | _fields(sc.JointLoggerSpec)
