@@ -44,7 +44,8 @@ __all__ = [
     "world_timestep",
 ]
 
-BUNDLED_MODELS = Path(__file__).parent / "data" / "gazebo_models"
+_OWN_DATA = Path(__file__).parent / "data"
+BUNDLED_MODELS = _OWN_DATA / "gazebo_models"
 """Stock Gazebo models the harness ships (``ground_plane``): searched after the user's paths."""
 WORLD_SUFFIXES = (".sdf", ".world")
 
@@ -53,8 +54,10 @@ WORLD_SUFFIXES = (".sdf", ".world")
 class WorldScene:
     """A loaded SDF world: ``spec`` (no robot yet), its ``models`` as placed in the world,
     ``timestep`` and ``gravity`` as the world sets them (None: not set), and ``sources``:
-    every file read, ``"scene/<name>"`` for the world and ``"scene/include/<i>/<name>"``
-    for the others."""
+    every file read, ``"scene/<name>"`` for the world, ``"scene/<model>/<path>"`` for the
+    files of a Gazebo model folder (``"scene/fuel/<host>/<owner>/models/<name>/<version>/..."``
+    for a Fuel cache's), laid out so that a rebuild resolves ``model://`` and Fuel URIs from
+    the recording alone, and ``"scene/include/<i>/<name>"`` for the others."""
 
     name: str
     spec: mujoco.MjSpec
@@ -154,13 +157,49 @@ def world_sources(
     sources = {f"scene/{path.name}": path.read_bytes()}
     seen = {path.resolve()}
     files = [e.source for e in entities] + [Path(m) for m in meshes]
+    placed: dict[str, Path] = {}  # layout name -> the model folder it stands for
     for file in files:
         resolved = file.resolve()
         if resolved in seen or not resolved.is_file():
             continue
         seen.add(resolved)
-        sources[f"scene/include/{len(seen) - 1}/{resolved.name}"] = resolved.read_bytes()
+        laid = _model_layout(resolved, placed)
+        if laid is None:
+            sources[f"scene/include/{len(seen) - 1}/{resolved.name}"] = resolved.read_bytes()
+            continue
+        folder, name = laid
+        sources[f"scene/{name}/{resolved.relative_to(folder).as_posix()}"] = resolved.read_bytes()
+        config = folder / "model.config"
+        if config.is_file() and config.resolve() not in seen:
+            seen.add(config.resolve())
+            sources[f"scene/{name}/model.config"] = config.read_bytes()
     return sources
+
+
+def _model_layout(file: Path, placed: dict[str, Path]) -> tuple[Path, str] | None:
+    """Where a file of a Gazebo model folder goes in the recording, so that a rebuild
+    resolves the world's ``model://`` and Fuel references from the recording alone: the model
+    folder (the nearest one above ``file`` with a ``model.config``) and its layout name,
+    ``<model name>`` beside the world (found from the world's folder as ``model://`` is) or
+    ``fuel/<host>/<owner>/models/<name>/<version>`` for a Fuel cache's copy (the rebuild's
+    Fuel cache, :func:`harness.models.fuel.fuel_cache_roots`). None: the harness's own
+    stock models (found in the harness again), a file in no model folder, or a second folder
+    of a name already laid out."""
+    if any(file.is_relative_to(own) for own in (_OWN_DATA, _OWN_DATA.resolve())):
+        return None
+    folder = next((f for f in file.parents if (f / "model.config").is_file()), None)
+    if folder is None:
+        return None
+    parts = folder.parts
+    if folder.name.isdigit() and len(parts) >= 6 and parts[-3] == "models":
+        name = "/".join(("fuel", parts[-5], parts[-4], "models", parts[-2], parts[-1]))
+    elif folder.name in ("fuel", "include"):
+        return None
+    else:
+        name = folder.name
+    if placed.setdefault(name, folder) != folder:
+        return None
+    return folder, name
 
 
 def load_world_file(

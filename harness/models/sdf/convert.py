@@ -160,10 +160,12 @@ class _Converter:
             pose,
             inertial,
             tuple(self.shape(entity, s, pose) for s in entity.collisions),
-            tuple(self.shape(entity, s, pose) for s in entity.visuals),
+            tuple(self.shape(entity, s, pose, visual=True) for s in entity.visuals),
         )
 
-    def shape(self, link: Entity, spec: ShapeSpec, link_pose: Pose) -> Shape:
+    def shape(
+        self, link: Entity, spec: ShapeSpec, link_pose: Pose, *, visual: bool = False
+    ) -> Shape:
         where = f"{link.source}: line {spec.element.sourceline}: <{spec.geometry_kind}>"
         if spec.raw_pose.relative_to:
             frame = self.doc.lookup(
@@ -199,14 +201,14 @@ class _Converter:
             geometry = Geometry(
                 "mesh",
                 (),
-                self.mesh_path(spec.uri or "", link, where),
+                self.mesh_path(spec.uri or "", link, where, visual=visual),
                 (scale[0], scale[1], scale[2]),
             )
         else:
             raise SdfStructureError(f"{where}: geometry <{kind}> is not supported")
         return Shape(spec.name, pose, geometry)
 
-    def mesh_path(self, uri: str, link: Entity, where: str) -> str:
+    def mesh_path(self, uri: str, link: Entity, where: str, *, visual: bool = False) -> str:
         if not uri:
             raise SdfSyntaxError(f"{where}: mesh needs a <uri>")
         try:
@@ -220,6 +222,8 @@ class _Converter:
                 )
             )
         except OutsideReferenceError:
+            if visual:  # kept as text, never opened: a build with visuals refuses it then
+                return uri
             raise  # a rebuild from a recording: refused, never looked up later
         except ResolveError:
             # Kept as written: inspecting a model does not need its meshes; building does.
