@@ -83,6 +83,7 @@ from harness.session.services import SERVICE_RESET as SERVICE_RESET
 from harness.session.services import SERVICE_STEP, HarnessServices
 from harness.session.stepping import PublishCounter
 from harness.session.topics import (
+    HARNESS_NODE,
     TYPE_CLOCK,
     TYPE_JOINT_STATE,
     TYPE_TF,
@@ -281,6 +282,9 @@ class SessionCore:
         serve the services."""
         graph = self.graph
         advertise_and_subscribe(graph, self.published, self.robots, self.sim, self.control.claims)
+        if self.sensors is not None:  # on the graph from the start, not from a first message
+            for topic, msgtype in self.sensors.topics():
+                graph.advertise(topic, msgtype, node=HARNESS_NODE)
         HarnessServices(self, reset=self._reset, pause=self._set_paused).serve(graph)
         self.control.start()
 
