@@ -274,6 +274,13 @@ def _add_loop(spec: mujoco.MjSpec, joint: Joint, parent_pose: Pose) -> None:
         eq.data = data
 
 
+def _unresolved(shape: Shape) -> bool:
+    """A mesh whose reference did not resolve (kept as written: a URI or a relative path;
+    decided on the text, nothing looked up). Gazebo draws the model without it."""
+    path = shape.geometry.mesh_path or ""
+    return shape.geometry.kind == "mesh" and ("://" in path or not Path(path).is_absolute())
+
+
 def build_spec(
     model: RobotModel, *, visuals: bool = False, cache_dir: str | Path | None = None
 ) -> mujoco.MjSpec:
@@ -292,6 +299,7 @@ def build_spec(
     bodies: dict[str, mujoco.MjsBody] = {"world": spec.worldbody}
     welded: dict[str, bool] = {}
     assets: dict[str, bytes] = {}
+    missing: list[str] = []
     for name in tree.order:
         link = links[name]
         parent = tree.parent[name]
@@ -309,7 +317,18 @@ def build_spec(
             _add_geom(spec, body, link, shape, False, assets, cache_dir)
         if visuals:
             for shape in link.visuals:
+                if _unresolved(shape):
+                    missing.append(f"{name}/{shape.name} ({shape.geometry.mesh_path})")
+                    continue
                 _add_geom(spec, body, link, shape, True, assets, cache_dir)
+    if missing:
+        warnings.warn(
+            f"{model.source or model.name}: {len(missing)} visual mesh(es) not found, left out "
+            f"(cameras do not see them): {', '.join(missing[:3])}"
+            f"{', ...' if len(missing) > 3 else ''}",
+            SdfWarning,
+            stacklevel=2,
+        )
     if assets:
         spec.assets = assets
     for joint in tree.loops:

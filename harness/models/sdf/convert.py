@@ -222,7 +222,7 @@ class _Converter:
                 )
             )
         except OutsideReferenceError:
-            if visual:  # kept as text, never opened: a build with visuals refuses it then
+            if visual:  # kept as text, never opened: a build with visuals leaves it out
                 return uri
             raise  # a rebuild from a recording: refused, never looked up later
         except ResolveError:
