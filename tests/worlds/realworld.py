@@ -40,14 +40,29 @@ class Run:
     def ends(self) -> list[CollisionEnd]:
         return [e for e in self.sink.events if isinstance(e, CollisionEnd)]
 
+    def base_qpos(self) -> np.ndarray:
+        """The robot's free joint: x y z qw qx qy qz (a world's free models come first)."""
+        model = self.session.model
+        links = set(self.session.link_names)
+        (joint,) = [
+            j
+            for j in range(model.njnt)
+            if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
+            and model.body(int(model.jnt_bodyid[j])).name in links
+        ]
+        address = int(model.jnt_qposadr[joint])
+        return np.array(self.session.sim.data.qpos[address : address + 7])
+
     def base_xy_yaw(self) -> tuple[float, float, float]:
-        qpos = self.session.sim.data.qpos
+        qpos = self.base_qpos()
         w, x, y, z = (float(v) for v in qpos[3:7])
-        return (
-            float(qpos[0]),
-            float(qpos[1]),
-            math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)),
-        )
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return float(qpos[0]), float(qpos[1]), yaw
+
+    def robot_ends(self) -> list[CollisionEnd]:
+        """The ends of the robot's own contact episodes."""
+        links = set(self.session.link_names)
+        return [e for e in self.ends() if e.body1 in links or e.body2 in links]
 
     def drive(self, linear: float, angular: float, steps: int) -> None:
         self.client.publish(

@@ -130,16 +130,16 @@ def test_start_idle_and_first_scan(case: Case, tmp_path: Path) -> None:
         scans = run.client.subscribe("/scan", "sensor_msgs/msg/LaserScan")
         first = scans.wait_for_message(sim_timeout=1.0)
         model, data = run.session.model, run.session.sim.data
-        start = np.array(data.qpos[:3])
+        start = run.base_qpos()[:3]
         lidar = _lidar(run)
         origin, rotation = lidar.mount.world(data)  # the robot has not moved since the scan
         triangles = world_triangles(model, data, _robot_bodies(run))
         for _ in range(20):  # 10 s, in requests that answer well within 30 s
             run.client.step(round(0.5e9 / run.session.dt_ns))
-        drift = float(np.linalg.norm(np.array(run.session.sim.data.qpos[:3]) - start))
+        drift = float(np.linalg.norm(run.base_qpos()[:3] - start))
         passed, detail = run.verdict()
     assert drift <= 1e-3, f"drifted {drift * 1000:.2f} mm in 10 s idle"
-    ends = run.ends()
+    ends = run.robot_ends()
     assert ends, "the robot touches nothing, not even its floor"
     assert all(e.support for e in ends), [(e.body1, e.body2) for e in ends if not e.support]
     assert passed, detail
@@ -190,6 +190,6 @@ def test_a_wheel_driven_into_a_wall_fails_the_default_verdict(case: Case, tmp_pa
             run.drive(0.1, 0.0, round(0.5e9 / run.session.dt_ns))
         passed, detail = run.verdict()
     assert not passed, detail
-    hits = [e for e in run.ends() if not e.support]
+    hits = [e for e in run.robot_ends() if not e.support]
     first = min(hits, key=lambda e: e.begin_step)
     assert "wheel_right" in first.body1 + first.body2, [(e.body1, e.body2) for e in hits]
