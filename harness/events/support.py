@@ -110,7 +110,10 @@ class SupportClassifier:
         if contacts.size == 0:
             return np.zeros(0, dtype=bool)
         up, robot_geom, other_geom, relevant = self._sides(contacts)
-        return relevant & (up >= _COS) & (self.floor[other_geom] | self._geom_rolls[robot_geom])
+        found: npt.NDArray[np.bool_] = (
+            relevant & (up >= _COS) & (self.floor[other_geom] | self._geom_rolls[robot_geom])
+        )
+        return found
 
     def _sides(
         self, contacts: ContactSet

@@ -115,6 +115,6 @@ def _convert(source: Path, prefix: str, meter: float = 1.0) -> str:
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"{prefix}mesh {str(source)!r} has no triangles")
     if meter != 1.0:
-        loaded.apply_scale(meter)
+        loaded.apply_scale(meter)  # type: ignore[no-untyped-call]
     text = loaded.export(file_type="obj", include_normals=False, include_texture=False)
     return str(text)
