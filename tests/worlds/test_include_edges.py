@@ -116,4 +116,5 @@ def test_a_heightmap_is_refused_in_one_line(tmp_path: Path) -> None:
         load_world_file(path)
     message = str(caught.value)
     assert "\n" not in message
-    assert "heightmap" in message and str(path) in message
+    assert "heightmap" in message
+    assert str(path) in message
