@@ -150,7 +150,7 @@ def test_start_idle_and_first_scan(case: Case, tmp_path: Path) -> None:
         for _ in range(20):  # 10 s, in requests that answer well within 30 s
             run.client.step(round(0.5e9 / run.session.dt_ns))
         drift = float(np.linalg.norm(run.base_qpos()[:3] - start))
-        passed, detail = run.verdict()
+    passed, detail = run.verdict()  # closed: every episode has ended
     assert drift <= 1e-3, f"drifted {drift * 1000:.2f} mm in 10 s idle"
     ends = run.robot_ends()
     assert ends, "the robot touches nothing, not even its floor"
@@ -183,7 +183,7 @@ def test_square_back_to_start_replays_without_paths(case: Case, tmp_path: Path) 
         for dx, dy in case.square:
             run.go_to(x0 + dx, y0 + dy)
         x, y, _ = run.base_xy_yaw()
-        passed, detail = run.verdict()
+    passed, detail = run.verdict()  # closed: every episode has ended
     assert math.hypot(x - x0, y - y0) <= 0.10
     assert passed, detail
     env = {k: v for k, v in os.environ.items() if k not in PATH_VARIABLES}
@@ -209,7 +209,7 @@ def test_a_wheel_driven_into_a_wall_fails_the_default_verdict(case: Case, tmp_pa
     ) as run:
         for _ in range(16):  # 8 s at 0.1 m/s, in requests that answer well within 30 s
             run.drive(0.1, 0.0, round(0.5e9 / run.session.dt_ns))
-        passed, detail = run.verdict()
+    passed, detail = run.verdict()  # closed: every episode has ended
     assert not passed, detail
     hits = [e for e in run.robot_ends() if not e.support]
     first = min(hits, key=lambda e: e.begin_step)
