@@ -163,43 +163,45 @@ def world_sources(
         if resolved in seen or not resolved.is_file():
             continue
         seen.add(resolved)
-        laid = _model_layout(resolved, placed)
-        if laid is None:
+        laid = _model_layouts(resolved, placed)
+        if not laid:
             sources[f"scene/include/{len(seen) - 1}/{resolved.name}"] = resolved.read_bytes()
             continue
-        folder, name = laid
-        sources[f"scene/{name}/{resolved.relative_to(folder).as_posix()}"] = resolved.read_bytes()
-        config = folder / "model.config"
-        if config.is_file() and config.resolve() not in seen:
-            seen.add(config.resolve())
-            sources[f"scene/{name}/model.config"] = config.read_bytes()
+        data = resolved.read_bytes()  # under each model folder holding it (links dedupe)
+        for folder, name in laid:
+            sources[f"scene/{name}/{resolved.relative_to(folder).as_posix()}"] = data
+            config = folder / "model.config"
+            if config.is_file() and f"scene/{name}/model.config" not in sources:
+                sources[f"scene/{name}/model.config"] = config.read_bytes()
     return sources
 
 
-def _model_layout(file: Path, placed: dict[str, Path]) -> tuple[Path, str] | None:
-    """Where a file of a Gazebo model folder goes in the recording, so that a rebuild
-    resolves the world's ``model://`` and Fuel references from the recording alone: the model
-    folder (the nearest one above ``file`` with a ``model.config``) and its layout name,
-    ``<model name>`` beside the world (found from the world's folder as ``model://`` is) or
-    ``fuel/<host>/<owner>/models/<name>/<version>`` for a Fuel cache's copy (the rebuild's
-    Fuel cache, :func:`harness.models.fuel.fuel_cache_roots`). None: the harness's own
-    stock models (found in the harness again), a file in no model folder, or a second folder
-    of a name already laid out."""
+def _model_layouts(file: Path, placed: dict[str, Path]) -> list[tuple[Path, str]]:
+    """Where a file of Gazebo model folders goes in the recording, so that a rebuild
+    resolves the world's ``model://`` and Fuel references from the recording alone: each
+    model folder above ``file`` (one with a ``model.config``: ``model://turtlebot3_house/
+    mailbox/meshes/mailbox.dae`` and ``model://mailbox/meshes/mailbox.dae`` name one file)
+    with its layout name, ``<model name>`` beside the world (found from the world's folder as
+    ``model://`` is) or ``fuel/<host>/<owner>/models/<name>/<version>`` for a Fuel cache's
+    copy (the rebuild's Fuel cache, :func:`harness.models.fuel.fuel_cache_roots`). None for
+    the harness's own stock models (found in the harness again), a file in no model folder,
+    and a second folder of a name already laid out."""
     if any(file.is_relative_to(own) for own in (_OWN_DATA, _OWN_DATA.resolve())):
-        return None
-    folder = next((f for f in file.parents if (f / "model.config").is_file()), None)
-    if folder is None:
-        return None
-    parts = folder.parts
-    if folder.name.isdigit() and len(parts) >= 6 and parts[-3] == "models":
-        name = "/".join(("fuel", parts[-5], parts[-4], "models", parts[-2], parts[-1]))
-    elif folder.name in ("fuel", "include"):
-        return None
-    else:
-        name = folder.name
-    if placed.setdefault(name, folder) != folder:
-        return None
-    return folder, name
+        return []
+    found = []
+    for folder in file.parents:
+        if not (folder / "model.config").is_file():
+            continue
+        parts = folder.parts
+        if folder.name.isdigit() and len(parts) >= 6 and parts[-3] == "models":
+            name = "/".join(("fuel", parts[-5], parts[-4], "models", parts[-2], parts[-1]))
+        elif folder.name in ("fuel", "include"):
+            continue
+        else:
+            name = folder.name
+        if placed.setdefault(name, folder) == folder:
+            found.append((folder, name))
+    return found
 
 
 def load_world_file(
