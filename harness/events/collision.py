@@ -11,10 +11,12 @@ import warnings
 from collections.abc import Iterable, Sequence
 
 import mujoco
+import numpy as np
 
 from harness.events.errors import LoggerConfigError
 from harness.events.events import CollisionBegin, CollisionEnd, Event, NearMiss
 from harness.events.logger import StepContext
+from harness.events.support import SupportClassifier
 from harness.sim import (
     CollisionTracker,
     CollisionTransition,
@@ -49,6 +51,10 @@ class CollisionLogger:
     this normal force (N) do not count. ``debounce_steps``: steps without contact before a
     pair ends. ``near_miss_distance`` (m): also report pairs that come this close without
     touching (``mj_geomDistance``; the physics is not changed).
+
+    Each begin and end says whether the pair's contacts were all *support* contacts of the
+    robot (``support``: a wheel on the floor, a base resting on its floor; see
+    :mod:`harness.events.support`); a logger without robot bodies marks none.
     """
 
     def __init__(
@@ -114,6 +120,8 @@ class CollisionLogger:
             robot_vs_world_only=robot_vs_world_only,
             ignore=pairs,
         )
+        self._support = SupportClassifier(model, robot) if robot else None
+        self._not_support: set[tuple[int, int]] = set()
         self._tracker = CollisionTracker(
             debounce_steps=debounce_steps, min_force=min_force, allowed=allowed
         )
@@ -142,6 +150,7 @@ class CollisionLogger:
     def observe(self, ctx: StepContext) -> Sequence[Event]:
         """Ends and begins caused by this step's contacts, then near misses that closed."""
         transitions = self._tracker.update(ctx.step, ctx.sim_time_ns, ctx.contacts)
+        self._note_support(ctx)
         events: list[Event] = [self._collision(t, ctx.robot) for t in transitions]
         if self._near is not None:
             records = self._near.update(
@@ -160,7 +169,38 @@ class CollisionLogger:
             events.extend(self._near_miss(r, ctx.robot) for r in records)
         return events
 
+    def _note_support(self, ctx: StepContext) -> None:
+        """Remember the open pairs that had a contact other than a support contact."""
+        contacts = ctx.contacts
+        if self._support is not None:
+            self._support.learn_floors(contacts)  # the first step observed: what it rests on
+        if contacts.size == 0:
+            return
+        touching = (contacts.depth >= 0.0) | (contacts.normal_force > 0.0)
+        if self._support is None:
+            support = np.zeros(contacts.size, dtype=bool)
+        else:
+            support = self._support.support(contacts)
+        index = np.flatnonzero(touching & ~support)
+        if index.size == 0:
+            return
+        b1 = contacts.body1[index].tolist()
+        b2 = contacts.body2[index].tolist()
+        open_pairs = self._tracker.open_pairs
+        for a, b in zip(b1, b2, strict=True):
+            key = (a, b) if a <= b else (b, a)
+            if key in open_pairs:
+                self._not_support.add(key)
+
+    def _is_support(self, t: CollisionTransition) -> bool:
+        key = (t.body1, t.body2) if t.body1 <= t.body2 else (t.body2, t.body1)
+        support = self._support is not None and key not in self._not_support
+        if t.kind != "begin":
+            self._not_support.discard(key)
+        return support
+
     def _collision(self, t: CollisionTransition, robot: str) -> Event:
+        support = self._is_support(t)
         if t.kind == "begin":
             return CollisionBegin(
                 step=t.step,
@@ -174,6 +214,7 @@ class CollisionLogger:
                 normal=t.normal,
                 penetration=t.penetration,
                 normal_force=t.normal_force,
+                support=support,
             )
         return CollisionEnd(
             step=t.step,
@@ -191,6 +232,7 @@ class CollisionLogger:
             end_step=t.end_step,
             duration_ns=t.duration_ns,
             at_finish=t.at_finish,
+            support=support,
         )
 
     def _near_miss(self, r: NearMissRecord, robot: str) -> NearMiss:

@@ -117,6 +117,8 @@ class CollisionBegin(_PairEvent):
 
     penetration: float
     normal_force: float
+    support: bool = False
+    """A robot's contact with what supports it (:mod:`harness.events.support`)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -138,6 +140,9 @@ class CollisionEnd(_PairEvent):
     end_step: int
     duration_ns: int
     at_finish: bool = False
+    support: bool = False
+    """Every contact of the episode was a support contact (:mod:`harness.events.support`):
+    a wheel on the floor, a base resting on its floor; never a bump into a wall."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -195,6 +200,9 @@ class _LimitEvent(Event):
     end_step: int
     duration_ns: int
     at_finish: bool = False
+    support: bool = False
+    """Every contact of the episode was a support contact (:mod:`harness.events.support`):
+    a wheel on the floor, a base resting on its floor; never a bump into a wall."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -217,6 +217,17 @@ def _json_metadata(rec: Recording, key: str) -> list[dict[str, Any]]:
     return value
 
 
+def _json_value(rec: Recording, key: str) -> Any:
+    """Metadata ``key`` as JSON (None when absent or not JSON: the checks name it)."""
+    raw = rec.metadata.get(key)
+    if raw is None:
+        return None
+    try:
+        return json.loads(raw)
+    except json.JSONDecodeError:
+        return raw
+
+
 def _pose(values: Any, where: str) -> Pose | None:
     if values is None:
         return None
@@ -411,6 +422,7 @@ def rebuild_robot(
             return load_robot(
                 source,
                 control=modes,
+                pose=_pose(_json_value(rec, "pose"), f"{rec.path}: metadata 'pose'"),
                 scene=_scene(sources, root),
                 packages=_packages(sources, root) or None,
                 **_mesh_collision(rec, root),

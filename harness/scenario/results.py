@@ -68,7 +68,8 @@ class CollisionSummary:
     """One contact episode between two bodies, in simulation seconds (``end`` None: still in
     contact when the run ended). ``body1`` is a robot's body when either is. ``world``: neither
     body is a robot's (a box on a table); ``initial``: the pair was in contact at the start
-    (the first step's contacts are those of the initial state)."""
+    (the first step's contacts are those of the initial state); ``support``: every contact
+    was one of the robot with what supports it (:mod:`harness.events.support`)."""
 
     body1: str
     body2: str
@@ -78,6 +79,7 @@ class CollisionSummary:
     peak_force: float
     world: bool = False
     initial: bool = False
+    support: bool = False
 
 
 @dataclass(frozen=True)
@@ -211,12 +213,14 @@ def judged_collisions(
     criteria: Criteria, collisions: Sequence[CollisionSummary]
 ) -> list[CollisionSummary]:
     """The episodes the collision verdict concerns: a robot's contacts that began after the
-    start, unless the criteria also judge world-only or initial contacts."""
+    start and are not support contacts, unless the criteria also judge world-only, initial or
+    support contacts."""
     return [
         c
         for c in collisions
         if (criteria.world_collisions or not c.world)
         and (criteria.initial_contacts or not c.initial)
+        and (criteria.support_contacts or not c.support)
     ]
 
 
@@ -245,6 +249,14 @@ def criteria_settings(criteria: Criteria) -> tuple[str, ...]:
                 if not criteria.initial_contacts
                 else "collisions: contacts present at the start are judged too "
                 "(criteria.initial_contacts: false exempts them)"
+            ),
+            (
+                "collisions: a robot's support contacts (wheels and casters on any surface, "
+                "its floor; normal within 30 deg of vertical) are not violations "
+                "(criteria.support_contacts: true judges them)"
+                if not criteria.support_contacts
+                else "collisions: a robot's support contacts are judged too "
+                "(criteria.support_contacts: false exempts them)"
             ),
         ]
     if not criteria.joint_limits:
@@ -293,9 +305,14 @@ def judge(
         else:
             allowed = len(judged)
             detail = "no collisions" if not allowed else f"only allowed collisions ({allowed})"
-            unjudged = len(collisions) - len(judged)
+            support = [c for c in collisions if c.support and c not in judged]
+            unjudged = len(collisions) - len(judged) - len(support)
             if unjudged:
                 detail += f"; {unjudged} world or initial contact(s) recorded, not judged"
+        if not criteria.support_contacts:
+            pairs = sorted({f"{c.body1} - {c.body2}" for c in collisions if c.support})
+            if pairs:
+                detail += f"; support contacts, not judged: {', '.join(pairs)}"
         verdicts.append(Verdict("collisions", not bad, detail))
     if criteria.joint_limits:
         fixed = criteria.joint_limit_tolerance

@@ -233,7 +233,9 @@ class Criteria:
     ``no_collisions``: a robot's contacts fail the run, except ``allowed_collisions`` (body
     pairs, shell-style patterns), contacts between world objects only (a box resting on a
     table: recorded, judged only with ``world_collisions``) and contacts present at the start
-    (a robot resting on its table: judged only with ``initial_contacts``).
+    (a robot resting on its table: judged only with ``initial_contacts``) and a robot's
+    support contacts (wheels and casters on any surface, its floor: judged only with
+    ``support_contacts``; see :mod:`harness.events.support`).
     ``joint_limit_tolerance``: how far beyond a position limit a joint may go; ``None`` (the
     default) is the solver's own soft-limit zone of each joint
     (:func:`harness.events.solver_limit_tolerance`). See :func:`criteria_settings`.
@@ -243,6 +245,7 @@ class Criteria:
     allowed_collisions: tuple[tuple[str, str], ...] = ()
     world_collisions: bool = False
     initial_contacts: bool = False
+    support_contacts: bool = False
     joint_limits: bool = True
     joint_limit_tolerance: float | None = None
     deterministic: bool = False
@@ -427,6 +430,7 @@ class _Builder:
                 allowed_collisions=tuple((a, b) for a, b in crit.get("allowed_collisions", [])),
                 world_collisions=crit.get("world_collisions", False),
                 initial_contacts=crit.get("initial_contacts", False),
+                support_contacts=crit.get("support_contacts", False),
                 joint_limits=crit.get("joint_limits", True),
                 joint_limit_tolerance=(
                     None

@@ -473,6 +473,7 @@ def _collisions(
                 e.normal_force,
                 world=body1 not in bodies,
                 initial=(e.body1, e.body2, e.begin_step) in resting,
+                support=e.support,
             )
         )
     episodes.sort(key=lambda c: (c.begin, c.body1, c.body2))

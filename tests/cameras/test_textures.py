@@ -62,7 +62,7 @@ def test_a_visual_mesh_not_at_hand_is_one_warning_and_not_drawn(tmp_path: Path) 
     tail = tail.split("</geometry>", 1)[1]
     mesh = "<mesh><uri>model://not_here/meshes/wall.stl</uri></mesh>"
     path.write_text(f'{head}<visual name="visual"><geometry>{mesh}</geometry>{tail}')
-    with pytest.warns(SdfWarning, match=r"visual 'visual': mesh not found: .*not drawn"):
+    with pytest.warns(SdfWarning, match=r"1 visual mesh\(es\) not found, left out .*not_here"):
         rgb, _, model = view(robot(tmp_path / "bot"), path)
     assert model.ngeom > 0
     # Gazebo draws nothing there: the scene's background (SDF's default 0.7 grey)

@@ -30,10 +30,13 @@ def test_world_with_includes_static_and_free_models_loads() -> None:
     assert world.gravity == (0.0, 0.0, -9.81)
     crate = model.geom("crate::body/collision")
     assert float(model.geom_friction[crate.id][0]) == 0.5  # <surface><friction><ode><mu>
-    names = sorted(world.sources)
-    assert names[0] == "scene/include/1/model.sdf"
-    assert "scene/room.world" in names
-    assert len(names) == 3  # the world, the bundled ground plane, the crate
+    # the world, the bundled ground plane, the crate's model folder as model:// finds it
+    assert sorted(world.sources) == [
+        "scene/crate/model.config",
+        "scene/crate/model.sdf",
+        "scene/include/1/model.sdf",
+        "scene/room.world",
+    ]
 
 
 def test_sdf_world_and_its_mjcf_twin_give_the_same_body_poses() -> None:

@@ -32,6 +32,7 @@ __all__ = [
     "FUEL_CACHE_VARIABLES",
     "FUEL_HOSTS",
     "LIGHT_ONLY_MODELS",
+    "RECORDED_FUEL_CACHE",
     "STOCK_FOLDER",
     "STOCK_MODELS",
     "FuelModelMissingError",
@@ -101,8 +102,17 @@ def parse_fuel_uri(uri: str) -> FuelUri | None:
     return FuelUri(host, owner, name, version, rest)
 
 
+RECORDED_FUEL_CACHE = "scene/fuel"
+"""Where a recording lays out the Fuel models a world read (:mod:`harness.models.sdf.worldfile`):
+a rebuild's only Fuel cache, inside its folder."""
+
+
 def fuel_cache_roots() -> list[Path]:
-    """The Fuel cache folders searched, in order (see the module docstring)."""
+    """The Fuel cache folders searched, in order (see the module docstring); a rebuild from a
+    recording (loading confined to its folder) searches only :data:`RECORDED_FUEL_CACHE`."""
+    confined = confinement()
+    if confined is not None:
+        return [confined / RECORDED_FUEL_CACHE]
     roots: list[Path] = []
     for variable in FUEL_CACHE_VARIABLES:
         roots.extend(Path(p) for p in os.environ.get(variable, "").split(os.pathsep) if p)
@@ -127,17 +137,16 @@ def find_fuel_model(fuel: FuelUri, uri: str) -> Path:
     and every folder searched when neither exists."""
     stock = STOCK_MODELS.get((fuel.owner.lower(), fuel.name.lower()))
     searched: list[str] = []
-    if confinement() is None:
-        hosts = [fuel.host, *(h for h in FUEL_HOSTS if h != fuel.host)]
-        for root in fuel_cache_roots():
-            for host in hosts:
-                folder = root / host / fuel.owner.lower() / "models" / fuel.name.lower()
-                searched.append(str(folder))
-                versions = _versions(folder)
-                if fuel.version is not None and fuel.version in versions:
-                    return folder / str(fuel.version)
-                if fuel.version is None and versions:
-                    return folder / str(versions[-1])
+    hosts = [fuel.host, *(h for h in FUEL_HOSTS if h != fuel.host)]
+    for root in fuel_cache_roots():
+        for host in hosts:
+            folder = root / host / fuel.owner.lower() / "models" / fuel.name.lower()
+            searched.append(str(folder))
+            versions = _versions(folder)
+            if fuel.version is not None and fuel.version in versions:
+                return folder / str(fuel.version)
+            if fuel.version is None and versions:
+                return folder / str(versions[-1])
     if stock is not None:
         return STOCK_FOLDER / stock
     if confinement() is not None:

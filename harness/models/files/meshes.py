@@ -10,6 +10,7 @@ a content-hashed cache, so a file is converted once per content, shared between 
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -56,14 +57,16 @@ def prepare_mesh(
     if ext == ".dae":  # COLLADA is XML: the same size limit as the models
         check_size(source)
     data = source.read_bytes()
-    digest = hashlib.sha256(ext.encode() + b"\0" + data).hexdigest()[:20]
+    meter = _collada_meter(data, str(source)) if ext == ".dae" else 1.0
+    key = ext.encode() + b"\0" + data
+    if meter != 1.0:  # unit-1 files keep their cache names (and recordings their bytes)
+        key += f"\0meter={meter!r}".encode()
+    digest = hashlib.sha256(key).hexdigest()[:20]
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
     target = folder / f"{source.stem}-{digest}.obj"
     if target.is_file():
         return target
-    if ext == ".dae":  # ... and no entities (checked once per content: converted ones are cached)
-        parse_xml(data, str(source))
-    obj = _convert(source, prefix)
+    obj = _convert(source, prefix, meter)
     folder.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=folder, suffix=".obj.tmp")
     with os.fdopen(fd, "w") as out:
@@ -86,7 +89,23 @@ def _is_ascii_stl(path: Path) -> bool:
     return size != 84 + 50 * int.from_bytes(header[80:84], "little")
 
 
-def _convert(source: Path, prefix: str) -> str:
+def _collada_meter(data: bytes, where: str) -> float:
+    """The document's ``<asset><unit meter>`` (1 when absent or not a positive number): gz
+    scales a whole COLLADA mesh by it, trimesh does not. Parsing checks for entities too."""
+    root = parse_xml(data, where)
+    for element in root:
+        if isinstance(element.tag, str) and element.tag.rpartition("}")[2] == "asset":
+            for unit in element:
+                if isinstance(unit.tag, str) and unit.tag.rpartition("}")[2] == "unit":
+                    try:
+                        meter = float(unit.get("meter", "1"))
+                    except ValueError:
+                        return 1.0
+                    return meter if math.isfinite(meter) and meter > 0 else 1.0
+    return 1.0
+
+
+def _convert(source: Path, prefix: str, meter: float = 1.0) -> str:
     import trimesh  # lazy: slow import, needed only for conversion
 
     try:
@@ -95,5 +114,7 @@ def _convert(source: Path, prefix: str) -> str:
         raise MeshError(f"{prefix}cannot convert mesh {str(source)!r}: {exc}") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"{prefix}mesh {str(source)!r} has no triangles")
+    if meter != 1.0:
+        loaded.apply_scale(meter)  # type: ignore[no-untyped-call]
     text = loaded.export(file_type="obj", include_normals=False, include_texture=False)
     return str(text)

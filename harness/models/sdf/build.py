@@ -221,21 +221,6 @@ def _add_geom(
     return geom
 
 
-def _drawable(link: Link, shape: Shape) -> bool:
-    """Whether a visual can be drawn: a visual mesh that is not at hand is left out with a
-    warning, as Gazebo draws nothing for it (it carries no physics)."""
-    path = shape.geometry.mesh_path
-    if shape.geometry.kind != "mesh" or (path and "://" not in path and Path(path).is_file()):
-        return True
-    warnings.warn(
-        SdfWarning(
-            f"link {link.name!r} visual {shape.name!r}: mesh not found: {path!r} (not drawn)"
-        ),
-        stacklevel=4,
-    )
-    return False
-
-
 COLLISION_GROUP = 3
 """The geom group of collision geoms in a model built with its visuals: cameras draw groups
 0-2, so they see the visuals only, as Gazebo's cameras do."""
@@ -335,6 +320,13 @@ def _add_loop(spec: mujoco.MjSpec, joint: Joint, parent_pose: Pose) -> None:
         eq.data = data
 
 
+def _unresolved(shape: Shape) -> bool:
+    """A mesh whose reference did not resolve (kept as written: a URI or a relative path;
+    decided on the text, nothing looked up). Gazebo draws the model without it."""
+    path = shape.geometry.mesh_path or ""
+    return shape.geometry.kind == "mesh" and ("://" in path or not Path(path).is_absolute())
+
+
 def build_spec(
     model: RobotModel, *, visuals: bool = False, cache_dir: str | Path | None = None
 ) -> mujoco.MjSpec:
@@ -354,6 +346,7 @@ def build_spec(
     bodies: dict[str, mujoco.MjsBody] = {"world": spec.worldbody}
     welded: dict[str, bool] = {}
     assets: dict[str, bytes] = {}
+    missing: list[str] = []
     for name in tree.order:
         link = links[name]
         parent = tree.parent[name]
@@ -373,8 +366,18 @@ def build_spec(
                 geom.group = COLLISION_GROUP
         if visuals:
             for shape in link.visuals:
-                if _drawable(link, shape):
-                    _add_geom(spec, body, link, shape, True, assets, cache_dir)
+                if _unresolved(shape):
+                    missing.append(f"{name}/{shape.name} ({shape.geometry.mesh_path})")
+                    continue
+                _add_geom(spec, body, link, shape, True, assets, cache_dir)
+    if missing:
+        warnings.warn(
+            f"{model.source or model.name}: {len(missing)} visual mesh(es) not found, left out "
+            f"(cameras do not see them): {', '.join(missing[:3])}"
+            f"{', ...' if len(missing) > 3 else ''}",
+            SdfWarning,
+            stacklevel=2,
+        )
     if assets:
         spec.assets = assets
     for joint in tree.loops:

@@ -202,7 +202,7 @@ class _Converter:
             geometry = Geometry(
                 "mesh",
                 (),
-                self.mesh_path(spec.uri or "", link, where),
+                self.mesh_path(spec.uri or "", link, where, visual=visual),
                 (scale[0], scale[1], scale[2]),
             )
         else:
@@ -240,7 +240,7 @@ class _Converter:
             warnings.warn(SdfWarning(f"{exc}: drawn without it"), stacklevel=2)
             return None
 
-    def mesh_path(self, uri: str, link: Entity, where: str) -> str:
+    def mesh_path(self, uri: str, link: Entity, where: str, *, visual: bool = False) -> str:
         if not uri:
             raise SdfSyntaxError(f"{where}: mesh needs a <uri>")
         try:
@@ -254,6 +254,8 @@ class _Converter:
                 )
             )
         except OutsideReferenceError:
+            if visual:  # kept as text, never opened: a build with visuals leaves it out
+                return uri
             raise  # a rebuild from a recording: refused, never looked up later
         except ResolveError:
             # Kept as written: inspecting a model does not need its meshes; building does.

@@ -57,8 +57,10 @@ WORLD_SUFFIXES = (".sdf", ".world")
 class WorldScene:
     """A loaded SDF world: ``spec`` (no robot yet), its ``models`` as placed in the world,
     ``timestep`` and ``gravity`` as the world sets them (None: not set), and ``sources``:
-    every file read, ``"scene/<name>"`` for the world and ``"scene/include/<i>/<name>"``
-    for the others."""
+    every file read, ``"scene/<name>"`` for the world, ``"scene/<model>/<path>"`` for the
+    files of a Gazebo model folder (``"scene/fuel/<host>/<owner>/models/<name>/<version>/..."``
+    for a Fuel cache's), laid out so that a rebuild resolves ``model://`` and Fuel URIs from
+    the recording alone, and ``"scene/include/<i>/<name>"`` for the others."""
 
     name: str
     spec: mujoco.MjSpec
@@ -158,13 +160,51 @@ def world_sources(
     sources = {f"scene/{path.name}": path.read_bytes()}
     seen = {path.resolve()}
     files = [e.source for e in entities] + [Path(m) for m in meshes]
+    placed: dict[str, Path] = {}  # layout name -> the model folder it stands for
     for file in files:
         resolved = file.resolve()
         if resolved in seen or not resolved.is_file():
             continue
         seen.add(resolved)
-        sources[f"scene/include/{len(seen) - 1}/{resolved.name}"] = resolved.read_bytes()
+        laid = _model_layouts(resolved, placed)
+        if not laid:
+            sources[f"scene/include/{len(seen) - 1}/{resolved.name}"] = resolved.read_bytes()
+            continue
+        data = resolved.read_bytes()  # under each model folder holding it (links dedupe)
+        for folder, name in laid:
+            sources[f"scene/{name}/{resolved.relative_to(folder).as_posix()}"] = data
+            config = folder / "model.config"
+            if config.is_file() and f"scene/{name}/model.config" not in sources:
+                sources[f"scene/{name}/model.config"] = config.read_bytes()
     return sources
+
+
+def _model_layouts(file: Path, placed: dict[str, Path]) -> list[tuple[Path, str]]:
+    """Where a file of Gazebo model folders goes in the recording, so that a rebuild
+    resolves the world's ``model://`` and Fuel references from the recording alone: each
+    model folder above ``file`` (one with a ``model.config``: ``model://turtlebot3_house/
+    mailbox/meshes/mailbox.dae`` and ``model://mailbox/meshes/mailbox.dae`` name one file)
+    with its layout name, ``<model name>`` beside the world (found from the world's folder as
+    ``model://`` is) or ``fuel/<host>/<owner>/models/<name>/<version>`` for a Fuel cache's
+    copy (the rebuild's Fuel cache, :func:`harness.models.files.fuel.fuel_cache_roots`). None for
+    the harness's own stock models (found in the harness again), a file in no model folder,
+    and a second folder of a name already laid out."""
+    if any(file.is_relative_to(own) for own in (DATA, DATA.resolve())):
+        return []
+    found = []
+    for folder in file.parents:
+        if not (folder / "model.config").is_file():
+            continue
+        parts = folder.parts
+        if folder.name.isdigit() and len(parts) >= 6 and parts[-3] == "models":
+            name = "/".join(("fuel", parts[-5], parts[-4], "models", parts[-2], parts[-1]))
+        elif folder.name in ("fuel", "include"):
+            continue
+        else:
+            name = folder.name
+        if placed.setdefault(name, folder) == folder:
+            found.append((folder, name))
+    return found
 
 
 def load_world_file(

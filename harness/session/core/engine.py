@@ -115,6 +115,7 @@ from harness.session.core.services import SERVICE_RESET as SERVICE_RESET
 from harness.session.core.services import SERVICE_STEP, HarnessServices
 from harness.session.core.stepping import PublishCounter
 from harness.session.core.topics import (
+    HARNESS_NODE,
     TYPE_CLOCK,
     TYPE_JOINT_STATE,
     TYPE_TF,
@@ -318,6 +319,9 @@ class SessionCore:
         serve the services."""
         graph = self.graph
         advertise_and_subscribe(graph, self.published)
+        if self.sensors is not None:  # on the graph from the start, not from a first message
+            for topic, msgtype in self.sensors.topics():
+                graph.advertise(topic, msgtype, node=HARNESS_NODE)
         HarnessServices(self, reset=self._reset, pause=self._set_paused).serve(graph)
         self.control.start()
 

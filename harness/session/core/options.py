@@ -33,6 +33,7 @@ from harness.models import (
     ControlMode,
     LoadedWorld,
     MeshCollision,
+    PoseLike,
     RobotSpec,
     SelfCollision,
     WorldObject,
@@ -366,7 +367,9 @@ class LoadOptions:
     it), ``robot_args`` (a xacro robot's arguments), ``self_collision``, ``srdf``, ``base``
     and ``strict`` (as for :func:`harness.models.load_robot`), ``controllers_args`` (the
     controllers YAML's launch arguments), ``mesh_collision`` (``decompose`` or ``hull``, see
-    :mod:`harness.models.build.decompose`)."""
+    :mod:`harness.models.build.decompose`), ``pose`` (where ``robot``'s model frame is in the
+    world: x y z, or x y z roll pitch yaw, as a Gazebo launch's ``create -x -y -z -R -P -Y``; see
+    :data:`harness.models.PoseLike`)."""
 
     robots: Sequence[RobotSpec] | LoadedWorld | None = None
     objects: Sequence[WorldObject] = ()
@@ -381,6 +384,7 @@ class LoadOptions:
     """The values of the controllers YAML's ``$(var NAME)`` launch substitutions (name ->
     value; read with ``controllers=`` given as a keyword)."""
     mesh_collision: MeshCollision = "decompose"
+    pose: PoseLike = None
 
 
 class SessionKeywords(TypedDict, total=False):
@@ -422,6 +426,7 @@ class SessionKeywords(TypedDict, total=False):
     strict: bool
     controllers_args: Mapping[str, Any] | None
     mesh_collision: MeshCollision
+    pose: PoseLike
 
 
 _GROUPS: dict[str, type[Any]] = {

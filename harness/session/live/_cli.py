@@ -9,6 +9,7 @@ prints the step reached. ``--token`` (or ``$HARNESS_TOKEN``) makes clients prese
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -58,6 +59,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--namespace", default="", help="robot topics under /NAMESPACE/")
     parser.add_argument(
         "--scene", "--world", default=None, help="scene name, MJCF scene or SDF world file"
+    )
+    parser.add_argument(
+        "--pose",
+        metavar="X Y Z [ROLL PITCH YAW]",
+        nargs="+",
+        type=float,
+        action=_PoseAction,
+        default=None,
+        help="where the robot's model frame is in the world (metres, radians; as a Gazebo "
+        "launch's `create -x X -y Y -z Z -R ROLL -P PITCH -Y YAW`; default: the origin)",
     )
     parser.add_argument("--record", metavar="PATH", default=None, help="record the run to MCAP")
     parser.add_argument(
@@ -136,6 +147,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
+class _PoseAction(argparse.Action):
+    """``--pose``: 3 or 6 numbers, each finite."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        numbers = [float(v) for v in values]
+        if len(numbers) not in (3, 6) or not all(math.isfinite(v) for v in numbers):
+            parser.error(
+                f"argument --pose: expected X Y Z or X Y Z ROLL PITCH YAW (finite numbers), "
+                f"got {' '.join(str(v) for v in values)}"
+            )
+        setattr(namespace, self.dest, numbers)
+
+
 def _controllers_arg(text: str) -> tuple[str, str]:
     """One ``--controllers-arg NAME:=VALUE``."""
     from harness.controllers import ARG_NAME
@@ -205,6 +235,7 @@ def run(args: argparse.Namespace) -> int:
             ros2=args.ros2,
             record_to=args.record,
             scene=args.scene,
+            pose=args.pose,
             robot_args=robot_args(args),
             **load_options(args),
             controllers=[Path(p) for p in args.controllers] if args.controllers else None,

@@ -7,6 +7,7 @@ server, or a client of an external rosbridge server).
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -84,7 +85,7 @@ def load_run(
         load.scene,
         namespace,
         load.robot_args,
-        _load_options(load.self_collision, load.base, load.strict, load.srdf),
+        _load_options(load.self_collision, load.base, load.strict, load.srdf, load.pose),
         sensors,
         mesh_collision=load.mesh_collision,
     )
@@ -99,6 +100,16 @@ def _renders(sources: Mapping[str, bytes], sensors: Sequence[Mapping[str, Any]])
     types += [spec.type for spec in declared_in_sources(sources)]
     known = known_types()
     return any(kind_of(t).renders for t in types if t in known)
+
+
+def _pose_metadata(loaded: LoadedRobot | LoadedWorld, load: LoadOptions) -> dict[str, str]:
+    """``pose``: where a robot the session placed (``pose=``) stands, ``[x, y, z, qw, qx, qy,
+    qz]``, so that a rebuild places it there (none without ``pose=``: recordings keep their
+    bytes)."""
+    if load.pose is None or not isinstance(loaded, LoadedRobot):
+        return {}
+    place = loaded.placement
+    return {"pose": json.dumps([*place.xyz, *place.quat])}
 
 
 def open_recorder(
@@ -125,6 +136,7 @@ def open_recorder(
             "transport": "server" if connect_to is None else "client",
             **({"upstream": redact(connect_to)} if connect_to is not None else {}),
             **({"ros_domain_id": str(ros_domain_id)} if ros_domain_id is not None else {}),
+            **_pose_metadata(loaded, load),
         },
     )
     return Recorder(
@@ -154,9 +166,12 @@ def _load_options(
     base: BaseKind | None,
     strict: bool,
     srdf: str | Path | None = None,
+    pose: Any = None,
 ) -> dict[str, Any]:
     """The robot load options a session was given (none left at their default)."""
     options: dict[str, Any] = {}
+    if pose is not None:
+        options["pose"] = pose
     if self_collision is not None:
         options["self_collision"] = self_collision
     if srdf is not None:

@@ -1,0 +1,139 @@
+"""Support contacts: what a robot stands and rolls on, told apart from what it bumps into.
+
+A contact of a body of a robot with a floating base (a mobile robot: a welded arm stands on
+nothing) with something that is not a robot is a *support* contact when the
+other side pushes the robot up (the contact normal, from the other side to the robot, within
+:data:`SUPPORT_ANGLE_DEG` of the world's +z) and either
+
+- the other side is a floor: a plane geom (a ground plane), or a geom of the world (welded to
+  it) the robot rests on at the start, such as a floor mesh or a floor box; or
+- the robot's side rolls: a wheel or a caster, a body turning on a hinge without limits (or
+  limits a full turn apart or more), on a ball joint, or named ``*wheel*`` / ``*caster*``.
+
+A bump into a wall, furniture or a pillar is never support (its normal is horizontal), also
+when a wheel is driven into it; a base that drops onto a table top is not either (the table
+is not a floor and the base does not roll). :class:`SupportClassifier` decides per contact,
+vectorised over a step's :class:`~harness.sim.contacts.ContactSet`; the collision logger marks
+an episode ``support`` when every contact of it was.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Set
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from harness.sim import ContactSet
+
+__all__ = ["SUPPORT_ANGLE_DEG", "SupportClassifier", "floating_bodies", "rolling_bodies"]
+
+SUPPORT_ANGLE_DEG = 30.0
+"""The most a support contact's normal leaves the vertical (degrees)."""
+_COS = math.cos(math.radians(SUPPORT_ANGLE_DEG))
+_ROLL_NAMES = ("wheel", "caster")
+
+
+def floating_bodies(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
+    """Per body: in the tree of a floating base (a free joint at its root)."""
+    root = np.asarray(model.body_rootid, dtype=np.int64)
+    free = np.zeros(model.nbody, dtype=bool)
+    for b in range(model.nbody):
+        j = int(model.body_jntadr[b])
+        free[b] = j >= 0 and int(model.jnt_type[j]) == mujoco.mjtJoint.mjJNT_FREE
+    return free[root]
+
+
+def rolling_bodies(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
+    """Per body: a wheel or a caster (see the module docstring)."""
+    rolls = np.zeros(model.nbody, dtype=bool)
+    for b in range(model.nbody):
+        name = (model.body(b).name or "").rpartition("/")[2].lower()
+        if any(word in name for word in _ROLL_NAMES):
+            rolls[b] = True
+            continue
+        start, count = int(model.body_jntadr[b]), int(model.body_jntnum[b])
+        for j in range(start, start + count) if start >= 0 else ():
+            kind = int(model.jnt_type[j])
+            if kind == mujoco.mjtJoint.mjJNT_BALL:
+                rolls[b] = True
+            elif kind == mujoco.mjtJoint.mjJNT_HINGE:
+                low, high = (float(v) for v in model.jnt_range[j])
+                if not model.jnt_limited[j] or high - low >= 2 * math.pi:
+                    rolls[b] = True
+    return rolls
+
+
+class SupportClassifier:
+    """Tells support contacts of ``robot`` bodies (ids) apart (see the module docstring).
+
+    ``other_robots``: bodies of other robots (a contact with one is never support). The floors
+    the robot rests on are learnt from the first step observed (:meth:`learn_floors`).
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        robot: Set[int],
+        other_robots: Set[int] = frozenset(),
+    ) -> None:
+        self.robot = np.zeros(model.nbody, dtype=bool)
+        self.robot[list(robot)] = True
+        self.not_world = self.robot.copy()
+        self.not_world[list(other_robots)] = True
+        self.robot &= floating_bodies(model)  # a welded arm stands on nothing
+        rolls = rolling_bodies(model)
+        body = np.asarray(model.geom_bodyid, dtype=np.int64)
+        self._geom_rolls = rolls[body] & self.robot[body]
+        static = np.asarray(model.body_weldid, dtype=np.int64)[body] == 0
+        self._geom_static = static & ~self.not_world[body]
+        self.floor = (np.asarray(model.geom_type) == mujoco.mjtGeom.mjGEOM_PLANE) & ~self.robot[
+            body
+        ]
+        self._learnt = False
+
+    def learn_floors(self, contacts: ContactSet) -> None:
+        """Once: the world's static geoms the robot rests on in ``contacts`` are floors."""
+        if self._learnt:
+            return
+        self._learnt = True
+        if contacts.size == 0:
+            return
+        up, _, other_geom, relevant = self._sides(contacts)
+        resting = relevant & (up >= _COS) & self._geom_static[other_geom]
+        self.floor[other_geom[resting]] = True
+
+    def support(self, contacts: ContactSet) -> npt.NDArray[np.bool_]:
+        """Per contact: a support contact of the robot (False for every other contact)."""
+        if contacts.size == 0:
+            return np.zeros(0, dtype=bool)
+        up, robot_geom, other_geom, relevant = self._sides(contacts)
+        found: npt.NDArray[np.bool_] = (
+            relevant & (up >= _COS) & (self.floor[other_geom] | self._geom_rolls[robot_geom])
+        )
+        return found
+
+    def _sides(
+        self, contacts: ContactSet
+    ) -> tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.int64],
+        npt.NDArray[np.int64],
+        npt.NDArray[np.bool_],
+    ]:
+        """The normal's z from the other side to the robot, the robot's and the other geom,
+        and whether the contact is one of a robot body and a non-robot body."""
+        robot1 = self.robot[contacts.body1]
+        robot2 = self.robot[contacts.body2]
+        relevant = (robot1 & ~self.not_world[contacts.body2]) | (
+            robot2 & ~self.not_world[contacts.body1]
+        )
+        nz = contacts.normal[:, 2]  # from geom1 to geom2
+        up = np.where(robot2, nz, -nz)
+        g1 = contacts.geom1.astype(np.int64)
+        g2 = contacts.geom2.astype(np.int64)
+        robot_geom = np.where(robot2, g2, g1)
+        other_geom = np.where(robot2, g1, g2)
+        return up, robot_geom, other_geom, relevant
