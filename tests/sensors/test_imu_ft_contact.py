@@ -102,4 +102,4 @@ def test_gazebo_imu_noise_per_quantity_is_read() -> None:
       </imu></sensor></link></model></sdf>"""
     (imu,) = sensors_from_sdf(sdf)
     assert (imu.noise_mean, imu.noise_stddev) == (0.0, 0.0002)
-    assert (imu.accel_noise_mean, imu.accel_noise_stddev) == (0.1, 0.017)
+    assert (imu.options.accel_noise_mean, imu.options.accel_noise_stddev) == (0.1, 0.017)  # type: ignore[attr-defined]
