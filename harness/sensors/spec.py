@@ -39,6 +39,7 @@ _V1_KEYS = (
     "namespace", "source",
 )  # fmt: skip
 """The keys of the recorded sensor metadata, format v1 (:meth:`SensorSpec.to_json`), in order."""
+_V1_KEY_SET = frozenset(_V1_KEYS)
 
 _V1_OPTION_DEFAULTS: Mapping[str, Any] = MappingProxyType(
     {
@@ -218,11 +219,19 @@ class SensorSpec:
     @classmethod
     def from_mapping(cls, value: object, where: str = "sensors") -> SensorSpec:
         """A spec from a scenario/Python mapping (keys as the fields and the kind's options;
-        ``pose`` a list of 6)."""
+        ``pose`` a list of 6). A whole recorded record (:meth:`to_json`: every v1 key, other
+        kinds' options included, as ``Session(sensors=[spec])`` passes a spec on) is read as
+        :meth:`from_json` reads it."""
         if isinstance(value, SensorSpec):
             return value
         if not isinstance(value, Mapping):
             raise SensorConfigError(f"{where}: a sensor must be a mapping, not {value!r}")
+        if value.keys() >= _V1_KEY_SET:
+            return cls.from_json(value, where)
+        return cls._from_keys(value, where)
+
+    @classmethod
+    def _from_keys(cls, value: Mapping[Any, Any], where: str) -> SensorSpec:
         known = _known_keys()
         unknown = sorted(str(k) for k in value if k not in known)
         if unknown:
@@ -255,9 +264,9 @@ class SensorSpec:
         if not isinstance(value, Mapping):
             raise SensorConfigError(f"{where}: a sensor must be a mapping, not {value!r}")
         type_ = value.get("type")
-        own = set(_kind(type_, f"{where}: sensor {value.get('name')!r}").options.names())
+        own = set(_kind(type_, _where(value.get("name"), where)).options.names())
         foreign = _all_options() - own
-        return cls.from_mapping({k: v for k, v in value.items() if k not in foreign}, where)
+        return cls._from_keys({k: v for k, v in value.items() if k not in foreign}, where)
 
     def to_json(self) -> dict[str, Any]:
         """Every field as JSON-ready values: the recording's sensor metadata.
