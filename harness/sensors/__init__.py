@@ -7,18 +7,20 @@ due at a step, ``/tf_static``, metadata, state interfaces for controllers). Know
 sockets or MCAP.
 
 The room's rule: **a new sensor is one module in this room and touches no core file.** The
-module registers a :class:`SensorKind` (:func:`register_kind`: its type, the Gazebo/SDF
-``<sensor type>`` spellings, outputs, default rate and topics, what it reads from a
-``<sensor>`` element, how it is built on a mount); the declaration readers and the suite find
-it by walking this package (:mod:`~harness.sensors.registry`). A type no module registers is
-one line naming it and the known types. A kind whose sensors declare ``state_interfaces``
-(and ``interface_values(view)``) feeds controllers, as the IMU feeds
-``imu_sensor_broadcaster``.
+module defines its options record (a frozen :class:`SensorOptions` dataclass of the keys only
+its kind takes, validating them) and registers a :class:`SensorKind` (:func:`register_kind`:
+its type, the Gazebo/SDF ``<sensor type>`` spellings, outputs, default rate and topics, what
+it reads from a ``<sensor>`` element, how it is built on a mount, its options record); the
+declaration readers and the suite find it by walking this package
+(:mod:`~harness.sensors.registry`). A type no module registers is one line naming it and the
+known types; a key of another kind (a lidar's ``samples`` on a camera) is one line naming it
+and the kind's options. A kind whose sensors declare ``state_interfaces`` (and
+``interface_values(view)``) feeds controllers, as the IMU feeds ``imu_sensor_broadcaster``.
 """
 
 from harness.sensors.base import Sensor, SensorTopic, View
-from harness.sensors.camera import CameraSensor
-from harness.sensors.contact import ContactSensor
+from harness.sensors.camera import CameraOptions, CameraSensor
+from harness.sensors.contact import ContactOptions, ContactSensor
 from harness.sensors.declare import declared_in_sources, sensors_from_sdf, sensors_from_urdf
 from harness.sensors.errors import (
     RenderBackendError,
@@ -26,11 +28,13 @@ from harness.sensors.errors import (
     SensorError,
     UnknownSensorType,
 )
-from harness.sensors.force_torque import ForceTorqueSensor
+from harness.sensors.force_torque import ForceTorqueOptions, ForceTorqueSensor
+from harness.sensors.ground_truth import GroundTruthOptions
 from harness.sensors.hook import record_metadata, sensor_interfaces, session_sensors
-from harness.sensors.imu import ImuSensor
-from harness.sensors.lidar import LidarSensor
+from harness.sensors.imu import ImuOptions, ImuSensor
+from harness.sensors.lidar import LidarOptions, LidarSensor
 from harness.sensors.messages import TYPE_TF, png_bytes
+from harness.sensors.options import NoOptions, SensorOptions
 from harness.sensors.registry import Mounted, SensorKind, kind_of, known_types, register_kind
 from harness.sensors.render import OffscreenRenderer, RendererInfo, contexts_created
 from harness.sensors.spec import SensorSpec
@@ -48,13 +52,20 @@ __all__ = [
     "SENSOR_TYPES",
     "TOPIC_TF_STATIC",
     "TYPE_TF",
+    "CameraOptions",
     "CameraSensor",
+    "ContactOptions",
     "ContactSensor",
     "Due",
+    "ForceTorqueOptions",
     "ForceTorqueSensor",
+    "GroundTruthOptions",
+    "ImuOptions",
     "ImuSensor",
+    "LidarOptions",
     "LidarSensor",
     "Mounted",
+    "NoOptions",
     "OffscreenRenderer",
     "RenderBackendError",
     "RendererInfo",
@@ -63,6 +74,7 @@ __all__ = [
     "SensorConfigError",
     "SensorError",
     "SensorKind",
+    "SensorOptions",
     "SensorSpec",
     "SensorStateInterfaces",
     "SensorSuite",

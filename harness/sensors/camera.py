@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -20,6 +21,7 @@ import numpy.typing as npt
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, SensorTopic, View, noise_rng, quat_of
+from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import (
     TYPE_CAMERA_INFO,
     TYPE_COMPRESSED_IMAGE,
@@ -32,12 +34,13 @@ from harness.sensors.messages import (
     point_cloud_msg,
     rgb_image_msg,
 )
+from harness.sensors.options import SensorOptions, check_integer, check_positive
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.render import OffscreenRenderer
 from harness.sensors.sdf_values import element_int, element_noise, element_number
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["OPTICAL", "CameraSensor"]
+__all__ = ["OPTICAL", "CameraOptions", "CameraSensor"]
 
 OPTICAL: F64 = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 """The optical frame's axes (columns x right, y down, z forward) in the sensor frame."""
@@ -51,12 +54,39 @@ _TYPES = {
 }
 
 
+@dataclass(frozen=True)
+class CameraOptions(SensorOptions):
+    """A camera's (``camera``, ``depth``, ``rgbd``) options: image ``width``/``height``
+    (pixels), horizontal field of view ``hfov`` (rad), ``near``/``far`` clip (m); ``record``:
+    ``"raw"`` records ``Image``, ``"compressed"`` the PNG ``CompressedImage`` instead."""
+
+    width: int = 320
+    height: int = 240
+    hfov: float = 1.047
+    near: float = 0.05
+    far: float = 100.0
+    record: Literal["raw", "compressed"] = "raw"
+
+    def __post_init__(self) -> None:
+        check_integer("width", self.width)
+        check_integer("height", self.height)
+        for name in ("hfov", "near", "far"):
+            check_positive(name, getattr(self, name))
+        if self.hfov >= math.pi:
+            raise SensorConfigError(f"hfov must be below pi rad, not {self.hfov!r}")
+        if self.near >= self.far:
+            raise SensorConfigError(f"near clip {self.near} must be below far {self.far}")
+        if self.record not in ("raw", "compressed"):
+            raise SensorConfigError("record must be 'raw' or 'compressed'")
+
+
 class CameraSensor:
     """A camera of ``spec`` at ``mount``; ``renderer`` gives the shared renderer (made on the
     first frame, so that a session without cameras never starts OpenGL)."""
 
     uses_renderer = True
-    """It draws with the suite's shared offscreen renderer (sized to the largest camera)."""
+    """It draws with the suite's shared offscreen renderer (sized to the largest
+    :attr:`image_size`)."""
 
     def __init__(
         self,
@@ -76,20 +106,25 @@ class CameraSensor:
         self.frame_id = frame_id if spec.frame_id else frame_id + "_optical"
         self._renderer = renderer
         self._scene: mujoco.MjvScene | None = None
-        width, height = spec.width, spec.height
+        # its image geometry is fixed here (a noise change replaces the spec, not these)
+        self.options: CameraOptions = spec.options_as(CameraOptions)
+        options = self.options
+        width, height = options.width, options.height
+        self.image_size = (width, height)
+        """(width, height) in pixels."""
         if spec.camera:
             cam = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, spec.camera))
-            vfov = math.radians(float(model.cam_fovy[cam])) if cam >= 0 else spec.hfov
+            vfov = math.radians(float(model.cam_fovy[cam])) if cam >= 0 else options.hfov
             hfov = 2 * math.atan(math.tan(vfov / 2) * width / height)
         else:
-            hfov = spec.hfov
+            hfov = options.hfov
             vfov = 2 * math.atan(math.tan(hfov / 2) * height / width)
         self.hfov, self.vfov = hfov, vfov
         self.fx = (width / 2) / math.tan(hfov / 2)
         self.fy = (height / 2) / math.tan(vfov / 2)
         self.cx, self.cy = (width - 1) / 2, (height - 1) / 2
         wants_rgb = spec.type in ("camera", "rgbd")
-        record_raw = spec.record == "raw"
+        record_raw = options.record == "raw"
         self.outputs = tuple(
             SensorTopic(
                 key,
@@ -116,14 +151,23 @@ class CameraSensor:
         if self._scene is None:
             self._scene = renderer.new_scene()
         spec = self.spec
-        rgb = np.empty((spec.height, spec.width, 3), np.uint8) if self._rgb else None
-        depth = np.empty((spec.height, spec.width), np.float32) if self._depth else None
+        options = self.options
+        rgb = np.empty((options.height, options.width, 3), np.uint8) if self._rgb else None
+        depth = np.empty((options.height, options.width), np.float32) if self._depth else None
         position, rotation = self.mount.world(view.data)
         renderer.render(
-            self._scene, view.data, position, rotation, self.vfov, spec.near, spec.far, rgb, depth
+            self._scene,
+            view.data,
+            position,
+            rotation,
+            self.vfov,
+            options.near,
+            options.far,
+            rgb,
+            depth,
         )
         if depth is not None:
-            depth[depth >= np.float32(spec.far) * np.float32(0.99999)] = np.inf
+            depth[depth >= np.float32(options.far) * np.float32(0.99999)] = np.inf
             if spec.noise_stddev or spec.noise_mean:
                 rng = noise_rng(view.seed, spec.name, view.step)
                 noise = rng.normal(spec.noise_mean, spec.noise_stddev, depth.shape)
@@ -140,10 +184,10 @@ class CameraSensor:
             return rendered[0]
 
         hdr = header(view.sim_time_ns, self.frame_id)
-        spec = self.spec
 
         def info() -> dict[str, Any]:
-            return camera_info_msg(hdr, spec.width, spec.height, self.fx, self.fy, self.cx, self.cy)
+            size = (self.options.width, self.options.height)
+            return camera_info_msg(hdr, *size, self.fx, self.fy, self.cx, self.cy)
 
         def image() -> dict[str, Any]:
             rgb = images()[0]
@@ -256,6 +300,7 @@ register_kind(
         topics=_camera_topics,
         params=_params,
         renders=True,
+        options=CameraOptions,
     )
 )
 register_kind(
@@ -268,6 +313,7 @@ register_kind(
         topics=_depth_topics,
         params=_params,
         renders=True,
+        options=CameraOptions,
     )
 )
 register_kind(
@@ -280,5 +326,6 @@ register_kind(
         topics=_rgbd_topics,
         params=_params,
         renders=True,
+        options=CameraOptions,
     )
 )

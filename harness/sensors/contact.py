@@ -6,6 +6,7 @@ the world frame; the force is the one acting on the sensor's geometry."""
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -15,11 +16,24 @@ from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 from harness.sensors.base import F64, Mount, SensorTopic, View, find_object, quat_of
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import TYPE_CONTACTS, contact_state, header
+from harness.sensors.options import SensorOptions
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.sdf_values import element_text
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["ContactSensor"]
+__all__ = ["ContactOptions", "ContactSensor"]
+
+
+@dataclass(frozen=True)
+class ContactOptions(SensorOptions):
+    """A contact sensor's options: ``collision``, the geom it watches (default: every geom of
+    its link)."""
+
+    collision: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.collision, str):
+            raise SensorConfigError(f"collision must be a geom name, not {self.collision!r}")
 
 
 class ContactSensor:
@@ -40,11 +54,12 @@ class ContactSensor:
         self.outputs: tuple[SensorTopic, ...] = (
             SensorTopic("contacts", topics["contacts"], TYPE_CONTACTS),
         )
-        if spec.collision:
-            geom = find_object(model, mujoco.mjtObj.mjOBJ_GEOM, prefix + spec.collision)
+        collision = spec.options_as(ContactOptions).collision
+        if collision:
+            geom = find_object(model, mujoco.mjtObj.mjOBJ_GEOM, prefix + collision)
             if geom < 0:
                 raise SensorConfigError(
-                    f"sensor {spec.name!r}: the model has no collision {spec.collision!r}"
+                    f"sensor {spec.name!r}: the model has no collision {collision!r}"
                 )
             geoms = [geom]
         else:
@@ -104,5 +119,13 @@ def _build(spec: SensorSpec, at: Mounted) -> ContactSensor:
 
 
 register_kind(
-    SensorKind("contact", ("contacts",), 100.0, _build, gazebo=("contact",), params=_params)
+    SensorKind(
+        "contact",
+        ("contacts",),
+        100.0,
+        _build,
+        gazebo=("contact",),
+        params=_params,
+        options=ContactOptions,
+    )
 )

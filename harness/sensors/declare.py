@@ -149,7 +149,7 @@ def _sensor(sensor: etree._Element, parent: str, source: str, joint: str = "") -
     params.update(kind.params(sensor, where))
     frame_id = frame_name or element_text(sensor, "gz_frame_id") or ""
     try:
-        return SensorSpec(
+        return SensorSpec.make(
             name=name,
             type=kind.type,
             parent=parent,

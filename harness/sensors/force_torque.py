@@ -9,22 +9,44 @@ parent; a hanging mass pulls down) or ``parent_to_child``. ``ft_frame``: express
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal, get_args
 
 import mujoco
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, SensorTopic, View, cross, noise_rng, quat_of
+from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import TYPE_WRENCH, header, wrench_msg
+from harness.sensors.options import SensorOptions
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.sdf_values import element_noise, element_text
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["FT_INTERFACES", "ForceTorqueSensor"]
+__all__ = ["FT_INTERFACES", "ForceTorqueOptions", "ForceTorqueSensor"]
+
+FtFrame = Literal["child", "parent", "sensor"]
+FtDirection = Literal["child_to_parent", "parent_to_child"]
 
 FT_INTERFACES = ("force.x", "force.y", "force.z", "torque.x", "torque.y", "torque.z")
 """A force-torque sensor's state interfaces, in ros2_control's order (what a
 ``force_torque_sensor_broadcaster`` reads)."""
+
+
+@dataclass(frozen=True)
+class ForceTorqueOptions(SensorOptions):
+    """A force-torque sensor's options: ``ft_frame``, the axes its wrench is expressed in (the
+    ``child`` link's, the ``parent`` link's or the ``sensor`` frame's), and ``ft_direction``
+    (``child_to_parent``: what the child exerts on the parent, or ``parent_to_child``)."""
+
+    ft_frame: FtFrame = "child"
+    ft_direction: FtDirection = "child_to_parent"
+
+    def __post_init__(self) -> None:
+        if self.ft_frame not in get_args(FtFrame):
+            raise SensorConfigError("ft_frame must be child, parent or sensor")
+        if self.ft_direction not in get_args(FtDirection):
+            raise SensorConfigError("ft_direction must be child_to_parent or parent_to_child")
 
 
 class ForceTorqueSensor:
@@ -52,16 +74,17 @@ class ForceTorqueSensor:
         """(force, torque) in the configured frame and direction."""
         view.forces()
         data, spec = view.data, self.spec
+        options = spec.options_as(ForceTorqueOptions)
         body = self.mount.body
         torque_c, force = data.cfrc_int[body, :3], data.cfrc_int[body, 3:]
         position, sensor_rot = self.mount.world(data)
         # cfrc_int is a spatial force at the subtree centre of mass of the root body.
         torque = torque_c + cross(data.subtree_com[self._root] - position, force)
-        if spec.ft_direction == "child_to_parent":
+        if options.ft_direction == "child_to_parent":
             force, torque = -force, -torque
-        if spec.ft_frame == "sensor":
+        if options.ft_frame == "sensor":
             axes = sensor_rot
-        elif spec.ft_frame == "parent":
+        elif options.ft_frame == "parent":
             axes = data.xmat[self._parent].reshape(3, 3)
         else:
             axes = data.xmat[body].reshape(3, 3)
@@ -110,5 +133,13 @@ def _build(spec: SensorSpec, at: Mounted) -> ForceTorqueSensor:
 
 
 register_kind(
-    SensorKind("force_torque", ("wrench",), 100.0, _build, gazebo=("force_torque",), params=_params)
+    SensorKind(
+        "force_torque",
+        ("wrench",),
+        100.0,
+        _build,
+        gazebo=("force_torque",),
+        params=_params,
+        options=ForceTorqueOptions,
+    )
 )

@@ -8,6 +8,7 @@ the reference a wheel-odometry estimate is judged against. Default topic
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -15,12 +16,18 @@ import numpy as np
 
 from harness.sensors.base import F64, Mount, SensorTopic, View, cross, quat_of
 from harness.sensors.messages import header
+from harness.sensors.options import SensorOptions
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["TYPE_ODOMETRY", "GroundTruthSensor"]
+__all__ = ["TYPE_ODOMETRY", "GroundTruthOptions", "GroundTruthSensor"]
 
 TYPE_ODOMETRY = "nav_msgs/msg/Odometry"
+
+
+@dataclass(frozen=True)
+class GroundTruthOptions(SensorOptions):
+    """Ground truth has no options of its own (its topic and frame are the spec's)."""
 
 
 def _xyz(v: F64) -> dict[str, float]:
@@ -89,4 +96,6 @@ def _build(spec: SensorSpec, at: Mounted) -> GroundTruthSensor:
     return GroundTruthSensor(spec, at.mount, at.topics, spec.frame_id or "world")
 
 
-register_kind(SensorKind("ground_truth", ("odom",), 50.0, _build, topics=_topics))
+register_kind(
+    SensorKind("ground_truth", ("odom",), 50.0, _build, topics=_topics, options=GroundTruthOptions)
+)

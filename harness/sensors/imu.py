@@ -11,7 +11,9 @@ message, which a controller (``imu_sensor_broadcaster``) reads."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -19,12 +21,14 @@ import numpy as np
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.sensors.base import F64, Mount, SensorTopic, View, cross, noise_rng, quat_of
+from harness.sensors.errors import SensorConfigError
 from harness.sensors.messages import TYPE_IMU, header, imu_msg
+from harness.sensors.options import SensorOptions, check_positive
 from harness.sensors.registry import Mounted, SensorKind, register_kind
 from harness.sensors.sdf_values import element_noise
 from harness.sensors.spec import SensorSpec
 
-__all__ = ["IMU_INTERFACES", "ImuSensor", "body_motion"]
+__all__ = ["IMU_INTERFACES", "ImuOptions", "ImuSensor", "body_motion"]
 
 IMU_INTERFACES = (
     "orientation.x",
@@ -58,6 +62,30 @@ def body_motion(view: View, mount: Mount) -> tuple[F64, F64, F64, F64]:
     return position, rotation, omega, linear
 
 
+@dataclass(frozen=True)
+class ImuOptions(SensorOptions):
+    """An IMU's options: the Gaussian noise of each linear acceleration axis,
+    ``accel_noise_mean``/``accel_noise_stddev`` (m/s^2), when it differs from the angular
+    rate's (the spec's ``noise_mean``/``noise_stddev``; None: the same)."""
+
+    accel_noise_mean: float | None = None
+    accel_noise_stddev: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.accel_noise_stddev is not None:
+            check_positive("accel_noise_stddev", self.accel_noise_stddev, zero=True)
+        mean = self.accel_noise_mean
+        if mean is not None and not (isinstance(mean, int | float) and math.isfinite(mean)):
+            raise SensorConfigError("accel_noise_mean must be a finite number")
+
+    def accel_noise(self, mean: float, stddev: float) -> tuple[float, float]:
+        """The acceleration's (mean, stddev), given the angular rate's."""
+        return (
+            mean if self.accel_noise_mean is None else self.accel_noise_mean,
+            stddev if self.accel_noise_stddev is None else self.accel_noise_stddev,
+        )
+
+
 class ImuSensor:
     """An IMU of ``spec`` at ``mount``."""
 
@@ -76,10 +104,8 @@ class ImuSensor:
         _, rotation, omega, linear = body_motion(view, self.mount)
         angular = rotation.T @ omega
         accel = rotation.T @ linear
-        accel_mean = spec.noise_mean if spec.accel_noise_mean is None else spec.accel_noise_mean
-        accel_std = (
-            spec.noise_stddev if spec.accel_noise_stddev is None else spec.accel_noise_stddev
-        )
+        options = spec.options_as(ImuOptions)
+        accel_mean, accel_std = options.accel_noise(spec.noise_mean, spec.noise_stddev)
         if spec.noise_stddev or spec.noise_mean or accel_std or accel_mean:
             unit = noise_rng(view.seed, spec.name, view.step).standard_normal(6)
             angular = angular + spec.noise_mean + spec.noise_stddev * unit[:3]
@@ -99,9 +125,8 @@ class ImuSensor:
             quat, angular, accel = self.values(view)
             hdr = header(view.sim_time_ns, self.frame_id)
             spec = self.spec
-            accel_std = (
-                spec.noise_stddev if spec.accel_noise_stddev is None else spec.accel_noise_stddev
-            )
+            options = spec.options_as(ImuOptions)
+            accel_std = options.accel_noise(spec.noise_mean, spec.noise_stddev)[1]
             return imu_msg(hdr, quat, angular, accel, spec.noise_stddev**2, accel_std**2)
 
         return {"imu": imu}
@@ -125,4 +150,6 @@ def _build(spec: SensorSpec, at: Mounted) -> ImuSensor:
     return ImuSensor(spec, at.mount, at.topics, at.frame_id)
 
 
-register_kind(SensorKind("imu", ("imu",), 100.0, _build, gazebo=("imu",), params=_params))
+register_kind(
+    SensorKind("imu", ("imu",), 100.0, _build, gazebo=("imu",), params=_params, options=ImuOptions)
+)

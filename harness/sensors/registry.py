@@ -3,13 +3,18 @@
 Each sensor module registers the kinds it implements (:func:`register_kind`): the harness type
 (``imu``), the Gazebo/SDF ``<sensor type>`` spellings that mean it, its outputs and default
 rate, its default topics, what it reads from a ``<sensor>`` element and how it is built on a
-mount. The suite and the declaration readers look kinds up here and never name a sensor class.
-The room's modules are found by walking the package on first use, so a new sensor is one
-module in ``harness/sensors/`` and touches no other file.
+mount, and its options record (a frozen :class:`~harness.sensors.options.SensorOptions`
+dataclass of the fields only it reads, validating them). The suite and the declaration readers
+look kinds up here and never name a sensor class; :class:`~harness.sensors.spec.SensorSpec`
+splits a mapping's flat keys into the common fields and the kind's options record. The room's
+modules are found by walking the package on first use, so **a new sensor kind is one module in
+``harness/sensors/`` with its options record** (``register_kind(SensorKind(...,
+options=MyOptions))``) and touches no other file.
 """
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -19,6 +24,7 @@ import numpy.typing as npt
 
 from harness.rooms import Room
 from harness.sensors.errors import UnknownSensorType
+from harness.sensors.options import NoOptions, SensorOptions
 
 if TYPE_CHECKING:
     import mujoco
@@ -89,7 +95,8 @@ class SensorKind:
     ``<topic>`` or "", ``base`` the plugin's camera name or the sensor name; relative names
     stay relative); ``params``: the spec fields a ``<sensor>`` element gives (``(element,
     where)``; noise, sizes, ...); ``renders``: it draws the scene (a camera), so a session
-    loads its robot with the visual geoms."""
+    loads its robot with the visual geoms; ``options``: its options record (the class; a
+    spec's ``options`` is an instance), whose field names are the keys only this kind takes."""
 
     type: str
     outputs: tuple[str, ...]
@@ -102,6 +109,7 @@ class SensorKind:
     topics: Callable[[str, str], dict[str, str]] | None = None
     params: Callable[[Any, str], dict[str, Any]] = field(default=_no_params)
     renders: bool = False
+    options: builtins.type[SensorOptions] = NoOptions
 
     def default_topics(self, topic: str, base: str) -> dict[str, str]:
         """Every output's topic (see :attr:`topics`; by default ``<base>/<output>``)."""

@@ -214,9 +214,13 @@ class SensorSuite:
     def renderer(self) -> OffscreenRenderer:
         """The shared offscreen renderer (OpenGL starts here, on the first camera frame)."""
         if self._renderer is None:
-            cameras = [s.spec for s in self.sensors if getattr(s, "uses_renderer", False)]
-            width = max(s.width for s in cameras)
-            height = max(s.height for s in cameras)
+            sizes: list[tuple[int, int]] = [
+                s.image_size  # type: ignore[attr-defined]
+                for s in self.sensors
+                if getattr(s, "uses_renderer", False)
+            ]
+            width = max(w for w, _ in sizes)
+            height = max(h for _, h in sizes)
             self._renderer = OffscreenRenderer(self.model, width, height)
             if self.on_renderer is not None:
                 self.on_renderer(self._renderer.info)

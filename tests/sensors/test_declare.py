@@ -9,7 +9,13 @@ from pathlib import Path
 import pytest
 
 from harness.recording import Recording
-from harness.sensors import SensorConfigError, SensorSpec, sensors_from_urdf
+from harness.sensors import (
+    CameraOptions,
+    LidarOptions,
+    SensorConfigError,
+    SensorSpec,
+    sensors_from_urdf,
+)
 from harness.session import Session
 from tests.sensors.sensor_helpers import DATA
 
@@ -64,10 +70,17 @@ def test_sdf_sensors_on_links_and_joints(tmp_path: Path) -> None:
 def test_urdf_parameters_are_read() -> None:
     specs = {s.name: s for s in sensors_from_urdf((DATA / "sensor_bot.urdf").read_bytes())}
     cam, laser = specs["wrist_camera"], specs["laser"]
-    assert (cam.type, cam.width, cam.height, cam.hfov, cam.far) == ("camera", 32, 24, 1.2, 10.0)
+    assert cam.type == "camera"
+    assert cam.options == CameraOptions(width=32, height=24, hfov=1.2, far=10.0)
     assert cam.pose == (0, 0, 0.3, 0, 0, 0)
     assert cam.update_rate == 5
-    assert (laser.type, laser.samples, laser.min_angle, laser.range_max) == ("lidar", 90, -1.57, 8)
+    options = laser.options_as(LidarOptions)
+    assert (laser.type, options.samples, options.min_angle, options.range_max) == (
+        "lidar",
+        90,
+        -1.57,
+        8,
+    )
     assert specs["tool_ft"].parent == "tool"
     assert specs["tool_ft"].joint == "tool_joint"
 

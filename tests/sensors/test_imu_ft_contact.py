@@ -89,7 +89,7 @@ def test_imu_gyro_and_accelerometer_noise_are_separate(rig) -> None:
 
 
 def test_gazebo_imu_noise_per_quantity_is_read() -> None:
-    from harness.sensors import sensors_from_sdf
+    from harness.sensors import ImuOptions, sensors_from_sdf
 
     sdf = b"""<sdf version="1.9"><model name="m"><link name="l">
       <sensor name="imu" type="imu"><imu>
@@ -102,4 +102,4 @@ def test_gazebo_imu_noise_per_quantity_is_read() -> None:
       </imu></sensor></link></model></sdf>"""
     (imu,) = sensors_from_sdf(sdf)
     assert (imu.noise_mean, imu.noise_stddev) == (0.0, 0.0002)
-    assert (imu.accel_noise_mean, imu.accel_noise_stddev) == (0.1, 0.017)
+    assert imu.options == ImuOptions(accel_noise_mean=0.1, accel_noise_stddev=0.017)

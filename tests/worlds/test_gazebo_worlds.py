@@ -157,7 +157,7 @@ def test_start_idle_and_first_scan(case: Case, tmp_path: Path) -> None:
     assert all(e.support for e in ends), [(e.body1, e.body2) for e in ends if not e.support]
     assert passed, detail
     assert "support contacts, not judged" in detail
-    spec = lidar.spec
+    spec = lidar.options  # the lidar's options record (harness.sensors.LidarOptions)
     angles = np.linspace(spec.min_angle, spec.max_angle, spec.samples)
     expected = ray_cast_ranges(triangles, origin, rotation, angles, spec.range_max)
     measured = np.array(first["ranges"], dtype=float)
