@@ -51,6 +51,7 @@ from harness.controllers.errors import (
     CommandRefused,
     ControllerError,
     ControllersConfigError,
+    ControllersWarning,
     UnknownControllerType,
 )
 from harness.controllers.gazebo_plugins import BASE_CONTROLLER_TYPES, robot_controllers
@@ -82,6 +83,7 @@ __all__ = [
     "ControllerSpec",
     "ControllersConfig",
     "ControllersConfigError",
+    "ControllersWarning",
     "Feedback",
     "JointReadings",
     "ListedJoints",

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 from harness.errors import ConfigError, HarnessError
 
-__all__ = ["CommandRefused", "ControllerError", "ControllersConfigError", "UnknownControllerType"]
+__all__ = [
+    "CommandRefused",
+    "ControllerError",
+    "ControllersConfigError",
+    "ControllersWarning",
+    "UnknownControllerType",
+]
 
 
 class ControllerError(HarnessError):
@@ -22,3 +28,7 @@ class CommandRefused(ControllerError):
 class UnknownControllerType(ControllerError):
     """A controller type no module of the controllers room registers; the message names it
     and the known types."""
+
+
+class ControllersWarning(UserWarning):
+    """Something of a robot's controllers set-up the harness leaves out (one line naming it)."""

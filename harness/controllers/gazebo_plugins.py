@@ -27,6 +27,7 @@ its files' drive plugins.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -41,7 +42,7 @@ from harness.controllers.config import (
     load_controllers,
 )
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
-from harness.controllers.errors import ControllersConfigError
+from harness.controllers.errors import ControllersConfigError, ControllersWarning
 from harness.controllers.planar import TYPE_PLANAR
 from harness.models import drive_plugin_elements, parse_xml
 
@@ -223,10 +224,16 @@ def _parameter_files(root: etree._Element, source: str) -> list[tuple[Path, etre
         for text in _texts(plugin, "parameters"):
             path = Path(text.removeprefix("file://"))
             if not path.is_file():
-                raise ControllersConfigError(
+                # a description used without its control package (a package:// the loader
+                # did not resolve): the robot still loads, with the harness's default set
+                warnings.warn(
                     f"{source}: line {plugin.sourceline}: <plugin "
-                    f"filename={plugin.get('filename')!r}>: <parameters> {text!r} is no file"
+                    f"filename={plugin.get('filename')!r}>: <parameters> {text!r} is no file: "
+                    "the harness's default controllers are served instead",
+                    ControllersWarning,
+                    stacklevel=2,
                 )
+                continue
             out.append((path, plugin))
     return out
 

@@ -31,6 +31,7 @@ SAMPLES = {
     "base": ("floating", "floating"),
     "strict": (True, True),
     "srdf": ("arm.srdf", "arm.srdf"),
+    "pose": ((1.0, 2.0, 0.0), (1.0, 2.0, 0.0)),
 }
 """Robot key -> (marker value, the first RobotSpec's value)."""
 

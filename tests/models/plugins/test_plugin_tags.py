@@ -89,16 +89,20 @@ def test_a_ros2_control_tags_parameters_are_the_controllers(tmp_path: Path, file
         assert _x(wheel.messages[-1]) == pytest.approx(_x(truth.messages[-1]) - start, abs=0.01)
 
 
-def test_a_missing_parameters_file_is_one_line(tmp_path: Path) -> None:
-    from harness.controllers import ControllersConfigError
+def test_a_missing_parameters_file_is_one_warning_and_the_default_set(tmp_path: Path) -> None:
+    from harness.controllers import ControllersWarning
 
     robot = _robot(
         tmp_path,
         """<gazebo><plugin filename="gz_ros2_control-system" name="gz">
           <parameters>/nowhere/controllers.yaml</parameters></plugin></gazebo>""",
     )
-    with pytest.raises(ControllersConfigError, match=r"<parameters> '/nowhere/controllers.yaml' "):
-        Session(robot, base="floating")
+    with (
+        pytest.warns(ControllersWarning, match=r"<parameters> '/nowhere/controllers.yaml' is no"),
+        Session(robot, base="floating") as session,
+        connect(session.url) as client,
+    ):
+        assert "/joint_trajectory" in client.call_service("/rosapi/topics")["topics"]
 
 
 # ------------------------------------------------------------------------------ drive plugins
