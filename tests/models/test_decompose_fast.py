@@ -141,3 +141,32 @@ def test_a_moving_link_mesh_is_decomposed_recorded_and_never_redone(
     rebuilt = rebuild_run(rec)
     assert rebuilt.model.ngeom == recorded.ngeom
     assert np.array_equal(rebuilt.model.mesh_vert, recorded.mesh_vert)
+
+
+def test_an_entry_from_before_the_caps_is_still_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A recording made before CoACD was capped carries its entry under the earlier key
+    (format 1, no CoACD options, no ``kind``): a rebuild reads it and never decomposes."""
+    import hashlib
+    import json
+    from importlib.metadata import version
+
+    data = _stl(_wall())
+    params = {"max_deviation": 0.02, "thresholds": [0.05, 0.025, 0.0125], "samples": 4000}
+    header = json.dumps(["harness-decompose-1", version("coacd"), params, [1.0] * 3, ".stl"])
+    digest = hashlib.sha256(header.encode() + b"\0" + data).hexdigest()[:24]
+    name = f"decompose-{digest}.npz"
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    np.savez(
+        tmp_path / name,
+        count=np.array(1),
+        deviation=np.array(0.01),
+        threshold=np.array(0.05),
+        v0=np.asarray(box.vertices),
+        f0=np.asarray(box.faces, np.int32),
+    )
+    monkeypatch.setattr(decompose_module, "_run_coacd", _refuse)
+    result = decompose_module.decompose_mesh(data, ".stl", cache_dir=tmp_path)
+    assert (result.kind, len(result.pieces), result.cache_file) == ("pieces", 1, name)
+    assert np.array_equal(result.pieces[0][0], box.vertices)

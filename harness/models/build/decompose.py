@@ -98,6 +98,8 @@ a cold load stays within minutes; part of the cache key."""
 _SAMPLES = 4000
 """Points sampled on each candidate piece's surface (plus its vertices)."""
 _FORMAT = "harness-decompose-2"
+_LEGACY_FORMAT = "harness-decompose-1"
+"""Entries before :data:`COACD_OPTIONS` and ``kind``: still read (a recording carries them)."""
 _DECODABLE = frozenset({".obj", ".stl"})
 
 
@@ -191,19 +193,17 @@ def decompose_mesh(
 ) -> Decomposition:
     """The :class:`Decomposition` of the mesh file ``data`` (``suffix`` ``.obj`` or
     ``.stl``) scaled by ``scale``, from the cache when it has it (see the module docstring)."""
-    params = {
+    params: dict[str, Any] = {
         "max_deviation": MAX_DEVIATION,
         "thresholds": THRESHOLDS,
         "samples": _SAMPLES,
-        "coacd": COACD_OPTIONS,
     }
-    header = json.dumps(
-        [_FORMAT, _coacd_version(), params, [float(s) for s in scale], suffix.lower()]
-    )
-    digest = hashlib.sha256(header.encode() + b"\0" + data).hexdigest()[:24]
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
-    target = folder / f"decompose-{digest}.npz"
+    target = folder / _cache_name(_FORMAT, {**params, "coacd": COACD_OPTIONS}, data, suffix, scale)
     cached = _read_cache(target) if target.is_file() else None
+    if cached is None:  # a recording made before CoACD was capped carries the older entry
+        legacy = folder / _cache_name(_LEGACY_FORMAT, params, data, suffix, scale)
+        cached = _read_cache(legacy) if legacy.is_file() else None
     if cached is None:
         cached = _decompose(_load(data, suffix, scale, where))
         _write_cache(folder, target, cached)
@@ -216,6 +216,14 @@ def decompose_mesh(
             stacklevel=3,
         )
     return cached
+
+
+def _cache_name(
+    form: str, params: dict[str, Any], data: bytes, suffix: str, scale: Sequence[float]
+) -> str:
+    header = json.dumps([form, _coacd_version(), params, [float(s) for s in scale], suffix.lower()])
+    digest = hashlib.sha256(header.encode() + b"\0" + data).hexdigest()[:24]
+    return f"decompose-{digest}.npz"
 
 
 def _decompose(mesh: Any) -> Decomposition:
@@ -251,9 +259,12 @@ def _read_cache(path: Path) -> Decomposition | None:
                 (np.asarray(npz[f"v{i}"], np.float64), np.asarray(npz[f"f{i}"], np.int32))
                 for i in range(count)
             )
-            kind = str(npz["kind"])
-            if kind not in ("convex", "hull", "pieces"):
-                return None
+            if "kind" in npz.files:
+                kind = str(npz["kind"])
+                if kind not in ("convex", "hull", "pieces"):
+                    return None
+            else:  # a legacy entry
+                kind = "pieces" if count else "hull" if float(npz["deviation"]) else "convex"
             return Decomposition(
                 pieces,
                 float(npz["deviation"]),
