@@ -18,6 +18,15 @@ its vertices, their distance to the mesh's triangles, zero for points inside a c
 and the threshold is halved until it holds (:data:`THRESHOLDS`); a mesh that still misses it
 keeps its best pieces with a :class:`ModelWarning` naming the mesh and the distance.
 
+CoACD runs only on a mesh that needs it: the mesh's own convex hull is measured first (the
+same one-sided distance), and a hull within the bound stays one geom (``kind`` ``"hull"`` in
+the cache entry), as does a closed convex mesh (``"convex"``). CoACD itself is capped
+(:data:`COACD_OPTIONS`: pieces, preprocessing and sampling resolution, tree search) so that a
+detailed mesh takes seconds, not a quarter of an hour (turtlebot3_house's 5,764-triangle
+``trash_can.dae`` took 911 s at CoACD's defaults on a 2-core machine); where the capped search
+cannot reach the bound (it gave its most pieces, or the finest threshold missed), the
+warning says how far it got.
+
 Results are cached by content (the mesh bytes MuJoCo decodes, its scale, the parameters and
 the CoACD version) in the mesh cache folder (:func:`harness.models.files.meshes.mesh_cache_dir`),
 written atomically, so a world is decomposed once per machine. ``mesh_collision="hull"``
@@ -34,7 +43,7 @@ import os
 import tempfile
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal, cast
 
@@ -48,11 +57,13 @@ from harness.vocabulary import MESH_COLLISION_MODES as _MODES
 from harness.vocabulary import MeshCollisionMode
 
 __all__ = [
+    "COACD_OPTIONS",
     "DECOMPOSITION_FOLDER",
     "MAX_DEVIATION",
     "MESH_COLLISION_MODES",
     "THRESHOLDS",
     "Decomposition",
+    "DecompositionKind",
     "MeshCollision",
     "check_mesh_collision",
     "decompose_mesh",
@@ -73,9 +84,22 @@ MAX_DEVIATION = 0.02
 """Metres: the pieces stay this close to the mesh's triangles (one-sided Hausdorff)."""
 THRESHOLDS: tuple[float, ...] = (0.05, 0.025, 0.0125)
 """CoACD concavity thresholds tried in turn until the pieces are within the bound."""
+COACD_OPTIONS: dict[str, int] = {
+    "max_convex_hull": 32,
+    "preprocess_resolution": 30,
+    "resolution": 1000,
+    "mcts_nodes": 10,
+    "mcts_iterations": 60,
+    "mcts_max_depth": 2,
+}
+"""CoACD's parameters besides the threshold: capped below its defaults (no limit on pieces,
+preprocess resolution 50, sampling resolution 2000, 20 nodes, 150 iterations, depth 3) so that
+a cold load stays within minutes; part of the cache key."""
 _SAMPLES = 4000
 """Points sampled on each candidate piece's surface (plus its vertices)."""
-_FORMAT = "harness-decompose-1"
+_FORMAT = "harness-decompose-2"
+_LEGACY_FORMAT = "harness-decompose-1"
+"""Entries before :data:`COACD_OPTIONS` and ``kind``: still read (a recording carries them)."""
 _DECODABLE = frozenset({".obj", ".stl"})
 
 
@@ -85,6 +109,12 @@ def check_mesh_collision(value: object, where: str) -> MeshCollision:
         return MeshCollisionMode.parse(value, where).value
     except ValueError as exc:
         raise ModelStructureError(str(exc)) from None
+
+
+DecompositionKind = Literal["convex", "hull", "pieces"]
+"""What a mesh became: ``convex`` (closed and convex, or smaller than the bound: nothing
+measured), ``hull`` (its convex hull measured within the bound: one geom, CoACD never ran) or
+``pieces`` (CoACD's convex pieces)."""
 
 
 @dataclass(frozen=True)
@@ -98,9 +128,11 @@ class Decomposition:
     """The CoACD threshold that gave the pieces (0: none ran)."""
     cache_file: str = ""
     """The name of its cache file (``decompose-<digest>.npz``)."""
+    kind: DecompositionKind = "pieces"
+    """How the mesh collides (see :data:`DecompositionKind`)."""
 
     def _replace_cache(self, name: str) -> Decomposition:
-        return Decomposition(self.pieces, self.deviation, self.threshold, name)
+        return replace(self, cache_file=name)
 
 
 def _coacd_version() -> str:
@@ -116,7 +148,9 @@ def _run_coacd(
     import coacd  # lazy: a native library needed only when a mesh is decomposed
 
     coacd.set_log_level("error")
-    parts = coacd.run_coacd(coacd.Mesh(vertices, faces), threshold=threshold, seed=0)
+    parts = coacd.run_coacd(
+        coacd.Mesh(vertices, faces), threshold=threshold, seed=0, **COACD_OPTIONS
+    )
     return [(np.asarray(v, np.float64), np.asarray(f, np.int32)) for v, f in parts]
 
 
@@ -159,34 +193,51 @@ def decompose_mesh(
 ) -> Decomposition:
     """The :class:`Decomposition` of the mesh file ``data`` (``suffix`` ``.obj`` or
     ``.stl``) scaled by ``scale``, from the cache when it has it (see the module docstring)."""
-    params = {"max_deviation": MAX_DEVIATION, "thresholds": THRESHOLDS, "samples": _SAMPLES}
-    header = json.dumps(
-        [_FORMAT, _coacd_version(), params, [float(s) for s in scale], suffix.lower()]
-    )
-    digest = hashlib.sha256(header.encode() + b"\0" + data).hexdigest()[:24]
+    params: dict[str, Any] = {
+        "max_deviation": MAX_DEVIATION,
+        "thresholds": THRESHOLDS,
+        "samples": _SAMPLES,
+    }
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
-    target = folder / f"decompose-{digest}.npz"
-    if target.is_file():
-        cached = _read_cache(target)
-        if cached is not None:
-            return cached
-    result = _decompose(_load(data, suffix, scale, where), where)
-    _write_cache(folder, target, result)
-    return result._replace_cache(target.name)
+    target = folder / _cache_name(_FORMAT, {**params, "coacd": COACD_OPTIONS}, data, suffix, scale)
+    cached = _read_cache(target) if target.is_file() else None
+    if cached is None:  # a recording made before CoACD was capped carries the older entry
+        legacy = folder / _cache_name(_LEGACY_FORMAT, params, data, suffix, scale)
+        cached = _read_cache(legacy) if legacy.is_file() else None
+    if cached is None:
+        cached = _decompose(_load(data, suffix, scale, where))
+        _write_cache(folder, target, cached)
+        cached = cached._replace_cache(target.name)
+    if cached.deviation > MAX_DEVIATION:
+        warnings.warn(
+            f"{where}: convex pieces stay {cached.deviation * 1000:.0f} mm from the mesh "
+            f"(bound {MAX_DEVIATION * 1000:.0f} mm) at CoACD threshold {cached.threshold:g}",
+            ModelWarning,
+            stacklevel=3,
+        )
+    return cached
 
 
-def _decompose(mesh: Any, where: str) -> Decomposition:
+def _cache_name(
+    form: str, params: dict[str, Any], data: bytes, suffix: str, scale: Sequence[float]
+) -> str:
+    header = json.dumps([form, _coacd_version(), params, [float(s) for s in scale], suffix.lower()])
+    digest = hashlib.sha256(header.encode() + b"\0" + data).hexdigest()[:24]
+    return f"decompose-{digest}.npz"
+
+
+def _decompose(mesh: Any) -> Decomposition:
     import trimesh
 
     extent = float(np.max(mesh.extents))
     if extent <= MAX_DEVIATION:
-        return Decomposition((), 0.0, 0.0)
+        return Decomposition((), 0.0, 0.0, kind="convex")
     hull = mesh.convex_hull
     if mesh.is_watertight and mesh.volume >= 0.999 * hull.volume:
-        return Decomposition((), 0.0, 0.0)  # convex: nothing to measure
+        return Decomposition((), 0.0, 0.0, kind="convex")  # nothing to measure
     hull_deviation = deviation([hull], mesh)
     if hull_deviation <= MAX_DEVIATION:
-        return Decomposition((), hull_deviation, 0.0)
+        return Decomposition((), hull_deviation, 0.0, kind="hull")
     best: Decomposition | None = None
     for threshold in THRESHOLDS:
         parts = _run_coacd(np.asarray(mesh.vertices), np.asarray(mesh.faces), threshold)
@@ -194,16 +245,9 @@ def _decompose(mesh: Any, where: str) -> Decomposition:
         measured = deviation(pieces, mesh)
         if best is None or measured < best.deviation:
             best = Decomposition(tuple(parts), measured, threshold)
-        if measured <= MAX_DEVIATION:
-            break
+        if measured <= MAX_DEVIATION or len(parts) >= COACD_OPTIONS["max_convex_hull"]:
+            break  # within the bound, or capped: a finer threshold asks for pieces it cannot have
     assert best is not None
-    if best.deviation > MAX_DEVIATION:
-        warnings.warn(
-            f"{where}: convex pieces stay {best.deviation * 1000:.0f} mm from the mesh "
-            f"(bound {MAX_DEVIATION * 1000:.0f} mm) at CoACD threshold {best.threshold:g}",
-            ModelWarning,
-            stacklevel=2,
-        )
     return best
 
 
@@ -215,8 +259,18 @@ def _read_cache(path: Path) -> Decomposition | None:
                 (np.asarray(npz[f"v{i}"], np.float64), np.asarray(npz[f"f{i}"], np.int32))
                 for i in range(count)
             )
+            if "kind" in npz.files:
+                kind = str(npz["kind"])
+                if kind not in ("convex", "hull", "pieces"):
+                    return None
+            else:  # a legacy entry
+                kind = "pieces" if count else "hull" if float(npz["deviation"]) else "convex"
             return Decomposition(
-                pieces, float(npz["deviation"]), float(npz["threshold"]), path.name
+                pieces,
+                float(npz["deviation"]),
+                float(npz["threshold"]),
+                path.name,
+                cast("DecompositionKind", kind),
             )
     except (OSError, ValueError, KeyError):
         return None  # unreadable or partial: decompose again
@@ -227,6 +281,7 @@ def _write_cache(folder: Path, target: Path, result: Decomposition) -> None:
         "count": np.array(len(result.pieces)),
         "deviation": np.array(result.deviation),
         "threshold": np.array(result.threshold),
+        "kind": np.array(result.kind),
     }
     for index, (vertices, faces) in enumerate(result.pieces):
         arrays[f"v{index}"], arrays[f"f{index}"] = vertices, faces
