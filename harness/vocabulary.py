@@ -122,13 +122,10 @@ class SelfCollisionPolicy(_Vocabulary):
     @classmethod
     def parse(cls, value: object, where: str = "self_collision") -> SelfCollisionPolicy:
         """``value`` as a member; a ValueError naming ``where`` and the spellings otherwise."""
-        try:
-            return cls(value)
-        except ValueError:
-            raise ValueError(
-                f"{where}: unknown self_collision {value!r} (one of "
-                f"{', '.join(SELF_COLLISION_POLICIES)})"
-            ) from None
+        result: SelfCollisionPolicy = _parse(
+            cls, value, where, "self_collision", SELF_COLLISION_POLICIES
+        )
+        return result
 
 
 class RobotBase(_Vocabulary):
@@ -141,12 +138,8 @@ class RobotBase(_Vocabulary):
     @classmethod
     def parse(cls, value: object, where: str = "base") -> RobotBase:
         """``value`` as a member; a ValueError naming ``where`` and the spellings otherwise."""
-        try:
-            return cls(value)
-        except ValueError:
-            raise ValueError(
-                f"{where}: unknown base {value!r} (one of {', '.join(BASE_KINDS)})"
-            ) from None
+        result: RobotBase = _parse(cls, value, where, "base", BASE_KINDS)
+        return result
 
 
 class MeshCollisionMode(_Vocabulary):
@@ -161,13 +154,10 @@ class MeshCollisionMode(_Vocabulary):
     @classmethod
     def parse(cls, value: object, where: str = "mesh_collision") -> MeshCollisionMode:
         """``value`` as a member; a ValueError naming ``where`` and the spellings otherwise."""
-        try:
-            return cls(value)
-        except ValueError:
-            raise ValueError(
-                f"{where}: unknown mesh_collision {value!r} (one of "
-                f"{', '.join(MESH_COLLISION_MODES)})"
-            ) from None
+        result: MeshCollisionMode = _parse(
+            cls, value, where, "mesh_collision", MESH_COLLISION_MODES
+        )
+        return result
 
 
 SELF_COLLISION_POLICIES: tuple[str, ...] = tuple(p.value for p in SelfCollisionPolicy)
