@@ -9,10 +9,11 @@ and by the first engine that finds a failure: the others stop generating, it shr
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +24,7 @@ from harness.explore.episode import Example
 from harness.explore.errors import ExploreConfigError
 from harness.explore.plan import ExplorePlan
 from harness.explore.workers import SearchOptions, engine_options, episode_runner, run_worker
+from harness.scenario import warm_clients
 
 __all__ = ["SearchOptions", "SearchResult", "search"]
 
@@ -70,10 +72,22 @@ def _init_worker(stop: Any) -> None:
     _STOP = stop
 
 
+@contextlib.contextmanager
+def warm(options: SearchOptions) -> Iterator[None]:
+    """On the fast path, Python client programs start warm
+    (:func:`harness.scenario.warm_clients`: a forked, pre-imported interpreter per worker)."""
+    if not options.fast:
+        yield
+        return
+    with warm_clients():
+        yield
+
+
 def _process_worker(
     source: Path, options: SearchOptions, worker: int, deadline: float | None
 ) -> EngineOutcome:
-    return run_worker(source, options, worker, deadline, _STOP)
+    with warm(options):
+        return run_worker(source, options, worker, deadline, _STOP)
 
 
 def search(
@@ -90,15 +104,16 @@ def search(
 
         outcomes = dask_search(plan.source, options, deadline)
     elif options.workers == 1:
-        outcomes = [
-            run_engine(
-                plan,
-                episode_runner(plan, options, 0),
-                engine_options(options, 0, deadline),
-                threading.Event(),
-                on_example,
-            )
-        ]
+        with warm(options):
+            outcomes = [
+                run_engine(
+                    plan,
+                    episode_runner(plan, options, 0),
+                    engine_options(options, 0, deadline),
+                    threading.Event(),
+                    on_example,
+                )
+            ]
     else:
         context = multiprocessing.get_context("spawn")
         stop = context.Event()

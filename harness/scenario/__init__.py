@@ -8,6 +8,7 @@ The runner machinery talks to whatever runs one iteration through :class:`Iterat
 """
 
 from harness.scenario.client import BridgeHost, run_client, stop_group
+from harness.scenario.client_warm import WarmPool, warm_clients
 from harness.scenario.dask_backend import DaskBackend
 from harness.scenario.errors import RunnerError, ScenarioError
 from harness.scenario.execute import run_scenarios
@@ -71,6 +72,7 @@ __all__ = [
     "SimulationPlan",
     "Traces",
     "Verdict",
+    "WarmPool",
     "check_runnable",
     "criteria_settings",
     "iteration_specs",
@@ -84,5 +86,6 @@ __all__ = [
     "scenario_session",
     "session_iteration_runner",
     "stop_group",
+    "warm_clients",
     "write_reports",
 ]

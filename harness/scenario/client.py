@@ -20,13 +20,26 @@ import time
 from pathlib import Path
 from typing import Protocol
 
+from harness.scenario.client_warm import active_pool
 from harness.scenario.results import ClientOutcome, ClientStatus
 from harness.scenario.scenario import ClientSpec
 
-__all__ = ["BridgeHost", "group_alive", "run_client", "stop_group"]
+__all__ = ["BridgeHost", "ClientProcess", "group_alive", "run_client", "stop_group"]
 
 URL_ENV = "HARNESS_ROSBRIDGE_URL"
 _POLL = 0.02
+
+
+class ClientProcess(Protocol):
+    """The client's process as the supervisor uses it: a ``subprocess.Popen``, or a
+    :class:`~harness.scenario.client_warm.WarmProcess` (a client started warm)."""
+
+    @property
+    def pid(self) -> int: ...
+
+    def poll(self) -> int | None: ...
+
+    def wait(self, timeout: float | None = None) -> int: ...
 
 
 class BridgeHost(Protocol):
@@ -83,7 +96,7 @@ def _wait_group(pgid: int, seconds: float) -> bool:
     return True
 
 
-def stop_group(process: subprocess.Popen[bytes], grace: float) -> None:
+def stop_group(process: ClientProcess, grace: float) -> None:
     """Stop ``process`` and every process in its group: SIGTERM, then SIGKILL for whatever is
     left after ``grace`` seconds; reaps the leader."""
     pgid = process.pid  # start_new_session=True: the leader's pid is the group id
@@ -116,21 +129,28 @@ def run_client(
     grace: float = 3.0,
 ) -> ClientOutcome:
     """Run the client under test against ``host`` until it exits, fails to connect in time,
-    the sim-time limit is reached or the wall-time limit passes; nothing is left running."""
+    the sim-time limit is reached or the wall-time limit passes; nothing is left running.
+    Inside :func:`harness.scenario.client_warm.warm_clients`, a Python client may start warm
+    (what it sees is what a cold start gives it: see that module)."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, **spec.env, URL_ENV: host.url}
     start = time.monotonic()
+    pool = active_pool()
     with log_path.open("wb") as log:
         try:
-            process = subprocess.Popen(
-                list(spec.command),
-                cwd=spec.cwd,
-                env=env,
-                stdin=subprocess.DEVNULL,
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                start_new_session=True,
-            )
+            process: ClientProcess | None = None
+            if pool is not None:
+                process = pool.start(spec.command, spec.cwd, env, log)
+            if process is None:
+                process = subprocess.Popen(
+                    list(spec.command),
+                    cwd=spec.cwd,
+                    env=env,
+                    stdin=subprocess.DEVNULL,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    start_new_session=True,
+                )
         except OSError as exc:
             return ClientOutcome(
                 "exited",
@@ -149,7 +169,7 @@ def run_client(
 
 
 def _watch(
-    process: subprocess.Popen[bytes],
+    process: ClientProcess,
     spec: ClientSpec,
     host: BridgeHost,
     sim_time_limit: float,
