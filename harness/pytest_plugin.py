@@ -9,6 +9,10 @@ Fixtures
   marker (keyword arguments override it); the first session a test makes is *its* session.
 - ``rosbridge_url``: ``harness_session.url``.
 - ``harness_recording``: this test's recording path (under the record directory).
+- ``harness_scenario``: the marker's ``scenario=`` run as ``harness run`` runs it (its
+  ``script`` or ``client`` program, its criteria), the
+  :class:`harness.scenario.IterationResult` (``passed``, ``reason``, ``verdicts``); recorded as
+  the test's recording, kept when the test fails (``harness explore`` writes such a test).
 - ``harness_events``: the :class:`~harness.events.CollectingSink` of this test's session (the
   collision, joint-limit and log events).
 - ``golden``: ``golden.check(**tolerances)`` compares this test's recording so far (a
@@ -116,7 +120,7 @@ from harness.plugin.goldens import (
     GoldenMismatch,
     mode_label,
 )
-from harness.plugin.markers import marker_keys, parse_mode, suite_mode
+from harness.plugin.markers import check_keys, marker_keys, marker_options, parse_mode, suite_mode
 from harness.plugin.report import bridge_errors, report_section, write_failure_note
 from harness.plugin.run import RUN, SessionFactory, harness_run
 from harness.plugin.settings import (
@@ -130,6 +134,7 @@ from harness.plugin.settings import (
 
 if TYPE_CHECKING:
     from harness.events import CollectingSink
+    from harness.scenario import IterationResult
     from harness.session import Session
 
 __all__ = [
@@ -187,6 +192,18 @@ def harness_session(harness_session_factory: SessionFactory) -> Session:
     """This test's session (simulation + rosbridge server + recorder + loggers), configured by
     ``@pytest.mark.harness(...)``; it ends with the test body."""
     return harness_session_factory()
+
+
+@pytest.fixture
+def harness_scenario(request: pytest.FixtureRequest) -> IterationResult:
+    """The marker's ``scenario=`` run as ``harness run`` runs it (its script or client
+    program, its criteria): the :class:`harness.scenario.IterationResult` (``passed``,
+    ``reason``, ``verdicts``, ``recording``); the recording is the test's."""
+    item = request.node
+    options = marker_options(item)
+    check_keys(f"{item.nodeid}: @pytest.mark.harness", options)
+    result: IterationResult = harness_run(request).run_scenario(options)
+    return result
 
 
 @pytest.fixture

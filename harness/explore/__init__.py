@@ -13,7 +13,13 @@ same parameters for ``@given``.
 from harness.explore.engine import EngineOptions, EngineOutcome, FailureTrack, run_engine
 from harness.explore.episode import EpisodeRunner, Example, margins_of, signature_of
 from harness.explore.errors import ExploreConfigError, ExploreError
-from harness.explore.outputs import MinimalCase, run_scenario, write_minimal, write_summary
+from harness.explore.outputs import (
+    MinimalCase,
+    regression_test,
+    run_scenario,
+    write_minimal,
+    write_summary,
+)
 from harness.explore.parameters import Parameter, apply_values, parse_parameters
 from harness.explore.plan import TARGETS, ExplorePlan, load_plan
 from harness.explore.search import SearchOptions, SearchResult, search
@@ -46,6 +52,7 @@ __all__ = [
     "margins_of",
     "parameter_delta",
     "parse_parameters",
+    "regression_test",
     "run_engine",
     "run_scenario",
     "scenario_values",

@@ -4,8 +4,9 @@
   section (runnable by ``harness run`` from any folder);
 - ``minimal.mcap``: its recording, from a cold run of ``minimal.yaml`` exactly as ``harness
   run`` runs it, run twice (the two recordings must be byte-identical) and replay-verified;
-- ``test_minimal.py``: a pytest regression that runs ``minimal.yaml`` and fails while the bug
-  is there;
+- ``test_minimal.py``: a pytest regression that runs ``minimal.yaml`` through the plugin's
+  marker (``@pytest.mark.harness(scenario="minimal.yaml")`` and the ``harness_scenario``
+  fixture) and fails while the bug is there;
 - ``summary.json``: examples run, failures found, distinct signatures, the minimal
   parameters and the shrink path; ``report.html`` (:mod:`harness.explore.report`).
 """
@@ -23,7 +24,7 @@ from harness.explore.engine import FailureTrack
 from harness.explore.episode import EpisodeRunner, Example
 from harness.explore.search import SearchResult
 
-__all__ = ["MinimalCase", "run_scenario", "write_minimal", "write_summary"]
+__all__ = ["MinimalCase", "regression_test", "run_scenario", "write_minimal", "write_summary"]
 
 
 @dataclass(frozen=True)
@@ -59,21 +60,24 @@ _TEST = '''"""Regression test written by `harness explore` from {source}.
 
 The scenario minimal.yaml beside this file is the smallest failing case the search found:
 {signature}
-It fails while the bug is there; the recording of every run stays in pytest's tmp_path (the
-failing run's recording replays with `harness replay`).
+The harness pytest plugin runs it as `harness run` does (the `harness_scenario` fixture); the
+test fails while the bug is there, its recording kept (`--harness-keep-recordings`, default:
+failed tests) and replayable with `harness replay`.
 """
 
-from pathlib import Path
-
-from harness.explore import run_scenario
-
-MINIMAL = Path(__file__).with_name("minimal.yaml")
+import pytest
 
 
-def test_minimal_case(tmp_path):
-    result = run_scenario(MINIMAL, tmp_path)
-    assert result.passed, f"{{result.reason}} (recording: {{result.recording}})"
+@pytest.mark.harness(scenario="minimal.yaml")
+def test_minimal_case(harness_scenario):
+    assert harness_scenario.passed, harness_scenario.reason
 '''
+
+
+def regression_test(source: str | Path, signature: str) -> str:
+    """The text of ``test_minimal.py``: the marker's ``scenario="minimal.yaml"`` (the file
+    beside it) run by the ``harness_scenario`` fixture, failing while its verdicts fail."""
+    return _TEST.format(source=source, signature=signature)
 
 
 def write_minimal(result: SearchResult, track: FailureTrack, out: Path) -> MinimalCase:
@@ -103,9 +107,7 @@ def write_minimal(result: SearchResult, track: FailureTrack, out: Path) -> Minim
         reproduced = bool(report.reproduced)
         detail = "REPRODUCED" if reproduced else f"DIVERGED: {report}"
     test = out / "test_minimal.py"
-    test.write_text(
-        _TEST.format(source=result.plan.source, signature=track.signature), encoding="utf-8"
-    )
+    test.write_text(regression_test(result.plan.source, track.signature), encoding="utf-8")
     return MinimalCase(
         scenario,
         recording,

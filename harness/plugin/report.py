@@ -61,6 +61,13 @@ def report_section(run: HarnessRun) -> str:
     for path in run.recordings:
         fate = "kept" if kept else "removed after the test"
         lines.append(f"recording: {path} ({fate}: --harness-keep-recordings={keep})")
+    for result in run.results:  # harness_scenario: the failed verdicts
+        failed = [v for v in result.verdicts if not v.passed]
+        if result.error:
+            lines.append(f"scenario:  error: {result.error}")
+        lines.extend(f"scenario:  {v.name}: {v.detail}" for v in failed)
+        if not failed and not result.error:
+            lines.append("scenario:  passed")
     for path in run.snapshots:
         lines.append(f"snapshot:  {path} (what golden.check() compared)")
     for sink in run.sinks:

@@ -58,7 +58,11 @@ class HarnessRun:
     recordings: list[Path] = field(default_factory=list)
     snapshots: list[Path] = field(default_factory=list)
     folders: list[Path] = field(default_factory=list)
-    """The folders of the worlds generated for scenario sessions (a ``scene.xml``)."""
+    """The folders of the worlds generated for scenario sessions (a ``scene.xml``), and of
+    the scenario runs of ``harness_scenario`` (client log, generated world)."""
+    results: list[Any] = field(default_factory=list)
+    """The ``harness_scenario`` runs' :class:`harness.scenario.IterationResult` (the report
+    lists their failed verdicts)."""
     sinks: list[CollectingSink] = field(default_factory=list)
     divergence: str | None = None
     golden: Path | None = None
@@ -213,6 +217,54 @@ class HarnessRun:
         self.modes.append(mode)
         self.sinks.append(sink)
         return session
+
+    def run_scenario(self, options: Mapping[str, Any]) -> Any:
+        """The marker's ``scenario=`` run as ``harness run`` runs it (its first iteration:
+        its ``script`` or ``client`` program, its criteria and verdicts), recorded as the
+        test's recording; the :class:`harness.scenario.IterationResult`. Other marker keys
+        do not apply (the file says everything ``harness run`` would run)."""
+        import dataclasses
+
+        where = f"{self.item.nodeid}: harness_scenario"
+        if self.closed:
+            pytest.fail(f"{where}: this test's sessions already ended", pytrace=False)
+        scenario = options.get("scenario")
+        if scenario is None:
+            pytest.fail(
+                f"{where} needs @pytest.mark.harness(scenario=FILE) (the scenario to run)",
+                pytrace=False,
+            )
+        other = sorted(set(options) - {"scenario"})
+        if other:
+            pytest.fail(
+                f"{where} runs {scenario} as `harness run` does: harness option(s) "
+                f"{', '.join(other)} do not apply (put them in the scenario file)",
+                pytrace=False,
+            )
+        from harness.scenario import (
+            ScenarioError,
+            iteration_specs,
+            load_run_file,
+            session_iteration_runner,
+        )
+
+        file = Path(resolve_path(scenario, self.item, self.settings.rootdir))
+        if not file.is_file():
+            pytest.fail(f"{where}: scenario file {file} not found", pytrace=False)
+        try:
+            config = load_run_file(file)
+        except ScenarioError as exc:
+            pytest.fail(f"{where}: {exc}", pytrace=False)
+        path = self.recording_path(len(self.recordings))
+        out = path.with_name(f"{path.stem}.run")
+        spec = iteration_specs(config, out, iterations=1)[0]
+        spec = dataclasses.replace(spec, out_dir=out, recording_path=path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.recordings.append(path)
+        self.folders.append(out)
+        result = session_iteration_runner()(spec)
+        self.results.append(result)
+        return result
 
     def _resumed(self, resume: Any, opts: Mapping[str, Any]) -> Session:
         """A session continuing a recording (marker key ``resume``: a mapping with ``from``,
