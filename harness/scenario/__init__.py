@@ -7,9 +7,16 @@ The runner machinery talks to whatever runs one iteration through :class:`Iterat
 (:mod:`harness.scenario.session_runner`, imported when used).
 """
 
+from harness.scenario.bundle import BlobStore, Bundle, bundle_env, collect_bundle, mirror
 from harness.scenario.client import BridgeHost, run_client, stop_group
 from harness.scenario.client_warm import WarmPool, warm_clients
-from harness.scenario.dask_backend import DaskBackend
+from harness.scenario.dask_backend import (
+    BLOB_KEY_PREFIX,
+    DaskBackend,
+    unverified_blobs,
+    verified_tree,
+    worker_dir,
+)
 from harness.scenario.errors import RunnerError, ScenarioError
 from harness.scenario.execute import run_scenarios
 from harness.scenario.reports import render_html, write_reports
@@ -48,10 +55,13 @@ from harness.scenario.scenario import (
 from harness.scenario.session_options import scenario_session
 
 __all__ = [
+    "BLOB_KEY_PREFIX",
     "BUILTIN_MAPS",
     "BUILTIN_ROBOTS",
     "Backend",
+    "BlobStore",
     "BridgeHost",
+    "Bundle",
     "ClientOutcome",
     "ClientSpec",
     "Clock",
@@ -73,12 +83,15 @@ __all__ = [
     "Traces",
     "Verdict",
     "WarmPool",
+    "bundle_env",
     "check_runnable",
+    "collect_bundle",
     "criteria_settings",
     "iteration_specs",
     "judge",
     "judge_determinism",
     "load_run_file",
+    "mirror",
     "render_html",
     "run_client",
     "run_iterations",
@@ -86,6 +99,9 @@ __all__ = [
     "scenario_session",
     "session_iteration_runner",
     "stop_group",
+    "unverified_blobs",
+    "verified_tree",
     "warm_clients",
+    "worker_dir",
     "write_reports",
 ]
