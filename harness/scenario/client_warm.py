@@ -22,8 +22,8 @@ the child is what a cold start gives the client:
 Not the same as a cold start, by design: modules of the standard library and site-packages
 may already be imported (their import-time work done once, with the first client's
 ``sys.argv``), the string hash seed is the warm process's (one random seed per warm process,
-not per run), and one more descriptor is open (close-on-exec: what the client runs with
-``exec`` does not get it). The warm process refuses a fork whenever that could be seen: an
+not per run), one more descriptor is open (close-on-exec: what the client runs with
+``exec`` does not get it), and the client's parent process is the warm process. The warm process refuses a fork whenever that could be seen: an
 environment variable read during its imports (or at interpreter start-up: ``PYTHON*``,
 ``LC_*``, ``LANG``, ``HOME``, ``PATH``, ``TZ``) differs from the first client's, the folder
 differs, or an import started a thread; the client then starts cold, as does any other

@@ -141,10 +141,13 @@ def _child(
     sys.orig_argv = list(argv)
     if "numpy.random" in sys.modules:  # its global state was seeded at import: reseed as cold
         sys.modules["numpy.random"].seed()
-    roots = _library_roots()
+    known = set(sys.modules)  # what the warm process has: only the rest is news
 
     def tell() -> None:
-        names = [n for n, m in list(sys.modules.items()) if _warmable(n, m, roots)]
+        roots = _library_roots()
+        names = [
+            n for n, m in list(sys.modules.items()) if n not in known and _warmable(n, m, roots)
+        ]
         with contextlib.suppress(OSError):
             os.write(report, json.dumps(names).encode())
         os.close(report)
