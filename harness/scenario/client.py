@@ -101,8 +101,11 @@ def stop_group(process: ClientProcess, grace: float) -> None:
     left after ``grace`` seconds; reaps the leader."""
     pgid = process.pid  # start_new_session=True: the leader's pid is the group id
     deadline = time.monotonic() + grace
-    with contextlib.suppress(ProcessLookupError):
+    try:
         os.killpg(pgid, signal.SIGTERM)
+    except ProcessLookupError:  # no process left in the group, not even a zombie
+        process.wait()
+        return
     with contextlib.suppress(subprocess.TimeoutExpired):
         process.wait(timeout=grace)
     if not _wait_group(pgid, max(0.0, deadline - time.monotonic())):
