@@ -23,6 +23,7 @@ import builtins
 import contextlib
 import json
 import os
+import signal
 import socket
 import sys
 import sysconfig
@@ -142,6 +143,7 @@ def _child(
     if "numpy.random" in sys.modules:  # its global state was seeded at import: reseed as cold
         sys.modules["numpy.random"].seed()
     known = set(sys.modules)  # what the warm process has: only the rest is news
+    interrupted = False
 
     def tell() -> None:
         roots = _library_roots()
@@ -151,6 +153,12 @@ def _child(
         with contextlib.suppress(OSError):
             os.write(report, json.dumps(names).encode())
         os.close(report)
+        if interrupted:  # as a cold interpreter ends on an uncaught KeyboardInterrupt
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGINT)
 
     import atexit
 
@@ -179,6 +187,7 @@ def _child(
         if isinstance(exc, SyntaxError):
             tb = None
         sys.excepthook(type(exc), exc.with_traceback(tb), tb)
+        interrupted = isinstance(exc, KeyboardInterrupt)
         raise SystemExit(1) from None
     raise SystemExit(0)
 

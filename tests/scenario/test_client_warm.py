@@ -16,7 +16,7 @@ from harness.scenario import ClientSpec, run_client, warm_clients
 from tests.scenario.scenario_testlib import CLIENT, process_gone
 from tests.scenario.standins import StandInHost
 
-PROBE = '''"""Writes what it sees to argv[1] (JSON); argv[2]: ok | exit3 | raise."""
+PROBE = '''"""Writes what it sees to argv[1] (JSON); argv[2]: ok | exit3 | raise | interrupt."""
 import sys
 
 WARM = "websockets" in sys.modules  # before any import of its own
@@ -65,6 +65,8 @@ if mode == "raise":
     def fail():
         raise ValueError("the probe fails")
     fail()
+if mode == "interrupt":
+    raise KeyboardInterrupt
 '''
 
 HELPER = """IMPORTS = 0
@@ -127,14 +129,15 @@ def test_a_warm_client_sees_what_a_cold_start_gives_it(tmp_path: Path) -> None:
 def test_exit_status_and_traceback_are_a_cold_start_s(tmp_path: Path) -> None:
     _probe(tmp_path)
     with StandInHost() as host:
-        cold = [_run(tmp_path, host, f"cold-{m}", m) for m in ("exit3", "raise")]
+        modes = ("exit3", "raise", "interrupt")
+        cold = [_run(tmp_path, host, f"cold-{m}", m) for m in modes]
         with warm_clients() as pool:
-            warm = [_run(tmp_path, host, f"warm-{m}", m) for m in ("exit3", "raise")]
-    assert pool.forked == 2
+            warm = [_run(tmp_path, host, f"warm-{m}", m) for m in modes]
+    assert pool.forked == 3
     for (c_out, _, c_log), (w_out, _, w_log) in zip(cold, warm, strict=True):
         assert (w_out.status, w_out.exit_code) == (c_out.status, c_out.exit_code)
         assert w_log == c_log
-    assert [o.exit_code for o, _, _ in warm] == [3, 1]
+    assert [o.exit_code for o, _, _ in warm] == [3, 1, -2]
     assert "client_zygote" not in warm[1][2]
     assert 'probe.py", line' in warm[1][2]
     assert "ValueError: the probe fails" in warm[1][2]
