@@ -173,21 +173,20 @@ def run_dask_engine(
     from it (see the module docstring) and the kept examples go back with the outcome."""
     from harness.explore.engine import run_engine
     from harness.explore.plan import load_plan
-    from harness.explore.search import warm
     from harness.explore.workers import engine_options, episode_runner, run_worker
-    from harness.scenario import mirror, worker_dir
+    from harness.scenario import mirror, warm_clients, worker_dir
 
     deadline = None
     if wall_deadline is not None:
         deadline = time.monotonic() + (wall_deadline - time.time())
     if shipment is None:
-        with warm(options):
+        with warm_clients(options.fast):
             return run_worker(Path(source), options, worker, deadline, DaskFlag(event))
     tree = _tree(shipment)
     work = worker_dir() / "explore" / uuid.uuid4().hex
     local = replace(options, work=work, database=work / "database")
     try:
-        with _package_env(shipment.bundle, tree), warm(local):
+        with _package_env(shipment.bundle, tree), warm_clients(local.fast):
             plan = load_plan(mirror(source, tree))
             plan = replace(plan, document=_localise(plan.document, shipment.bundle, tree))
             outcome = run_engine(

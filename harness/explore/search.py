@@ -9,11 +9,10 @@ and by the first engine that finds a failure: the others stop generating, it shr
 
 from __future__ import annotations
 
-import contextlib
 import multiprocessing
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,21 +71,10 @@ def _init_worker(stop: Any) -> None:
     _STOP = stop
 
 
-@contextlib.contextmanager
-def warm(options: SearchOptions) -> Iterator[None]:
-    """On the fast path, Python client programs start warm
-    (:func:`harness.scenario.warm_clients`: a forked, pre-imported interpreter per worker)."""
-    if not options.fast:
-        yield
-        return
-    with warm_clients():
-        yield
-
-
 def _process_worker(
     source: Path, options: SearchOptions, worker: int, deadline: float | None
 ) -> EngineOutcome:
-    with warm(options):
+    with warm_clients(options.fast):  # Python client programs start warm on the fast path
         return run_worker(source, options, worker, deadline, _STOP)
 
 
@@ -104,7 +92,7 @@ def search(
 
         outcomes = dask_search(plan.source, options, deadline)
     elif options.workers == 1:
-        with warm(options):
+        with warm_clients(options.fast):
             outcomes = [
                 run_engine(
                     plan,

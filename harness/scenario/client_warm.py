@@ -22,13 +22,13 @@ the child is what a cold start gives the client:
 Not the same as a cold start, by design: modules of the standard library and site-packages
 may already be imported (their import-time work done once, with the first client's
 ``sys.argv``), the string hash seed is the warm process's (one random seed per warm process,
-not per run), one more descriptor is open (close-on-exec: what the client runs with
-``exec`` does not get it), and the client's parent process is the warm process. The warm process refuses a fork whenever that could be seen: an
-environment variable read during its imports (or at interpreter start-up: ``PYTHON*``,
-``LC_*``, ``LANG``, ``HOME``, ``PATH``, ``TZ``) differs from the first client's, the folder
-differs, or an import started a thread; the client then starts cold, as does any other
-command. The explore tests check that a warm client's recording is byte-identical to a cold
-``harness run``'s.
+not per run), one more descriptor is open (close-on-exec: what the client runs with ``exec``
+does not get it), and the client's parent process is the warm process. The warm process
+refuses a fork whenever an import could tell: an environment variable read during its imports
+(or at interpreter start-up: ``PYTHON*``, ``LC_*``, ``LANG``, ``HOME``, ``PATH``, ``TZ``)
+differs from the first client's, the folder differs, or an import started a thread; the
+client then starts cold, as does any other command. The explore tests check that a warm
+client's recording is byte-identical to a cold ``harness run``'s.
 """
 
 from __future__ import annotations
@@ -208,9 +208,13 @@ def active_pool() -> WarmPool | None:
 
 
 @contextlib.contextmanager
-def warm_clients() -> Iterator[WarmPool]:
+def warm_clients(enabled: bool = True) -> Iterator[WarmPool | None]:
     """Python clients started in this block (this thread) start warm (see the module
-    docstring); the warm processes stop at its end."""
+    docstring); the warm processes stop at its end. ``enabled`` False: a block that changes
+    nothing (clients start cold), the value None."""
+    if not enabled:
+        yield None
+        return
     previous = active_pool()
     pool = WarmPool()
     _LOCAL.pool = pool
