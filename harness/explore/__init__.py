@@ -13,6 +13,7 @@ same parameters for ``@given``.
 from harness.explore.engine import EngineOptions, EngineOutcome, FailureTrack, run_engine
 from harness.explore.episode import EpisodeRunner, Example, margins_of, signature_of
 from harness.explore.errors import ExploreConfigError, ExploreError
+from harness.explore.kernel import KernelRunner
 from harness.explore.outputs import MinimalCase, run_scenario, write_minimal, write_summary
 from harness.explore.parameters import Parameter, apply_values, parse_parameters
 from harness.explore.plan import TARGETS, ExplorePlan, load_plan
@@ -35,6 +36,7 @@ __all__ = [
     "ExploreError",
     "ExplorePlan",
     "FailureTrack",
+    "KernelRunner",
     "MinimalCase",
     "Parameter",
     "SearchOptions",

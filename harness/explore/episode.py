@@ -38,7 +38,12 @@ from harness.scenario import (
 
 __all__ = [
     "CLEARANCE_HZ",
-    "EpisodeRunner", "Example", "clearance_logger", "margins_of", "signature_of"]
+    "EpisodeRunner",
+    "Example",
+    "clearance_logger",
+    "margins_of",
+    "signature_of",
+]
 
 
 @dataclass(frozen=True)
@@ -157,7 +162,9 @@ def clearance_logger(
     the rest of the world, ``allowed`` pairs ignored, distances up to 1 m, measured at
     :data:`CLEARANCE_HZ` of simulation time (a guide for ``target()``: verdicts come from the
     scenario's own loggers, which see every step)."""
-    links = [view.mujoco_name(link.name) for view in world.robots for link in view.description.links]
+    links = [
+        view.mujoco_name(link.name) for view in world.robots for link in view.description.links
+    ]
     bodies = [b for b in links if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) > 0]
     return ClearanceLogger(
         model, robot_bodies=bodies, ignore=allowed, distmax=1.0, rate_hz=CLEARANCE_HZ

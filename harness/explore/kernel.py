@@ -169,7 +169,9 @@ def run_core(
     finally:
         core.record_close()
         reports = core.finish()
-    collisions = collision_summaries(collect.events, dt_ns, robot_links(world), obs.first, sim.model)
+    collisions = collision_summaries(
+        collect.events, dt_ns, robot_links(world), obs.first, sim.model
+    )
     limits = obs.limits()
     verdicts = list(judge(scenario.criteria, None, collisions, limits))
     if scenario.criteria.returns_to_start is not None:
@@ -258,6 +260,8 @@ class KernelRunner(EpisodeRunner):
         except Exception as exc:  # a failure of the example, not of the search
             result, margin = _error_result(scenario, exc), None
         self.kernel_runs += 1
+        self.mismatches += [f"example {dict(values)!r}: {note}" for note in self.worlds.notes]
+        self.worlds.notes.clear()
         example = Example(
             worker=self.worker,
             index=index,
@@ -314,4 +318,3 @@ def _error_result(scenario: Scenario, exc: Exception) -> IterationResult:
         steps=0,
         error=f"{type(exc).__name__}: {exc}",
     )
-

@@ -25,10 +25,11 @@ the compiler recomputes what depends on them (inertia, bounding volumes, ``mj_se
 A free object's place in the keyframes (``load_world`` copies the first compile's
 ``qpos0`` into them) is copied from a first compile, then the spec is compiled once more.
 
-Checked, not assumed: the first example of each topology on the warm path is also built
-cold and the two compiled models (``mj_saveModel`` bytes) must be equal; when they are not,
-that topology is built cold for every example from then on (:attr:`WarmWorlds.notes` says
-so). The explore run's kept examples compare again against ``harness run``'s recording
+Checked, not assumed: the first examples of each topology on the warm path
+(:attr:`WarmWorlds.checks`) are also built cold and the two compiled models
+(``mj_saveModel`` bytes) must be equal; when they are not, that example runs on the cold
+world, the topology is built cold from then on, and :attr:`WarmWorlds.notes` says so (an
+error of the search: :mod:`harness.explore.kernel`). The explore run's kept examples compare again against ``harness run``'s recording
 (:mod:`harness.explore.kernel`).
 """
 
@@ -47,7 +48,7 @@ import numpy as np
 from harness.models import LoadedWorld, Pose, RobotModel, WorldObject, load_world
 from harness.scenario import Scenario, ScenarioSession, effective_timestep, scenario_session
 
-__all__ = ["WarmWorld", "WarmWorlds", "mjcf_number", "model_bytes", "topology_key"]
+__all__ = ["WarmWorld", "WarmWorlds", "cold_world", "mjcf_number", "model_bytes", "topology_key"]
 
 _OBJECT_VALUES = ("position", "orientation", "size", "mass")
 _NOT_WORLD = ("seed", "duration", "script", "criteria", "name", "explore")
@@ -81,7 +82,7 @@ def model_bytes(model: mujoco.MjModel) -> bytes:
     return buffer.tobytes()
 
 
-def _build(scenario: Scenario, folder: Path) -> tuple[ScenarioSession, LoadedWorld]:
+def cold_world(scenario: Scenario, folder: Path) -> tuple[ScenarioSession, LoadedWorld]:
     """The world of ``scenario`` as ``harness run`` builds it (its generated scene in
     ``folder``)."""
     planned = scenario_session(scenario, folder)
@@ -110,15 +111,15 @@ class _Warm(LoadedWorld):
 @dataclass
 class WarmWorld:
     """One topology's world: the session plan and world of its first example, the step of
-    its scenarios, and whether values may be applied to it (``warm``; False once a check
-    against a cold build failed) and were checked (``checked``)."""
+    its scenarios, whether values may be applied to it (``warm``; False once a check
+    against a cold build failed) and how many warm examples were checked (``checked``)."""
 
     planned: ScenarioSession
     world: LoadedWorld
     timestep: float
     objects: tuple[WorldObject, ...]
     warm: bool = True
-    checked: bool = False
+    checked: int = 0
     description: RobotModel | None = None
 
     def apply(self, objects: tuple[WorldObject, ...]) -> LoadedWorld:
@@ -163,6 +164,8 @@ class WarmWorlds:
     notes: list[str] = field(default_factory=list)
     limit: int = 16
     """Topologies kept at once (oldest dropped first)."""
+    checks: int = 3
+    """Warm examples of each topology also built cold and compared (the first ones)."""
 
     def get(
         self, scenario: Scenario, document: Mapping[str, Any]
@@ -182,8 +185,8 @@ class WarmWorlds:
         else:
             world = entry.apply(scenario.objects)
             self.applied += 1
-            if not entry.checked:
-                entry.checked = True
+            if entry.checked < self.checks:
+                entry.checked += 1
                 _, cold = self._cold(scenario)
                 if model_bytes(cold.model) != model_bytes(world.model):
                     entry.warm = False
@@ -197,4 +200,4 @@ class WarmWorlds:
 
     def _cold(self, scenario: Scenario) -> tuple[ScenarioSession, LoadedWorld]:
         self.builds += 1
-        return _build(scenario, self.folder)
+        return cold_world(scenario, self.folder)
