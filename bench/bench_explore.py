@@ -9,8 +9,10 @@ find-and-shrink.
 
 Rows (each measured in this run):
 
-- scripted examples/s with 2 local workers against 1 (target: >= 50/s, the issue's);
-- the fast path (``harness explore``) against the cold one (``--cold``), 1 worker;
+- scripted examples/s with 2 local workers against 1 (target: >= 50/s, the issue's): the
+  fast path, warm worlds and the generation kernel (:mod:`harness.explore.kernel`);
+- the fast path (``harness explore``) against the cold one (``--cold``: a Session and a
+  world compiled for every example), 1 worker;
 - examples/s where each example runs the client program (target: >= 5/s);
 - examples/s with 2 local Dask workers against 1 (one engine per worker);
 - seconds to find and shrink the planted 2 % region with 2 workers (target: <= 60 s).

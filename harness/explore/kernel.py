@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
-from harness.events import CollectingSink, ClearanceLogger, EventHub, Level, velocity_limits
+from harness.events import ClearanceLogger, CollectingSink, EventHub, Level, velocity_limits
 from harness.explore.episode import (
     EpisodeRunner,
     Example,

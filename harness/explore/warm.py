@@ -29,14 +29,15 @@ Checked, not assumed: the first examples of each topology on the warm path
 (:attr:`WarmWorlds.checks`) are also built cold and the two compiled models
 (``mj_saveModel`` bytes) must be equal; when they are not, that example runs on the cold
 world, the topology is built cold from then on, and :attr:`WarmWorlds.notes` says so (an
-error of the search: :mod:`harness.explore.kernel`). The explore run's kept examples compare again against ``harness run``'s recording
-(:mod:`harness.explore.kernel`).
+error of the search: :mod:`harness.explore.kernel`). The explore run's kept examples compare
+again, against ``harness run``'s recording (:mod:`harness.explore.kernel`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,11 +89,20 @@ def cold_world(scenario: Scenario, folder: Path) -> tuple[ScenarioSession, Loade
     planned = scenario_session(scenario, folder)
     load = planned.load
     robots = load.robots
-    assert robots is not None and not isinstance(robots, LoadedWorld)
+    assert robots is not None
+    assert not isinstance(robots, LoadedWorld)
     world = load_world(
         list(robots), scene=load.scene, objects=load.objects, mesh_collision=load.mesh_collision
     )
     return planned, world
+
+
+def _compile(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """``spec`` compiled again, without the warning ``load_world`` already dropped (a robot
+    attached with an empty prefix: its names stay its own)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*empty prefix", category=UserWarning)
+        return spec.compile()
 
 
 @dataclass(frozen=True)
@@ -135,7 +145,7 @@ class WarmWorld:
             geom.size = [mjcf_number(v) for v in (*obj.size, *([0.0] * (3 - len(obj.size))))]
             if obj.mass is not None:
                 geom.mass = mjcf_number(obj.mass)
-        model = spec.compile()
+        model = _compile(spec)
         free = [o.name for o in objects if o.mass is not None]
         if free and spec.keys:
             for name in free:
@@ -144,7 +154,7 @@ class WarmWorld:
                     qpos = np.array(key.qpos, dtype=float)
                     qpos[adr : adr + 7] = model.qpos0[adr : adr + 7]
                     key.qpos = qpos
-            model = spec.compile()
+            model = _compile(spec)
         if self.description is None:
             self.description = self.world.combined_description()
         fields = {f.name: getattr(self.world, f.name) for f in dataclasses.fields(LoadedWorld)}
