@@ -64,7 +64,7 @@ from harness.scenario import (
     steps_for,
     travel_verdict,
 )
-from harness.session import CoreOptions, SessionCore, SessionError
+from harness.session import CoreOptions, SessionConfigError, SessionCore, SessionError
 
 __all__ = ["TRACE_SAMPLES", "KernelRunner", "run_core"]
 
@@ -127,7 +127,12 @@ def run_core(
     ``clearance`` (the allowed pairs), a ``min_clearance`` logger too. Raises what the session
     runner raises (a bad ``script`` joint: :class:`harness.scenario.ScenarioError`)."""
     started = time.monotonic()
-    options: CoreOptions = dataclasses.replace(planned.options, seed=scenario.seed)
+    try:  # the values' keys that are session options (harness.explore.warm)
+        options: CoreOptions = dataclasses.replace(
+            planned.options, seed=scenario.seed, sensors=tuple(scenario.sensors)
+        )
+    except SessionConfigError as exc:
+        raise ScenarioError([f"{scenario.source}: {exc}"]) from None
     hub = EventHub()
     core = SessionCore(world, options, hub=hub)
     collect = CollectingSink(min_level=Level.INFO)

@@ -7,8 +7,8 @@ rest change what the world is made of. :func:`topology_key` tells them apart:
 
 - values (applied to a warm world): each object's ``position``, ``orientation``, ``size``
   and ``mass`` (a mass given or not is topology: it makes the object free), and keys that
-  are not part of the world at all: ``seed`` (the session's), ``duration``, ``script``,
-  ``criteria``, ``name``;
+  are not part of the world at all: ``seed`` and ``sensors`` (with their noise: the
+  session's options), ``duration``, ``script``, ``criteria``, ``name``;
 - topology: everything else (the map, the robots with their initial joint positions and
   pose, sensors, controllers, the clock, ...): a new key builds a new world as ``harness
   run`` builds it (:func:`harness.scenario.scenario_session`, then
@@ -52,7 +52,7 @@ from harness.scenario import Scenario, ScenarioSession, effective_timestep, scen
 __all__ = ["WarmWorld", "WarmWorlds", "cold_world", "mjcf_number", "model_bytes", "topology_key"]
 
 _OBJECT_VALUES = ("position", "orientation", "size", "mass")
-_NOT_WORLD = ("seed", "duration", "script", "criteria", "name", "explore")
+_NOT_WORLD = ("seed", "sensors", "duration", "script", "criteria", "name", "explore")
 
 
 def topology_key(document: Mapping[str, Any]) -> str:

@@ -161,3 +161,33 @@ def test_explore_recordings_equal_cold_harness_run(tmp_path: Path) -> None:
         explored = (folder / "recording.mcap").read_bytes()
         cold = _cold_bytes(folder / "scenario.yaml", tmp_path / f"cold-{i}")
         assert explored == cold, f"{folder}: the explore recording differs from harness run's"
+
+
+def test_seed_and_sensor_noise_are_values_of_a_warm_world(tmp_path: Path) -> None:
+    """The seed and a sensor's noise are session options: the world stays warm, and the kept
+    example is still harness run's (its force-torque readings, noise drawn from the seed, are
+    in the recording)."""
+    sensor = {"name": "wrist_ft", "type": "force_torque", "joint": "joint7", "update_rate": 100}
+    edit = {
+        "sensors": [{**sensor, "noise_stddev": 0.01}],
+        "explore": {
+            "parameters": {
+                "seed": {"integers": [0, 1000]},
+                "sensors.wrist_ft.noise_stddev": {"low": 0.0, "high": 0.5},
+            }
+        },
+    }
+    plan = load_plan(write_variant(tmp_path, "noisy.yaml", "clear.yaml", edit))
+    runner = KernelRunner(plan, tmp_path / "scratch")
+    runner.run({"seed": 0, "sensors.wrist_ft.noise_stddev": 0.01})
+    for i, (seed, noise) in enumerate([(7, 0.25), (901, 0.5)]):
+        kept = runner.run(
+            {"seed": seed, "sensors.wrist_ft.noise_stddev": noise}, keep=tmp_path / f"kept-{i}"
+        )
+        assert kept.check == "identical", kept.check
+        folder = Path(kept.kept or "")
+        explored = (folder / "recording.mcap").read_bytes()
+        assert explored == _cold_bytes(folder / "scenario.yaml", tmp_path / f"cold-{i}")
+    assert len(runner.worlds.worlds) == 1  # one topology
+    assert runner.worlds.applied == 2
+    assert runner.mismatches == []
