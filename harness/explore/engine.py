@@ -219,7 +219,10 @@ def run_engine(
     try:
         test()
     except _Stop:
-        pass
+        # the shrink limit (or a stop): each failure's smallest example so far is its minimal
+        for track in outcome.failures.values():
+            if track.minimal is None and track.path and track.deterministic:
+                track.minimal = track.path[-1]
     except ExampleFailed as exc:
         _minimal(outcome, [exc])
     except FlakyFailure as exc:
