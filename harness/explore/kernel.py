@@ -167,7 +167,10 @@ def run_core(
             else:  # a free-running clock runs to its pause at the limit
                 core.set_paused(False)
                 while sim.step_index < limit and core.failure is None:
-                    core.advance()
+                    try:
+                        core.advance()
+                    except Exception:  # the core's failure: a free clock's driver keeps it
+                        break  # and the verdict names it
         except SessionError as exc:
             stepper_error = exc
         failure = core.failure

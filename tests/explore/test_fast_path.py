@@ -191,3 +191,23 @@ def test_seed_and_sensor_noise_are_values_of_a_warm_world(tmp_path: Path) -> Non
     assert len(runner.worlds.worlds) == 1  # one topology
     assert runner.worlds.applied == 2
     assert runner.mismatches == []
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        {"clock": {"mode": "fast"}},  # a free-running clock stepped by the script
+        {"clock": {"mode": "fast"}, "script": None},  # a free-running clock to its limit
+        {"script": None},  # lockstep, no script: the world holds its initial command
+    ],
+    ids=["fast-script", "fast-world", "lockstep-world"],
+)
+def test_kernel_runs_each_clock_as_harness_run(tmp_path: Path, edit: dict[str, Any]) -> None:
+    plan = load_plan(write_variant(tmp_path, "variant.yaml", "sweep.yaml", edit))
+    runner = KernelRunner(plan, tmp_path / "scratch")
+    values = {"objects.obstacle.position": [0.3, -0.5, 0.5]}
+    kept = runner.run(values, keep=tmp_path / "kept")
+    assert kept.check == "identical", kept.check
+    folder = Path(kept.kept or "")
+    explored = (folder / "recording.mcap").read_bytes()
+    assert explored == _cold_bytes(folder / "scenario.yaml", tmp_path / "cold")
