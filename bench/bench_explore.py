@@ -10,8 +10,10 @@ obstacle's height inside a 6 m x 6 m box) for find-and-shrink.
 
 Rows (each measured in this run):
 
-- scripted examples/s with 2 local workers against 1 (target: >= 50/s, the issue's);
-- the fast path (``harness explore``) against the cold one (``--cold``), 1 worker;
+- scripted examples/s with 2 local workers against 1 (target: >= 50/s, the issue's): the
+  fast path, warm worlds and the generation kernel (:mod:`harness.explore.kernel`);
+- the fast path (``harness explore``) against the cold one (``--cold``: a Session and a
+  world compiled for every example), 1 worker;
 - examples/s where each example runs the client program, 2 workers (target: >= 5/s), and
   1 worker;
 - examples/s with 2 local Dask workers against 1 (one engine per worker);

@@ -13,6 +13,7 @@ same parameters for ``@given``.
 from harness.explore.engine import EngineOptions, EngineOutcome, FailureTrack, run_engine
 from harness.explore.episode import EpisodeRunner, Example, margins_of, signature_of
 from harness.explore.errors import ExploreConfigError, ExploreError
+from harness.explore.kernel import KernelRunner
 from harness.explore.outputs import (
     MinimalCase,
     regression_test,
@@ -41,6 +42,7 @@ __all__ = [
     "ExploreError",
     "ExplorePlan",
     "FailureTrack",
+    "KernelRunner",
     "MinimalCase",
     "Parameter",
     "SearchOptions",

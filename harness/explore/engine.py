@@ -109,6 +109,9 @@ class EngineOutcome:
     failures: dict[str, FailureTrack] = field(default_factory=dict)
     stopped: str = "budget"
     wall_seconds: float = 0.0
+    mismatches: list[str] = field(default_factory=list)
+    """Kept examples whose fast-path result differed from ``harness run``'s (one line each:
+    :attr:`harness.explore.kernel.KernelRunner.mismatches`)."""
 
 
 def _failure_class(cache: dict[str, type[ExampleFailed]], signature: str) -> type[ExampleFailed]:
@@ -178,11 +181,13 @@ def run_engine(
         track = outcome.failures.get(example.signature)
         if track is None:
             folder = keep_root / f"w{episodes.worker}-fail{len(outcome.failures)}"
-            example = episodes_rerun(episodes, values, example, folder)
+            # run again, kept: the determinism check, and on the fast path the product's run
+            # with the recorder (checked against the kernel's: harness.explore.kernel)
+            again = episodes.run(values, keep=folder)
+            example = replace(example, kept=again.kept, check=again.check)
             track = FailureTrack(example.signature, example)
             outcome.failures[example.signature] = track
             flag.set()  # the other engines stop generating: this one shrinks
-            again = episodes.run(values)
             if again.digest != example.digest or again.signature != example.signature:
                 track.deterministic = False
                 track.note = (
@@ -214,7 +219,10 @@ def run_engine(
     try:
         test()
     except _Stop:
-        pass
+        # the shrink limit (or a stop): each failure's smallest example so far is its minimal
+        for track in outcome.failures.values():
+            if track.minimal is None and track.path and track.deterministic:
+                track.minimal = track.path[-1]
     except ExampleFailed as exc:
         _minimal(outcome, [exc])
     except FlakyFailure as exc:
@@ -227,23 +235,10 @@ def run_engine(
         if not found or len(found) != len(group or ()):
             raise
         _minimal(outcome, found)
+    finally:
+        outcome.mismatches = list(getattr(episodes, "mismatches", ()))
     outcome.wall_seconds = time.monotonic() - started
     return outcome
-
-
-def episodes_rerun(
-    episodes: EpisodeRunner, values: dict[str, Any], example: Example, keep: Path
-) -> Example:
-    """The first example of a failure, its scenario and recording kept in ``keep`` (the
-    example ran in the scratch folder: its files are copied from there)."""
-    import shutil
-
-    keep.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(episodes.scratch / "example.yaml", keep / "scenario.yaml")
-    recording = episodes.scratch / "recording.mcap"
-    if recording.is_file():
-        shutil.copyfile(recording, keep / "recording.mcap")
-    return replace(example, kept=str(keep))
 
 
 def _minimal(outcome: EngineOutcome, found: list[ExampleFailed]) -> None:

@@ -20,9 +20,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import mujoco
+
 from harness.events import ClearanceLogger, Logger
 from harness.explore.errors import ExploreConfigError
 from harness.explore.plan import ExplorePlan
+from harness.models import LoadedWorld
 from harness.scenario import (
     IterationResult,
     IterationRunner,
@@ -33,7 +36,14 @@ from harness.scenario import (
     session_iteration_runner,
 )
 
-__all__ = ["EpisodeRunner", "Example", "margins_of", "signature_of"]
+__all__ = [
+    "CLEARANCE_HZ",
+    "EpisodeRunner",
+    "Example",
+    "clearance_logger",
+    "margins_of",
+    "signature_of",
+]
 
 
 @dataclass(frozen=True)
@@ -41,7 +51,9 @@ class Example:
     """One example run: ``index`` in its engine's order, its ``values``, whether it
     ``passed``, the failure ``signature`` ("" when it passed), ``reason`` (one line), the
     ``margins`` (name -> value), the state ``digest``, and ``kept``: its folder when its
-    scenario and recording were kept (failures, a sample of passing examples)."""
+    scenario and recording were kept (failures, a sample of passing examples); ``check``:
+    for a kept example of the fast path, ``"identical"`` when the product's run computed
+    the same (:mod:`harness.explore.kernel`), else what differed ("" when not checked)."""
 
     worker: int
     index: int
@@ -54,6 +66,7 @@ class Example:
     wall_seconds: float = 0.0
     kept: str | None = None
     phase: str = "generate"
+    check: str = ""
 
 
 def _allowed_pair(a: str, b: str, allowed: tuple[tuple[str, str], ...]) -> bool:
@@ -137,6 +150,27 @@ def drive_value(target: str, margins: Mapping[str, float]) -> float | None:
     return -value if target in ("min_clearance", "limit_margin") else value
 
 
+CLEARANCE_HZ = 100.0
+"""How often the ``min_clearance`` margin is measured (simulation time): every 5th step at
+2 ms; an arm's link moving at 1 m/s moves 1 cm between two measurements."""
+
+
+def clearance_logger(
+    world: LoadedWorld, model: mujoco.MjModel, allowed: tuple[tuple[str, str], ...]
+) -> ClearanceLogger:
+    """The ``min_clearance`` margin's logger: every robot link (a body of ``model``) against
+    the rest of the world, ``allowed`` pairs ignored, distances up to 1 m, measured at
+    :data:`CLEARANCE_HZ` of simulation time (a guide for ``target()``: verdicts come from the
+    scenario's own loggers, which see every step)."""
+    links = [
+        view.mujoco_name(link.name) for view in world.robots for link in view.description.links
+    ]
+    bodies = [b for b in links if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) > 0]
+    return ClearanceLogger(
+        model, robot_bodies=bodies, ignore=allowed, distmax=1.0, rate_hz=CLEARANCE_HZ
+    )
+
+
 class EpisodeRunner:
     """Runs examples of ``plan`` in ``scratch`` (see the module docstring). ``runner``: the
     iteration runner (default: the product's, :func:`harness.scenario.session_iteration_runner`)."""
@@ -161,17 +195,7 @@ class EpisodeRunner:
         made = self._clearance
 
         def watch(session: Any) -> Logger:
-            world = session.world
-            links = [
-                view.mujoco_name(link.name)
-                for view in world.robots
-                for link in view.description.links
-            ]
-            model = session.model
-            import mujoco
-
-            bodies = [b for b in links if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) > 0]
-            logger = ClearanceLogger(model, robot_bodies=bodies, ignore=allowed, distmax=1.0)
+            logger = clearance_logger(session.world, session.model, allowed)
             made.append(logger)
             return logger
 

@@ -1,5 +1,10 @@
 """The fast path of an example: what is kept warm between examples of one worker.
 
+- the world: built once per topology, an example's values applied to it
+  (:mod:`harness.explore.warm`);
+- the shell: an example without a client program runs on a core directly
+  (:mod:`harness.explore.kernel`), nothing recorded; the product's runner below runs the
+  examples with a client program and the kept ones;
 - the interpreter and its imports: a worker runs all its examples in one process;
 - the bridge's message types: built once per process (``harness.rosbridge`` copies a built
   registry instead of generating a class per definition for every session);
@@ -7,10 +12,6 @@
   one request to the session instead of one per 10 steps (how steps are requested is not
   recorded: the recording is the one ``harness run`` makes, byte for byte; the explore
   tests check it for every failure found and 20 passing examples).
-
-Not reused: the compiled world. A ``LoadedWorld`` holds its ``MjSpec``, which cannot be
-copied, and an example's recording attaches the compiled model of *its* values; each example
-compiles its own world (about a tenth of an example's time on the demo scene).
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ from typing import Any
 
 from harness.explore.engine import EngineOutcome, FailureTrack, run_engine
 from harness.explore.episode import Example
-from harness.explore.errors import ExploreConfigError
+from harness.explore.errors import ExploreConfigError, ExploreError
 from harness.explore.plan import ExplorePlan
 from harness.explore.workers import SearchOptions, engine_options, episode_runner, run_worker
 from harness.scenario import warm_clients
@@ -45,6 +45,11 @@ class SearchResult:
     @property
     def generated(self) -> int:
         return sum(1 for e in self.examples if e.phase == "generate")
+
+    @property
+    def mismatches(self) -> list[str]:
+        """Kept examples whose fast-path result differed from ``harness run``'s."""
+        return [m for o in self.outcomes for m in o.mismatches]
 
     def primary(self) -> FailureTrack | None:
         """The first failure found (the earliest in its engine; workers in order)."""
@@ -83,7 +88,9 @@ def search(
     options: SearchOptions,
     on_example: Callable[[Example], None] | None = None,
 ) -> SearchResult:
-    """Search ``plan`` (see the module docstring)."""
+    """Search ``plan`` (see the module docstring). Raises :class:`ExploreError` when a kept
+    example's fast-path result differed from ``harness run``'s (an error of the search:
+    :mod:`harness.explore.kernel`)."""
     _check_options(options)
     started = time.monotonic()
     deadline = None if options.seconds is None else started + options.seconds
@@ -118,4 +125,10 @@ def search(
         for signature, track in outcome.failures.items():
             if signature not in result.failures:
                 result.failures[signature] = track
+    mismatches = result.mismatches
+    if mismatches:
+        more = f" (and {len(mismatches) - 1} more)" if len(mismatches) > 1 else ""
+        raise ExploreError(
+            f"{plan.source}: the fast path is not harness run: {mismatches[0]}{more}"
+        )
     return result

@@ -50,12 +50,14 @@ def engine_options(options: SearchOptions, worker: int, deadline: float | None) 
 
 
 def episode_runner(plan: ExplorePlan, options: SearchOptions, worker: int) -> EpisodeRunner:
-    """Worker ``worker``'s example runner (the fast path when ``options.fast``)."""
+    """Worker ``worker``'s example runner: the fast path when ``options.fast`` (warm worlds
+    and the generation kernel, :class:`harness.explore.kernel.KernelRunner`), else the
+    product's runner for every example (``--cold``)."""
     scratch = options.work / f"worker-{worker}"
     if options.fast:
-        from harness.explore.fast import FastRunner
+        from harness.explore.kernel import KernelRunner
 
-        return EpisodeRunner(plan, scratch, worker=worker, runner=FastRunner())
+        return KernelRunner(plan, scratch, worker=worker)
     return EpisodeRunner(plan, scratch, worker=worker)
 
 

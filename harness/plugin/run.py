@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from harness.plugin.examples import current_example
 from harness.plugin.markers import (
     check_keys,
     marker_options,
@@ -72,6 +73,8 @@ class HarnessRun:
     close_errors: list[str] = field(default_factory=list)
     failed: bool = False
     closed: bool = False
+    example: object | None = None
+    """The hypothesis example whose sessions these are (:mod:`harness.plugin.examples`)."""
 
     @property
     def folder(self) -> Path:
@@ -113,6 +116,7 @@ class HarnessRun:
 
         if self.closed:
             pytest.fail(f"{self.item.nodeid}: this test's sessions already ended", pytrace=False)
+        self.enter_example()
         rootdir = self.settings.rootdir
         opts = dict(options)
         if "resume" in opts:
@@ -288,6 +292,7 @@ class HarnessRun:
                 "do(es) not apply",
                 pytrace=False,
             )
+        self.enter_example()
         path = self.recording_path(len(self.recordings))
         path.parent.mkdir(parents=True, exist_ok=True)
         self.recordings.append(path)
@@ -305,6 +310,28 @@ class HarnessRun:
         self.modes.append(None)
         self.sinks.append(sink)
         return session
+
+    def enter_example(self) -> None:
+        """Under ``@given``: a session made in a new example ends the earlier example's
+        sessions and removes their files (see :mod:`harness.plugin.examples`)."""
+        example = current_example()
+        if example is None or example is self.example:
+            return
+        earlier, self.example = self.example, example
+        if earlier is None:
+            return
+        sessions, self.sessions = self.sessions, []
+        try:
+            for session in sessions:
+                session.close()
+        finally:
+            for path in [*self.snapshots, *self.recordings]:
+                with contextlib.suppress(OSError):
+                    path.unlink()
+            for folder in self.folders:
+                shutil.rmtree(folder, ignore_errors=True)
+            for kept in (self.snapshots, self.recordings, self.folders, self.modes, self.sinks):
+                kept.clear()
 
     def close_sessions(self) -> None:
         """End every session of the test (idempotent); close errors are kept and raised."""

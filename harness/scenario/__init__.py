@@ -52,7 +52,13 @@ from harness.scenario.scenario import (
     Scenario,
     ScenarioRobot,
 )
-from harness.scenario.session_options import scenario_session
+from harness.scenario.script import ScriptCommand, run_script
+from harness.scenario.session_options import ScenarioSession, scenario_session
+from harness.scenario.session_runner import _collisions as collision_summaries
+from harness.scenario.session_runner import _Observer as IterationObserver
+from harness.scenario.session_runner import check_script, robot_links, steps_for
+from harness.scenario.travel import travel_verdict
+from harness.scenario.world import effective_timestep
 
 __all__ = [
     "BLOB_KEY_PREFIX",
@@ -68,6 +74,7 @@ __all__ = [
     "CollisionSummary",
     "Criteria",
     "DaskBackend",
+    "IterationObserver",
     "IterationResult",
     "IterationRunner",
     "IterationSpec",
@@ -79,26 +86,35 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "ScenarioRobot",
+    "ScenarioSession",
+    "ScriptCommand",
     "SimulationPlan",
     "Traces",
     "Verdict",
     "WarmPool",
     "bundle_env",
     "check_runnable",
+    "check_script",
     "collect_bundle",
+    "collision_summaries",
     "criteria_settings",
+    "effective_timestep",
     "iteration_specs",
     "judge",
     "judge_determinism",
     "load_run_file",
     "mirror",
     "render_html",
+    "robot_links",
     "run_client",
     "run_iterations",
     "run_scenarios",
+    "run_script",
     "scenario_session",
     "session_iteration_runner",
+    "steps_for",
     "stop_group",
+    "travel_verdict",
     "unverified_blobs",
     "verified_tree",
     "warm_clients",
