@@ -234,8 +234,7 @@ class _Bounds:
         bound = np.empty(self._n)
         if self._fixed.size:
             d = xpos[self._fa] - self._center
-            local = np.matmul(d[:, None, :], self._rot)[:, 0, :]  # R^T d, row by row
-            q = np.abs(local, out=local)
+            q = np.abs(np.einsum("ki,kij->kj", d, self._rot))  # |R^T d|, row by row
             q -= self._half
             np.maximum(q, 0.0, out=q)
             gap = np.sqrt(np.einsum("ki,ki->k", q, q)) - self._fr

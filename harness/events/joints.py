@@ -275,8 +275,12 @@ class JointLimitLogger:
             above = q - self._upper
             below = self._lower - q
             excess = np.maximum(above, below)
-            limit = np.where(above >= below, self._upper, self._lower)
-            out += self._pos.update(ctx, excess, limit, q, self._pos_tolerance, JointLimitViolation)
+            # within limits and nothing open (the common step): no episode work
+            if self._pos.open or (excess > self._pos_tolerance).any():
+                limit = np.where(above >= below, self._upper, self._lower)
+                out += self._pos.update(
+                    ctx, excess, limit, q, self._pos_tolerance, JointLimitViolation
+                )
         if self._vel_dof.size:
             v = ctx.data.qvel[self._vel_dof]
             excess = np.abs(v) - self._vel_limit

@@ -176,12 +176,14 @@ class _Observer:
 
     def observe(self, ctx: StepContext) -> list[Event]:
         mujoco.mj_getState(ctx.model, ctx.data, self._state, self._spec)
-        self.digest.update(self._state.tobytes())
+        self.digest.update(memoryview(self._state))  # its bytes, without a copy
         q = ctx.data.qpos[self._qadr]
         np.minimum(self.qmin, q, out=self.qmin)
         np.maximum(self.qmax, q, out=self.qmax)
         beyond = np.maximum(self.lower - q, q - self.upper)
-        self.violations += beyond > self.tolerance
+        over = beyond > self.tolerance
+        if over.any():
+            self.violations += over
         np.maximum(self.excess, beyond, out=self.excess)
         self.step = ctx.step
         if ctx.step % self.every == 0:
