@@ -80,10 +80,8 @@ def tracked(steps: list[list[Row]], debounce: int) -> list[tuple[object, ...]]:
     for k, rows in enumerate(steps, start=1):
         for t in tracker.update(k, k * 10, contacts(rows)):
             key = (t.body1, t.body2)
-            out.append(
-                (t.kind, key, t.step, t.begin_step, t.end_step)
-                + (t.normal_force, t.penetration, t.normal[0])
-            )
+            peaks = (t.normal_force, t.penetration, t.normal[0])
+            out.append((t.kind, key, t.step, t.begin_step, t.end_step, *peaks))
     return out
 
 
