@@ -176,7 +176,7 @@ class _Observer:
 
     def observe(self, ctx: StepContext) -> list[Event]:
         mujoco.mj_getState(ctx.model, ctx.data, self._state, self._spec)
-        self.digest.update(memoryview(self._state))  # its bytes, without a copy
+        self.digest.update(self._state.data)  # its bytes, without a copy
         q = ctx.data.qpos[self._qadr]
         np.minimum(self.qmin, q, out=self.qmin)
         np.maximum(self.qmax, q, out=self.qmax)
