@@ -60,6 +60,7 @@ from harness.events import (
     Logger,
     Sink,
     StepContext,
+    index_of,
     solver_limit_tolerance,
     velocity_limits,
 )
@@ -135,6 +136,7 @@ class _Observer:
         self.joints = sim.joint_names
         ids = [model.joint(j).id for j in self.joints]
         self._qadr = np.array([model.jnt_qposadr[i] for i in ids], dtype=np.intp)
+        self._qat = index_of(self._qadr)
         self._dadr = np.array([model.jnt_dofadr[i] for i in ids], dtype=np.intp)
         limited = np.array([bool(model.jnt_limited[i]) for i in ids], dtype=bool)
         ranges = np.asarray(model.jnt_range)[ids].reshape(-1, 2)
@@ -177,7 +179,7 @@ class _Observer:
     def observe(self, ctx: StepContext) -> list[Event]:
         mujoco.mj_getState(ctx.model, ctx.data, self._state, self._spec)
         self.digest.update(self._state.data)  # its bytes, without a copy
-        q = ctx.data.qpos[self._qadr]
+        q = ctx.data.qpos[self._qat]
         np.minimum(self.qmin, q, out=self.qmin)
         np.maximum(self.qmax, q, out=self.qmax)
         beyond = np.maximum(self.lower - q, q - self.upper)

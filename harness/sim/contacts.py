@@ -17,7 +17,8 @@ __all__ = ["ContactSet", "extract_contacts", "normal_forces"]
 _EMPTY_I = np.zeros(0, dtype=np.int32)
 _EMPTY_F = np.zeros(0, dtype=np.float64)
 _EMPTY_3 = np.zeros((0, 3), dtype=np.float64)
-_FEW = 8  # contacts up to which forces are read one by one (cheaper than array passes)
+_FEW = 16  # contacts up to which normal forces are read one by one
+_PYRAMIDAL = int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
 
 
 class ContactSet(NamedTuple):
@@ -78,17 +79,18 @@ def normal_forces(
     ``mj_contactForce(...)[0]``: with an elliptic cone the first row's force; with a pyramidal
     one ``0 + f_0 + f_1 + ...`` over the ``2 (dim - 1)`` edges in this order (MuJoCo's
     ``mju_decodePyramid``). Few contacts, rows missing or dims that differ: one contact at a
-    time through ``mj_contactForce``."""
-    adr = efc_address.tolist()
-    if len(adr) <= _FEW or min(adr) < 0:
-        return _one_by_one(model, data, adr)
+    time through ``mj_contactForce`` (cheaper than the array passes up to :data:`_FEW`)."""
+    if efc_address.shape[0] <= _FEW:
+        return _one_by_one(model, data, efc_address.tolist())
+    if efc_address.min() < 0:
+        return _one_by_one(model, data, efc_address.tolist())
     efc = data.efc_force
-    if model.opt.cone != mujoco.mjtCone.mjCONE_PYRAMIDAL:
+    if model.opt.cone != _PYRAMIDAL:
         return np.asarray(efc[efc_address], dtype=np.float64)
     dims = data.contact.dim
     dim = int(dims[0])
     if dim == 1 or not bool((dims == dim).all()):
-        return _one_by_one(model, data, adr)
+        return _one_by_one(model, data, efc_address.tolist())
     force: npt.NDArray[np.float64] = 0.0 + efc[efc_address]
     for j in range(1, 2 * (dim - 1)):
         force += efc[efc_address + j]

@@ -377,7 +377,7 @@ class SessionCore:
             applied = sim.last_input
             assert applied is not None
             recorder.write_applied_input(applied)
-        if self.hub.loggers:
+        if self.hub.has_loggers():
             self.hub.observe(StepContext.of(sim, self.robot_name))
         self._after_state()
 
@@ -750,7 +750,7 @@ class SessionCore:
         """End of run: loggers finish, sinks close; returns the sink reports."""
         self.record_frames()
         try:
-            if self.hub.loggers:
+            if self.hub.has_loggers():
                 self.hub.finish(StepContext.of(self.sim, self.robot_name))
             self.record_frames()
         finally:
