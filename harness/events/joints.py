@@ -267,6 +267,7 @@ class JointLimitLogger:
         vel_ids = [j for j, n in zip(ids, names, strict=True) if n in vel]
         self._vel = _Watch(tuple(model.joint(j).name for j in vel_ids))
         self._vel_dof = np.asarray(model.jnt_dofadr)[vel_ids]
+        self._vel_at: slice | npt.NDArray[np.intp] = index_of(self._vel_dof)
         self._vel_limit = np.array([vel[model.joint(j).name] for j in vel_ids], dtype=float)
 
     @property
@@ -287,17 +288,18 @@ class JointLimitLogger:
             below = self._lower - q
             excess = np.maximum(above, below)
             # within limits and nothing open (the common step): no episode work
-            if self._pos.open or (excess > self._pos_tolerance).any():
+            if self._pos.open or np.count_nonzero(excess > self._pos_tolerance):
                 limit = np.where(above >= below, self._upper, self._lower)
                 out += self._pos.update(
                     ctx, excess, limit, q, self._pos_tolerance, JointLimitViolation
                 )
         if self._vel_dof.size:
-            v = ctx.data.qvel[self._vel_dof]
+            v = ctx.data.qvel[self._vel_at]
             excess = np.abs(v) - self._vel_limit
-            out += self._vel.update(
-                ctx, excess, self._vel_limit, v, self._vel_tolerance, VelocityLimitExceeded
-            )
+            if self._vel.open or np.count_nonzero(excess > self._vel_tolerance):
+                out += self._vel.update(
+                    ctx, excess, self._vel_limit, v, self._vel_tolerance, VelocityLimitExceeded
+                )
         return out
 
     def finish(self, ctx: StepContext) -> Sequence[Event]:

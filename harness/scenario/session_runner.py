@@ -158,7 +158,6 @@ class _Observer:
         n = len(self.joints)
         self.qmin = np.full(n, np.inf)
         self.qmax = np.full(n, -np.inf)
-        self.excess = np.zeros(n)
         self.violations = np.zeros(n, dtype=np.int64)
         self.time: list[float] = []
         self.pos: list[F64] = []
@@ -168,6 +167,14 @@ class _Observer:
         self.first = sim.step_index + 1
         self.bases = BaseTracker(session.world, model, sim.data)
         self._sample(sim.step_index, sim.sim_time_ns)
+
+    @property
+    def excess(self) -> F64:
+        """Per joint, the largest excess beyond a limit so far (0 when none): what the
+        maximum of every step's ``max(lower - q, q - upper)`` is, from the range seen (a
+        rounded difference is monotonic in ``q``: the same bits, without a pass per step)."""
+        beyond = np.maximum(self.lower - self.qmin, self.qmax - self.upper)
+        return np.maximum(np.zeros(len(self.joints)), beyond)
 
     def _sample(self, step: int, sim_time_ns: int) -> None:
         data = self._sim.data
@@ -184,9 +191,8 @@ class _Observer:
         np.maximum(self.qmax, q, out=self.qmax)
         beyond = np.maximum(self.lower - q, q - self.upper)
         over = beyond > self.tolerance
-        if over.any():
+        if np.count_nonzero(over):
             self.violations += over
-        np.maximum(self.excess, beyond, out=self.excess)
         self.step = ctx.step
         if ctx.step % self.every == 0:
             self._sample(ctx.step, ctx.sim_time_ns)
@@ -196,6 +202,7 @@ class _Observer:
         return []
 
     def limits(self) -> tuple[JointLimitSummary, ...]:
+        excess = self.excess
         return tuple(
             JointLimitSummary(
                 joint,
@@ -203,7 +210,7 @@ class _Observer:
                 None if math.isinf(self.upper[i]) else float(self.upper[i]),
                 float(self.qmin[i]) if self.step else float(self.pos[0][i]),
                 float(self.qmax[i]) if self.step else float(self.pos[0][i]),
-                float(self.excess[i]),
+                float(excess[i]),
                 int(self.violations[i]),
                 float(self.tolerance[i]),
             )
