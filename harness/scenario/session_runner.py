@@ -174,7 +174,8 @@ class _Observer:
         maximum of every step's ``max(lower - q, q - upper)`` is, from the range seen (a
         rounded difference is monotonic in ``q``: the same bits, without a pass per step)."""
         beyond = np.maximum(self.lower - self.qmin, self.qmax - self.upper)
-        return np.maximum(np.zeros(len(self.joints)), beyond)
+        excess: F64 = np.maximum(np.zeros(len(self.joints)), beyond)
+        return excess
 
     def _sample(self, step: int, sim_time_ns: int) -> None:
         data = self._sim.data
