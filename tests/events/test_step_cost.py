@@ -263,3 +263,70 @@ def test_quiet_periodic_topics_are_counted_without_a_recorder() -> None:
     assert counts.count(js) > 0
     assert counts.count("/tf") > 0
     core.finish()
+
+
+PUSHED = """
+name: pushed
+environment: {map: table}
+robots:
+  - robot: demo
+    name: arm
+    modes:
+      - {type: JointController, mode: effort}
+duration: 0.6
+seed: 0
+clock: {mode: lockstep}
+recording: {enabled: false}
+script:
+  - {at: 0.0, efforts: {joint4: 80.0, joint6: -12.0, joint2: 80.0, finger_joint1: 60.0}}
+  - {at: 0.3, efforts: {joint4: -80.0, joint6: 12.0, joint2: -80.0}}
+"""
+
+
+class _Fold:
+    """Every step's ``max(lower - q, q - upper)`` folded with a maximum from 0, per joint."""
+
+    name = "fold"
+    period_ns = 0
+
+    def __init__(self, session: object) -> None:
+        sim = session.sim  # type: ignore[attr-defined]
+        model = sim.model
+        ids = [model.joint(j).id for j in sim.joint_names]
+        self.qadr = np.array([model.jnt_qposadr[i] for i in ids])
+        ranges = np.asarray(model.jnt_range)[ids]
+        limited = np.array([bool(model.jnt_limited[i]) for i in ids])
+        self.lower = np.where(limited, ranges[:, 0], -np.inf)
+        self.upper = np.where(limited, ranges[:, 1], np.inf)
+        self.excess = np.zeros(len(ids))
+
+    def observe(self, ctx: StepContext) -> list[object]:
+        q = ctx.data.qpos[self.qadr]
+        np.maximum(self.excess, np.maximum(self.lower - q, q - self.upper), out=self.excess)
+        return []
+
+    def finish(self, ctx: StepContext) -> list[object]:
+        return []
+
+
+def test_runner_max_excess_is_the_per_step_maximum(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The scenario runner's max excess per joint (from the range each joint reached) is the
+    maximum of every step's excess, bit for bit, with joints driven past their limits."""
+    import dataclasses
+
+    from harness.scenario import iteration_specs, load_run_file, session_iteration_runner
+
+    file = tmp_path / "pushed.yaml"
+    file.write_text(PUSHED, encoding="utf-8")
+    spec = iteration_specs(load_run_file(file), tmp_path)[0]
+    folds: list[_Fold] = []
+
+    def fold(session: object) -> _Fold:
+        folds.append(_Fold(session))
+        return folds[-1]
+
+    runner = dataclasses.replace(session_iteration_runner(), watchers=(fold,))
+    result = runner(spec)
+    got = [j.max_excess for j in result.joint_limits]
+    assert got == folds[0].excess.tolist()
+    assert sum(e > 0.01 for e in got) >= 3  # several joints well past a limit
