@@ -128,14 +128,16 @@ class ClearanceLogger:
             return []
         bound = self._bounds.lower(ctx.data.geom_xpos)
         best = self.minimum.distance
-        near = np.flatnonzero(bound < best)
+        # a bound <= 0 may hide an overlap (not a lower bound then): measured below a best
+        # <= 0; with best > 0 it is below best anyway
+        near = np.flatnonzero((bound < best) | (bound <= 0.0) if best <= 0.0 else bound < best)
         if not near.size:
             return []
         if near.size > 1:
             near = near[np.argsort(bound[near], kind="stable")]
         model, data = ctx.model, ctx.data
         for i in near.tolist():
-            if bound[i] >= best:
+            if bound[i] >= best and bound[i] > 0.0:
                 break
             ga, gb = int(pairs[i, 0]), int(pairs[i, 1])
             d = mujoco.mj_geomDistance(model, data, ga, gb, best, None)
@@ -179,6 +181,7 @@ def _ignored(a: tuple[str, str], b: tuple[str, str], patterns: list[tuple[str, s
 
 
 _PLANE_DEPTH = 1e4  # metres: a plane bounds the half-space below it, as a box this deep
+_NO_BOUND = np.zeros(0)
 
 
 class _Bounds:
@@ -187,8 +190,9 @@ class _Bounds:
     A pair whose other geom is fixed in the world (welded to it, not mocap) is bounded by the
     distance from the robot geom's bounding sphere to the other geom's bounding box (MuJoCo's
     ``geom_aabb`` in the geom's frame; a plane: the half-space below it), read once; other
-    pairs by their two bounding spheres (0 radius, a plane: unbounded). A bound is a true
-    lower bound of the distance, or ``-inf`` (always measured) where the volumes may overlap.
+    pairs by their two bounding spheres (0 radius, a plane: unbounded: ``-inf``). A positive
+    bound is a true lower bound of the distance; one <= 0 says the volumes may overlap (an
+    overlap's depth is not bounded: such a pair is measured whatever the minimum).
     """
 
     def __init__(
@@ -198,6 +202,7 @@ class _Bounds:
         pairs: npt.NDArray[np.intp],
     ) -> None:
         self._n = len(pairs)
+        self._all_fixed = False
         if model is None or data is None or not self._n:
             self._fixed = self._moving = np.zeros(0, dtype=np.intp)
             return
@@ -209,6 +214,7 @@ class _Bounds:
         )
         self._fixed = np.flatnonzero(fixed)
         self._moving = np.flatnonzero(~fixed)
+        self._all_fixed = not self._moving.size
         f = self._fixed
         self._fa = a[f]
         self._fr = rbound[a[f]]
@@ -231,14 +237,15 @@ class _Bounds:
 
     def lower(self, xpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Per pair: a lower bound of its distance now (``xpos``: ``data.geom_xpos``)."""
-        bound = np.empty(self._n)
+        bound = _NO_BOUND if self._all_fixed else np.empty(self._n)
         if self._fixed.size:
             d = xpos[self._fa] - self._center
             q = np.abs(np.einsum("ki,kij->kj", d, self._rot))  # |R^T d|, row by row
             q -= self._half
             np.maximum(q, 0.0, out=q)
             gap = np.sqrt(np.einsum("ki,ki->k", q, q)) - self._fr
-            gap[gap <= 0.0] = -np.inf  # the volumes may overlap: measure
+            if self._all_fixed:
+                return gap
             bound[self._fixed] = gap
         if self._moving.size:
             gap = np.linalg.norm(xpos[self._ma] - xpos[self._mb], axis=1) - self._mr

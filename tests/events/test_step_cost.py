@@ -223,8 +223,9 @@ ARM = """
 
 
 def test_clearance_broad_phase_is_a_lower_bound_and_keeps_the_exhaustive_minimum() -> None:
-    """Every step: the broad phase's bound of each pair is at most its exact distance, and the
-    logger's running minimum is the minimum of every pair measured exactly at every step."""
+    """Every step: the broad phase's positive bound of a pair is at most its exact distance,
+    and the logger's running minimum is the minimum of every pair measured exactly at every
+    step (the arm swings through the post and the table: overlaps too)."""
     model = mujoco.MjModel.from_xml_string(ARM)
     data = mujoco.MjData(model)
     logger = ClearanceLogger(model, robot_bodies=["link1", "link2"], distmax=1.0)
@@ -240,7 +241,8 @@ def test_clearance_broad_phase_is_a_lower_bound_and_keeps_the_exhaustive_minimum
             for a, b in logger._pairs
         ]
         bound = logger._bounds.lower(data.geom_xpos)
-        assert (bound <= np.array(exact) + 1e-12).all(), k
+        positive = bound > 0.0  # the others may overlap: always measured
+        assert (bound[positive] <= np.array(exact)[positive] + 1e-12).all(), k
         exhaustive = min(exhaustive, min(exact))
         assert logger.minimum.distance == pytest.approx(min(exhaustive, 1.0), abs=1e-12), k
     assert logger.minimum.distance < 1.0  # something came within distmax
