@@ -243,7 +243,7 @@ class _Bounds:
             q = np.abs(np.einsum("ki,kij->kj", d, self._rot))  # |R^T d|, row by row
             q -= self._half
             np.maximum(q, 0.0, out=q)
-            gap = np.sqrt(np.einsum("ki,ki->k", q, q)) - self._fr
+            gap: npt.NDArray[np.float64] = np.sqrt(np.einsum("ki,ki->k", q, q)) - self._fr
             if self._all_fixed:
                 return gap
             bound[self._fixed] = gap
