@@ -56,15 +56,13 @@ def extract_contacts(model: mujoco.MjModel, data: mujoco.MjData) -> ContactSet:
     if n == 0:
         return ContactSet.empty()
     contact = data.contact
-    geoms = contact.geom
-    geom1 = geoms[:, 0].astype(np.int32)  # copies: data's arrays change at the next step
-    geom2 = geoms[:, 1].astype(np.int32)
-    bodies = model.geom_bodyid
+    geoms = contact.geom.T.astype(np.int32, order="C")  # a copy: data changes next step
+    bodies = model.geom_bodyid[geoms]  # both sides in one pass: rows are contiguous views
     return ContactSet(
-        geom1=geom1,
-        geom2=geom2,
-        body1=bodies[geom1],
-        body2=bodies[geom2],
+        geom1=geoms[0],
+        geom2=geoms[1],
+        body1=bodies[0],
+        body2=bodies[1],
         depth=-contact.dist,
         normal_force=normal_forces(model, data, contact.efc_address),
         position=contact.pos.copy(),
