@@ -138,6 +138,7 @@ class _Observer:
         self._qadr = np.array([model.jnt_qposadr[i] for i in ids], dtype=np.intp)
         self._qat = index_of(self._qadr)
         self._dadr = np.array([model.jnt_dofadr[i] for i in ids], dtype=np.intp)
+        self._dat = index_of(self._dadr)
         limited = np.array([bool(model.jnt_limited[i]) for i in ids], dtype=bool)
         ranges = np.asarray(model.jnt_range)[ids].reshape(-1, 2)
         self.lower = np.where(limited, ranges[:, 0], -np.inf)
@@ -180,8 +181,8 @@ class _Observer:
     def _sample(self, step: int, sim_time_ns: int) -> None:
         data = self._sim.data
         self.time.append(sim_time_ns / 1e9)
-        self.pos.append(data.qpos[self._qadr].copy())
-        self.vel.append(data.qvel[self._dadr].copy())
+        self.pos.append(data.qpos[self._qat].copy())  # a view's copy: one pass
+        self.vel.append(data.qvel[self._dat].copy())
         self.cmd.append(np.where(self._commanded, self._sim.joint_commands(), np.nan))
 
     def observe(self, ctx: StepContext) -> list[Event]:
