@@ -1,17 +1,35 @@
-"""Logger overhead per step with 0, 10 and 100 active contacts, against the bare step.
+"""Logger overhead per step with 0, 10 and 100 active contacts, against the bare step; the
+per-step cost of a scenario run against the bare step.
 
 The scene: N spheres resting on a plane (one contact each; N = 0 keeps one sphere in the air),
 settled first. Measured in the same run: a raw ``mj_step`` loop of the same model (the limit),
 and ``mj_step`` + ``extract_contacts`` + ``EventHub.observe`` with a CollisionLogger (every
 step), a JointLimitLogger (every step) and a JointLogger at 100 Hz into a collecting sink.
+
+The scenario run: ``tests/explore/data/sweep.yaml`` (the demo arm's scripted sweep past a post,
+1.5 s at 2 ms: 750 steps) as ``harness explore`` runs an example: the product's iteration
+runner with whole spans per step request, its loggers (collisions, joint limits, the
+runner's observer) and a clearance logger, recording off and on. Per step: the time between
+two consecutive steps' observations on the session's thread (everything a step costs: the
+controllers, ``mj_step``, the loggers, recording, publishing, the session loop), as the
+thread's CPU time (steady on a loaded machine), best of the runs, against a raw ``mj_step``
+loop of the same compiled model in the same run (CPU time too).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
 import mujoco
+import yaml
 from common import Row, best_of
 
 from harness.events import (
+    ClearanceLogger,
     CollectingSink,
     CollisionLogger,
     EventHub,
@@ -19,6 +37,7 @@ from harness.events import (
     JointLogger,
     StepContext,
 )
+from harness.scenario import iteration_specs, load_run_file, session_iteration_runner
 from harness.sim.contacts import extract_contacts
 
 
@@ -73,6 +92,76 @@ def measure(n: int, steps: int, repeats: int) -> tuple[float, float, int]:
     return t_bare * 1e6, t_logged * 1e6, ncon
 
 
+SWEEP = Path(__file__).resolve().parents[1] / "tests" / "explore" / "data" / "sweep.yaml"
+STEP_TARGET_US = 20.0
+"""Issue 36: a scenario run's Python per step (over ``mj_step``) when nothing changes."""
+
+
+class _Clock:
+    """A logger noting the session thread's CPU time at every observed step (emits nothing)."""
+
+    name = "bench-clock"
+    period_ns = 0
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+
+    def observe(self, ctx: StepContext) -> list[Any]:
+        self.times.append(time.thread_time())  # the session thread's CPU: steady under load
+        return []
+
+    def finish(self, ctx: StepContext) -> list[Any]:
+        return []
+
+
+def scenario_step(record: bool, repeats: int) -> tuple[float, float, int]:
+    """Per-step seconds of the sweep scenario's run (see the module docstring) and of a raw
+    ``mj_step`` loop of its model, best of ``repeats``, and the steps per run."""
+    data = yaml.safe_load(SWEEP.read_text(encoding="utf-8"))
+    data.pop("explore", None)
+    if not record:
+        data["recording"] = {"enabled": False}
+    clocks: list[_Clock] = []
+    models: list[mujoco.MjModel] = []
+
+    def clearance(session: Any) -> ClearanceLogger:
+        model = session.model
+        models.append(model)
+        links = [v.mujoco_name(k.name) for v in session.world.robots for k in v.description.links]
+        bodies = [b for b in links if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b) > 0]
+        return ClearanceLogger(model, robot_bodies=bodies, ignore=[("*", "box")], distmax=1.0)
+
+    def clock(session: Any) -> _Clock:
+        clocks.append(_Clock())
+        return clocks[-1]
+
+    runner = dataclasses.replace(
+        session_iteration_runner(), chunk=1_000_000, watchers=(clearance, clock)
+    )
+    best = float("inf")
+    with tempfile.TemporaryDirectory() as tmp:
+        file = Path(tmp) / "sweep.yaml"
+        file.write_text(yaml.safe_dump(data), encoding="utf-8")
+        spec = iteration_specs(load_run_file(file), Path(tmp))[0]
+        for _ in range(repeats):
+            clocks.clear()
+            runner(spec)
+            times = clocks[0].times
+            best = min(best, (times[-1] - times[0]) / (len(times) - 1))
+    steps = len(times)
+    model = models[0]
+    raw = mujoco.MjData(model)
+
+    bare = float("inf")
+    for _ in range(repeats):
+        mujoco.mj_resetData(model, raw)
+        start = time.thread_time()
+        for _ in range(steps):
+            mujoco.mj_step(model, raw)
+        bare = min(bare, time.thread_time() - start)
+    return best, bare / steps, steps
+
+
 MIN_RATIO = 0.1
 """The bare step of the same scene over the step with every logger (measured 0.14-0.34 on a
 loaded 2-core machine): with every logger a step may cost at most 10x the bare step."""
@@ -94,6 +183,23 @@ def run(quick: bool) -> list[Row]:
                 passed=bare_us / logged_us >= MIN_RATIO,
                 higher_is_better=False,
                 note=f"overhead {overhead:.1f} us/step",
+            )
+        )
+    for record in (False, True):
+        ours, bare, steps = scenario_step(record, 3 if quick else 7)
+        python_us = (ours - bare) * 1e6
+        rows.append(
+            Row(
+                name="events: scenario run per step (sweep), recording "
+                + ("on" if record else "off"),
+                ours=ours * 1e6,
+                limit=bare * 1e6,
+                unit="us",
+                target=f"<= {STEP_TARGET_US:.0f} us over mj_step (report)",
+                passed=True,
+                higher_is_better=False,
+                note=f"{steps} steps; the run's own per step beyond mj_step: {python_us:.0f} us "
+                "(controllers, loggers incl. clearance, recording, publishing)",
             )
         )
     return rows

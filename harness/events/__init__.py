@@ -32,6 +32,7 @@ from harness.events.events import (
 from harness.events.joints import (
     JointLimitLogger,
     JointLogger,
+    index_of,
     solver_limit_tolerance,
     velocity_limits,
 )
@@ -80,6 +81,7 @@ __all__ = [
     "VelocityLimitExceeded",
     "available_sinks",
     "create_sink",
+    "index_of",
     "logging_config_from_scene",
     "period_ns_from_hz",
     "solver_limit_tolerance",

@@ -105,8 +105,8 @@ class ClearanceLogger:
             )
         ]
         self._pairs: npt.NDArray[np.intp] = np.array(pairs, dtype=np.intp).reshape(-1, 2)
-        self._rbound = np.asarray(model.geom_rbound, dtype=np.float64)
         self._started = False
+        self._bounds = _Bounds(None, None, self._pairs)
         self.minimum = Clearance(self.distmax, -1, "", "")
         """The smallest clearance so far (see :class:`Clearance`)."""
 
@@ -122,23 +122,28 @@ class ClearanceLogger:
         """Measure this step's clearance (no events)."""
         if not self._started:
             self._drop_resting(ctx)
+            self._bounds = _Bounds(ctx.model, ctx.data, self._pairs)
         pairs = self._pairs
         if not len(pairs):
             return []
-        xpos = ctx.data.geom_xpos
-        a, b = pairs[:, 0], pairs[:, 1]
-        rb_a, rb_b = self._rbound[a], self._rbound[b]
-        bound = np.linalg.norm(xpos[a] - xpos[b], axis=1) - rb_a - rb_b
-        bound[(rb_a == 0) | (rb_b == 0)] = -np.inf  # planes: unbounded, always measured
+        bound = self._bounds.lower(ctx.data.geom_xpos)
         best = self.minimum.distance
-        for i in np.argsort(bound, kind="stable"):
-            if bound[i] >= best:
+        # a bound <= 0 may hide an overlap (not a lower bound then): measured below a best
+        # <= 0; with best > 0 it is below best anyway
+        near = np.flatnonzero((bound < best) | (bound <= 0.0) if best <= 0.0 else bound < best)
+        if not near.size:
+            return []
+        if near.size > 1:
+            near = near[np.argsort(bound[near], kind="stable")]
+        model, data = ctx.model, ctx.data
+        for i in near.tolist():
+            if bound[i] >= best and bound[i] > 0.0:
                 break
-            ga, gb = int(a[i]), int(b[i])
-            d = mujoco.mj_geomDistance(ctx.model, ctx.data, ga, gb, best, None)
+            ga, gb = int(pairs[i, 0]), int(pairs[i, 1])
+            d = mujoco.mj_geomDistance(model, data, ga, gb, best, None)
             if d < best:
                 best = d
-                body = ctx.model.geom_bodyid
+                body = model.geom_bodyid
                 self.minimum = Clearance(
                     float(d),
                     ctx.step,
@@ -173,3 +178,78 @@ def _ignored(a: tuple[str, str], b: tuple[str, str], patterns: list[tuple[str, s
     return any(
         (match(a, pa) and match(b, pb)) or (match(a, pb) and match(b, pa)) for pa, pb in patterns
     )
+
+
+_PLANE_DEPTH = 1e4  # metres: a plane bounds the half-space below it, as a box this deep
+_NO_BOUND = np.zeros(0)
+
+
+class _Bounds:
+    """Lower bounds of the pairs' distances from geom poses (the broad phase).
+
+    A pair whose other geom is fixed in the world (welded to it, not mocap) is bounded by the
+    distance from the robot geom's bounding sphere to the other geom's bounding box (MuJoCo's
+    ``geom_aabb`` in the geom's frame; a plane: the half-space below it), read once; other
+    pairs by their two bounding spheres (0 radius, a plane: unbounded: ``-inf``). A positive
+    bound is a true lower bound of the distance; one <= 0 says the volumes may overlap (an
+    overlap's depth is not bounded: such a pair is measured whatever the minimum).
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel | None,
+        data: mujoco.MjData | None,
+        pairs: npt.NDArray[np.intp],
+    ) -> None:
+        self._n = len(pairs)
+        self._all_fixed = False
+        if model is None or data is None or not self._n:
+            self._fixed = self._moving = np.zeros(0, dtype=np.intp)
+            return
+        a, b = pairs[:, 0], pairs[:, 1]
+        rbound = np.asarray(model.geom_rbound, dtype=np.float64)
+        body = np.asarray(model.geom_bodyid)
+        fixed = (np.asarray(model.body_weldid)[body[b]] == 0) & (
+            np.asarray(model.body_mocapid)[body[b]] < 0
+        )
+        self._fixed = np.flatnonzero(fixed)
+        self._moving = np.flatnonzero(~fixed)
+        self._all_fixed = not self._moving.size
+        f = self._fixed
+        self._fa = a[f]
+        self._fr = rbound[a[f]]
+        gb = b[f]
+        rot = np.asarray(data.geom_xmat)[gb].reshape(-1, 3, 3)
+        aabb = np.asarray(model.geom_aabb)[gb].reshape(-1, 6)
+        center, half = aabb[:, :3].copy(), aabb[:, 3:].copy()
+        plane = np.asarray(model.geom_type)[gb] == mujoco.mjtGeom.mjGEOM_PLANE
+        center[plane] = (0.0, 0.0, -_PLANE_DEPTH)
+        half[plane] = (np.inf, np.inf, _PLANE_DEPTH)
+        self._rot = rot
+        self._center = np.asarray(data.geom_xpos)[gb] + np.einsum("kij,kj->ki", rot, center)
+        self._half = half
+        m = self._moving
+        self._ma, self._mb = a[m], b[m]
+        ra, rb = rbound[a[m]], rbound[b[m]]
+        self._mr = ra + rb
+        self._unbounded = (ra == 0) | (rb == 0)  # planes: unbounded, always measured
+        self._any_unbounded = bool(self._unbounded.any())
+
+    def lower(self, xpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Per pair: a lower bound of its distance now (``xpos``: ``data.geom_xpos``)."""
+        bound = _NO_BOUND if self._all_fixed else np.empty(self._n)
+        if self._fixed.size:
+            d = xpos[self._fa] - self._center
+            q = np.abs(np.einsum("ki,kij->kj", d, self._rot))  # |R^T d|, row by row
+            q -= self._half
+            np.maximum(q, 0.0, out=q)
+            gap: npt.NDArray[np.float64] = np.sqrt(np.einsum("ki,ki->k", q, q)) - self._fr
+            if self._all_fixed:
+                return gap
+            bound[self._fixed] = gap
+        if self._moving.size:
+            gap = np.linalg.norm(xpos[self._ma] - xpos[self._mb], axis=1) - self._mr
+            if self._any_unbounded:
+                gap[self._unbounded] = -np.inf
+            bound[self._moving] = gap
+        return bound

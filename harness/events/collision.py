@@ -176,20 +176,20 @@ class CollisionLogger:
             self._support.learn_floors(contacts)  # the first step observed: what it rests on
         if contacts.size == 0:
             return
+        tracker = self._tracker
+        if self._not_support.issuperset(tracker.open_keys()):
+            return  # every open pair is known not to be support: nothing to learn
         touching = (contacts.depth >= 0.0) | (contacts.normal_force > 0.0)
-        if self._support is None:
-            support = np.zeros(contacts.size, dtype=bool)
-        else:
-            support = self._support.support(contacts)
-        index = np.flatnonzero(touching & ~support)
+        if self._support is not None:
+            touching &= ~self._support.support(contacts)
+        index = np.flatnonzero(touching)
         if index.size == 0:
             return
         b1 = contacts.body1[index].tolist()
         b2 = contacts.body2[index].tolist()
-        open_pairs = self._tracker.open_pairs
         for a, b in zip(b1, b2, strict=True):
             key = (a, b) if a <= b else (b, a)
-            if key in open_pairs:
+            if tracker.is_open(key):
                 self._not_support.add(key)
 
     def _is_support(self, t: CollisionTransition) -> bool:

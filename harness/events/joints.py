@@ -23,6 +23,7 @@ from harness.models import RobotModel
 __all__ = [
     "JointLimitLogger",
     "JointLogger",
+    "index_of",
     "scalar_joints",
     "solver_limit_tolerance",
     "velocity_limits",
@@ -63,6 +64,15 @@ def velocity_limits(robot: RobotModel) -> dict[str, float]:
         for j in robot.joints
         if j.limits.velocity is not None and j.limits.velocity > 0
     }
+
+
+def index_of(addresses: npt.NDArray[np.integer]) -> slice | npt.NDArray[np.intp]:
+    """``addresses`` as a slice when they are consecutive (a view reads the same values
+    without a gather), else as an index array."""
+    adr = np.asarray(addresses, dtype=np.intp)
+    if adr.size and bool((np.diff(adr) == 1).all()):
+        return slice(int(adr[0]), int(adr[-1]) + 1)
+    return adr
 
 
 def _joint_ids(model: mujoco.MjModel, joints: Sequence[str] | None, who: str) -> list[int]:
@@ -237,6 +247,7 @@ class JointLimitLogger:
         limited = [j for j in ids if bool(model.jnt_limited[j])]
         self._pos = _Watch(tuple(model.joint(j).name for j in limited))
         self._pos_adr = np.asarray(model.jnt_qposadr)[limited]
+        self._pos_at: slice | npt.NDArray[np.intp] = index_of(self._pos_adr)
         ranges = np.asarray(model.jnt_range)[limited].reshape(-1, 2)
         self._lower = ranges[:, 0].copy()
         self._upper = ranges[:, 1].copy()
@@ -256,6 +267,7 @@ class JointLimitLogger:
         vel_ids = [j for j, n in zip(ids, names, strict=True) if n in vel]
         self._vel = _Watch(tuple(model.joint(j).name for j in vel_ids))
         self._vel_dof = np.asarray(model.jnt_dofadr)[vel_ids]
+        self._vel_at: slice | npt.NDArray[np.intp] = index_of(self._vel_dof)
         self._vel_limit = np.array([vel[model.joint(j).name] for j in vel_ids], dtype=float)
 
     @property
@@ -271,18 +283,23 @@ class JointLimitLogger:
         """Episodes that ended at this step."""
         out: list[Event] = []
         if self._pos_adr.size:
-            q = ctx.data.qpos[self._pos_adr]
+            q = ctx.data.qpos[self._pos_at]
             above = q - self._upper
             below = self._lower - q
             excess = np.maximum(above, below)
-            limit = np.where(above >= below, self._upper, self._lower)
-            out += self._pos.update(ctx, excess, limit, q, self._pos_tolerance, JointLimitViolation)
+            # within limits and nothing open (the common step): no episode work
+            if self._pos.open or np.count_nonzero(excess > self._pos_tolerance):
+                limit = np.where(above >= below, self._upper, self._lower)
+                out += self._pos.update(
+                    ctx, excess, limit, q, self._pos_tolerance, JointLimitViolation
+                )
         if self._vel_dof.size:
-            v = ctx.data.qvel[self._vel_dof]
+            v = ctx.data.qvel[self._vel_at]
             excess = np.abs(v) - self._vel_limit
-            out += self._vel.update(
-                ctx, excess, self._vel_limit, v, self._vel_tolerance, VelocityLimitExceeded
-            )
+            if self._vel.open or np.count_nonzero(excess > self._vel_tolerance):
+                out += self._vel.update(
+                    ctx, excess, self._vel_limit, v, self._vel_tolerance, VelocityLimitExceeded
+                )
         return out
 
     def finish(self, ctx: StepContext) -> Sequence[Event]:

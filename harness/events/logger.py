@@ -113,6 +113,10 @@ class EventHub:
     def loggers(self) -> tuple[Logger, ...]:
         return tuple(r.logger for r in self._loggers)
 
+    def has_loggers(self) -> bool:
+        """Whether any logger is registered (without building :attr:`loggers`)."""
+        return bool(self._loggers)
+
     @property
     def sinks(self) -> tuple[Sink, ...]:
         return tuple(self._sinks)
@@ -134,8 +138,11 @@ class EventHub:
                 if t < reg.next_due_ns:
                     continue
                 reg.next_due_ns = (t // reg.period_ns + 1) * reg.period_ns
-            out.extend(reg.logger.observe(ctx))
-        self.emit(out)
+            events = reg.logger.observe(ctx)
+            if events:
+                out.extend(events)
+        if out:
+            self.emit(out)
         return out
 
     def finish(self, ctx: StepContext) -> list[Event]:

@@ -93,12 +93,16 @@ class SupportClassifier:
             body
         ]
         self._learnt = False
+        self._last: (
+            tuple[tuple[bytes, bytes], npt.NDArray[np.bool_], npt.NDArray[np.bool_], bool] | None
+        ) = None
 
     def learn_floors(self, contacts: ContactSet) -> None:
         """Once: the world's static geoms the robot rests on in ``contacts`` are floors."""
         if self._learnt:
             return
         self._learnt = True
+        self._last = None
         if contacts.size == 0:
             return
         up, _, other_geom, relevant = self._sides(contacts)
@@ -109,11 +113,31 @@ class SupportClassifier:
         """Per contact: a support contact of the robot (False for every other contact)."""
         if contacts.size == 0:
             return np.zeros(0, dtype=bool)
-        up, robot_geom, other_geom, relevant = self._sides(contacts)
-        found: npt.NDArray[np.bool_] = (
-            relevant & (up >= _COS) & (self.floor[other_geom] | self._geom_rolls[robot_geom])
-        )
+        # What depends on the geoms alone is kept while a step's geoms are the last step's.
+        geoms = (contacts.geom1.tobytes(), contacts.geom2.tobytes())
+        last = self._last
+        if last is None or last[0] != geoms:
+            robot2 = self.robot[contacts.body2]
+            relevant = self._relevant(contacts)
+            g1 = contacts.geom1.astype(np.int64)
+            g2 = contacts.geom2.astype(np.int64)
+            robot_geom = np.where(robot2, g2, g1)
+            other_geom = np.where(robot2, g1, g2)
+            candidate = relevant & (self.floor[other_geom] | self._geom_rolls[robot_geom])
+            last = self._last = (geoms, robot2, candidate, bool(candidate.any()))
+        _, robot2, candidate, any_candidate = last
+        if not any_candidate:
+            return np.zeros(contacts.size, dtype=bool)
+        nz = contacts.normal[:, 2]  # from geom1 to geom2
+        found: npt.NDArray[np.bool_] = candidate & (np.where(robot2, nz, -nz) >= _COS)
         return found
+
+    def _relevant(self, contacts: ContactSet) -> npt.NDArray[np.bool_]:
+        """Per contact: one of a robot body and a non-robot body."""
+        relevant: npt.NDArray[np.bool_] = (
+            self.robot[contacts.body1] & ~self.not_world[contacts.body2]
+        ) | (self.robot[contacts.body2] & ~self.not_world[contacts.body1])
+        return relevant
 
     def _sides(
         self, contacts: ContactSet
@@ -125,11 +149,8 @@ class SupportClassifier:
     ]:
         """The normal's z from the other side to the robot, the robot's and the other geom,
         and whether the contact is one of a robot body and a non-robot body."""
-        robot1 = self.robot[contacts.body1]
         robot2 = self.robot[contacts.body2]
-        relevant = (robot1 & ~self.not_world[contacts.body2]) | (
-            robot2 & ~self.not_world[contacts.body1]
-        )
+        relevant = self._relevant(contacts)
         nz = contacts.normal[:, 2]  # from geom1 to geom2
         up = np.where(robot2, nz, -nz)
         g1 = contacts.geom1.astype(np.int64)

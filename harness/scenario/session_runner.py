@@ -60,6 +60,7 @@ from harness.events import (
     Logger,
     Sink,
     StepContext,
+    index_of,
     solver_limit_tolerance,
     velocity_limits,
 )
@@ -135,7 +136,9 @@ class _Observer:
         self.joints = sim.joint_names
         ids = [model.joint(j).id for j in self.joints]
         self._qadr = np.array([model.jnt_qposadr[i] for i in ids], dtype=np.intp)
+        self._qat = index_of(self._qadr)
         self._dadr = np.array([model.jnt_dofadr[i] for i in ids], dtype=np.intp)
+        self._dat = index_of(self._dadr)
         limited = np.array([bool(model.jnt_limited[i]) for i in ids], dtype=bool)
         ranges = np.asarray(model.jnt_range)[ids].reshape(-1, 2)
         self.lower = np.where(limited, ranges[:, 0], -np.inf)
@@ -156,7 +159,6 @@ class _Observer:
         n = len(self.joints)
         self.qmin = np.full(n, np.inf)
         self.qmax = np.full(n, -np.inf)
-        self.excess = np.zeros(n)
         self.violations = np.zeros(n, dtype=np.int64)
         self.time: list[float] = []
         self.pos: list[F64] = []
@@ -167,22 +169,32 @@ class _Observer:
         self.bases = BaseTracker(session.world, model, sim.data)
         self._sample(sim.step_index, sim.sim_time_ns)
 
+    @property
+    def excess(self) -> F64:
+        """Per joint, the largest excess beyond a limit so far (0 when none): what the
+        maximum of every step's ``max(lower - q, q - upper)`` is, from the range seen (a
+        rounded difference is monotonic in ``q``: the same bits, without a pass per step)."""
+        beyond = np.maximum(self.lower - self.qmin, self.qmax - self.upper)
+        excess: F64 = np.maximum(np.zeros(len(self.joints)), beyond)
+        return excess
+
     def _sample(self, step: int, sim_time_ns: int) -> None:
         data = self._sim.data
         self.time.append(sim_time_ns / 1e9)
-        self.pos.append(data.qpos[self._qadr].copy())
-        self.vel.append(data.qvel[self._dadr].copy())
+        self.pos.append(data.qpos[self._qat].copy())  # a view's copy: one pass
+        self.vel.append(data.qvel[self._dat].copy())
         self.cmd.append(np.where(self._commanded, self._sim.joint_commands(), np.nan))
 
     def observe(self, ctx: StepContext) -> list[Event]:
         mujoco.mj_getState(ctx.model, ctx.data, self._state, self._spec)
-        self.digest.update(self._state.tobytes())
-        q = ctx.data.qpos[self._qadr]
+        self.digest.update(self._state.data)  # its bytes, without a copy
+        q = ctx.data.qpos[self._qat]
         np.minimum(self.qmin, q, out=self.qmin)
         np.maximum(self.qmax, q, out=self.qmax)
         beyond = np.maximum(self.lower - q, q - self.upper)
-        self.violations += beyond > self.tolerance
-        np.maximum(self.excess, beyond, out=self.excess)
+        over = beyond > self.tolerance
+        if np.count_nonzero(over):
+            self.violations += over
         self.step = ctx.step
         if ctx.step % self.every == 0:
             self._sample(ctx.step, ctx.sim_time_ns)
@@ -192,6 +204,7 @@ class _Observer:
         return []
 
     def limits(self) -> tuple[JointLimitSummary, ...]:
+        excess = self.excess
         return tuple(
             JointLimitSummary(
                 joint,
@@ -199,7 +212,7 @@ class _Observer:
                 None if math.isinf(self.upper[i]) else float(self.upper[i]),
                 float(self.qmin[i]) if self.step else float(self.pos[0][i]),
                 float(self.qmax[i]) if self.step else float(self.pos[0][i]),
-                float(self.excess[i]),
+                float(excess[i]),
                 int(self.violations[i]),
                 float(self.tolerance[i]),
             )

@@ -16,7 +16,7 @@ so it always points from ``body1`` to ``body2``.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Set
 from dataclasses import dataclass
 from typing import Literal
 
@@ -39,6 +39,7 @@ __all__ = [
 Vec3 = tuple[float, float, float]
 BoolMatrix = npt.NDArray[np.bool_]
 _SMALL = 48  # contacts up to which grouping runs in plain Python
+_Group = tuple[int, float, float]  # a pair's deepest contact's index, its max force, that depth
 
 
 def subtree_bodies(model: mujoco.MjModel, root: int) -> frozenset[int]:
@@ -195,74 +196,81 @@ class CollisionTracker:
         self.allowed = allowed
         self._allowed_rows: list[list[bool]] | None = None
         self._open: dict[tuple[int, int], _Episode] = {}
-        self._touching: frozenset[tuple[int, int]] = frozenset()
+        self._seen: dict[tuple[int, int], _Group] = {}
 
     @property
     def open_pairs(self) -> frozenset[tuple[int, int]]:
         """Pairs in an episode now (including those within the debounce window)."""
         return frozenset(self._open)
 
+    def is_open(self, key: tuple[int, int]) -> bool:
+        """Whether the pair ``key`` (``body1 < body2``) is in an episode now."""
+        return key in self._open
+
+    def open_keys(self) -> Set[tuple[int, int]]:
+        """The pairs in an episode now, as a live view (no copy: read it before the next
+        :meth:`update`)."""
+        return self._open.keys()
+
     @property
     def touching(self) -> frozenset[tuple[int, int]]:
         """Pairs in contact at the last observed step."""
-        return self._touching
+        return frozenset(self._seen)
 
     def update(
         self, step: int, sim_time_ns: int, contacts: ContactSet
     ) -> list[CollisionTransition]:
-        """Observe one step; returns the ends (first) and begins it causes, each by pair."""
-        if contacts.size == 0 and not self._open:
-            self._touching = frozenset()
+        """Observe one step; returns the ends (first) and begins it causes, each by pair.
+
+        A step whose pairs are the open ones (nothing begins or ends) costs one pass over
+        its contacts and one over its pairs; a pair's deepest contact's pose is read only
+        when its penetration peaks."""
+        opened = self._open
+        if contacts.size == 0 and not opened:
+            self._seen = {}
             return []
         seen = self._group(contacts)
-        self._touching = frozenset(seen)
+        self._seen = seen
         ends: list[CollisionTransition] = []
-        begins: list[CollisionTransition] = []
-        for key in sorted(self._open.keys() - seen.keys()):
-            episode = self._open[key]
-            if episode.absent == 0:
-                episode.end_step = step
-                episode.end_time_ns = sim_time_ns
-            episode.absent += 1
-            if episode.absent >= self.debounce_steps:
-                del self._open[key]
-                ends.append(episode.transition("end", step, sim_time_ns))
-        if seen:
-            rows = [seen[key] for key in sorted(seen)]
-            index = [r[0] for r in rows]
-            depth = contacts.depth[index].tolist()
-            position = contacts.position[index].tolist()
-            normal = contacts.normal[index].tolist()
-            geom1 = contacts.geom1[index].tolist()
-            geom2 = contacts.geom2[index].tolist()
-            body1 = contacts.body1[index].tolist()
-            for j, key in enumerate(sorted(seen)):
-                force = rows[j][1]
-                episode_or_none = self._open.get(key)
-                if episode_or_none is None:
-                    episode = _Episode(key[0], key[1], step, sim_time_ns)
-                    self._open[key] = episode
-                    fresh = True
-                else:
-                    episode = episode_or_none
+        if len(opened) > len(seen) or not opened.keys() <= seen.keys():
+            for key in sorted(opened.keys() - seen.keys()):
+                episode = opened[key]
+                if episode.absent == 0:
+                    episode.end_step = step
+                    episode.end_time_ns = sim_time_ns
+                episode.absent += 1
+                if episode.absent >= self.debounce_steps:
+                    del opened[key]
+                    ends.append(episode.transition("end", step, sim_time_ns))
+        fresh: list[tuple[int, int]] = []
+        for key, (index, force, depth) in seen.items():
+            found = opened.get(key)
+            if found is None:
+                episode = opened[key] = _Episode(key[0], key[1], step, sim_time_ns)
+                fresh.append(key)
+            else:
+                episode = found
+                if episode.absent:
                     episode.absent = 0
                     episode.end_step = episode.end_time_ns = -1
-                    fresh = False
-                if force > episode.force:
-                    episode.force = force
-                if depth[j] > episode.penetration:
-                    episode.penetration = depth[j]
-                    p, n = position[j], normal[j]
-                    episode.position = (p[0], p[1], p[2])
-                    if body1[j] != episode.body1:
-                        episode.geom1, episode.geom2 = geom2[j], geom1[j]
-                        episode.normal = (-n[0], -n[1], -n[2])
-                    else:
-                        episode.geom1, episode.geom2 = geom1[j], geom2[j]
-                        episode.normal = (n[0], n[1], n[2])
-                if fresh:
-                    begins.append(episode.transition("begin", step, sim_time_ns))
-        return ends + begins
+            if force > episode.force:
+                episode.force = force
+            if depth > episode.penetration:
+                episode.penetration = depth
+                p = contacts.position[index].tolist()
+                n = contacts.normal[index].tolist()
+                g1, g2 = int(contacts.geom1[index]), int(contacts.geom2[index])
+                episode.position = (p[0], p[1], p[2])
+                if int(contacts.body1[index]) != episode.body1:
+                    episode.geom1, episode.geom2 = g2, g1
+                    episode.normal = (-n[0], -n[1], -n[2])
+                else:
+                    episode.geom1, episode.geom2 = g1, g2
+                    episode.normal = (n[0], n[1], n[2])
+        if not fresh:
+            return ends
+        fresh.sort()
+        return ends + [opened[key].transition("begin", step, sim_time_ns) for key in fresh]
 
     def finish(self, step: int, sim_time_ns: int) -> list[CollisionTransition]:
         """End every open episode (the run is over); ``at_finish`` is set on each."""
@@ -274,11 +282,12 @@ class CollisionTracker:
                 episode.end_time_ns = sim_time_ns
             out.append(episode.transition("end", step, sim_time_ns, at_finish=True))
         self._open.clear()
-        self._touching = frozenset()
+        self._seen = {}
         return out
 
-    def _group(self, contacts: ContactSet) -> dict[tuple[int, int], tuple[int, float]]:
-        """``{(body1, body2): (index of the deepest counting contact, max normal force)}``."""
+    def _group(self, contacts: ContactSet) -> dict[tuple[int, int], _Group]:
+        """``{(body1, body2): (index of the deepest counting contact, max normal force, its
+        depth)}``; the first of equally deep contacts."""
         if contacts.size == 0:
             return {}
         if contacts.size <= _SMALL:
@@ -298,7 +307,13 @@ class CollisionTracker:
         key = (lo << 32) | hi
         if index.size == 1:
             i = int(index[0])
-            return {(int(lo[0]), int(hi[0])): (i, float(contacts.normal_force[i]))}
+            return {
+                (int(lo[0]), int(hi[0])): (
+                    i,
+                    float(contacts.normal_force[i]),
+                    float(contacts.depth[i]),
+                )
+            }
         order = np.lexsort((-contacts.depth[index], key))
         key_sorted = key[order]
         starts = np.flatnonzero(np.r_[True, key_sorted[1:] != key_sorted[:-1]])
@@ -306,11 +321,17 @@ class CollisionTracker:
         deepest = index[order[starts]]
         keys = key_sorted[starts]
         return {
-            (k >> 32, k & 0xFFFFFFFF): (i, f)
-            for k, i, f in zip(keys.tolist(), deepest.tolist(), force_max.tolist(), strict=True)
+            (k >> 32, k & 0xFFFFFFFF): (i, f, d)
+            for k, i, f, d in zip(
+                keys.tolist(),
+                deepest.tolist(),
+                force_max.tolist(),
+                contacts.depth[deepest].tolist(),
+                strict=True,
+            )
         }
 
-    def _group_small(self, contacts: ContactSet) -> dict[tuple[int, int], tuple[int, float]]:
+    def _group_small(self, contacts: ContactSet) -> dict[tuple[int, int], _Group]:
         # Same result as the array path; plain Python is faster for a few contacts.
         if self.allowed is not None and self._allowed_rows is None:
             self._allowed_rows = self.allowed.tolist()
@@ -318,7 +339,7 @@ class CollisionTracker:
         min_force = self.min_force
         depth = contacts.depth.tolist()
         force = contacts.normal_force.tolist()
-        out: dict[tuple[int, int], list[float]] = {}
+        out: dict[tuple[int, int], _Group] = {}
         for i, (a, b) in enumerate(
             zip(contacts.body1.tolist(), contacts.body2.tolist(), strict=True)
         ):
@@ -330,13 +351,12 @@ class CollisionTracker:
             key = (a, b) if a < b else (b, a)
             best = out.get(key)
             if best is None:
-                out[key] = [i, f, d]
-                continue
-            if d > best[2]:
-                best[0], best[2] = i, d
-            if f > best[1]:
-                best[1] = f
-        return {k: (int(v[0]), v[1]) for k, v in out.items()}
+                out[key] = (i, f, d)
+            elif d > best[2]:
+                out[key] = (i, f if f > best[1] else best[1], d)
+            elif f > best[1]:
+                out[key] = (best[0], f, best[2])
+        return out
 
 
 def near_miss_candidates(model: mujoco.MjModel, allowed: BoolMatrix) -> npt.NDArray[np.int32]:

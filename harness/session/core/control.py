@@ -308,7 +308,8 @@ class _Snapshot(Mapping[str, float]):
         return d
 
     def __getitem__(self, key: str) -> float:
-        return self._get()[key]
+        d = self._dict
+        return (self._get() if d is None else d)[key]
 
     def __iter__(self) -> Iterator[str]:
         return iter(self._get())
@@ -489,9 +490,20 @@ class ControlHost:
             if not due:
                 continue
             state = robot.read_for(due)
+            # one period for all when they share it (uniform: every controller's is the same)
+            shared = robot.period_at(due[0].name, k) if robot.uniform else 0
             for controller in due:
-                period = robot.period_at(controller.name, k)
-                self._apply(robot, controller.update(state, period), controller)
+                period = shared or robot.period_at(controller.name, k)
+                out = controller.update(state, period)
+                if (
+                    out.commands
+                    or out.publications
+                    or out.logs
+                    or out.feedback
+                    or out.results
+                    or out.base is not None
+                ):  # an empty output changes nothing
+                    self._apply(robot, out, controller)
         for robot in self.robots:
             for controller in robot.steps:
                 entry = robot.manager.loaded.get(controller.name)

@@ -377,7 +377,7 @@ class SessionCore:
             applied = sim.last_input
             assert applied is not None
             recorder.write_applied_input(applied)
-        if self.hub.loggers:
+        if self.hub.has_loggers():
             self.hub.observe(StepContext.of(sim, self.robot_name))
         self._after_state()
 
@@ -393,10 +393,16 @@ class SessionCore:
         control = self.control
         paced = control.paces_joint_states
         js_due = bool(self._js_every) and k % self._js_every == 0
+        # nothing records and nobody listens: count the publication, build nothing
+        quiet = self.recorder is None
+        has_subscribers = self.graph.has_subscribers
         if js_due or (paced and self._js_every):
             for channels in self.robots:
                 if paced and not control.joint_states_due(channels, k, js_due):
                     continue  # its joint_state_broadcaster's rate (a named controller set)
+                if quiet and not has_subscribers(channels.topics.joint_states):
+                    self.publish_counts.note(channels.topics.joint_states)
+                    continue
                 # one reading of the joints serves the subscribers' message and the recording
                 arrays = cache(partial(joint_state_arrays, sim, channels))
                 self.publish(
@@ -406,9 +412,17 @@ class SessionCore:
                     recorded=partial(joint_state_record, t, channels, arrays),
                 )
         if self._clock_every and k % self._clock_every == 0:
-            self.publish(CLOCK, TYPE_CLOCK, partial(clock_msg, t), recorded=partial(ClockRecord, t))
+            if quiet and not has_subscribers(CLOCK):
+                self.publish_counts.note(CLOCK)
+            else:
+                self.publish(
+                    CLOCK, TYPE_CLOCK, partial(clock_msg, t), recorded=partial(ClockRecord, t)
+                )
         if self._tf_every and k % self._tf_every == 0:
             for topic, _, tree in self._tf_trees:
+                if quiet and not has_subscribers(topic):
+                    self.publish_counts.note(topic)
+                    continue
                 # one kinematics pass serves the subscribers' message and the recording
                 relative = cache(partial(tree.moving_poses, sim.data.qpos, sim.body_poses))
                 self.publish(
@@ -736,7 +750,7 @@ class SessionCore:
         """End of run: loggers finish, sinks close; returns the sink reports."""
         self.record_frames()
         try:
-            if self.hub.loggers:
+            if self.hub.has_loggers():
                 self.hub.finish(StepContext.of(self.sim, self.robot_name))
             self.record_frames()
         finally:
