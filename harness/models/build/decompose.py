@@ -28,9 +28,18 @@ cannot reach the bound (it gave its most pieces, or the finest threshold missed)
 warning says how far it got.
 
 Results are cached by content (the mesh bytes MuJoCo decodes, its scale, the parameters and
-the CoACD version) in the mesh cache folder (:func:`harness.models.files.meshes.mesh_cache_dir`),
-written atomically, so a world is decomposed once per machine. ``mesh_collision="hull"``
-keeps MuJoCo's convex hull (the behaviour before decomposition).
+the CoACD version: :func:`cache_name`) in the mesh cache folder
+(:func:`harness.models.files.meshes.mesh_cache_dir`), written atomically, so a world or a
+robot is decomposed once per machine. A cold load measures the meshes the cache lacks in
+parallel processes (:func:`workers_for`: at most the CPUs, ``$HARNESS_DECOMPOSE_WORKERS``
+caps them, 1 decomposes in the caller's process), each mesh as the serial run does it, so
+the entries are the same; one :class:`ModelWarning` ("decomposing N meshes of ... (first
+load; cached in ...)") comes before. ``mesh_collision="hull"`` keeps MuJoCo's convex hull
+(the behaviour before decomposition).
+
+A robot's pieces are in its link's body, so contacts, collision events and the
+self-collision exclusions (adjacent links, SRDF pairs: body pairs) are the link's; an
+unnamed collision geom's pieces are named ``<link>#<n>``.
 """
 
 from __future__ import annotations
@@ -40,9 +49,11 @@ import hashlib
 import io
 import json
 import os
+import sys
 import tempfile
+import types
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal, cast
@@ -62,13 +73,16 @@ __all__ = [
     "MAX_DEVIATION",
     "MESH_COLLISION_MODES",
     "THRESHOLDS",
+    "WORKERS_VARIABLE",
     "Decomposition",
     "DecompositionKind",
     "MeshCollision",
+    "cache_name",
     "check_mesh_collision",
     "decompose_mesh",
     "decompose_spec",
     "deviation",
+    "workers_for",
 ]
 
 MeshCollision = Literal["decompose", "hull"]
@@ -101,6 +115,8 @@ _FORMAT = "harness-decompose-2"
 _LEGACY_FORMAT = "harness-decompose-1"
 """Entries before :data:`COACD_OPTIONS` and ``kind``: still read (a recording carries them)."""
 _DECODABLE = frozenset({".obj", ".stl"})
+WORKERS_VARIABLE = "HARNESS_DECOMPOSE_WORKERS"
+"""The environment variable that caps the decomposition processes (1: decompose in this one)."""
 
 
 def check_mesh_collision(value: object, where: str) -> MeshCollision:
@@ -183,6 +199,142 @@ def _load(data: bytes, suffix: str, scale: Sequence[float], where: str) -> Any:
     return loaded
 
 
+@dataclass(frozen=True)
+class _Job:
+    """One mesh file to decompose: its bytes as MuJoCo decodes them, suffix, scale and the
+    place its messages name."""
+
+    data: bytes
+    suffix: str
+    scale: tuple[float, ...]
+    where: str
+
+
+_PARAMS: dict[str, Any] = {
+    "max_deviation": MAX_DEVIATION,
+    "thresholds": THRESHOLDS,
+    "samples": _SAMPLES,
+}
+
+
+def cache_name(data: bytes, suffix: str, scale: Sequence[float] = (1.0, 1.0, 1.0)) -> str:
+    """The cache file name (``decompose-<digest>.npz``) of the mesh file ``data`` scaled by
+    ``scale`` under the current parameters and CoACD version: an entry under another name
+    (made by another version) is not found, and the mesh is decomposed again."""
+    return _cache_name(_FORMAT, {**_PARAMS, "coacd": COACD_OPTIONS}, data, suffix, scale)
+
+
+def _cached(folder: Path, job: _Job) -> Decomposition | None:
+    target = folder / cache_name(job.data, job.suffix, job.scale)
+    cached = _read_cache(target) if target.is_file() else None
+    if cached is None:  # a recording made before CoACD was capped carries the older entry
+        legacy = folder / _cache_name(_LEGACY_FORMAT, _PARAMS, job.data, job.suffix, job.scale)
+        cached = _read_cache(legacy) if legacy.is_file() else None
+    return cached
+
+
+def _store(folder: Path, job: _Job, result: Decomposition) -> Decomposition:
+    target = folder / cache_name(job.data, job.suffix, job.scale)
+    _write_cache(folder, target, result)
+    return result._replace_cache(target.name)
+
+
+def workers_for(jobs: int, workers: int | None = None) -> int:
+    """Processes that decompose ``jobs`` meshes: ``workers`` (else ``$HARNESS_DECOMPOSE_WORKERS``,
+    else the CPUs this process may use), never more than those CPUs nor than ``jobs``."""
+    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
+    available = available or os.cpu_count() or 1
+    if workers is None:
+        text = os.environ.get(WORKERS_VARIABLE, "").strip()
+        try:
+            workers = int(text) if text else available
+        except ValueError:
+            raise ModelStructureError(
+                f"${WORKERS_VARIABLE}: {text!r} is not a number of processes"
+            ) from None
+    return max(1, min(workers, available, jobs))
+
+
+def _decompose_jobs(
+    jobs: Sequence[_Job], folder: Path, *, label: str = "", workers: int | None = None
+) -> list[Decomposition]:
+    """The decompositions of ``jobs``, from the cache where it has them; the others in
+    parallel processes (see the module docstring), each stored in ``folder``. ``label``: what
+    the meshes belong to, for the line before a cold decomposition (none when empty)."""
+    results: list[Decomposition | None] = [_cached(folder, job) for job in jobs]
+    loaded: dict[int, Any] = {}
+    for index, job in enumerate(jobs):
+        if results[index] is not None:
+            continue
+        mesh = _load(job.data, job.suffix, job.scale, job.where)
+        trivial = _trivial(mesh)
+        if trivial is not None:
+            results[index] = _store(folder, job, trivial)
+        else:
+            loaded[index] = mesh
+    if loaded:
+        count = workers_for(len(loaded), workers)
+        if label:
+            warnings.warn(
+                f"decomposing {len(loaded)} mesh{'es' if len(loaded) > 1 else ''} of {label} "
+                f"(first load; cached in {folder}{f', {count} processes' if count > 1 else ''})",
+                ModelWarning,
+                stacklevel=4,
+            )
+        if count == 1:
+            for index, mesh in loaded.items():
+                results[index] = _store(folder, jobs[index], _decompose(mesh))
+        else:
+            for index, result in _in_processes({i: jobs[i] for i in loaded}, count).items():
+                results[index] = _store(folder, jobs[index], result)
+    done = [r for r in results if r is not None]
+    assert len(done) == len(jobs)
+    for job, result in zip(jobs, done, strict=True):
+        if result.deviation > MAX_DEVIATION:
+            warnings.warn(
+                f"{job.where}: convex pieces stay {result.deviation * 1000:.0f} mm from the "
+                f"mesh (bound {MAX_DEVIATION * 1000:.0f} mm) at CoACD threshold "
+                f"{result.threshold:g}",
+                ModelWarning,
+                stacklevel=4,
+            )
+    return done
+
+
+def _in_processes(jobs: dict[int, _Job], count: int) -> dict[int, Decomposition]:
+    """:func:`_decompose_file` of each job in ``count`` spawned processes, the largest
+    meshes first. Spawned, not forked: CoACD's OpenMP runtime and the caller's threads do
+    not survive a fork. The workers start without the caller's ``__main__`` (they need
+    nothing of it): spawn would run a script without the ``if __name__ == "__main__":``
+    guard again in each of them."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    order = sorted(jobs, key=lambda i: -len(jobs[i].data))
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=count, mp_context=context) as pool:
+        with _without_main():  # the processes start as the jobs are submitted
+            futures = {
+                i: pool.submit(_decompose_file, j.data, j.suffix, j.scale, j.where)
+                for i in order
+                for j in (jobs[i],)
+            }
+        return {i: futures[i].result() for i in sorted(jobs)}
+
+
+@contextlib.contextmanager
+def _without_main() -> Iterator[None]:
+    """``sys.modules["__main__"]`` an empty module meanwhile: a process spawned then does not
+    import the caller's main script or module."""
+    main = sys.modules.get("__main__")
+    sys.modules["__main__"] = types.ModuleType("__main__")
+    try:
+        yield
+    finally:
+        if main is not None:
+            sys.modules["__main__"] = main
+
+
 def decompose_mesh(
     data: bytes,
     suffix: str,
@@ -193,29 +345,10 @@ def decompose_mesh(
 ) -> Decomposition:
     """The :class:`Decomposition` of the mesh file ``data`` (``suffix`` ``.obj`` or
     ``.stl``) scaled by ``scale``, from the cache when it has it (see the module docstring)."""
-    params: dict[str, Any] = {
-        "max_deviation": MAX_DEVIATION,
-        "thresholds": THRESHOLDS,
-        "samples": _SAMPLES,
-    }
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
-    target = folder / _cache_name(_FORMAT, {**params, "coacd": COACD_OPTIONS}, data, suffix, scale)
-    cached = _read_cache(target) if target.is_file() else None
-    if cached is None:  # a recording made before CoACD was capped carries the older entry
-        legacy = folder / _cache_name(_LEGACY_FORMAT, params, data, suffix, scale)
-        cached = _read_cache(legacy) if legacy.is_file() else None
-    if cached is None:
-        cached = _decompose(_load(data, suffix, scale, where))
-        _write_cache(folder, target, cached)
-        cached = cached._replace_cache(target.name)
-    if cached.deviation > MAX_DEVIATION:
-        warnings.warn(
-            f"{where}: convex pieces stay {cached.deviation * 1000:.0f} mm from the mesh "
-            f"(bound {MAX_DEVIATION * 1000:.0f} mm) at CoACD threshold {cached.threshold:g}",
-            ModelWarning,
-            stacklevel=3,
-        )
-    return cached
+    job = _Job(data, suffix, tuple(float(s) for s in scale), where)
+    (result,) = _decompose_jobs([job], folder)
+    return result
 
 
 def _cache_name(
@@ -226,16 +359,23 @@ def _cache_name(
     return f"decompose-{digest}.npz"
 
 
+def _trivial(mesh: Any) -> Decomposition | None:
+    """The mesh's :class:`Decomposition` when nothing needs measuring (``convex``: smaller
+    than the bound, or closed and convex), else None."""
+    if float(np.max(mesh.extents)) <= MAX_DEVIATION:
+        return Decomposition((), 0.0, 0.0, kind="convex")
+    if mesh.is_watertight and mesh.volume >= 0.999 * mesh.convex_hull.volume:
+        return Decomposition((), 0.0, 0.0, kind="convex")  # nothing to measure
+    return None
+
+
 def _decompose(mesh: Any) -> Decomposition:
     import trimesh
 
-    extent = float(np.max(mesh.extents))
-    if extent <= MAX_DEVIATION:
-        return Decomposition((), 0.0, 0.0, kind="convex")
-    hull = mesh.convex_hull
-    if mesh.is_watertight and mesh.volume >= 0.999 * hull.volume:
-        return Decomposition((), 0.0, 0.0, kind="convex")  # nothing to measure
-    hull_deviation = deviation([hull], mesh)
+    trivial = _trivial(mesh)
+    if trivial is not None:
+        return trivial
+    hull_deviation = deviation([mesh.convex_hull], mesh)
     if hull_deviation <= MAX_DEVIATION:
         return Decomposition((), hull_deviation, 0.0, kind="hull")
     best: Decomposition | None = None
@@ -249,6 +389,14 @@ def _decompose(mesh: Any) -> Decomposition:
             break  # within the bound, or capped: a finer threshold asks for pieces it cannot have
     assert best is not None
     return best
+
+
+def _decompose_file(
+    data: bytes, suffix: str, scale: tuple[float, ...], where: str
+) -> Decomposition:
+    """:func:`_decompose` of a mesh file (a worker process's job: it reads the file as the
+    serial run does, so the entries are the same)."""
+    return _decompose(_load(data, suffix, scale, where))
 
 
 def _read_cache(path: Path) -> Decomposition | None:
@@ -312,13 +460,17 @@ def decompose_spec(
     mode: MeshCollision = "decompose",
     source: str,
     cache_dir: str | Path | None = None,
+    workers: int | None = None,
 ) -> dict[str, bytes]:
     """Replace each colliding non-convex mesh geom of ``spec`` by convex pieces (see the
-    module docstring); returns the cache files used, as sources
+    module docstring); returns the cache files a rebuild needs, as sources
     (``decomposition/<file>`` -> bytes: a recording attaches them, a rebuild reads them as
-    its cache). ``mode="hull"`` changes nothing. The meshes must be in ``spec.assets`` (as
-    :mod:`harness.models.files.assets` puts them); a mesh given by its vertices, in a format MuJoCo
-    decodes alone (``.msh``) or with a ``refpos``/``refquat`` is left as its hull."""
+    its cache; a closed convex mesh's entry is left out, deciding it again costs a volume).
+    ``mode="hull"`` changes nothing. The meshes must be in ``spec.assets`` (as
+    :mod:`harness.models.files.assets` puts them); a mesh given by its vertices, in a format
+    MuJoCo decodes alone (``.msh``) or with a ``refpos``/``refquat`` is left as its hull.
+    Meshes not in the cache are decomposed in up to ``workers`` processes
+    (:func:`workers_for`), after one :class:`ModelWarning` naming ``source``."""
     mode = check_mesh_collision(mode, source)
     used: dict[str, bytes] = {}
     if mode == "hull":
@@ -328,25 +480,36 @@ def decompose_spec(
         return used
     assets = dict(spec.assets)
     meshes = {mesh.name: mesh for mesh in spec.meshes}
-    pieces_of: dict[str, list[str]] = {}
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
+    jobs: dict[str, _Job] = {}
     for geom in geoms:
         mesh = meshes.get(str(geom.meshname))
-        if mesh is None:
+        if mesh is not None and mesh.name not in jobs:
+            job = _job(mesh, assets, source)
+            if job is not None:
+                jobs[mesh.name] = job
+    decomposed = _decompose_jobs(list(jobs.values()), folder, label=source, workers=workers)
+    results = dict(zip(jobs, decomposed, strict=True))
+    pieces_of: dict[str, list[str]] = {}
+    taken = {str(g.name) for g in spec.geoms if g.name}
+    for geom in geoms:
+        mesh = meshes.get(str(geom.meshname))
+        if mesh is None or mesh.name not in results:
             continue
+        result = results[mesh.name]
         if mesh.name not in pieces_of:
-            pieces_of[mesh.name], cache_file = _piece_meshes(spec, mesh, assets, source, folder)
-            if cache_file:
+            pieces_of[mesh.name] = _add_piece_meshes(spec, mesh, result)
+            if result.cache_file and result.kind != "convex":
                 with contextlib.suppress(OSError):  # removed meanwhile: replay uses model.mjb
-                    used[f"{DECOMPOSITION_FOLDER}/{cache_file}"] = (
-                        folder / cache_file
+                    used[f"{DECOMPOSITION_FOLDER}/{result.cache_file}"] = (
+                        folder / result.cache_file
                     ).read_bytes()
         names = pieces_of[mesh.name]
         if not names:
             continue
         body = geom.parent
         for index, name in enumerate(names):
-            piece = body.add_geom(name=f"{geom.name}#{index}" if geom.name else "")
+            piece = body.add_geom(name=_piece_name(geom, index, taken))
             for attribute in _COPIED:
                 setattr(piece, attribute, getattr(geom, attribute))
             if geom.frame is not None:
@@ -361,21 +524,37 @@ def decompose_spec(
     return used
 
 
-def _piece_meshes(
-    spec: mujoco.MjSpec,
-    mesh: mujoco.MjsMesh,
-    assets: dict[str, bytes],
-    source: str,
-    cache_dir: Path,
-) -> tuple[list[str], str]:
-    """The names of the piece meshes added for ``mesh`` and its cache file's name."""
+def _piece_name(geom: mujoco.MjsGeom, index: int, taken: set[str]) -> str:
+    """A piece's name: ``<geom>#<index>``; of an unnamed geom in a named body (a URDF link's
+    collision) ``<body>#<n>``, unique in the model, so that a contact with it names the link
+    rather than ``geom<id>``; "" for an unnamed geom in the world body."""
+    if geom.name:
+        return f"{geom.name}#{index}"
+    body = geom.parent
+    if not body.name or body.name == "world":
+        return ""
+    number = 0
+    while f"{body.name}#{number}" in taken:
+        number += 1
+    taken.add(f"{body.name}#{number}")
+    return f"{body.name}#{number}"
+
+
+def _job(mesh: mujoco.MjsMesh, assets: dict[str, bytes], source: str) -> _Job | None:
+    """The :class:`_Job` of ``mesh``, or None when it is left as its hull."""
     suffix = Path(str(mesh.file)).suffix.lower()
     data = assets.get(str(mesh.file))
     plain_ref = np.allclose(mesh.refpos, 0.0) and np.allclose(mesh.refquat, [1, 0, 0, 0])
     if data is None or suffix not in _DECODABLE or not plain_ref:
-        return [], ""
+        return None
     where = f'{source}: <mesh name="{mesh.name}">'
-    result = decompose_mesh(data, suffix, tuple(mesh.scale), cache_dir=cache_dir, where=where)
+    return _Job(data, suffix, tuple(float(s) for s in mesh.scale), where)
+
+
+def _add_piece_meshes(
+    spec: mujoco.MjSpec, mesh: mujoco.MjsMesh, result: Decomposition
+) -> list[str]:
+    """The names of the piece meshes added to ``spec`` for ``mesh``."""
     names = []
     for index, (vertices, faces) in enumerate(result.pieces):
         name = f"{mesh.name}#{index}"
@@ -385,4 +564,4 @@ def _piece_meshes(
             userface=faces.reshape(-1).tolist(),
         )
         names.append(name)
-    return names, result.cache_file
+    return names
