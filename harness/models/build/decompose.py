@@ -82,6 +82,7 @@ __all__ = [
     "decompose_mesh",
     "decompose_spec",
     "deviation",
+    "entry_names",
     "workers_for",
 ]
 
@@ -182,8 +183,26 @@ def deviation(pieces: Sequence[Any], mesh: Any) -> float:
     cloud = np.vstack(points)
     _, distance, _ = trimesh.proximity.closest_point(mesh, cloud)  # type: ignore[no-untyped-call]
     if mesh.is_watertight:
-        distance[mesh.contains(cloud)] = 0.0
+        distance[_contains(mesh, cloud)] = 0.0
     return float(distance.max(initial=0.0))
+
+
+_RAY_DIRECTIONS = ((0.4395064455, 0.617598629942, 0.652231566745), (-0.5773, 0.5773, -0.5774))
+"""Ray directions of the inside test: trimesh's default, then another fixed one."""
+
+
+def _contains(mesh: Any, points: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+    """Which ``points`` are inside the closed ``mesh``, deterministically: trimesh's
+    ``contains`` retries an ambiguous ray (one through an edge) in a random direction, so the
+    same pieces measured twice could differ; here each point is tested along two fixed
+    directions (both ways, as trimesh does) and is inside when either test says so (an
+    ambiguous test says outside)."""
+    from trimesh.ray.ray_util import contains_points
+
+    inside = np.zeros(len(points), dtype=bool)
+    for direction in _RAY_DIRECTIONS:
+        inside |= contains_points(mesh.ray, points, check_direction=direction)
+    return inside
 
 
 def _load(data: bytes, suffix: str, scale: Sequence[float], where: str) -> Any:
@@ -262,31 +281,38 @@ def _decompose_jobs(
     parallel processes (see the module docstring), each stored in ``folder``. ``label``: what
     the meshes belong to, for the line before a cold decomposition (none when empty)."""
     results: list[Decomposition | None] = [_cached(folder, job) for job in jobs]
-    loaded: dict[int, Any] = {}
+    pending: dict[str, list[int]] = {}  # cache name -> the jobs of that content
     for index, job in enumerate(jobs):
-        if results[index] is not None:
-            continue
-        mesh = _load(job.data, job.suffix, job.scale, job.where)
-        trivial = _trivial(mesh)
+        if results[index] is None:
+            pending.setdefault(cache_name(job.data, job.suffix, job.scale), []).append(index)
+    todo: list[int] = []  # one job per content that needs measuring
+    for indexes in pending.values():
+        job = jobs[indexes[0]]
+        trivial = _trivial(_load(job.data, job.suffix, job.scale, job.where))
         if trivial is not None:
-            results[index] = _store(folder, job, trivial)
+            stored = _store(folder, job, trivial)
+            for index in indexes:
+                results[index] = stored
         else:
-            loaded[index] = mesh
-    if loaded:
-        count = workers_for(len(loaded), workers)
+            todo.append(indexes[0])
+    if todo:
+        count = workers_for(len(todo), workers)
         if label:
             warnings.warn(
-                f"decomposing {len(loaded)} mesh{'es' if len(loaded) > 1 else ''} of {label} "
+                f"decomposing {len(todo)} mesh{'es' if len(todo) > 1 else ''} of {label} "
                 f"(first load; cached in {folder}{f', {count} processes' if count > 1 else ''})",
                 ModelWarning,
                 stacklevel=4,
             )
-        if count == 1:
-            for index, mesh in loaded.items():
-                results[index] = _store(folder, jobs[index], _decompose(mesh))
+        if count == 1:  # the workers' own function: the same entries either way
+            found = {i: _decompose_file(*_arguments(jobs[i])) for i in todo}
         else:
-            for index, result in _in_processes({i: jobs[i] for i in loaded}, count).items():
-                results[index] = _store(folder, jobs[index], result)
+            found = _in_processes({i: jobs[i] for i in todo}, count)
+        for first, result in found.items():
+            job = jobs[first]
+            stored = _store(folder, job, result)
+            for index in pending[cache_name(job.data, job.suffix, job.scale)]:
+                results[index] = stored
     done = [r for r in results if r is not None]
     assert len(done) == len(jobs)
     for job, result in zip(jobs, done, strict=True):
@@ -314,11 +340,7 @@ def _in_processes(jobs: dict[int, _Job], count: int) -> dict[int, Decomposition]
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=count, mp_context=context) as pool:
         with _without_main():  # the processes start as the jobs are submitted
-            futures = {
-                i: pool.submit(_decompose_file, j.data, j.suffix, j.scale, j.where)
-                for i in order
-                for j in (jobs[i],)
-            }
+            futures = {i: pool.submit(_decompose_file, *_arguments(jobs[i])) for i in order}
         return {i: futures[i].result() for i in sorted(jobs)}
 
 
@@ -389,6 +411,10 @@ def _decompose(mesh: Any) -> Decomposition:
             break  # within the bound, or capped: a finer threshold asks for pieces it cannot have
     assert best is not None
     return best
+
+
+def _arguments(job: _Job) -> tuple[bytes, str, tuple[float, ...], str]:
+    return job.data, job.suffix, job.scale, job.where
 
 
 def _decompose_file(
@@ -522,6 +548,20 @@ def decompose_spec(
         geom.contype = 0
         geom.conaffinity = 0
     return used
+
+
+def entry_names(spec: mujoco.MjSpec, source: str = "model") -> dict[str, str]:
+    """Mesh name -> the cache file name (:func:`cache_name`) :func:`decompose_spec` looks up
+    for each colliding mesh of ``spec`` it would decompose (nothing is measured)."""
+    assets = dict(spec.assets)
+    meshes = {mesh.name: mesh for mesh in spec.meshes}
+    names: dict[str, str] = {}
+    for geom in _colliding_meshes(spec):
+        mesh = meshes.get(str(geom.meshname))
+        job = _job(mesh, assets, source) if mesh is not None else None
+        if mesh is not None and job is not None:
+            names[mesh.name] = cache_name(job.data, job.suffix, job.scale)
+    return names
 
 
 def _piece_name(geom: mujoco.MjsGeom, index: int, taken: set[str]) -> str:
