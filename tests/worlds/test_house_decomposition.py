@@ -29,10 +29,10 @@ def house_path(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def stale_entries(folder: Path, cache: Path) -> str:
-    """"" when the vendored entries in ``folder`` are exactly the names the current code looks
+    """ "" when the vendored entries in ``folder`` are exactly the names the current code looks
     up for the house's colliding meshes, else one line saying what differs and what to do."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ModelWarning)
+        warnings.simplefilter("ignore")  # the textures left out of tests/data
         world = worldfile.load_world_file(HOUSE, cache_dir=cache)
     expected = decompose_module.entry_names(world.spec, str(HOUSE))
     vendored = {p.name for p in folder.glob("decompose-*.npz")}
