@@ -15,7 +15,6 @@ import pytest
 
 from harness.models import RobotSpec, load_world
 from harness.models.build import decompose as decompose_module
-from harness.models.errors import ModelWarning
 from harness.models.sdf import worldfile
 from tests.worlds.realworld import HOUSE_DECOMPOSITION, TB3, TB3_MODELS
 
