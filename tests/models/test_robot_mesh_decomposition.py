@@ -202,7 +202,7 @@ def test_the_recording_carries_the_pieces_and_the_rebuild_never_decomposes(
         raise AssertionError("decomposed again")
 
     monkeypatch.setenv("HARNESS_CACHE_DIR", str(tmp_path / "cache-replay"))
-    monkeypatch.setattr(decompose_module, "_decompose", refuse)
+    monkeypatch.setattr(decompose_module, "_load", refuse)  # no mesh read to be measured
     rebuilt = rebuild_run(rec)
     assert rebuilt.model.ngeom == recorded.ngeom
     assert np.array_equal(rebuilt.model.mesh_vert, recorded.mesh_vert)
@@ -222,7 +222,7 @@ def test_a_cold_load_decomposes_in_processes_as_the_serial_run(
         raise AssertionError("decomposed in the caller's process")
 
     monkeypatch.setenv(decompose_module.WORKERS_VARIABLE, "2")
-    monkeypatch.setattr(decompose_module, "_decompose", refuse)  # the spawned workers' is real
+    monkeypatch.setattr(decompose_module, "_coacd_pieces", refuse)  # the spawned workers' is real
     with pytest.warns(ModelWarning) as caught:
         parallel = load_robot(path, cache_dir=tmp_path / "parallel")
     lines = [str(w.message) for w in caught if "decomposing" in str(w.message)]

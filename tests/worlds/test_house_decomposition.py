@@ -73,7 +73,7 @@ def test_a_load_seeded_with_the_entries_never_decomposes(
     def refuse(*args: object, **kwargs: object) -> object:
         raise AssertionError("decomposed although the vendored entries were seeded")
 
-    monkeypatch.setattr(decompose_module, "_decompose", refuse)
+    monkeypatch.setattr(decompose_module, "_load", refuse)  # no mesh read to be measured
     monkeypatch.setattr(decompose_module, "_in_processes", refuse)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -30,11 +30,12 @@ warning says how far it got.
 Results are cached by content (the mesh bytes MuJoCo decodes, its scale, the parameters and
 the CoACD version: :func:`cache_name`) in the mesh cache folder
 (:func:`harness.models.files.meshes.mesh_cache_dir`), written atomically, so a world or a
-robot is decomposed once per machine. A cold load measures the meshes the cache lacks in
-parallel processes (:func:`workers_for`: at most the CPUs, ``$HARNESS_DECOMPOSE_WORKERS``
-caps them, 1 decomposes in the caller's process), each mesh as the serial run does it, so
-the entries are the same; one :class:`ModelWarning` ("decomposing N meshes of ... (first
-load; cached in ...)") comes before. ``mesh_collision="hull"`` keeps MuJoCo's convex hull
+robot is decomposed once per machine. A cold load measures the meshes the cache lacks (the
+hull check, in the caller's process) and runs CoACD on those that need it in parallel
+processes (:func:`workers_for`: at most the CPUs, ``$HARNESS_DECOMPOSE_WORKERS`` caps them, 1
+keeps it in the caller's process), each mesh as the serial run does it, so the entries are
+the same (the measurement is deterministic); one :class:`ModelWarning` ("decomposing N meshes
+of ... (first load; cached in ...)") comes before CoACD runs. ``mesh_collision="hull"`` keeps MuJoCo's convex hull
 (the behaviour before decomposition).
 
 A robot's pieces are in its link's body, so contacts, collision events and the
@@ -285,12 +286,12 @@ def _decompose_jobs(
     for index, job in enumerate(jobs):
         if results[index] is None:
             pending.setdefault(cache_name(job.data, job.suffix, job.scale), []).append(index)
-    todo: list[int] = []  # one job per content that needs measuring
+    todo: list[int] = []  # one job per content that needs CoACD
     for indexes in pending.values():
         job = jobs[indexes[0]]
-        trivial = _trivial(_load(job.data, job.suffix, job.scale, job.where))
-        if trivial is not None:
-            stored = _store(folder, job, trivial)
+        quick = _without_coacd(_load(job.data, job.suffix, job.scale, job.where))
+        if quick is not None:
+            stored = _store(folder, job, quick)
             for index in indexes:
                 results[index] = stored
         else:
@@ -304,8 +305,8 @@ def _decompose_jobs(
                 ModelWarning,
                 stacklevel=4,
             )
-        if count == 1:  # the workers' own function: the same entries either way
-            found = {i: _decompose_file(*_arguments(jobs[i])) for i in todo}
+        if count == 1:
+            found = {i: _coacd_file(*_arguments(jobs[i])) for i in todo}
         else:
             found = _in_processes({i: jobs[i] for i in todo}, count)
         for first, result in found.items():
@@ -328,7 +329,7 @@ def _decompose_jobs(
 
 
 def _in_processes(jobs: dict[int, _Job], count: int) -> dict[int, Decomposition]:
-    """:func:`_decompose_file` of each job in ``count`` spawned processes, the largest
+    """:func:`_coacd_file` of each job in ``count`` spawned processes, the largest
     meshes first. Spawned, not forked: CoACD's OpenMP runtime and the caller's threads do
     not survive a fork. The workers start without the caller's ``__main__`` (they need
     nothing of it): spawn would run a script without the ``if __name__ == "__main__":``
@@ -340,7 +341,7 @@ def _in_processes(jobs: dict[int, _Job], count: int) -> dict[int, Decomposition]
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=count, mp_context=context) as pool:
         with _without_main():  # the processes start as the jobs are submitted
-            futures = {i: pool.submit(_decompose_file, *_arguments(jobs[i])) for i in order}
+            futures = {i: pool.submit(_coacd_file, *_arguments(jobs[i])) for i in order}
         return {i: futures[i].result() for i in sorted(jobs)}
 
 
@@ -391,15 +392,23 @@ def _trivial(mesh: Any) -> Decomposition | None:
     return None
 
 
-def _decompose(mesh: Any) -> Decomposition:
-    import trimesh
-
+def _without_coacd(mesh: Any) -> Decomposition | None:
+    """The mesh's :class:`Decomposition` when CoACD is not needed (``convex``, or ``hull``:
+    its hull measured within the bound), else None."""
     trivial = _trivial(mesh)
     if trivial is not None:
         return trivial
     hull_deviation = deviation([mesh.convex_hull], mesh)
     if hull_deviation <= MAX_DEVIATION:
         return Decomposition((), hull_deviation, 0.0, kind="hull")
+    return None
+
+
+def _coacd_pieces(mesh: Any) -> Decomposition:
+    """CoACD's pieces of a mesh whose hull misses the bound: the thresholds in turn until the
+    pieces are within it (or CoACD gave its most pieces), the best kept."""
+    import trimesh
+
     best: Decomposition | None = None
     for threshold in THRESHOLDS:
         parts = _run_coacd(np.asarray(mesh.vertices), np.asarray(mesh.faces), threshold)
@@ -413,16 +422,19 @@ def _decompose(mesh: Any) -> Decomposition:
     return best
 
 
+def _decompose(mesh: Any) -> Decomposition:
+    """What ``mesh`` becomes (see :data:`DecompositionKind`)."""
+    return _without_coacd(mesh) or _coacd_pieces(mesh)
+
+
 def _arguments(job: _Job) -> tuple[bytes, str, tuple[float, ...], str]:
     return job.data, job.suffix, job.scale, job.where
 
 
-def _decompose_file(
-    data: bytes, suffix: str, scale: tuple[float, ...], where: str
-) -> Decomposition:
-    """:func:`_decompose` of a mesh file (a worker process's job: it reads the file as the
-    serial run does, so the entries are the same)."""
-    return _decompose(_load(data, suffix, scale, where))
+def _coacd_file(data: bytes, suffix: str, scale: tuple[float, ...], where: str) -> Decomposition:
+    """:func:`_coacd_pieces` of a mesh file: a worker process's job, and the serial run's
+    (the mesh read from its bytes either way, so the entries are the same)."""
+    return _coacd_pieces(_load(data, suffix, scale, where))
 
 
 def _read_cache(path: Path) -> Decomposition | None:
