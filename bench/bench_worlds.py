@@ -7,7 +7,7 @@ same run.
   load's decomposition time and pieces are in the note. ``--quick``: ``turtlebot3_world``
   (one arena wall) instead.
 - Load of a generated arm whose four moving links have concave collision meshes (combs of
-  two to five prongs, made with trimesh) with the cache warm against the same load cold, and
+  four to seven prongs, made with trimesh) with the cache warm against the same load cold, and
   the cold load with the meshes decomposed in parallel processes against one process
   (``$HARNESS_DECOMPOSE_WORKERS=1``): the entries are the same either way.
 - A lockstep session's step rate with the burger's 360-ray lidar (5 Hz) and IMU (200 Hz) in
@@ -83,7 +83,7 @@ def _comb(prongs: int, size: float) -> Any:
 
 
 def _concave_arm(folder: Path) -> Path:
-    """A chain of four revolute links, each a comb (2 to 5 prongs)."""
+    """A chain of four revolute links, each a comb (4 to 7 prongs)."""
     inertial = (
         '<inertial><mass value="1"/>'
         '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>'
@@ -91,7 +91,7 @@ def _concave_arm(folder: Path) -> Path:
     links = [f'<link name="base">{inertial}</link>']
     joints = []
     parent = "base"
-    for number, prongs in enumerate(range(2, 6)):
+    for number, prongs in enumerate(range(4, 8)):
         _comb(prongs, 0.2 + 0.05 * number).export(folder / f"comb{prongs}.stl")
         links.append(
             f'<link name="comb{prongs}">{inertial}<collision><geometry>'

@@ -74,7 +74,7 @@ def test_a_load_seeded_with_the_entries_never_decomposes(
         raise AssertionError("decomposed although the vendored entries were seeded")
 
     monkeypatch.setattr(decompose_module, "_load", refuse)  # no mesh read to be measured
-    monkeypatch.setattr(decompose_module, "_in_processes", refuse)
+    monkeypatch.setattr(decompose_module, "in_processes", refuse)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         world = load_world(

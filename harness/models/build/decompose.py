@@ -34,9 +34,9 @@ robot is decomposed once per machine. A cold load measures the meshes the cache 
 hull check, in the caller's process) and runs CoACD on those that need it in parallel
 processes (:func:`workers_for`: at most the CPUs, ``$HARNESS_DECOMPOSE_WORKERS`` caps them, 1
 keeps it in the caller's process), each mesh as the serial run does it, so the entries are
-the same (the measurement is deterministic); one :class:`ModelWarning` ("decomposing N meshes
-of ... (first load; cached in ...)") comes before CoACD runs. ``mesh_collision="hull"`` keeps MuJoCo's convex hull
-(the behaviour before decomposition).
+the same (the measurement is deterministic); one :class:`ModelWarning` ("decomposing N
+meshes of ... (first load; cached in ...)") comes before CoACD runs. ``mesh_collision="hull"``
+keeps MuJoCo's convex hull (the behaviour before decomposition).
 
 A robot's pieces are in its link's body, so contacts, collision events and the
 self-collision exclusions (adjacent links, SRDF pairs: body pairs) are the link's; an
@@ -50,11 +50,9 @@ import hashlib
 import io
 import json
 import os
-import sys
 import tempfile
-import types
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal, cast
@@ -63,6 +61,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.models.build.workers import WORKERS_VARIABLE, in_processes, workers_for
 from harness.models.errors import MeshError, ModelStructureError, ModelWarning
 from harness.models.files.meshes import mesh_cache_dir
 from harness.vocabulary import MESH_COLLISION_MODES as _MODES
@@ -117,8 +116,6 @@ _FORMAT = "harness-decompose-2"
 _LEGACY_FORMAT = "harness-decompose-1"
 """Entries before :data:`COACD_OPTIONS` and ``kind``: still read (a recording carries them)."""
 _DECODABLE = frozenset({".obj", ".stl"})
-WORKERS_VARIABLE = "HARNESS_DECOMPOSE_WORKERS"
-"""The environment variable that caps the decomposition processes (1: decompose in this one)."""
 
 
 def check_mesh_collision(value: object, where: str) -> MeshCollision:
@@ -259,22 +256,6 @@ def _store(folder: Path, job: _Job, result: Decomposition) -> Decomposition:
     return result._replace_cache(target.name)
 
 
-def workers_for(jobs: int, workers: int | None = None) -> int:
-    """Processes that decompose ``jobs`` meshes: ``workers`` (else ``$HARNESS_DECOMPOSE_WORKERS``,
-    else the CPUs this process may use), never more than those CPUs nor than ``jobs``."""
-    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
-    available = available or os.cpu_count() or 1
-    if workers is None:
-        text = os.environ.get(WORKERS_VARIABLE, "").strip()
-        try:
-            workers = int(text) if text else available
-        except ValueError:
-            raise ModelStructureError(
-                f"${WORKERS_VARIABLE}: {text!r} is not a number of processes"
-            ) from None
-    return max(1, min(workers, available, jobs))
-
-
 def _decompose_jobs(
     jobs: Sequence[_Job], folder: Path, *, label: str = "", workers: int | None = None
 ) -> list[Decomposition]:
@@ -305,10 +286,14 @@ def _decompose_jobs(
                 ModelWarning,
                 stacklevel=4,
             )
-        if count == 1:
-            found = {i: _coacd_file(*_arguments(jobs[i])) for i in todo}
-        else:
-            found = _in_processes({i: jobs[i] for i in todo}, count)
+        found: dict[int, Decomposition] = {}
+        if count > 1:
+            largest = sorted(todo, key=lambda i: -len(jobs[i].data))
+            arguments = {i: _arguments(jobs[i]) for i in largest}
+            found = in_processes(_coacd_file, arguments, count, what="decomposing")
+        for index in todo:  # serial, or what a broken pool left (the same function)
+            if index not in found:
+                found[index] = _coacd_file(*_arguments(jobs[index]))
         for first, result in found.items():
             job = jobs[first]
             stored = _store(folder, job, result)
@@ -326,36 +311,6 @@ def _decompose_jobs(
                 stacklevel=4,
             )
     return done
-
-
-def _in_processes(jobs: dict[int, _Job], count: int) -> dict[int, Decomposition]:
-    """:func:`_coacd_file` of each job in ``count`` spawned processes, the largest
-    meshes first. Spawned, not forked: CoACD's OpenMP runtime and the caller's threads do
-    not survive a fork. The workers start without the caller's ``__main__`` (they need
-    nothing of it): spawn would run a script without the ``if __name__ == "__main__":``
-    guard again in each of them."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    order = sorted(jobs, key=lambda i: -len(jobs[i].data))
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=count, mp_context=context) as pool:
-        with _without_main():  # the processes start as the jobs are submitted
-            futures = {i: pool.submit(_coacd_file, *_arguments(jobs[i])) for i in order}
-        return {i: futures[i].result() for i in sorted(jobs)}
-
-
-@contextlib.contextmanager
-def _without_main() -> Iterator[None]:
-    """``sys.modules["__main__"]`` an empty module meanwhile: a process spawned then does not
-    import the caller's main script or module."""
-    main = sys.modules.get("__main__")
-    sys.modules["__main__"] = types.ModuleType("__main__")
-    try:
-        yield
-    finally:
-        if main is not None:
-            sys.modules["__main__"] = main
 
 
 def decompose_mesh(

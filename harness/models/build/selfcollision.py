@@ -23,8 +23,9 @@ links even under ``"off"``, except adjacent ones, SRDF-disabled ones and the pai
 contact at the initial configuration or in nearly every configuration (``"default"``,
 ``"always"``: in MuJoCo a mesh collides as convex shapes (its hull, or the pieces of
 :mod:`harness.models.build.decompose`, in the link's body: the pairs and exclusions are the
-links'), and such a pair would hold the robot still from the first step; they stay reported); a pair whose links are both false, one
-by its own flag, is ignored (``"link"``). A policy passed as an argument overrides the file,
+links'), and such a pair would hold the robot still from the first step; they stay
+reported); a pair whose links are both false, one by its own flag, is ignored
+(``"link"``). A policy passed as an argument overrides the file,
 these flags included.
 Pairs are computed on the compiled model; results are
 cached in memory by a hash of that model, the robot and the sampling settings. Pairs that are
