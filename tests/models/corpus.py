@@ -100,7 +100,7 @@ def run_corpus(cache: Path) -> list[Row]:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", ModelWarning)
-                robot = load_robot(path, cache_dir=cache)
+                robot = load_robot(path, cache_dir=cache, mesh_collision="hull")
         except HarnessError:
             continue
         loaded += 1
@@ -111,7 +111,9 @@ def run_corpus(cache: Path) -> list[Row]:
     for relative in FLOATING:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
-            robot = load_robot(root / relative, cache_dir=cache, base="floating")
+            robot = load_robot(
+                root / relative, cache_dir=cache, base="floating", mesh_collision="hull"
+            )
         report = check_loaded(
             robot, relative, hold_seconds=0.002, step_response=False, kinematic=False
         )
@@ -122,8 +124,8 @@ def run_corpus(cache: Path) -> list[Row]:
         path = GAZEBO / name / "model.sdf"
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)
-            fixed = load_robot(path, cache_dir=cache, base="fixed")
-            free = load_robot(path, cache_dir=cache)
+            fixed = load_robot(path, cache_dir=cache, base="fixed", mesh_collision="hull")
+            free = load_robot(path, cache_dir=cache, mesh_collision="hull")
         sdf_loaded += 1
         report = check_loaded(fixed, name, step_response=False, kinematic=False)
         sdf_errors.append(report.worst_hold)

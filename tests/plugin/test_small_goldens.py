@@ -13,6 +13,8 @@ import sys
 from pathlib import Path
 
 import pytest
+import trimesh.proximity
+import trimesh.ray.ray_triangle  # noqa: F401  (robots' link meshes are measured: native modules)
 
 # Imported before the inner runs (pytester restores sys.modules after each in-process run;
 # the controller registry must not see its modules imported twice).

@@ -27,6 +27,8 @@ from harness.testing import BridgeTestClient, connect
 DATA = Path(__file__).resolve().parents[1] / "data" / "worlds"
 TB3 = DATA / "turtlebot3"
 TB3_MODELS = TB3 / "models"
+HOUSE_DECOMPOSITION = TB3 / "decomposition"
+"""turtlebot3_house's decomposition cache entries, vendored (see its README.md)."""
 
 
 @dataclass

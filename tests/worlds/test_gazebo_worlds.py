@@ -28,6 +28,7 @@ import pytest
 
 from tests.worlds.realworld import (
     DATA,
+    HOUSE_DECOMPOSITION,
     TB3,
     TB3_MODELS,
     Run,
@@ -79,15 +80,15 @@ HOUSE_SQUARE = ((0.4, 0.0), (0.4, -0.4), (0.0, -0.4), (0.0, 0.0))
 AT_ROOM_WALL = (0.0, -2.2, 0.01, 0.0, 0.0, -0.35)
 WORLD = TB3 / "worlds" / "turtlebot3_world.world"
 HOUSE = TB3 / "worlds" / "turtlebot3_house.world"
-# The house's furniture meshes collide as their hulls here: CoACD took 911 s for the first
-# threshold of trash_can.dae alone on the 2-core test machine (bench_worlds measures the cold
-# load); its walls are boxes.
+# The house's furniture meshes are decomposed as the default has it, from the vendored cache
+# entries (HOUSE_DECOMPOSITION, seeded into a copy of the cache: a cold decomposition takes
+# about two minutes; test_house_decomposition notices when they go stale); its walls are boxes.
 _HOUSE = {"wall_pose": AT_HOUSE_WALL, "wheel": "wheel_left", "square": HOUSE_SQUARE}
 CASES = {
     "world-burger": Case(WORLD, BURGER, LAUNCH_POSE, TB3_MODELS, AT_WORLD_WALL),
     "world-waffle": Case(WORLD, WAFFLE, LAUNCH_POSE, TB3_MODELS, AT_WORLD_WALL),
-    "house-burger": Case(HOUSE, BURGER, LAUNCH_POSE, TB3_MODELS, mesh_collision="hull", **_HOUSE),
-    "house-waffle": Case(HOUSE, WAFFLE, LAUNCH_POSE, TB3_MODELS, mesh_collision="hull", **_HOUSE),
+    "house-burger": Case(HOUSE, BURGER, LAUNCH_POSE, TB3_MODELS, **_HOUSE),
+    "house-waffle": Case(HOUSE, WAFFLE, LAUNCH_POSE, TB3_MODELS, **_HOUSE),
     "fuel-burger": Case(FUEL_WORLD, BURGER, (0.0, -1.0, 0.01), None, AT_ROOM_WALL, fuel=True),
     "classic-burger": Case(
         CLASSIC_WORLD, BURGER, (0.0, -1.0, 0.01), TB3_MODELS / "turtlebot3_house", AT_ROOM_WALL
@@ -95,14 +96,31 @@ CASES = {
 }
 
 
+@pytest.fixture(scope="module")
+def house_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A mesh cache seeded with the house's vendored decomposition (a copy: loads write
+    their converted meshes beside it)."""
+    cache = tmp_path_factory.mktemp("house-cache")
+    for entry in HOUSE_DECOMPOSITION.glob("decompose-*.npz"):
+        shutil.copy(entry, cache / entry.name)
+    return cache
+
+
 @pytest.fixture(params=sorted(CASES))
-def case(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Case:
+def case(
+    request: pytest.FixtureRequest,
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    house_cache: Path,
+) -> Case:
     """The case with its model path set as its launch sets it; the Fuel world's models in a
     fake Fuel cache (gz's layout; Fuel is never downloaded), the ground plane 40 m wide so
-    that its use is visible."""
+    that its use is visible; the house with its vendored decomposition as the mesh cache."""
     for variable in PATH_VARIABLES:
         monkeypatch.delenv(variable, raising=False)
     chosen = CASES[request.param]
+    if chosen.world == HOUSE:
+        monkeypatch.setenv("HARNESS_CACHE_DIR", str(house_cache))
     if chosen.model_path is not None:
         monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(chosen.model_path))
     if chosen.fuel:

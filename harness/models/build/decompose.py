@@ -28,9 +28,19 @@ cannot reach the bound (it gave its most pieces, or the finest threshold missed)
 warning says how far it got.
 
 Results are cached by content (the mesh bytes MuJoCo decodes, its scale, the parameters and
-the CoACD version) in the mesh cache folder (:func:`harness.models.files.meshes.mesh_cache_dir`),
-written atomically, so a world is decomposed once per machine. ``mesh_collision="hull"``
+the CoACD version: :func:`cache_name`) in the mesh cache folder
+(:func:`harness.models.files.meshes.mesh_cache_dir`), written atomically, so a world or a
+robot is decomposed once per machine. A cold load measures the meshes the cache lacks (the
+hull check, in the caller's process) and runs CoACD on those that need it in parallel
+processes (:func:`workers_for`: at most the CPUs, ``$HARNESS_DECOMPOSE_WORKERS`` caps them, 1
+keeps it in the caller's process), each mesh as the serial run does it, so the entries are
+the same (the measurement is deterministic); one :class:`ModelWarning` ("decomposing N
+meshes of ... (first load; cached in ...)") comes before CoACD runs. ``mesh_collision="hull"``
 keeps MuJoCo's convex hull (the behaviour before decomposition).
+
+A robot's pieces are in its link's body, so contacts, collision events and the
+self-collision exclusions (adjacent links, SRDF pairs: body pairs) are the link's; an
+unnamed collision geom's pieces are named ``<link>#<n>``.
 """
 
 from __future__ import annotations
@@ -51,6 +61,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.models.build.workers import WORKERS_VARIABLE, in_processes, workers_for
 from harness.models.errors import MeshError, ModelStructureError, ModelWarning
 from harness.models.files.meshes import mesh_cache_dir
 from harness.vocabulary import MESH_COLLISION_MODES as _MODES
@@ -62,13 +73,17 @@ __all__ = [
     "MAX_DEVIATION",
     "MESH_COLLISION_MODES",
     "THRESHOLDS",
+    "WORKERS_VARIABLE",
     "Decomposition",
     "DecompositionKind",
     "MeshCollision",
+    "cache_name",
     "check_mesh_collision",
     "decompose_mesh",
     "decompose_spec",
     "deviation",
+    "entry_names",
+    "workers_for",
 ]
 
 MeshCollision = Literal["decompose", "hull"]
@@ -166,8 +181,26 @@ def deviation(pieces: Sequence[Any], mesh: Any) -> float:
     cloud = np.vstack(points)
     _, distance, _ = trimesh.proximity.closest_point(mesh, cloud)  # type: ignore[no-untyped-call]
     if mesh.is_watertight:
-        distance[mesh.contains(cloud)] = 0.0
+        distance[_contains(mesh, cloud)] = 0.0
     return float(distance.max(initial=0.0))
+
+
+_RAY_DIRECTIONS = ((0.4395064455, 0.617598629942, 0.652231566745), (-0.5773, 0.5773, -0.5774))
+"""Ray directions of the inside test: trimesh's default, then another fixed one."""
+
+
+def _contains(mesh: Any, points: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+    """Which ``points`` are inside the closed ``mesh``, deterministically: trimesh's
+    ``contains`` retries an ambiguous ray (one through an edge) in a random direction, so the
+    same pieces measured twice could differ; here each point is tested along two fixed
+    directions (both ways, as trimesh does) and is inside when either test says so (an
+    ambiguous test says outside)."""
+    from trimesh.ray.ray_util import contains_points
+
+    inside = np.zeros(len(points), dtype=bool)
+    for direction in _RAY_DIRECTIONS:
+        inside |= contains_points(mesh.ray, points, check_direction=direction)
+    return inside
 
 
 def _load(data: bytes, suffix: str, scale: Sequence[float], where: str) -> Any:
@@ -183,6 +216,103 @@ def _load(data: bytes, suffix: str, scale: Sequence[float], where: str) -> Any:
     return loaded
 
 
+@dataclass(frozen=True)
+class _Job:
+    """One mesh file to decompose: its bytes as MuJoCo decodes them, suffix, scale and the
+    place its messages name."""
+
+    data: bytes
+    suffix: str
+    scale: tuple[float, ...]
+    where: str
+
+
+_PARAMS: dict[str, Any] = {
+    "max_deviation": MAX_DEVIATION,
+    "thresholds": THRESHOLDS,
+    "samples": _SAMPLES,
+}
+
+
+def cache_name(data: bytes, suffix: str, scale: Sequence[float] = (1.0, 1.0, 1.0)) -> str:
+    """The cache file name (``decompose-<digest>.npz``) of the mesh file ``data`` scaled by
+    ``scale`` under the current parameters and CoACD version: an entry under another name
+    (made by another version) is not found, and the mesh is decomposed again."""
+    return _cache_name(_FORMAT, {**_PARAMS, "coacd": COACD_OPTIONS}, data, suffix, scale)
+
+
+def _cached(folder: Path, job: _Job) -> Decomposition | None:
+    target = folder / cache_name(job.data, job.suffix, job.scale)
+    cached = _read_cache(target) if target.is_file() else None
+    if cached is None:  # a recording made before CoACD was capped carries the older entry
+        legacy = folder / _cache_name(_LEGACY_FORMAT, _PARAMS, job.data, job.suffix, job.scale)
+        cached = _read_cache(legacy) if legacy.is_file() else None
+    return cached
+
+
+def _store(folder: Path, job: _Job, result: Decomposition) -> Decomposition:
+    target = folder / cache_name(job.data, job.suffix, job.scale)
+    _write_cache(folder, target, result)
+    return result._replace_cache(target.name)
+
+
+def _decompose_jobs(
+    jobs: Sequence[_Job], folder: Path, *, label: str = "", workers: int | None = None
+) -> list[Decomposition]:
+    """The decompositions of ``jobs``, from the cache where it has them; the others in
+    parallel processes (see the module docstring), each stored in ``folder``. ``label``: what
+    the meshes belong to, for the line before a cold decomposition (none when empty)."""
+    results: list[Decomposition | None] = [_cached(folder, job) for job in jobs]
+    pending: dict[str, list[int]] = {}  # cache name -> the jobs of that content
+    for index, job in enumerate(jobs):
+        if results[index] is None:
+            pending.setdefault(cache_name(job.data, job.suffix, job.scale), []).append(index)
+    todo: list[int] = []  # one job per content that needs CoACD
+    for indexes in pending.values():
+        job = jobs[indexes[0]]
+        quick = _without_coacd(_load(job.data, job.suffix, job.scale, job.where))
+        if quick is not None:
+            stored = _store(folder, job, quick)
+            for index in indexes:
+                results[index] = stored
+        else:
+            todo.append(indexes[0])
+    if todo:
+        count = workers_for(len(todo), workers)
+        if label:
+            warnings.warn(
+                f"decomposing {len(todo)} mesh{'es' if len(todo) > 1 else ''} of {label} "
+                f"(first load; cached in {folder}{f', {count} processes' if count > 1 else ''})",
+                ModelWarning,
+                stacklevel=4,
+            )
+        found: dict[int, Decomposition] = {}
+        if count > 1:
+            largest = sorted(todo, key=lambda i: -len(jobs[i].data))
+            arguments = {i: _arguments(jobs[i]) for i in largest}
+            found = in_processes(_coacd_file, arguments, count, what="decomposing")
+        for index in todo:  # serial, or what a broken pool left (the same function)
+            if index not in found:
+                found[index] = _coacd_file(*_arguments(jobs[index]))
+        for first, result in found.items():
+            job = jobs[first]
+            stored = _store(folder, job, result)
+            for index in pending[cache_name(job.data, job.suffix, job.scale)]:
+                results[index] = stored
+    done = [r for r in results if r is not None]
+    assert len(done) == len(jobs)
+    for job, result in zip(jobs, done, strict=True):
+        if result.deviation > MAX_DEVIATION:
+            warnings.warn(
+                f"{job.where}: convex pieces stay {result.deviation * 1000:.0f} mm from the "
+                f"mesh (bound {MAX_DEVIATION * 1000:.0f} mm) at CoACD threshold "
+                f"{result.threshold:g}",
+                ModelWarning,
+                stacklevel=4,
+            )
+    return done
+
+
 def decompose_mesh(
     data: bytes,
     suffix: str,
@@ -193,29 +323,10 @@ def decompose_mesh(
 ) -> Decomposition:
     """The :class:`Decomposition` of the mesh file ``data`` (``suffix`` ``.obj`` or
     ``.stl``) scaled by ``scale``, from the cache when it has it (see the module docstring)."""
-    params: dict[str, Any] = {
-        "max_deviation": MAX_DEVIATION,
-        "thresholds": THRESHOLDS,
-        "samples": _SAMPLES,
-    }
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
-    target = folder / _cache_name(_FORMAT, {**params, "coacd": COACD_OPTIONS}, data, suffix, scale)
-    cached = _read_cache(target) if target.is_file() else None
-    if cached is None:  # a recording made before CoACD was capped carries the older entry
-        legacy = folder / _cache_name(_LEGACY_FORMAT, params, data, suffix, scale)
-        cached = _read_cache(legacy) if legacy.is_file() else None
-    if cached is None:
-        cached = _decompose(_load(data, suffix, scale, where))
-        _write_cache(folder, target, cached)
-        cached = cached._replace_cache(target.name)
-    if cached.deviation > MAX_DEVIATION:
-        warnings.warn(
-            f"{where}: convex pieces stay {cached.deviation * 1000:.0f} mm from the mesh "
-            f"(bound {MAX_DEVIATION * 1000:.0f} mm) at CoACD threshold {cached.threshold:g}",
-            ModelWarning,
-            stacklevel=3,
-        )
-    return cached
+    job = _Job(data, suffix, tuple(float(s) for s in scale), where)
+    (result,) = _decompose_jobs([job], folder)
+    return result
 
 
 def _cache_name(
@@ -226,18 +337,33 @@ def _cache_name(
     return f"decompose-{digest}.npz"
 
 
-def _decompose(mesh: Any) -> Decomposition:
-    import trimesh
-
-    extent = float(np.max(mesh.extents))
-    if extent <= MAX_DEVIATION:
+def _trivial(mesh: Any) -> Decomposition | None:
+    """The mesh's :class:`Decomposition` when nothing needs measuring (``convex``: smaller
+    than the bound, or closed and convex), else None."""
+    if float(np.max(mesh.extents)) <= MAX_DEVIATION:
         return Decomposition((), 0.0, 0.0, kind="convex")
-    hull = mesh.convex_hull
-    if mesh.is_watertight and mesh.volume >= 0.999 * hull.volume:
+    if mesh.is_watertight and mesh.volume >= 0.999 * mesh.convex_hull.volume:
         return Decomposition((), 0.0, 0.0, kind="convex")  # nothing to measure
-    hull_deviation = deviation([hull], mesh)
+    return None
+
+
+def _without_coacd(mesh: Any) -> Decomposition | None:
+    """The mesh's :class:`Decomposition` when CoACD is not needed (``convex``, or ``hull``:
+    its hull measured within the bound), else None."""
+    trivial = _trivial(mesh)
+    if trivial is not None:
+        return trivial
+    hull_deviation = deviation([mesh.convex_hull], mesh)
     if hull_deviation <= MAX_DEVIATION:
         return Decomposition((), hull_deviation, 0.0, kind="hull")
+    return None
+
+
+def _coacd_pieces(mesh: Any) -> Decomposition:
+    """CoACD's pieces of a mesh whose hull misses the bound: the thresholds in turn until the
+    pieces are within it (or CoACD gave its most pieces), the best kept."""
+    import trimesh
+
     best: Decomposition | None = None
     for threshold in THRESHOLDS:
         parts = _run_coacd(np.asarray(mesh.vertices), np.asarray(mesh.faces), threshold)
@@ -249,6 +375,21 @@ def _decompose(mesh: Any) -> Decomposition:
             break  # within the bound, or capped: a finer threshold asks for pieces it cannot have
     assert best is not None
     return best
+
+
+def _decompose(mesh: Any) -> Decomposition:
+    """What ``mesh`` becomes (see :data:`DecompositionKind`)."""
+    return _without_coacd(mesh) or _coacd_pieces(mesh)
+
+
+def _arguments(job: _Job) -> tuple[bytes, str, tuple[float, ...], str]:
+    return job.data, job.suffix, job.scale, job.where
+
+
+def _coacd_file(data: bytes, suffix: str, scale: tuple[float, ...], where: str) -> Decomposition:
+    """:func:`_coacd_pieces` of a mesh file: a worker process's job, and the serial run's
+    (the mesh read from its bytes either way, so the entries are the same)."""
+    return _coacd_pieces(_load(data, suffix, scale, where))
 
 
 def _read_cache(path: Path) -> Decomposition | None:
@@ -312,13 +453,17 @@ def decompose_spec(
     mode: MeshCollision = "decompose",
     source: str,
     cache_dir: str | Path | None = None,
+    workers: int | None = None,
 ) -> dict[str, bytes]:
     """Replace each colliding non-convex mesh geom of ``spec`` by convex pieces (see the
-    module docstring); returns the cache files used, as sources
+    module docstring); returns the cache files a rebuild needs, as sources
     (``decomposition/<file>`` -> bytes: a recording attaches them, a rebuild reads them as
-    its cache). ``mode="hull"`` changes nothing. The meshes must be in ``spec.assets`` (as
-    :mod:`harness.models.files.assets` puts them); a mesh given by its vertices, in a format MuJoCo
-    decodes alone (``.msh``) or with a ``refpos``/``refquat`` is left as its hull."""
+    its cache; a closed convex mesh's entry is left out, deciding it again costs a volume).
+    ``mode="hull"`` changes nothing. The meshes must be in ``spec.assets`` (as
+    :mod:`harness.models.files.assets` puts them); a mesh given by its vertices, in a format
+    MuJoCo decodes alone (``.msh``) or with a ``refpos``/``refquat`` is left as its hull.
+    Meshes not in the cache are decomposed in up to ``workers`` processes
+    (:func:`workers_for`), after one :class:`ModelWarning` naming ``source``."""
     mode = check_mesh_collision(mode, source)
     used: dict[str, bytes] = {}
     if mode == "hull":
@@ -328,25 +473,36 @@ def decompose_spec(
         return used
     assets = dict(spec.assets)
     meshes = {mesh.name: mesh for mesh in spec.meshes}
-    pieces_of: dict[str, list[str]] = {}
     folder = Path(cache_dir) if cache_dir is not None else mesh_cache_dir()
+    jobs: dict[str, _Job] = {}
     for geom in geoms:
         mesh = meshes.get(str(geom.meshname))
-        if mesh is None:
+        if mesh is not None and mesh.name not in jobs:
+            job = _job(mesh, assets, source)
+            if job is not None:
+                jobs[mesh.name] = job
+    decomposed = _decompose_jobs(list(jobs.values()), folder, label=source, workers=workers)
+    results = dict(zip(jobs, decomposed, strict=True))
+    pieces_of: dict[str, list[str]] = {}
+    taken = {str(g.name) for g in spec.geoms if g.name}
+    for geom in geoms:
+        mesh = meshes.get(str(geom.meshname))
+        if mesh is None or mesh.name not in results:
             continue
+        result = results[mesh.name]
         if mesh.name not in pieces_of:
-            pieces_of[mesh.name], cache_file = _piece_meshes(spec, mesh, assets, source, folder)
-            if cache_file:
+            pieces_of[mesh.name] = _add_piece_meshes(spec, mesh, result)
+            if result.cache_file and result.kind != "convex":
                 with contextlib.suppress(OSError):  # removed meanwhile: replay uses model.mjb
-                    used[f"{DECOMPOSITION_FOLDER}/{cache_file}"] = (
-                        folder / cache_file
+                    used[f"{DECOMPOSITION_FOLDER}/{result.cache_file}"] = (
+                        folder / result.cache_file
                     ).read_bytes()
         names = pieces_of[mesh.name]
         if not names:
             continue
         body = geom.parent
         for index, name in enumerate(names):
-            piece = body.add_geom(name=f"{geom.name}#{index}" if geom.name else "")
+            piece = body.add_geom(name=_piece_name(geom, index, taken))
             for attribute in _COPIED:
                 setattr(piece, attribute, getattr(geom, attribute))
             if geom.frame is not None:
@@ -361,21 +517,51 @@ def decompose_spec(
     return used
 
 
-def _piece_meshes(
-    spec: mujoco.MjSpec,
-    mesh: mujoco.MjsMesh,
-    assets: dict[str, bytes],
-    source: str,
-    cache_dir: Path,
-) -> tuple[list[str], str]:
-    """The names of the piece meshes added for ``mesh`` and its cache file's name."""
+def entry_names(spec: mujoco.MjSpec, source: str = "model") -> dict[str, str]:
+    """Mesh name -> the cache file name (:func:`cache_name`) :func:`decompose_spec` looks up
+    for each colliding mesh of ``spec`` it would decompose (nothing is measured)."""
+    assets = dict(spec.assets)
+    meshes = {mesh.name: mesh for mesh in spec.meshes}
+    names: dict[str, str] = {}
+    for geom in _colliding_meshes(spec):
+        mesh = meshes.get(str(geom.meshname))
+        job = _job(mesh, assets, source) if mesh is not None else None
+        if mesh is not None and job is not None:
+            names[mesh.name] = cache_name(job.data, job.suffix, job.scale)
+    return names
+
+
+def _piece_name(geom: mujoco.MjsGeom, index: int, taken: set[str]) -> str:
+    """A piece's name: ``<geom>#<index>``; of an unnamed geom in a named body (a URDF link's
+    collision) ``<body>#<n>``, unique in the model, so that a contact with it names the link
+    rather than ``geom<id>``; "" for an unnamed geom in the world body."""
+    if geom.name:
+        return f"{geom.name}#{index}"
+    body = geom.parent
+    if not body.name or body.name == "world":
+        return ""
+    number = 0
+    while f"{body.name}#{number}" in taken:
+        number += 1
+    taken.add(f"{body.name}#{number}")
+    return f"{body.name}#{number}"
+
+
+def _job(mesh: mujoco.MjsMesh, assets: dict[str, bytes], source: str) -> _Job | None:
+    """The :class:`_Job` of ``mesh``, or None when it is left as its hull."""
     suffix = Path(str(mesh.file)).suffix.lower()
     data = assets.get(str(mesh.file))
     plain_ref = np.allclose(mesh.refpos, 0.0) and np.allclose(mesh.refquat, [1, 0, 0, 0])
     if data is None or suffix not in _DECODABLE or not plain_ref:
-        return [], ""
+        return None
     where = f'{source}: <mesh name="{mesh.name}">'
-    result = decompose_mesh(data, suffix, tuple(mesh.scale), cache_dir=cache_dir, where=where)
+    return _Job(data, suffix, tuple(float(s) for s in mesh.scale), where)
+
+
+def _add_piece_meshes(
+    spec: mujoco.MjSpec, mesh: mujoco.MjsMesh, result: Decomposition
+) -> list[str]:
+    """The names of the piece meshes added to ``spec`` for ``mesh``."""
     names = []
     for index, (vertices, faces) in enumerate(result.pieces):
         name = f"{mesh.name}#{index}"
@@ -385,4 +571,4 @@ def _piece_meshes(
             userface=faces.reshape(-1).tolist(),
         )
         names.append(name)
-    return names, result.cache_file
+    return names

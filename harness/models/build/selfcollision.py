@@ -21,9 +21,11 @@ links collide when either has ``self_collide`` true (a link without one takes th
 links joined by a joint never do. So a link marked true collides with the robot's other
 links even under ``"off"``, except adjacent ones, SRDF-disabled ones and the pairs found in
 contact at the initial configuration or in nearly every configuration (``"default"``,
-``"always"``: in MuJoCo a mesh collides as its convex hull, and such a pair would hold the
-robot still from the first step; they stay reported); a pair whose links are both false, one
-by its own flag, is ignored (``"link"``). A policy passed as an argument overrides the file,
+``"always"``: in MuJoCo a mesh collides as convex shapes (its hull, or the pieces of
+:mod:`harness.models.build.decompose`, in the link's body: the pairs and exclusions are the
+links'), and such a pair would hold the robot still from the first step; they stay
+reported); a pair whose links are both false, one by its own flag, is ignored
+(``"link"``). A policy passed as an argument overrides the file,
 these flags included.
 Pairs are computed on the compiled model; results are
 cached in memory by a hash of that model, the robot and the sampling settings. Pairs that are

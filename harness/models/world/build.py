@@ -76,7 +76,7 @@ def load_world(
     ``objects`` are added to the world body before the robots (free objects come first in
     ``qpos``, after the scene's). ``timestep`` overrides the scene's (the servo gains are
     tuned for it). ``mesh_collision``: ``"decompose"`` (default: a non-convex colliding mesh
-    of the scene, or of a robot without joints, collides as convex pieces within 2 cm of its
+    of the scene or of a robot's link collides as convex pieces within 2 cm of its
     triangles) or ``"hull"`` (as its convex hull); see :mod:`harness.models.build.decompose`.
 
     Keyframes combine: each key name any robot has becomes one key whose robot part is that
@@ -96,13 +96,14 @@ def load_world(
     namespaces: dict[str, int] = {}
     for index, request in enumerate(robots):
         robot = RobotBuild(index, request, cache_dir)
-        if not robot.spec.joints:  # a fixture (an arena as a URDF): world geometry
-            # A moving robot's link meshes keep their hull for now: CoACD took over a minute
-            # on one link of a detailed hand (alex_nub_hands), too slow for a cold load.
-            pieces = decompose_spec(
+        # a link's concave collision mesh as a fixture's (an arena as a URDF): convex pieces
+        # in the link's body, massless, collision only (a cold load decomposes the meshes in
+        # parallel processes, after one warning; later loads read the cache)
+        decomposed.update(
+            decompose_spec(
                 robot.spec, mode=mesh_collision, source=robot.source, cache_dir=cache_dir
             )
-            decomposed.update(pieces)
+        )
         where = robot.where(several)
         if request.namespace is None:
             namespace = check_namespace(robot.description.name, where)
