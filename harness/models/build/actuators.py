@@ -35,8 +35,8 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models.description import ControlMode, RobotModel
 from harness.models.build.drives import COMMAND_FILTER_SECONDS
+from harness.models.description import ControlMode, RobotModel
 from harness.models.errors import ModelStructureError
 
 __all__ = [

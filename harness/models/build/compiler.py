@@ -8,15 +8,15 @@ from __future__ import annotations
 import os
 import re
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
 import mujoco
 
+from harness.models.errors import CompileError, MasslessLinkError, ModelWarning
 from harness.models.files.assets import embed_files
 from harness.models.files.confine import confinement
-from harness.models.errors import CompileError, MasslessLinkError, ModelWarning
 from harness.models.files.limits import check_spec
 from harness.models.mjcf.files import check_mjcf_files, mjcf_in_memory
 

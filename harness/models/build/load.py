@@ -13,7 +13,8 @@ The steps live in their own modules: reading a source into a spec
 (:mod:`harness.models.build.robot`), compiling and MuJoCo's messages
 (:mod:`harness.models.build.compiler`), control modes and actuators
 (:mod:`harness.models.build.actuators`), the world (:mod:`harness.models.world.build`) and its
-keyframes (:mod:`harness.models.world.keyframes`); the bundled files in :mod:`harness.models.bundled`.
+keyframes (:mod:`harness.models.world.keyframes`); the bundled files in
+:mod:`harness.models.bundled`.
 """
 
 from __future__ import annotations
@@ -24,14 +25,16 @@ from pathlib import Path
 
 import mujoco
 
-from harness.models.bundled import DEMO_URDF, SCENES
 from harness.models.build.compiler import compile_spec, spec_from_file
 from harness.models.build.decompose import MeshCollision
-from harness.models.description import ControlMode, Pose, RobotModel
-from harness.models.urdf.lenient import lenient_urdf
-from harness.models.files.resolve import PackageMap
 from harness.models.build.robot import describe_mjcf, model_kind, sdf_api, source_path
+from harness.models.bundled import DEMO_URDF, SCENES
+from harness.models.description import ControlMode, Pose, RobotModel
+from harness.models.files.resolve import PackageMap
+from harness.models.files.xmlsafe import read_xml_file
+from harness.models.urdf.lenient import lenient_urdf
 from harness.models.urdf.source import describe_urdf, read_urdf_source
+from harness.models.world.build import load_world
 from harness.models.world.records import (
     BaseKind,
     LoadedWorld,
@@ -40,9 +43,7 @@ from harness.models.world.records import (
     SelfCollision,
     SelfCollisionReport,
 )
-from harness.models.world.build import load_world
 from harness.models.xacro.expand import RobotArgs
-from harness.models.files.xmlsafe import read_xml_file
 
 __all__ = [
     "DEMO_URDF",

@@ -15,25 +15,25 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.models.build import setup
-from harness.models.urdf import surfaces
-from harness.models.files.assets import embed_files
-from harness.models.bundled import DEMO_URDF
 from harness.models.build.compiler import compile_spec, spec_from_file, spec_from_string
-from harness.models.description import ControlMode, RobotModel
 from harness.models.build.drive_plugins import plugin_wheels
-from harness.models.errors import ModelStructureError
 from harness.models.build.inertia import settle_edge_inertias
-from harness.models.urdf.lenient import lenient_urdf
-from harness.models.files.limits import check_description, check_urdf_counts
 from harness.models.build.passive import declared_actuated
-from harness.models.files.resolve import PackageMap
-from harness.models.urdf.ros2_control import warn_replaced_hardware
 from harness.models.build.selfcollision import declared_link_self_collide, declared_self_collide
+from harness.models.bundled import DEMO_URDF
+from harness.models.description import ControlMode, RobotModel
+from harness.models.errors import ModelStructureError
+from harness.models.files.assets import embed_files
+from harness.models.files.limits import check_description, check_urdf_counts
+from harness.models.files.resolve import PackageMap
+from harness.models.files.xmlsafe import read_xml_file
+from harness.models.urdf import surfaces
+from harness.models.urdf.lenient import lenient_urdf
 from harness.models.urdf.reader import harness_extension, mujoco_urdf_xml
+from harness.models.urdf.ros2_control import warn_replaced_hardware
 from harness.models.urdf.source import describe_urdf, initial_keyframes, locate, read_urdf_source
 from harness.models.world.records import BaseKind, RobotSpec, SelfCollisionReport
 from harness.models.xacro.expand import is_xacro
-from harness.models.files.xmlsafe import read_xml_file
 
 __all__ = [
     "MJCF_SUFFIXES",

@@ -15,11 +15,11 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.build.drives import compensated_bodies
+from harness.models.build.selfcollision import ignored_pairs, link_self_collide
+from harness.models.description import ControlMode, Pose, RobotModel
 from harness.models.errors import ModelStructureError, ModelWarning
 from harness.models.world.placement import CLEARANCE, floor_gap, start_contacts
-from harness.models.build.selfcollision import ignored_pairs, link_self_collide
 from harness.models.world.records import (
     BASE_KINDS,
     SELF_COLLISION_POLICIES,
