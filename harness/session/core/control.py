@@ -9,17 +9,15 @@ here: joint commands through the robot's :class:`~harness.sim.RobotJoints` (a re
 tells its client with a status frame, as the command topics do), publications through the core
 (recorded like every message), action feedback and results through the bridge (recorded as
 frames), log lines as events. Everything happens at step boundaries in simulation time, so a
-recording replays it bit for bit.
+recording replays it bit for bit. The ``controllers=`` option itself (its forms, the default
+set, its metadata) is :mod:`harness.session.core.control_options`; the joint readings a
+controller is given, :mod:`harness.session.core.readings`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from pathlib import Path
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
-
-import numpy as np
-import numpy.typing as npt
 
 from harness.controllers import (
     SERVICES,
@@ -29,17 +27,26 @@ from harness.controllers import (
     ControllerManager,
     ControllerOutput,
     ControllersConfig,
-    ControllersConfigError,
     JointReadings,
     builtin_controllers,
     default_controllers,
-    load_controllers,
 )
 from harness.events import Level
 from harness.models import LoadedRobot, LoadedWorld
 from harness.rosbridge import ActionGoal
 from harness.sensors import sensor_interfaces
 from harness.session.core.bridge import Publisher
+from harness.session.core.control_options import (
+    CONFIG_DEFAULT,
+    CONFIG_NONE,
+    ControllersOption,
+    base_driven,
+    controllers_from_metadata,
+    controllers_metadata,
+    controllers_option,
+    resolve_default,
+)
+from harness.session.core.readings import UNREAD, Snapshot
 from harness.session.core.topics import node_name
 from harness.sim import CommandError, ControlConfigError, Notice
 
@@ -52,99 +59,6 @@ __all__ = [
     "controllers_option",
     "resolve_default",
 ]
-
-_CONFIG_DEFAULT = "default"
-_CONFIG_NONE = "none"
-
-
-ControllersOption = (
-    ControllersConfig
-    | str
-    | Path
-    | Mapping[str, Any]
-    | Sequence[str | Path | Mapping[str, Any]]
-    | bool
-    | None
-)
-"""What ``controllers=`` takes: a controllers YAML (path, text or parsed mapping) or several
-(merged in order), a :class:`ControllersConfig`, None/True (the default set) or
-False/``"none"`` (no controllers)."""
-
-
-def controllers_option(
-    value: ControllersOption, args: Mapping[str, Any] | None = None
-) -> ControllersConfig | str:
-    """The core's form of a ``controllers=`` value (a YAML is read here, its ``$(var NAME)``
-    expanded from ``args``: ``controllers_args=``)."""
-    if value is None or value is True or value == _CONFIG_DEFAULT:
-        return _CONFIG_DEFAULT
-    if value is False or value == _CONFIG_NONE:
-        return _CONFIG_NONE
-    if isinstance(value, ControllersConfig):
-        return value
-    if isinstance(value, str | Path | Mapping):
-        return load_controllers(value, args)
-    if isinstance(value, list | tuple) and all(isinstance(v, str | Path | Mapping) for v in value):
-        return load_controllers(value, args)
-    raise ControllersConfigError(
-        "controllers must be a YAML file, YAML text, a mapping, a list of them, True or False, "
-        f"not {value!r}"
-    )
-
-
-def resolve_default(
-    config: ControllersConfig | str, robot: LoadedRobot | LoadedWorld
-) -> ControllersConfig | str:
-    """``"default"`` for one robot resolved to its default set, so that a recording holds the
-    exact configuration (a world's robots each resolve their own at run time)."""
-    if config != _CONFIG_DEFAULT or not isinstance(robot, LoadedRobot):
-        return config
-    # a single robot's controllable joints, in the simulation's order (its control order)
-    default = default_controllers(list(robot.control), robot.control)
-    return with_drive_plugins(default, robot)
-
-
-def with_drive_plugins(config: ControllersConfig, robot: LoadedRobot) -> ControllersConfig:
-    """``config`` plus a diff drive controller per drive plugin the robot's file declares."""
-    from harness.controllers import robot_controllers
-
-    return robot_controllers(config, robot.sources)
-
-
-def base_driven(
-    config: ControllersConfig | str, loaded: LoadedRobot | LoadedWorld, namespace: str
-) -> tuple[str, ...]:
-    """The namespaces of the robots a base controller (diff drive, planar) drives under
-    ``config`` (``namespace``: a single robot's)."""
-    from harness.controllers import BASE_CONTROLLER_TYPES, robot_controllers
-
-    if config == _CONFIG_NONE:
-        return ()
-    robots = (
-        [(namespace, loaded.sources)]
-        if isinstance(loaded, LoadedRobot)
-        else [(view.namespace, view.sources) for view in loaded.robots]
-    )
-    out: list[str] = []
-    for space, sources in robots:
-        own = robot_controllers(ControllersConfig(), sources) if isinstance(config, str) else config
-        if any(spec.type in BASE_CONTROLLER_TYPES for spec in own.controllers):
-            out.append(space)
-    return tuple(out)
-
-
-def controllers_metadata(config: ControllersConfig | str) -> str:
-    """The recording metadata text of a session's controllers option."""
-    return config if isinstance(config, str) else config.to_json()
-
-
-def controllers_from_metadata(text: str | None) -> ControllersConfig | str:
-    """The controllers option of a recorded session (a recording without the key had none)."""
-    if text is None or text == _CONFIG_NONE:
-        return _CONFIG_NONE
-    if text == _CONFIG_DEFAULT:
-        return _CONFIG_DEFAULT
-    return ControllersConfig.from_json(text)
 
 
 class _Core(Publisher, Protocol):
@@ -266,7 +180,7 @@ class _RobotControl:
         now = self.host.core.sim.sim_time_ns
         unread = self._unread
         if unread is None or unread.sim_time_ns != now:
-            unread = self._unread = JointReadings(now, _UNREAD, _UNREAD, _UNREAD, _UNREAD)
+            unread = self._unread = JointReadings(now, UNREAD, UNREAD, UNREAD, UNREAD)
         return unread
 
     def read_for(self, controllers: Sequence[Any]) -> JointReadings:
@@ -283,80 +197,11 @@ class _RobotControl:
         # between two steps; a command written meanwhile shows in ``command``).
         return JointReadings(
             self.host.core.sim.sim_time_ns,
-            _Snapshot(names, joints.joint_positions),
-            _Snapshot(names, joints.joint_velocities),
-            _Snapshot(names, joints.joint_efforts),
-            _Snapshot(names, joints.joint_commands),
+            Snapshot(names, joints.joint_positions),
+            Snapshot(names, joints.joint_velocities),
+            Snapshot(names, joints.joint_efforts),
+            Snapshot(names, joints.joint_commands),
         )
-
-
-class _Snapshot(Mapping[str, float]):
-    """Joint name -> value of an array read on first use (then held: the same values a dict
-    built at once would hold)."""
-
-    __slots__ = ("_dict", "_names", "_read")
-
-    def __init__(self, names: Sequence[str], read: Callable[[], npt.NDArray[np.float64]]) -> None:
-        self._names = names
-        self._read = read
-        self._dict: dict[str, float] | None = None
-
-    def _get(self) -> dict[str, float]:
-        d = self._dict
-        if d is None:
-            d = self._dict = dict(zip(self._names, self._read().tolist(), strict=True))
-        return d
-
-    def __getitem__(self, key: str) -> float:
-        d = self._dict
-        return (self._get() if d is None else d)[key]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._get())
-
-    def __len__(self) -> int:
-        return len(self._get())
-
-    def __contains__(self, key: object) -> bool:
-        return key in self._get()
-
-    def __eq__(self, other: object) -> bool:
-        return self._get() == (other._get() if isinstance(other, _Snapshot) else other)
-
-    __hash__ = None  # type: ignore[assignment]
-
-    def __repr__(self) -> str:
-        return repr(self._get())
-
-
-class _Unread(Mapping[str, float]):
-    """The joint readings given to a controller that declares it never reads them
-    (``reads_state = False``): any look raises, so a wrong declaration shows."""
-
-    __slots__ = ()
-
-    def _refuse(self) -> RuntimeError:
-        return RuntimeError(
-            "this controller declares reads_state = False: it is given no joint readings"
-        )
-
-    def __getitem__(self, key: str) -> float:
-        raise self._refuse()
-
-    def __iter__(self) -> Iterator[str]:
-        raise self._refuse()
-
-    def __len__(self) -> int:
-        raise self._refuse()
-
-    def __contains__(self, key: object) -> bool:
-        raise self._refuse()
-
-    def __repr__(self) -> str:
-        return "<unread>"
-
-
-_UNREAD = _Unread()
 
 
 def _robot_sources(loaded: Any, index: int) -> Mapping[str, bytes]:
@@ -388,9 +233,9 @@ class ControlHost:
             joints = channels.joints
             own = (
                 _robot_default(joints, _robot_sources(core.robot, len(self.robots)))
-                if config == _CONFIG_DEFAULT
+                if config == CONFIG_DEFAULT
                 else builtin_controllers(joints.joint_names)
-                if config == _CONFIG_NONE
+                if config == CONFIG_NONE
                 else config
             )
             assert isinstance(own, ControllersConfig)
@@ -402,7 +247,7 @@ class ControlHost:
                 channels,
                 own,
                 multiplexer=None if own.exclusive else channels.commands,
-                services=config != _CONFIG_NONE,
+                services=config != CONFIG_NONE,
             )
             for name, controller in robot.manager.built.items():
                 for endpoint in controller.subscriptions:
