@@ -5,8 +5,9 @@ An example's concrete scenario (:meth:`harness.explore.plan.ExplorePlan.text`) d
 the one before in a few values. Some values only change numbers in the compiled model; the
 rest change what the world is made of. :func:`topology_key` tells them apart:
 
-- values (applied to a warm world): each object's ``position``, ``orientation``, ``size``
-  and ``mass`` (a mass given or not is topology: it makes the object free), and keys that
+- values (applied to a warm world): each object's ``position``, ``orientation``, ``size``,
+  ``mass`` (a mass given or not is topology: it makes the object free) and ``friction`` (given
+  or not is topology: absent, the scene's default applies), and keys that
   are not part of the world at all: ``seed`` and ``sensors`` (with their noise: the
   session's options), ``duration``, ``script``, ``criteria``, ``name``;
 - topology: everything else (the map, the robots with their initial joint positions and
@@ -46,12 +47,19 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from harness.models import LoadedWorld, Pose, RobotModel, WorldObject, load_world
+from harness.models import (
+    LoadedWorld,
+    Pose,
+    RobotModel,
+    WorldObject,
+    load_world,
+    object_friction,
+)
 from harness.scenario import Scenario, ScenarioSession, effective_timestep, scenario_session
 
 __all__ = ["WarmWorld", "WarmWorlds", "cold_world", "mjcf_number", "model_bytes", "topology_key"]
 
-_OBJECT_VALUES = ("position", "orientation", "size", "mass")
+_OBJECT_VALUES = ("position", "orientation", "size", "mass", "friction")
 _NOT_WORLD = ("seed", "sensors", "duration", "script", "criteria", "name", "explore")
 
 
@@ -62,7 +70,8 @@ def topology_key(document: Mapping[str, Any]) -> str:
     objects = doc.get("objects")
     if isinstance(objects, list):
         doc["objects"] = [
-            {k: v for k, v in o.items() if k not in _OBJECT_VALUES} | {"free": "mass" in o}
+            {k: v for k, v in o.items() if k not in _OBJECT_VALUES}
+            | {"free": "mass" in o, "friction": "friction" in o}
             if isinstance(o, dict)
             else o
             for o in objects
@@ -145,6 +154,8 @@ class WarmWorld:
             geom.size = [mjcf_number(v) for v in (*obj.size, *([0.0] * (3 - len(obj.size))))]
             if obj.mass is not None:
                 geom.mass = mjcf_number(obj.mass)
+            if obj.friction is not None:
+                geom.friction = [mjcf_number(v) for v in object_friction(obj.friction)]
         model = _compile(spec)
         free = [o.name for o in objects if o.mass is not None]
         if free and spec.keys:

@@ -66,6 +66,7 @@ from harness.models.world.records import (
     SelfCollision,
     WorldObject,
     add_object,
+    object_friction,
 )
 from harness.models.xacro.expand import UnusedRobotArgWarning, XacroOrigin, expand_xacro
 
@@ -127,6 +128,7 @@ __all__ = [
     "load_world",
     "load_world_file",
     "mesh_cache_dir",
+    "object_friction",
     "parse_xml",
     "resolve_uri",
     "robot_args",

@@ -129,6 +129,8 @@ def world_metadata(
             "pose": _pose(obj.pose),
             "mass": None if obj.mass is None else float(obj.mass),
             "rgba": None if obj.rgba is None else [float(v) for v in obj.rgba],
+            # only when given: the metadata of a run without it stays what it was
+            **({} if obj.friction is None else {"friction": [float(v) for v in obj.friction]}),
         }
         for obj in objects
     ]

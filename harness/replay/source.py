@@ -339,6 +339,7 @@ def rebuild_world(
                     pose=obj.get("pose"),
                     mass=obj.get("mass"),
                     rgba=None if obj.get("rgba") is None else tuple(obj["rgba"]),
+                    friction=None if obj.get("friction") is None else tuple(obj["friction"]),
                 )
                 for obj in _json_metadata(rec, "objects")
             ]

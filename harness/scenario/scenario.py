@@ -703,6 +703,7 @@ class _Builder:
             )
         mass = data.get("mass")
         rgba = data.get("rgba")
+        friction = data.get("friction")
         return WorldObject(
             name=data["name"],
             shape=data["shape"],
@@ -712,6 +713,7 @@ class _Builder:
             rgba=None
             if rgba is None
             else (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3])),
+            friction=None if friction is None else tuple(float(f) for f in friction),
         )
 
     def client(self, data: dict[str, Any], path: list[str | int]) -> ClientSpec:

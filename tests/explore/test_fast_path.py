@@ -211,3 +211,56 @@ def test_kernel_runs_each_clock_as_harness_run(tmp_path: Path, edit: dict[str, A
     folder = Path(kept.kept or "")
     explored = (folder / "recording.mcap").read_bytes()
     assert explored == _cold_bytes(folder / "scenario.yaml", tmp_path / "cold")
+
+
+SLIDE = {
+    # the free ball on the table with its own friction: how far the arm's knock sends it
+    # depends on it (sliding) and on the torsional and rolling values
+    "objects": [
+        {
+            "name": "obstacle",
+            "shape": "sphere",
+            "size": [0.04],
+            "mass": 0.2,
+            "friction": [0.8, 0.005, 0.0001],
+            "position": [0.45, 0.0, 0.35],
+        }
+    ],
+    "explore": {
+        "parameters": {
+            "objects.obstacle.friction": {
+                "low": [0.05, 0.0, 0.0],
+                "high": [1.5, 0.02, 0.001],
+            }
+        }
+    },
+}
+
+
+def test_friction_is_a_value_of_a_warm_world(tmp_path: Path) -> None:
+    """An object's friction (a scenario key: sliding, torsional, rolling) varies on a warm
+    world: the compiled model is the cold build's, the kernel's result the product's, the
+    kept recording a cold ``harness run``'s; and the values reach the model."""
+    plan = load_plan(write_variant(tmp_path, "slide.yaml", "sweep.yaml", SLIDE))
+    runner = KernelRunner(plan, tmp_path / "scratch")
+    runner.run({"objects.obstacle.friction": [0.8, 0.005, 0.0001]})  # the topology's world
+    digests = set()
+    for i, friction in enumerate(([0.1234567890123, 0.01, 0.0005], [1.4567890123456, 0.0, 0.0])):
+        values = {"objects.obstacle.friction": friction}
+        doc = apply_values(plan.document, plan.parameters, values)
+        scenario = Scenario.from_mapping(doc, base_dir=plan.source.parent, source=plan.source)
+        _, warm, _ = runner.worlds.get(scenario, doc)
+        _, cold = cold_world(scenario, tmp_path / f"world-{i}")
+        assert model_bytes(warm.model) == model_bytes(cold.model), friction
+        geom = cold.model.geom("obstacle").id
+        assert list(cold.model.geom_friction[geom]) == pytest.approx(friction, rel=1e-5)
+        kept = runner.run(values, keep=tmp_path / f"kept-{i}")
+        assert kept.check == "identical", kept.check
+        digests.add(kept.digest)
+        folder = Path(kept.kept or "")
+        explored = (folder / "recording.mcap").read_bytes()
+        assert explored == _cold_bytes(folder / "scenario.yaml", tmp_path / f"cold-{i}")
+    assert len(digests) == 2  # the friction changed the run
+    assert runner.worlds.applied >= 2  # applied to the warm world, not rebuilt
+    assert runner.worlds.notes == []
+    assert runner.mismatches == []

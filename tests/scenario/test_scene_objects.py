@@ -114,3 +114,60 @@ def test_a_bad_object_is_one_line_naming_the_file_and_the_object(tmp_path, entry
     assert problem.startswith(f"{path}: ")
     assert fragment in problem
     assert "\n" not in problem
+
+
+def test_object_friction_reaches_the_scene_and_the_recording(tmp_path):
+    """``friction`` (sliding, torsional, rolling; those left out keep MuJoCo's defaults) is the
+    object geom's in the generated scene, and a world rebuilt from a recording's metadata has
+    it too."""
+    from types import SimpleNamespace
+
+    from harness.recording.describe import world_metadata
+
+    scenario = Scenario.from_mapping(
+        {
+            "robots": [{"robot": str(TWO_LINK)}],
+            "environment": {"map": "empty"},
+            "objects": [
+                {"name": "puck", "shape": "cylinder", "size": [0.05, 0.01], "mass": 0.1,
+                 "position": [0.5, 0.0, 0.02], "friction": [0.3]},
+                {"name": "pad", "shape": "box", "size": [0.1, 0.1, 0.01],
+                 "position": [-0.5, 0.0, 0.01], "friction": [0.9, 0.02, 0.003]},
+                {"name": "plain", "shape": "sphere", "size": [0.02], "position": [0, 0.5, 0.02]},
+            ],
+        }
+    )  # fmt: skip
+    model = mujoco.MjModel.from_xml_path(str(scene_for(scenario, tmp_path)))
+    np.testing.assert_allclose(model.geom("puck").friction, [0.3, 0.005, 0.0001])
+    np.testing.assert_allclose(model.geom("pad").friction, [0.9, 0.02, 0.003])
+    np.testing.assert_allclose(model.geom("plain").friction, [1.0, 0.005, 0.0001])
+    no_robots = SimpleNamespace(robots=[])
+    listed = yaml.safe_load(world_metadata(no_robots, None, scenario.objects)["objects"])
+    assert [o.get("friction") for o in listed] == [[0.3], [0.9, 0.02, 0.003], None]
+    assert "friction" not in listed[2]  # a run without it keeps its metadata as it was
+
+
+@pytest.mark.parametrize(
+    ("friction", "expected"),
+    [([-0.1], "friction"), ([1, 2, 3, 4], "friction"), ([], "friction")],
+)
+def test_a_bad_object_friction_is_one_line(friction, expected):
+    with pytest.raises(ScenarioError) as info:
+        Scenario.from_mapping(
+            {
+                "robots": [{"robot": "demo"}],
+                "objects": [{"name": "b", "shape": "sphere", "size": [0.02], "friction": friction}],
+            }
+        )
+    problems = info.value.problems
+    assert len(problems) == 1
+    assert "\n" not in problems[0]
+    assert "objects" in problems[0], problems
+    assert expected in problems[0], problems
+
+
+def test_a_world_object_with_bad_friction_is_refused():
+    from harness.models import ModelError
+
+    with pytest.raises(ModelError, match=r"crate: friction \[1.0, -2.0\] must be"):
+        WorldObject("crate", "box", (0.1, 0.1, 0.1), friction=(1.0, -2.0)).check("crate")

@@ -21,6 +21,7 @@ from harness.models.world.records import (
     WorldObject,
     add_object,
     check_namespace,
+    object_friction,
     placement_pose,
 )
 
@@ -43,5 +44,6 @@ __all__ = [
     "WorldObject",
     "add_object",
     "check_namespace",
+    "object_friction",
     "placement_pose",
 ]

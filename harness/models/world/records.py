@@ -46,6 +46,7 @@ __all__ = [
     "WorldObject",
     "add_object",
     "check_namespace",
+    "object_friction",
     "placement_pose",
 ]
 
@@ -164,7 +165,9 @@ class RobotSpec:
 class WorldObject:
     """A primitive added to the world body: fixed, or free (with a free joint
     ``"<name>_joint"``) when it has a ``mass``. ``size``: box half extents (3), sphere radius
-    (1), cylinder and capsule radius and half length (2), as MuJoCo sizes."""
+    (1), cylinder and capsule radius and half length (2), as MuJoCo sizes. ``friction``: the
+    geom's sliding, torsional and rolling friction (1 to 3 values; the ones left out keep
+    MuJoCo's defaults; None: all MuJoCo's defaults)."""
 
     name: str
     shape: ObjectShape
@@ -172,6 +175,7 @@ class WorldObject:
     pose: PoseLike = None
     mass: float | None = None
     rgba: tuple[float, float, float, float] | None = None
+    friction: tuple[float, ...] | None = None
 
     def check(self, where: str) -> None:
         """Raise :class:`ModelStructureError` naming ``where`` when the object is malformed."""
@@ -188,6 +192,14 @@ class WorldObject:
             )
         if self.mass is not None and not (math.isfinite(self.mass) and self.mass > 0):
             raise ModelStructureError(f"{where}: mass {self.mass!r} is not positive")
+        friction = self.friction
+        if friction is not None and not (
+            1 <= len(friction) <= 3 and all(math.isfinite(f) and f >= 0 for f in friction)
+        ):
+            raise ModelStructureError(
+                f"{where}: friction {list(friction)} must be 1 to 3 numbers >= 0 (sliding, "
+                "torsional, rolling)"
+            )
 
 
 def add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
@@ -205,6 +217,16 @@ def add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
         geom.mass = obj.mass
     if obj.rgba is not None:
         geom.rgba = list(obj.rgba)
+    if obj.friction is not None:
+        geom.friction = object_friction(obj.friction)
+
+
+def object_friction(friction: Sequence[float]) -> list[float]:
+    """An object's ``friction`` as MuJoCo's three values (MuJoCo's defaults for those left
+    out: torsional 0.005, rolling 0.0001)."""
+    full = [1.0, 0.005, 0.0001]
+    full[: len(friction)] = [float(f) for f in friction]
+    return full
 
 
 class IgnoredPair(NamedTuple):
