@@ -166,8 +166,8 @@ class WorldObject:
     """A primitive added to the world body: fixed, or free (with a free joint
     ``"<name>_joint"``) when it has a ``mass``. ``size``: box half extents (3), sphere radius
     (1), cylinder and capsule radius and half length (2), as MuJoCo sizes. ``friction``: the
-    geom's sliding, torsional and rolling friction (1 to 3 values; the ones left out keep
-    MuJoCo's defaults; None: all MuJoCo's defaults)."""
+    geom's sliding, torsional and rolling friction (1 to 3 values; the ones left out take
+    MuJoCo's defaults, 0.005 and 0.0001; None: the scene's default geom friction)."""
 
     name: str
     shape: ObjectShape
