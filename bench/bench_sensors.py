@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import mujoco
-from common import Row
+from common import STEP_CLIENT, Row
 
 from harness.models import LoadedRobot, load_robot
 from harness.sensors import RobotMount, SensorSuite
@@ -43,23 +43,6 @@ _LIDAR = {"name": "lidar", "type": "lidar", "parent": "link0", "pose": [0, 0, 0.
           "samples": 360, "update_rate": 10}  # fmt: skip
 _IMU = {"name": "imu", "type": "imu", "parent": "hand", "update_rate": 100}
 _FT = {"name": "wrist_ft", "type": "force_torque", "joint": "joint7", "update_rate": 100}
-
-_CLIENT = r"""
-import json, sys, time
-from websockets.sync.client import connect
-url, steps = sys.argv[1], int(sys.argv[2])
-with connect(url, compression=None) as ws:
-    call = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}, "id": "s"}
-    def run(n):
-        for _ in range(n):
-            ws.send(json.dumps(call))
-            while json.loads(ws.recv())["op"] != "service_response":
-                pass
-    run(200)  # warm-up
-    start = time.perf_counter()
-    run(steps)
-    print(time.perf_counter() - start, flush=True)
-"""
 
 
 def _robot() -> LoadedRobot:
@@ -122,7 +105,7 @@ def _camera_rates(frames: int) -> tuple[float, float]:
 def _lockstep(robot: LoadedRobot, steps: int, sensors: list[dict[str, Any]], record: Path) -> float:
     with Session(robot, record_to=record, sensors=sensors) as session:
         out = subprocess.run(
-            [sys.executable, "-c", _CLIENT, session.url, str(steps)],
+            [sys.executable, "-c", STEP_CLIENT, session.url, str(steps)],
             capture_output=True,
             text=True,
             check=True,

@@ -27,7 +27,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from common import Row
+from common import STEP_CLIENT, Row
 
 from harness.models import load_robot
 from harness.session import Session
@@ -35,23 +35,6 @@ from harness.session import Session
 TB3 = Path(__file__).resolve().parents[1] / "tests" / "data" / "worlds" / "turtlebot3"
 BURGER = TB3 / "models" / "turtlebot3_burger" / "model.sdf"
 LAUNCH_POSE = [-2.0, -0.5, 0.01]
-
-_CLIENT = r"""
-import json, sys, time
-from websockets.sync.client import connect
-url, steps = sys.argv[1], int(sys.argv[2])
-with connect(url, compression=None) as ws:
-    call = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}, "id": "s"}
-    def run(n):
-        for _ in range(n):
-            ws.send(json.dumps(call))
-            while json.loads(ws.recv())["op"] != "service_response":
-                pass
-    run(200)  # warm-up
-    start = time.perf_counter()
-    run(steps)
-    print(time.perf_counter() - start, flush=True)
-"""
 
 
 def _load(world: Path, cache: Path) -> tuple[float, int]:
@@ -184,7 +167,7 @@ def _lockstep(world: Path | None, steps: int, record: Path) -> float:
     ):
         warnings.simplefilter("ignore")
         out = subprocess.run(
-            [sys.executable, "-c", _CLIENT, s.url, str(steps)],
+            [sys.executable, "-c", STEP_CLIENT, s.url, str(steps)],
             capture_output=True,
             text=True,
             check=True,

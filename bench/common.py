@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "STEP_CLIENT",
     "Row",
     "best_of",
     "format_markdown",
@@ -27,6 +28,26 @@ __all__ = [
     "rss_mb",
     "websockets_thread",
 ]
+
+
+STEP_CLIENT = r"""
+import json, sys, time
+from websockets.sync.client import connect
+url, steps = sys.argv[1], int(sys.argv[2])
+with connect(url, compression=None) as ws:
+    call = {"op": "call_service", "service": "/harness/step", "args": {"steps": 1}, "id": "s"}
+    def run(n):
+        for _ in range(n):
+            ws.send(json.dumps(call))
+            while json.loads(ws.recv())["op"] != "service_response":
+                pass
+    run(200)  # warm-up
+    start = time.perf_counter()
+    run(steps)
+    print(time.perf_counter() - start, flush=True)
+"""
+"""A client program (``python -c STEP_CLIENT URL STEPS``): one ``/harness/step`` of one step at a
+time over a WebSocket, 200 to warm up, then prints the seconds ``STEPS`` took."""
 
 
 @dataclass(frozen=True)

@@ -53,7 +53,7 @@ from harness.models import (
     RobotModel,
     WorldObject,
     load_world,
-    object_friction,
+    set_object_values,
 )
 from harness.scenario import Scenario, ScenarioSession, effective_timestep, scenario_session
 
@@ -147,15 +147,9 @@ class WarmWorld:
         spec = self.world.spec
         for obj in objects:
             pose = obj.pose if isinstance(obj.pose, Pose) else Pose()
-            body = spec.body(obj.name)
-            body.pos = [mjcf_number(v) for v in pose.xyz]
-            body.quat = [mjcf_number(v) for v in pose.quat]
-            geom = spec.geom(obj.name)
-            geom.size = [mjcf_number(v) for v in (*obj.size, *([0.0] * (3 - len(obj.size))))]
-            if obj.mass is not None:
-                geom.mass = mjcf_number(obj.mass)
-            if obj.friction is not None:
-                geom.friction = [mjcf_number(v) for v in object_friction(obj.friction)]
+            set_object_values(
+                spec.body(obj.name), spec.geom(obj.name), obj, pose, number=mjcf_number
+            )
         model = _compile(spec)
         free = [o.name for o in objects if o.mass is not None]
         if free and spec.keys:

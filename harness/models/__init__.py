@@ -67,6 +67,7 @@ from harness.models.world.records import (
     WorldObject,
     add_object,
     object_friction,
+    set_object_values,
 )
 from harness.models.xacro.expand import UnusedRobotArgWarning, XacroOrigin, expand_xacro
 
@@ -132,6 +133,7 @@ __all__ = [
     "parse_xml",
     "resolve_uri",
     "robot_args",
+    "set_object_values",
     "spec_from_file",
     "world_timestep",
 ]

@@ -325,13 +325,17 @@ class HarnessRun:
             for session in sessions:
                 session.close()
         finally:
-            for path in [*self.snapshots, *self.recordings]:
-                with contextlib.suppress(OSError):
-                    path.unlink()
-            for folder in self.folders:
-                shutil.rmtree(folder, ignore_errors=True)
+            self._remove_files()
             for kept in (self.snapshots, self.recordings, self.folders, self.modes, self.sinks):
                 kept.clear()
+
+    def _remove_files(self) -> None:
+        """Remove the sessions' recordings, snapshots and generated worlds."""
+        for path in [*self.snapshots, *self.recordings]:
+            with contextlib.suppress(OSError):
+                path.unlink()
+        for folder in self.folders:
+            shutil.rmtree(folder, ignore_errors=True)
 
     def close_sessions(self) -> None:
         """End every session of the test (idempotent); close errors are kept and raised."""
@@ -355,11 +359,7 @@ class HarnessRun:
         finally:
             keep = self.settings.keep_recordings
             if keep == "never" or (keep == "failed" and not self.failed):
-                for path in [*self.snapshots, *self.recordings]:
-                    with contextlib.suppress(OSError):
-                        path.unlink()
-                for folder in self.folders:
-                    shutil.rmtree(folder, ignore_errors=True)
+                self._remove_files()
                 with contextlib.suppress(OSError):
                     (self.folder / FAILURE_NOTE).unlink()
                 # the test's folder, then its test file's folders, each only when empty

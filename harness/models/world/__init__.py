@@ -23,6 +23,7 @@ from harness.models.world.records import (
     check_namespace,
     object_friction,
     placement_pose,
+    set_object_values,
 )
 
 __all__ = [
@@ -46,4 +47,5 @@ __all__ = [
     "check_namespace",
     "object_friction",
     "placement_pose",
+    "set_object_values",
 ]

@@ -12,7 +12,7 @@ addresses; its :class:`RobotModel` keeps unprefixed names and model-frame poses,
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -48,6 +48,7 @@ __all__ = [
     "check_namespace",
     "object_friction",
     "placement_pose",
+    "set_object_values",
 ]
 
 PoseLike = Pose | Sequence[float] | None
@@ -207,18 +208,32 @@ def add_object(spec: mujoco.MjSpec, obj: WorldObject, where: str) -> None:
     body: a body and a geom both named ``obj.name``, and a free joint ``"<name>_joint"`` when
     it has a mass."""
     obj.check(where)
-    pose = placement_pose(obj.pose, where) or Pose()
-    body = spec.worldbody.add_body(name=obj.name, pos=list(pose.xyz), quat=list(pose.quat))
+    body = spec.worldbody.add_body(name=obj.name)
     if obj.mass is not None:
         body.add_freejoint(name=f"{obj.name}_joint")
     geom = body.add_geom(name=obj.name, type=_GEOM_TYPES[obj.shape])
-    geom.size = [*obj.size, *([0.0] * (3 - len(obj.size)))]
-    if obj.mass is not None:
-        geom.mass = obj.mass
+    set_object_values(body, geom, obj, placement_pose(obj.pose, where) or Pose())
     if obj.rgba is not None:
         geom.rgba = list(obj.rgba)
+
+
+def set_object_values(
+    body: mujoco.MjsBody,
+    geom: mujoco.MjsGeom,
+    obj: WorldObject,
+    pose: Pose,
+    number: Callable[[float], float] = float,
+) -> None:
+    """Put ``obj``'s values on its body and geom: ``pose``, size, mass, friction, each number
+    through ``number`` (a warm world of ``harness explore`` rounds them as a scene file
+    writes them)."""
+    body.pos = [number(v) for v in pose.xyz]
+    body.quat = [number(v) for v in pose.quat]
+    geom.size = [number(v) for v in (*obj.size, *([0.0] * (3 - len(obj.size))))]
+    if obj.mass is not None:
+        geom.mass = number(obj.mass)
     if obj.friction is not None:
-        geom.friction = object_friction(obj.friction)
+        geom.friction = [number(v) for v in object_friction(obj.friction)]
 
 
 def object_friction(friction: Sequence[float]) -> list[float]:
