@@ -11,8 +11,12 @@ Pairs already touching at the first observed step (the arm's base on its table) 
 their clearance is zero by construction and says nothing. ``ignore``: name pattern pairs
 (shell-style, either order, each pattern matching a body or a geom name: fixed scenario objects
 and the floor are geoms of the ``world`` body), e.g. the scenario's ``allowed_collisions``.
-A bounding-sphere bound prunes the pairs: only pairs that could beat the current minimum are
-measured exactly.
+
+The minimum is the exhaustive one: what measuring every pair at every observed step with
+``mj_geomDistance(..., distmax)`` gives, the first step it is reached at, and of the pairs
+reaching it at that step the first (robot geom id, then world geom id). A broad phase of
+bounding volumes (:class:`_Bounds`, a few array operations per step whatever the number of
+pairs) finds the pairs that could reach the minimum; only those are measured.
 """
 
 from __future__ import annotations
@@ -33,6 +37,8 @@ from harness.events.logger import StepContext, period_ns_from_hz
 __all__ = ["Clearance", "ClearanceLogger"]
 
 _TOUCHING = 1e-6  # metres: a pair this close at the start is resting, not a margin
+_APART = 1e-3  # metres: a pair whose bound says at least this is not resting (not measured)
+_SLACK = 1e-9  # metres: pairs bounded within this of the minimum are measured (rounding)
 
 
 class Clearance(NamedTuple):
@@ -76,7 +82,8 @@ class ClearanceLogger:
         except ValueError as exc:
             raise LoggerConfigError(f"clearance logger {name!r}: {exc}") from None
         self.distmax = float(distmax)
-        bodies = [model.body(i).name or f"body{i}" for i in range(model.nbody)]
+        self._bodies = bodies = _names(model, model.name_bodyadr, "body")
+        self._geoms = geoms = _names(model, model.name_geomadr, "geom")
         index = {n: i for i, n in enumerate(bodies)}
         robot: set[int] = set()
         for i, body in enumerate(robot_bodies):
@@ -88,25 +95,11 @@ class ClearanceLogger:
         robot.discard(0)
         if not robot:
             raise LoggerConfigError(f"clearance logger {name!r}: needs at least one robot body")
-        patterns = list(ignore)
-        self._bodies = bodies
-        self._geoms = geoms = [model.geom(i).name or f"geom{i}" for i in range(model.ngeom)]
-        body_of = model.geom_bodyid
-        contype, conaffinity = model.geom_contype, model.geom_conaffinity
-        mine = [g for g in range(model.ngeom) if int(body_of[g]) in robot]
-        theirs = [g for g in range(model.ngeom) if int(body_of[g]) not in robot]
-        pairs = [
-            (a, b)
-            for a in mine
-            for b in theirs
-            if (contype[a] & conaffinity[b]) or (contype[b] & conaffinity[a])
-            if not _ignored(
-                (bodies[body_of[a]], geoms[a]), (bodies[body_of[b]], geoms[b]), patterns
-            )
-        ]
-        self._pairs: npt.NDArray[np.intp] = np.array(pairs, dtype=np.intp).reshape(-1, 2)
+        self._pairs: npt.NDArray[np.intp] = _pairs(model, robot, bodies, geoms, list(ignore))
         self._started = False
         self._bounds = _Bounds(None, None, self._pairs)
+        self._a: list[int] = []
+        self._b: list[int] = []
         self.minimum = Clearance(self.distmax, -1, "", "")
         """The smallest clearance so far (see :class:`Clearance`)."""
 
@@ -121,71 +114,122 @@ class ClearanceLogger:
     def observe(self, ctx: StepContext) -> Sequence[Event]:
         """Measure this step's clearance (no events)."""
         if not self._started:
-            self._drop_resting(ctx)
-            self._bounds = _Bounds(ctx.model, ctx.data, self._pairs)
-        pairs = self._pairs
-        if not len(pairs):
+            self._start(ctx)
+        if not self._a:
             return []
         bound = self._bounds.lower(ctx.data.geom_xpos)
         best = self.minimum.distance
         # a bound <= 0 may hide an overlap (not a lower bound then): measured below a best
         # <= 0; with best > 0 it is below best anyway
-        near = np.flatnonzero((bound < best) | (bound <= 0.0) if best <= 0.0 else bound < best)
+        near = (bound <= max(best + _SLACK, 0.0)).nonzero()[0]
         if not near.size:
             return []
-        if near.size > 1:
-            near = near[np.argsort(bound[near], kind="stable")]
-        model, data = ctx.model, ctx.data
-        for i in near.tolist():
-            if bound[i] >= best and bound[i] > 0.0:
+        model, data, distmax = ctx.model, ctx.data, self.distmax
+        pa, pb = self._a, self._b
+        found = -1
+        for low, i in sorted(zip(bound[near].tolist(), near.tolist(), strict=True)):
+            if low > best + _SLACK and low > 0.0:
                 break
-            ga, gb = int(pairs[i, 0]), int(pairs[i, 1])
-            d = mujoco.mj_geomDistance(model, data, ga, gb, best, None)
-            if d < best:
-                best = d
-                body = model.geom_bodyid
-                self.minimum = Clearance(
-                    float(d),
-                    ctx.step,
-                    self._bodies[body[ga]],
-                    self._bodies[body[gb]],
-                    self._geoms[ga],
-                    self._geoms[gb],
-                )
+            d = mujoco.mj_geomDistance(model, data, pa[i], pb[i], distmax, None)
+            if d < best or (d == best and 0 <= i < found):  # ties: the first pair
+                best, found = d, i
+        if found >= 0:
+            ga, gb = pa[found], pb[found]
+            body = model.geom_bodyid
+            self.minimum = Clearance(
+                float(best),
+                ctx.step,
+                self._bodies[body[ga]],
+                self._bodies[body[gb]],
+                self._geoms[ga],
+                self._geoms[gb],
+            )
         return []
 
     def finish(self, ctx: StepContext) -> Sequence[Event]:
         return []
 
-    def _drop_resting(self, ctx: StepContext) -> None:
+    def _start(self, ctx: StepContext) -> None:
+        """Leave out the pairs resting at the first observed step, read the fixed geoms'
+        poses (:class:`_Bounds`)."""
         self._started = True
-        keep = [
-            bool(
-                mujoco.mj_geomDistance(ctx.model, ctx.data, int(a), int(b), _TOUCHING * 2, None)
-                > _TOUCHING
-            )
-            for a, b in self._pairs
-        ]
-        self._pairs = self._pairs[np.array(keep, dtype=bool)] if keep else self._pairs
+        model, data = ctx.model, ctx.data
+        pairs = self._pairs
+        bounds = _Bounds(model, data, pairs)
+        if len(pairs):
+            # a pair bounded at least _APART away is not resting: not measured
+            keep = bounds.lower(data.geom_xpos) > _APART
+            for i in (~keep).nonzero()[0].tolist():
+                a, b = int(pairs[i, 0]), int(pairs[i, 1])
+                keep[i] = mujoco.mj_geomDistance(model, data, a, b, _TOUCHING * 2, None) > _TOUCHING
+            if not keep.all():
+                self._pairs = pairs = pairs[keep]
+                bounds = bounds.subset(keep)
+        self._bounds = bounds
+        self._a, self._b = pairs[:, 0].tolist(), pairs[:, 1].tolist()
 
 
-def _ignored(a: tuple[str, str], b: tuple[str, str], patterns: list[tuple[str, str]]) -> bool:
-    """Whether a pair of (body, geom) names matches an ignore pattern pair, either order."""
+def _names(model: mujoco.MjModel, addresses: npt.NDArray[np.int32], kind: str) -> list[str]:
+    """The names of one kind of element (``kind`` and its id when unnamed), read from the
+    model's name buffer."""
+    raw: bytes = model.names
+    out = []
+    for i, start in enumerate(addresses.tolist()):
+        out.append(raw[start : raw.index(b"\0", start)].decode() or f"{kind}{i}")
+    return out
 
-    def match(names: tuple[str, str], pattern: str) -> bool:
-        return any(fnmatch.fnmatchcase(n, pattern) for n in names)
 
-    return any(
-        (match(a, pa) and match(b, pb)) or (match(a, pb) and match(b, pa)) for pa, pb in patterns
+def _pairs(
+    model: mujoco.MjModel,
+    robot: set[int],
+    bodies: list[str],
+    geoms: list[str],
+    ignore: list[tuple[str, str]],
+) -> npt.NDArray[np.intp]:
+    """The (robot geom, world geom) pairs that can collide (``contype``/``conaffinity``) and
+    that no ``ignore`` pattern pair names (either order; a pattern names a geom when it
+    matches the geom's or its body's name), by robot geom then world geom id."""
+    body_of = np.asarray(model.geom_bodyid)
+    flags = np.zeros(int(model.nbody), dtype=bool)
+    flags[sorted(robot)] = True
+    ours = flags[body_of]
+    mine, theirs = np.flatnonzero(ours), np.flatnonzero(~ours)
+    contype = np.asarray(model.geom_contype)
+    conaffinity = np.asarray(model.geom_conaffinity)
+    ok = ((contype[mine, None] & conaffinity[None, theirs]) != 0) | (
+        (contype[None, theirs] & conaffinity[mine, None]) != 0
     )
+    matches: dict[str, npt.NDArray[np.bool_]] = {}
+
+    def named(pattern: str) -> npt.NDArray[np.bool_]:
+        """Per geom: whether ``pattern`` matches its name or its body's."""
+        if pattern not in matches:
+            body = [fnmatch.fnmatchcase(n, pattern) for n in bodies]
+            matches[pattern] = np.array(
+                [
+                    body[b] or fnmatch.fnmatchcase(g, pattern)
+                    for b, g in zip(body_of, geoms, strict=True)
+                ],
+                dtype=bool,
+            ).reshape(-1)
+        return matches[pattern]
+
+    for first, second in ignore:
+        x, y = named(first), named(second)
+        ok &= ~((x[mine, None] & y[None, theirs]) | (y[mine, None] & x[None, theirs]))
+    a, b = np.nonzero(ok)
+    out = np.empty((len(a), 2), dtype=np.intp)
+    out[:, 0], out[:, 1] = mine[a], theirs[b]
+    return out
 
 
 _PLANE_DEPTH = 1e4  # metres: a plane bounds the half-space below it, as a box this deep
-_NO_BOUND = np.zeros(0)
+_PLANE = int(mujoco.mjtGeom.mjGEOM_PLANE)
+_DENSE_LIMIT = 1 << 16  # entries of the one matrix of the broad phase (else per pair)
 
 
 class _Bounds:
-    """Lower bounds of the pairs' distances from geom poses (the broad phase).
+    """Lower bounds of the pairs' distances from geom positions (the broad phase).
 
     A pair whose other geom is fixed in the world (welded to it, not mocap) is bounded by the
     distance from the robot geom's bounding sphere to the other geom's bounding box (MuJoCo's
@@ -193,6 +237,10 @@ class _Bounds:
     pairs by their two bounding spheres (0 radius, a plane: unbounded: ``-inf``). A positive
     bound is a true lower bound of the distance; one <= 0 says the volumes may overlap (an
     overlap's depth is not bounded: such a pair is measured whatever the minimum).
+
+    Both are one affine map of the geoms' positions per pair (into the fixed box's frame, or
+    the difference of the two centres), a box's half sizes (zero: a sphere's centre) and a
+    radius: with few pairs, one matrix over every geom's position, else per pair.
     """
 
     def __init__(
@@ -201,10 +249,9 @@ class _Bounds:
         data: mujoco.MjData | None,
         pairs: npt.NDArray[np.intp],
     ) -> None:
-        self._n = len(pairs)
-        self._all_fixed = False
-        if model is None or data is None or not self._n:
-            self._fixed = self._moving = np.zeros(0, dtype=np.intp)
+        n = self._n = len(pairs)
+        self._dense: npt.NDArray[np.float64] | None = None
+        if model is None or data is None or not n:
             return
         a, b = pairs[:, 0], pairs[:, 1]
         rbound = np.asarray(model.geom_rbound, dtype=np.float64)
@@ -212,44 +259,70 @@ class _Bounds:
         fixed = (np.asarray(model.body_weldid)[body[b]] == 0) & (
             np.asarray(model.body_mocapid)[body[b]] < 0
         )
-        self._fixed = np.flatnonzero(fixed)
-        self._moving = np.flatnonzero(~fixed)
-        self._all_fixed = not self._moving.size
-        f = self._fixed
-        self._fa = a[f]
-        self._fr = rbound[a[f]]
-        gb = b[f]
-        rot = np.asarray(data.geom_xmat)[gb].reshape(-1, 3, 3)
-        aabb = np.asarray(model.geom_aabb)[gb].reshape(-1, 6)
-        center, half = aabb[:, :3].copy(), aabb[:, 3:].copy()
-        plane = np.asarray(model.geom_type)[gb] == mujoco.mjtGeom.mjGEOM_PLANE
-        center[plane] = (0.0, 0.0, -_PLANE_DEPTH)
-        half[plane] = (np.inf, np.inf, _PLANE_DEPTH)
-        self._rot = rot
-        self._center = np.asarray(data.geom_xpos)[gb] + np.einsum("kij,kj->ki", rot, center)
-        self._half = half
-        m = self._moving
-        self._ma, self._mb = a[m], b[m]
-        ra, rb = rbound[a[m]], rbound[b[m]]
-        self._mr = ra + rb
-        self._unbounded = (ra == 0) | (rb == 0)  # planes: unbounded, always measured
-        self._any_unbounded = bool(self._unbounded.any())
+        rot = np.zeros((n, 3, 3))
+        rot[:] = np.eye(3)
+        offset = np.zeros((n, 3))
+        half = np.zeros((n, 3))
+        radius = rbound[a] + np.where(fixed, 0.0, rbound[b])
+        # 0 radius (a plane): unbounded, always measured
+        radius[(rbound[a] == 0) | (~fixed & (rbound[b] == 0))] = np.inf
+        gb = b[fixed]
+        if gb.size:
+            frame = np.asarray(data.geom_xmat)[gb].reshape(-1, 3, 3)
+            aabb = np.asarray(model.geom_aabb)[gb].reshape(-1, 6)
+            center, size = aabb[:, :3].copy(), aabb[:, 3:].copy()
+            plane = np.asarray(model.geom_type)[gb] == _PLANE  # an int: an enum compares slowly
+            center[plane] = (0.0, 0.0, -_PLANE_DEPTH)
+            size[plane] = (np.inf, np.inf, _PLANE_DEPTH)
+            world = np.asarray(data.geom_xpos)[gb] + np.einsum("kij,kj->ki", frame, center)
+            inverse = frame.transpose(0, 2, 1)
+            rot[fixed] = inverse
+            offset[fixed] = -np.einsum("kij,kj->ki", inverse, world)
+            half[fixed] = size
+        self._offset = offset.reshape(-1)
+        self._half = half.reshape(-1)
+        self._radius = radius
+        self._ones = np.ones(3)
+        ngeom = int(model.ngeom)
+        if 9 * n * ngeom <= _DENSE_LIMIT:
+            dense = np.zeros((n, 3, ngeom, 3))
+            rows = np.arange(n)
+            dense[rows, :, a, :] = rot
+            moving = np.flatnonzero(~fixed)
+            dense[moving, :, b[moving], :] = -np.eye(3)
+            self._dense = dense.reshape(3 * n, 3 * ngeom)
+        else:
+            self._a, self._b = a, b
+            self._rot = rot
+            self._minus = (~fixed).astype(np.float64)[:, None]
+
+    def subset(self, keep: npt.NDArray[np.bool_]) -> _Bounds:
+        """These bounds of the pairs ``keep`` selects."""
+        out = _Bounds(None, None, np.zeros((int(keep.sum()), 2), dtype=np.intp))
+        rows = np.repeat(keep, 3)
+        out._offset, out._half = self._offset[rows], self._half[rows]
+        out._radius, out._ones = self._radius[keep], self._ones
+        if self._dense is not None:
+            out._dense = self._dense[rows]
+        else:
+            out._a, out._b = self._a[keep], self._b[keep]
+            out._rot, out._minus = self._rot[keep], self._minus[keep]
+        return out
 
     def lower(self, xpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Per pair: a lower bound of its distance now (``xpos``: ``data.geom_xpos``)."""
-        bound = _NO_BOUND if self._all_fixed else np.empty(self._n)
-        if self._fixed.size:
-            d = xpos[self._fa] - self._center
-            q = np.abs(np.einsum("ki,kij->kj", d, self._rot))  # |R^T d|, row by row
-            q -= self._half
-            np.maximum(q, 0.0, out=q)
-            gap: npt.NDArray[np.float64] = np.sqrt(np.einsum("ki,ki->k", q, q)) - self._fr
-            if self._all_fixed:
-                return gap
-            bound[self._fixed] = gap
-        if self._moving.size:
-            gap = np.linalg.norm(xpos[self._ma] - xpos[self._mb], axis=1) - self._mr
-            if self._any_unbounded:
-                gap[self._unbounded] = -np.inf
-            bound[self._moving] = gap
-        return bound
+        if not self._n:
+            return np.zeros(0)
+        if self._dense is not None:
+            q = self._dense @ xpos.reshape(-1)
+        else:
+            q = np.matmul(self._rot, xpos[self._a][:, :, None]).reshape(-1)
+            q -= (xpos[self._b] * self._minus).reshape(-1)
+        q += self._offset
+        np.abs(q, out=q)
+        q -= self._half
+        np.maximum(q, 0.0, out=q)
+        q *= q
+        gap: npt.NDArray[np.float64] = np.sqrt(q.reshape(-1, 3) @ self._ones)
+        gap -= self._radius
+        return gap
