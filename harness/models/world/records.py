@@ -359,7 +359,18 @@ class LoadedWorld:
     def combined_description(self) -> RobotModel:
         """One :class:`RobotModel` of every robot: MuJoCo (prefixed) names, poses and axes in
         the world frame at the zero configuration (for code that takes one description, e.g.
-        ``Simulation.from_model(..., description=...)`` for URDF velocity limits)."""
+        ``Simulation.from_model(..., description=...)`` for URDF velocity limits).
+
+        Made once per world: it depends only on ``name`` and ``robots`` (frozen records of
+        frozen descriptions), and the simulation, the loggers and the traces each ask; a copy
+        made with :func:`dataclasses.replace` makes its own."""
+        made = self.__dict__.get("_combined")
+        if made is None:
+            made = self._combine()
+            object.__setattr__(self, "_combined", made)  # a cache, not a field
+        return cast(RobotModel, made)
+
+    def _combine(self) -> RobotModel:
         links: list[Link] = []
         joints: list[Joint] = []
         frames: list[ModelFrame] = []
