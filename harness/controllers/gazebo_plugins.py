@@ -30,6 +30,7 @@ import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import replace
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -267,6 +268,14 @@ def _plugin_remaps(config: ControllersConfig, plugin: etree._Element) -> Control
     return replace(config, controllers=tuple(specs))
 
 
+@lru_cache(maxsize=16)
+def _parsed(data: bytes, source: str) -> etree._Element:
+    """``parse_xml(data, source)``, kept for the next session of the same robot (every
+    session and ``harness explore`` example reads its robot's files again, twice). The tree
+    is only read here, never changed; a document that does not parse is not kept."""
+    return parse_xml(data, source)
+
+
 def robot_controllers(
     default: ControllersConfig, sources: Mapping[str, bytes]
 ) -> ControllersConfig:
@@ -280,7 +289,7 @@ def robot_controllers(
     named: list[str] = []
     for name, data in sources.items():
         if name.startswith("model/") and name.endswith(_MODEL_SUFFIXES):
-            root = parse_xml(data, name)
+            root = _parsed(bytes(data), name)
             files += _parameter_files(root, name)
             found = drive_plugins(root, name)
             if found:
