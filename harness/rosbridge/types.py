@@ -11,6 +11,7 @@ from __future__ import annotations
 import ast
 import copy
 import re
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -99,6 +100,13 @@ def parse_type_name(text: object, kind: str = "msg") -> tuple[str, str]:
     (``/std_msgs//String/``), as the reference accepts; :class:`TypeNameError` otherwise."""
     if not isinstance(text, str):
         raise TypeNameError(f"Invalid {kind} type {text!r}: expected a string")
+    return _parse_type_name(text, kind)
+
+
+@lru_cache(maxsize=1024)
+def _parse_type_name(text: str, kind: str) -> tuple[str, str]:
+    """:func:`parse_type_name` of a string, kept (a session resolves the same few dozen
+    names at its start; a name that does not parse raises and is not kept)."""
     parts = [p for p in text.split("/") if p]
     if len(parts) == 3 and parts[1] == kind:
         parts = [parts[0], parts[2]]
