@@ -243,9 +243,10 @@ class JointLimitLogger:
         ids = _joint_ids(model, joints, who)
         self._name = name
         self.tolerance = tolerance
-        names = tuple(model.joint(j).name for j in ids)
+        called = {j: model.joint(j).name for j in ids}  # each accessor costs microseconds
+        names = tuple(called[j] for j in ids)
         limited = [j for j in ids if bool(model.jnt_limited[j])]
-        self._pos = _Watch(tuple(model.joint(j).name for j in limited))
+        self._pos = _Watch(tuple(called[j] for j in limited))
         self._pos_adr = np.asarray(model.jnt_qposadr)[limited]
         self._pos_at: slice | npt.NDArray[np.intp] = index_of(self._pos_adr)
         ranges = np.asarray(model.jnt_range)[limited].reshape(-1, 2)
@@ -265,10 +266,10 @@ class JointLimitLogger:
         if bad:
             raise LoggerConfigError(f"{who}: velocity_limits.{bad[0]}: must be > 0")
         vel_ids = [j for j, n in zip(ids, names, strict=True) if n in vel]
-        self._vel = _Watch(tuple(model.joint(j).name for j in vel_ids))
+        self._vel = _Watch(tuple(called[j] for j in vel_ids))
         self._vel_dof = np.asarray(model.jnt_dofadr)[vel_ids]
         self._vel_at: slice | npt.NDArray[np.intp] = index_of(self._vel_dof)
-        self._vel_limit = np.array([vel[model.joint(j).name] for j in vel_ids], dtype=float)
+        self._vel_limit = np.array([vel[called[j]] for j in vel_ids], dtype=float)
 
     @property
     def name(self) -> str:

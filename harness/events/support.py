@@ -89,9 +89,8 @@ class SupportClassifier:
         self._geom_rolls = rolls[body] & self.robot[body]
         static = np.asarray(model.body_weldid, dtype=np.int64)[body] == 0
         self._geom_static = static & ~self.not_world[body]
-        self.floor = (np.asarray(model.geom_type) == mujoco.mjtGeom.mjGEOM_PLANE) & ~self.robot[
-            body
-        ]
+        plane = int(mujoco.mjtGeom.mjGEOM_PLANE)  # an int: an array compares to an enum slowly
+        self.floor = (np.asarray(model.geom_type) == plane) & ~self.robot[body]
         self._learnt = False
         self._last: (
             tuple[tuple[bytes, bytes], npt.NDArray[np.bool_], npt.NDArray[np.bool_], bool] | None

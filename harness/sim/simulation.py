@@ -212,9 +212,10 @@ class Simulation:
         self.data.ctrl[self._dyn_act] = self._cmd[self._dyn_rows]
         # a filtered position command (the drive's setpoint filter) starts at its command
         model = self.model
+        exact = int(mujoco.mjtDyn.mjDYN_FILTEREXACT)  # a NumPy scalar compares to an enum slowly
         for act in self._dyn_act.tolist():
             adr = int(model.actuator_actadr[act])
-            if adr >= 0 and model.actuator_dyntype[act] == mujoco.mjtDyn.mjDYN_FILTEREXACT:
+            if adr >= 0 and int(model.actuator_dyntype[act]) == exact:
                 self.data.act[adr] = self.data.ctrl[act]
         self._restart(0)
 
