@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from harness.events.collision import body_names, geom_names
 from harness.events.errors import LoggerConfigError
 from harness.events.events import Event
 from harness.events.logger import StepContext, period_ns_from_hz
@@ -82,8 +83,8 @@ class ClearanceLogger:
         except ValueError as exc:
             raise LoggerConfigError(f"clearance logger {name!r}: {exc}") from None
         self.distmax = float(distmax)
-        self._bodies = bodies = _names(model, model.name_bodyadr, "body")
-        self._geoms = geoms = _names(model, model.name_geomadr, "geom")
+        self._bodies = bodies = body_names(model)
+        self._geoms = geoms = geom_names(model)
         index = {n: i for i, n in enumerate(bodies)}
         robot: set[int] = set()
         for i, body in enumerate(robot_bodies):
@@ -167,16 +168,6 @@ class ClearanceLogger:
                 bounds = bounds.subset(keep)
         self._bounds = bounds
         self._a, self._b = pairs[:, 0].tolist(), pairs[:, 1].tolist()
-
-
-def _names(model: mujoco.MjModel, addresses: npt.NDArray[np.int32], kind: str) -> list[str]:
-    """The names of one kind of element (``kind`` and its id when unnamed), read from the
-    model's name buffer."""
-    raw: bytes = model.names
-    out = []
-    for i, start in enumerate(addresses.tolist()):
-        out.append(raw[start : raw.index(b"\0", start)].decode() or f"{kind}{i}")
-    return out
 
 
 def _pairs(

@@ -12,6 +12,7 @@ from collections.abc import Iterable, Sequence
 
 import mujoco
 import numpy as np
+import numpy.typing as npt
 
 from harness.events.errors import LoggerConfigError
 from harness.events.events import CollisionBegin, CollisionEnd, Event, NearMiss
@@ -32,12 +33,22 @@ __all__ = ["CollisionLogger", "body_names", "geom_names"]
 
 def body_names(model: mujoco.MjModel) -> list[str]:
     """Body names by id (``body<id>`` for unnamed bodies; body 0 is ``world``)."""
-    return [model.body(i).name or f"body{i}" for i in range(model.nbody)]
+    return _names(model, model.name_bodyadr, "body")
 
 
 def geom_names(model: mujoco.MjModel) -> list[str]:
     """Geom names by id (``geom<id>`` for unnamed geoms)."""
-    return [model.geom(i).name or f"geom{i}" for i in range(model.ngeom)]
+    return _names(model, model.name_geomadr, "geom")
+
+
+def _names(model: mujoco.MjModel, addresses: npt.NDArray[np.int32], kind: str) -> list[str]:
+    """Names read from the model's name buffer (a ``model.body(i)`` accessor per name costs
+    microseconds: every session's loggers ask), ``<kind><id>`` for the unnamed."""
+    raw: bytes = model.names
+    return [
+        raw[start : raw.index(b"\0", start)].decode() or f"{kind}{i}"
+        for i, start in enumerate(addresses.tolist())
+    ]
 
 
 class CollisionLogger:

@@ -34,6 +34,8 @@ SUPPORT_ANGLE_DEG = 30.0
 """The most a support contact's normal leaves the vertical (degrees)."""
 _COS = math.cos(math.radians(SUPPORT_ANGLE_DEG))
 _ROLL_NAMES = ("wheel", "caster")
+_BALL = int(mujoco.mjtJoint.mjJNT_BALL)
+_HINGE = int(mujoco.mjtJoint.mjJNT_HINGE)
 
 
 def floating_bodies(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
@@ -48,21 +50,22 @@ def floating_bodies(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
 
 def rolling_bodies(model: mujoco.MjModel) -> npt.NDArray[np.bool_]:
     """Per body: a wheel or a caster (see the module docstring)."""
-    rolls = np.zeros(model.nbody, dtype=bool)
-    for b in range(model.nbody):
-        name = (model.body(b).name or "").rpartition("/")[2].lower()
-        if any(word in name for word in _ROLL_NAMES):
-            rolls[b] = True
-            continue
-        start, count = int(model.body_jntadr[b]), int(model.body_jntnum[b])
-        for j in range(start, start + count) if start >= 0 else ():
-            kind = int(model.jnt_type[j])
-            if kind == mujoco.mjtJoint.mjJNT_BALL:
-                rolls[b] = True
-            elif kind == mujoco.mjtJoint.mjJNT_HINGE:
-                low, high = (float(v) for v in model.jnt_range[j])
-                if not model.jnt_limited[j] or high - low >= 2 * math.pi:
-                    rolls[b] = True
+    raw: bytes = model.names
+    rolls = np.array(
+        [
+            any(
+                word in raw[a : raw.index(b"\0", a)].decode().rpartition("/")[2].lower()
+                for word in _ROLL_NAMES
+            )
+            for a in model.name_bodyadr.tolist()
+        ],
+        dtype=bool,
+    ).reshape(-1)
+    kind = np.asarray(model.jnt_type)
+    low, high = np.asarray(model.jnt_range, dtype=np.float64).reshape(-1, 2).T
+    endless = (np.asarray(model.jnt_limited) == 0) | (high - low >= 2 * math.pi)
+    turning = (kind == _BALL) | ((kind == _HINGE) & endless)
+    rolls[np.asarray(model.jnt_bodyid)[turning]] = True
     return rolls
 
 
