@@ -149,6 +149,7 @@ class TypeRegistry:
             self._copy_of(template)
             return
         self.store = get_typestore(store)
+        self._template: TypeRegistry | None = None
         self._compiled: dict[str, MessageDef] = {}
         self._services: dict[str, ServiceDef] = {}
         self._actions: dict[str, ActionDef] = {}
@@ -157,6 +158,7 @@ class TypeRegistry:
         self._build(bundled, harness_msgs)
         made = TypeRegistry.__new__(TypeRegistry)
         made._copy_of(self)
+        made._template = None
         _TEMPLATES[key] = made
 
     def _copy_of(self, other: TypeRegistry) -> None:
@@ -171,6 +173,7 @@ class TypeRegistry:
         self._actions = dict(other._actions)
         self._texts = dict(other._texts)
         self._defaults = {k: dict(v) for k, v in other._defaults.items()}
+        self._template = other
 
     def _build(self, bundled: bool, harness_msgs: bool) -> None:
         if bundled:
@@ -310,6 +313,16 @@ class TypeRegistry:
             fields = [f._replace(default=known.get(f.name)) for f in fields]
         compiled = MessageDef(name, tuple(fields), tuple((c[0], c[1], c[2]) for c in consts))
         self._compiled[name] = compiled
+        template = self._template
+        if (
+            template is not None
+            and template.store.fielddefs.get(name) is self.store.fielddefs[name]
+            and template._defaults.get(name) == declared
+        ):
+            # the template's own definition (not one registered here since the copy): the
+            # next registries copied from it start with it compiled (every session compiles
+            # the same dozen at its start)
+            template._compiled.setdefault(name, compiled)
         return compiled
 
     def service(self, name: str) -> ServiceDef:
