@@ -40,6 +40,7 @@ __all__ = ["Clearance", "ClearanceLogger"]
 _TOUCHING = 1e-6  # metres: a pair this close at the start is resting, not a margin
 _APART = 1e-3  # metres: a pair whose bound says at least this is not resting (not measured)
 _SLACK = 1e-9  # metres: pairs bounded within this of the minimum are measured (rounding)
+_FEW = 4  # candidate pairs measured in pair order; more: nearest bound first
 
 
 class Clearance(NamedTuple):
@@ -101,6 +102,8 @@ class ClearanceLogger:
         self._bounds = _Bounds(None, None, self._pairs)
         self._a: list[int] = []
         self._b: list[int] = []
+        self._data: mujoco.MjData | None = None
+        self._xpos = np.zeros((0, 3))
         self.minimum = Clearance(self.distmax, -1, "", "")
         """The smallest clearance so far (see :class:`Clearance`)."""
 
@@ -118,22 +121,30 @@ class ClearanceLogger:
             self._start(ctx)
         if not self._a:
             return []
-        bound = self._bounds.lower(ctx.data.geom_xpos)
+        if ctx.data is not self._data:  # a view of the data's buffer: valid while it lives
+            self._data, self._xpos = ctx.data, ctx.data.geom_xpos
         best = self.minimum.distance
-        # a bound <= 0 may hide an overlap (not a lower bound then): measured below a best
-        # <= 0; with best > 0 it is below best anyway
-        near = (bound <= max(best + _SLACK, 0.0)).nonzero()[0]
+        # every pair that may reach the minimum (a bound <= 0 may hide an overlap: measured
+        # below a best <= 0; with best > 0 it is below best anyway)
+        near = self._bounds.near(self._xpos, max(best + _SLACK, 0.0))
         if not near.size:
             return []
         model, data, distmax = ctx.model, ctx.data, self.distmax
         pa, pb = self._a, self._b
         found = -1
-        for low, i in sorted(zip(bound[near].tolist(), near.tolist(), strict=True)):
-            if low > best + _SLACK and low > 0.0:
-                break
-            d = mujoco.mj_geomDistance(model, data, pa[i], pb[i], distmax, None)
-            if d < best or (d == best and 0 <= i < found):  # ties: the first pair
-                best, found = d, i
+        if near.size <= _FEW:  # measured in pair order: of equal distances the first stays
+            for i in near.tolist():
+                d = mujoco.mj_geomDistance(model, data, pa[i], pb[i], distmax, None)
+                if d < best:
+                    best, found = d, i
+        else:  # nearest bound first: the others are left once the minimum is below them
+            low = self._bounds.lower_of(near)
+            for bound, i in sorted(zip(low.tolist(), near.tolist(), strict=True)):
+                if bound > best + _SLACK and bound > 0.0:
+                    break
+                d = mujoco.mj_geomDistance(model, data, pa[i], pb[i], distmax, None)
+                if d < best or (d == best and 0 <= i < found):  # ties: the first pair
+                    best, found = d, i
         if found >= 0:
             ga, gb = pa[found], pb[found]
             body = model.geom_bodyid
@@ -231,7 +242,8 @@ class _Bounds:
 
     Both are one affine map of the geoms' positions per pair (into the fixed box's frame, or
     the difference of the two centres), a box's half sizes (zero: a sphere's centre) and a
-    radius: with few pairs, one matrix over every geom's position, else per pair.
+    radius: with few pairs, one matrix over the positions of the geoms read (a range of ids:
+    the robot's are consecutive), else per pair.
     """
 
     def __init__(
@@ -242,6 +254,8 @@ class _Bounds:
     ) -> None:
         n = self._n = len(pairs)
         self._dense: npt.NDArray[np.float64] | None = None
+        self._limit = math.nan  # the limit self._reach was made for
+        self._reach = self._s = np.zeros(0)
         if model is None or data is None or not n:
             return
         a, b = pairs[:, 0], pairs[:, 1]
@@ -274,14 +288,16 @@ class _Bounds:
         self._half = half.reshape(-1)
         self._radius = radius
         self._ones = np.ones(3)
-        ngeom = int(model.ngeom)
-        if 9 * n * ngeom <= _DENSE_LIMIT:
-            dense = np.zeros((n, 3, ngeom, 3))
-            rows = np.arange(n)
-            dense[rows, :, a, :] = rot
-            moving = np.flatnonzero(~fixed)
-            dense[moving, :, b[moving], :] = -np.eye(3)
-            self._dense = dense.reshape(3 * n, 3 * ngeom)
+        # the matrix's columns: the geoms it reads (the robot's, the moving others), a range
+        moving = np.flatnonzero(~fixed)
+        used = np.concatenate([a, b[moving]])
+        first, end = int(used.min()), int(used.max()) + 1
+        self._span = slice(first, end)
+        if 9 * n * (end - first) <= _DENSE_LIMIT:
+            dense = np.zeros((n, 3, end - first, 3))
+            dense[np.arange(n), :, a - first, :] = rot
+            dense[moving, :, b[moving] - first, :] = -np.eye(3)
+            self._dense = dense.reshape(3 * n, 3 * (end - first))
         else:
             self._a, self._b = a, b
             self._rot = rot
@@ -293,6 +309,7 @@ class _Bounds:
         rows = np.repeat(keep, 3)
         out._offset, out._half = self._offset[rows], self._half[rows]
         out._radius, out._ones = self._radius[keep], self._ones
+        out._span = self._span
         if self._dense is not None:
             out._dense = self._dense[rows]
         else:
@@ -304,8 +321,34 @@ class _Bounds:
         """Per pair: a lower bound of its distance now (``xpos``: ``data.geom_xpos``)."""
         if not self._n:
             return np.zeros(0)
+        gap: npt.NDArray[np.float64] = np.sqrt(self._squared(xpos))
+        gap -= self._radius
+        return gap
+
+    def near(self, xpos: npt.NDArray[np.float64], limit: float) -> npt.NDArray[np.intp]:
+        """The pairs whose bound now is at most ``limit`` (>= 0), by index: a bound is
+        ``sqrt(s) - r``, so ``s <= (limit + r)^2`` (no square root per pair; the right side
+        is kept while the limit stays). :meth:`lower_of` gives their bounds."""
+        if not self._n:
+            return np.zeros(0, dtype=np.intp)
+        if limit != self._limit:
+            self._limit = limit
+            self._reach = reach = self._radius + limit  # a plane's: inf
+            reach *= reach
+        found: npt.NDArray[np.intp] = (self._squared(xpos) <= self._reach).nonzero()[0]
+        return found
+
+    def lower_of(self, pairs: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
+        """The bounds of ``pairs`` at the positions of the last :meth:`near`."""
+        gap: npt.NDArray[np.float64] = np.sqrt(self._s[pairs])
+        gap -= self._radius[pairs]
+        return gap
+
+    def _squared(self, xpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Per pair: the squared distance from the robot geom's centre to the other's box
+        (kept for :meth:`lower_of`)."""
         if self._dense is not None:
-            q = self._dense @ xpos.reshape(-1)
+            q = self._dense @ xpos[self._span].reshape(-1)
         else:
             q = np.matmul(self._rot, xpos[self._a][:, :, None]).reshape(-1)
             q -= (xpos[self._b] * self._minus).reshape(-1)
@@ -314,6 +357,5 @@ class _Bounds:
         q -= self._half
         np.maximum(q, 0.0, out=q)
         q *= q
-        gap: npt.NDArray[np.float64] = np.sqrt(q.reshape(-1, 3) @ self._ones)
-        gap -= self._radius
-        return gap
+        self._s = q.reshape(-1, 3) @ self._ones
+        return self._s

@@ -81,11 +81,15 @@ def reference_pairs(model: mujoco.MjModel, robot: set[int]) -> list[tuple[int, i
     return out
 
 
+@pytest.mark.parametrize("few", [4, 0, 1000], ids=["as built", "by bound", "by pair"])
 @pytest.mark.parametrize("dense_limit", [1 << 16, 0], ids=["one matrix", "per pair"])
 def test_clearance_is_the_exhaustive_minimum(
-    dense_limit: int, monkeypatch: pytest.MonkeyPatch
+    dense_limit: int, few: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """Both forms of the broad phase; candidates measured nearest bound first or in pair
+    order (how many candidates choose)."""
     monkeypatch.setattr(clearance_module, "_DENSE_LIMIT", dense_limit)
+    monkeypatch.setattr(clearance_module, "_FEW", few)
     model = mujoco.MjModel.from_xml_string(SCENE)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -134,10 +138,12 @@ TIE = """
 """
 
 
-def test_clearance_ties_go_to_the_first_pair() -> None:
+@pytest.mark.parametrize("few", [4, 0], ids=["by pair", "by bound"])
+def test_clearance_ties_go_to_the_first_pair(few: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """The ball and the cube are both 0.75 m above the floor; the cube's bounding sphere is
-    the larger, so it is measured first; the minimum still names the first pair (the ball),
+    the larger, so its bound is the lower; the minimum still names the first pair (the ball),
     as measuring every pair does, not the pair the broad phase happened to meet first."""
+    monkeypatch.setattr(clearance_module, "_FEW", few)
     model = mujoco.MjModel.from_xml_string(TIE)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
