@@ -24,6 +24,7 @@ from __future__ import annotations
 import fnmatch
 import math
 from collections.abc import Iterable, Sequence
+from functools import lru_cache
 from typing import NamedTuple
 
 import mujoco
@@ -190,14 +191,38 @@ def _pairs(
 ) -> npt.NDArray[np.intp]:
     """The (robot geom, world geom) pairs that can collide (``contype``/``conaffinity``) and
     that no ``ignore`` pattern pair names (either order; a pattern names a geom when it
-    matches the geom's or its body's name), by robot geom then world geom id."""
-    body_of = np.asarray(model.geom_bodyid)
-    flags = np.zeros(int(model.nbody), dtype=bool)
-    flags[sorted(robot)] = True
+    matches the geom's or its body's name), by robot geom then world geom id. ``bodies`` and
+    ``geoms``: the model's names (:func:`body_names`, :func:`geom_names`)."""
+    return _pairs_of(
+        tuple(bodies),
+        tuple(geoms),
+        np.asarray(model.geom_bodyid, dtype=np.int32).tobytes(),
+        np.asarray(model.geom_contype, dtype=np.int32).tobytes(),
+        np.asarray(model.geom_conaffinity, dtype=np.int32).tobytes(),
+        tuple(sorted(robot)),
+        tuple((str(first), str(second)) for first, second in ignore),
+    )
+
+
+@lru_cache(maxsize=64)
+def _pairs_of(
+    bodies: tuple[str, ...],
+    geoms: tuple[str, ...],
+    body_of_bytes: bytes,
+    contype_bytes: bytes,
+    conaffinity_bytes: bytes,
+    robot: tuple[int, ...],
+    ignore: tuple[tuple[str, str], ...],
+) -> npt.NDArray[np.intp]:
+    """:func:`_pairs` as a function of everything it reads, kept for the next model with the
+    same names, bodies and collision masks (a warm world's next example; read only)."""
+    body_of = np.frombuffer(body_of_bytes, dtype=np.int32)
+    contype = np.frombuffer(contype_bytes, dtype=np.int32)
+    conaffinity = np.frombuffer(conaffinity_bytes, dtype=np.int32)
+    flags = np.zeros(len(bodies), dtype=bool)
+    flags[list(robot)] = True
     ours = flags[body_of]
     mine, theirs = np.flatnonzero(ours), np.flatnonzero(~ours)
-    contype = np.asarray(model.geom_contype)
-    conaffinity = np.asarray(model.geom_conaffinity)
     ok = ((contype[mine, None] & conaffinity[None, theirs]) != 0) | (
         (contype[None, theirs] & conaffinity[mine, None]) != 0
     )
@@ -210,7 +235,7 @@ def _pairs(
             matches[pattern] = np.array(
                 [
                     body[b] or fnmatch.fnmatchcase(g, pattern)
-                    for b, g in zip(body_of, geoms, strict=True)
+                    for b, g in zip(body_of.tolist(), geoms, strict=True)
                 ],
                 dtype=bool,
             ).reshape(-1)
@@ -222,6 +247,7 @@ def _pairs(
     a, b = np.nonzero(ok)
     out = np.empty((len(a), 2), dtype=np.intp)
     out[:, 0], out[:, 1] = mine[a], theirs[b]
+    out.setflags(write=False)
     return out
 
 

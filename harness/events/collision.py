@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Iterable, Sequence
+from functools import lru_cache
 
 import mujoco
 import numpy as np
@@ -42,13 +43,19 @@ def geom_names(model: mujoco.MjModel) -> list[str]:
 
 
 def _names(model: mujoco.MjModel, addresses: npt.NDArray[np.int32], kind: str) -> list[str]:
-    """Names read from the model's name buffer (a ``model.body(i)`` accessor per name costs
-    microseconds: every session's loggers ask), ``<kind><id>`` for the unnamed."""
-    raw: bytes = model.names
-    return [
+    """Names read from the model's name buffer, ``<kind><id>`` for the unnamed (a
+    ``model.body(i)`` accessor per name costs microseconds: every session's loggers ask)."""
+    return list(_names_in(model.names, addresses.tobytes(), kind))
+
+
+@lru_cache(maxsize=64)
+def _names_in(raw: bytes, addresses: bytes, kind: str) -> tuple[str, ...]:
+    """The names at ``addresses`` (int32) of a model's name buffer ``raw``: a function of
+    the two, kept for the next model with the same names (a warm world's next example)."""
+    return tuple(
         raw[start : raw.index(b"\0", start)].decode() or f"{kind}{i}"
-        for i, start in enumerate(addresses.tolist())
-    ]
+        for i, start in enumerate(np.frombuffer(addresses, dtype=np.int32).tolist())
+    )
 
 
 class CollisionLogger:

@@ -177,3 +177,23 @@ def test_clearance_start_measures_only_pairs_that_may_rest(
     assert len(at_start) <= len(pairs) // 4
     assert [foot, floor] not in logger._pairs.tolist()
     assert len(logger._pairs) == len(pairs) - 1
+
+
+def test_pairs_are_made_once_per_names_and_masks() -> None:
+    """A warm world's next model (other object values, the same names, bodies and collision
+    masks) gets the pairs made for the first; a model whose masks differ gets its own."""
+    first = mujoco.MjModel.from_xml_string(SCENE)
+    moved = mujoco.MjModel.from_xml_string(SCENE.replace('pos="0.35 0.1 0.55"', 'pos="0.3 0 0.6"'))
+    masked = mujoco.MjModel.from_xml_string(
+        SCENE.replace(
+            'name="rail" type="capsule"', 'name="rail" contype="0" conaffinity="0" type="capsule"'
+        )
+    )
+    one = ClearanceLogger(first, robot_bodies=ROBOT, ignore=IGNORE)
+    two = ClearanceLogger(moved, robot_bodies=ROBOT, ignore=IGNORE)
+    assert two._pairs is one._pairs
+    other = ClearanceLogger(masked, robot_bodies=ROBOT, ignore=IGNORE)
+    rail = masked.geom("rail").id
+    assert rail in one._pairs[:, 1].tolist()
+    assert rail not in other._pairs[:, 1].tolist()
+    assert ClearanceLogger(first, robot_bodies=ROBOT)._pairs is not one._pairs  # no ignore
