@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import mujoco
+import numpy as np
 
 from harness.events import ClearanceLogger, Logger
 from harness.explore.errors import ExploreConfigError
@@ -131,15 +132,31 @@ def margins_of(
     finite = [m for m in margins if math.isfinite(m)]
     if finite:
         out["limit_margin"] = min(finite)
-    errors = [
-        abs(p - c)
-        for trace in (result.traces.joints if result.traces else ())
-        if trace.command is not None
-        for p, c in zip(trace.position, trace.command, strict=True)
-        if not math.isnan(c)
-    ]
-    out["tracking_error"] = max(errors, default=0.0)
+    out["tracking_error"] = _tracking_error(result)
     return out
+
+
+def _tracking_error(result: IterationResult) -> float:
+    """The largest |position - command| over the traces' commanded samples (a command NaN:
+    none yet), with arrays; a position NaN (a run that blew up) is taken as the plain
+    ``max`` over the samples takes it."""
+    traces = [t for t in (result.traces.joints if result.traces else ()) if t.command is not None]
+    worst = 0.0
+    for trace in traces:
+        command = np.array(trace.command, dtype=np.float64)
+        error = np.abs(np.array(trace.position, dtype=np.float64) - command)
+        error = error[~np.isnan(command)]
+        if np.isnan(error).any():
+            errors = [
+                abs(p - c)
+                for t in traces
+                for p, c in zip(t.position, t.command or (), strict=True)
+                if not math.isnan(c)
+            ]
+            return max(errors, default=0.0)
+        if error.size:
+            worst = max(worst, float(error.max()))
+    return worst
 
 
 def drive_value(target: str, margins: Mapping[str, float]) -> float | None:
