@@ -107,6 +107,7 @@ class ClearanceLogger:
         self._xpos = np.zeros((0, 3))
         self.minimum = Clearance(self.distmax, -1, "", "")
         """The smallest clearance so far (see :class:`Clearance`)."""
+        self._kept: list[tuple[int, npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
 
     @property
     def name(self) -> str:
@@ -161,6 +162,59 @@ class ClearanceLogger:
 
     def finish(self, ctx: StepContext) -> Sequence[Event]:
         return []
+
+    def keep(self, ctx: StepContext) -> None:
+        """:meth:`observe` later: keep this step's geom poses (the first observed step is
+        observed now); :meth:`settle` measures every kept step in one pass. The minimum is
+        the one :meth:`observe` at each step would have found: the smallest distance, of
+        equal ones the earliest step, then the first pair (every pair that could reach it is
+        measured, from the same poses)."""
+        if not self._started:
+            self.observe(ctx)
+            return
+        if self._a:
+            data = ctx.data
+            self._kept.append((ctx.step, data.geom_xpos.copy(), data.geom_xmat.copy()))
+
+    def settle(self, model: mujoco.MjModel) -> None:
+        """Measure the steps :meth:`keep` kept (see there); ``model``: the run's."""
+        kept, self._kept = self._kept, []
+        if not kept or not self._a:
+            return
+        xpos = np.stack([x for _, x, _ in kept])
+        low = self._bounds.lower_many(xpos)  # steps x pairs
+        best = self.minimum.distance
+        order = np.argsort(low, axis=None, kind="stable")  # by bound, then step, then pair
+        bounds = low.reshape(-1)[order].tolist()
+        scratch = mujoco.MjData(model)
+        pa, pb, distmax = self._a, self._b, self.distmax
+        npairs = len(pa)
+        found: tuple[int, int] | None = None
+        for bound, flat in zip(bounds, order.tolist(), strict=True):
+            if bound > best + _SLACK and bound > 0.0:
+                break
+            row, i = divmod(flat, npairs)
+            _, positions, frames = kept[row]
+            ga, gb = pa[i], pb[i]
+            scratch.geom_xpos[ga] = positions[ga]
+            scratch.geom_xpos[gb] = positions[gb]
+            scratch.geom_xmat[ga] = frames[ga]
+            scratch.geom_xmat[gb] = frames[gb]
+            d = mujoco.mj_geomDistance(model, scratch, ga, gb, distmax, None)
+            if d < best or (d == best and found is not None and (row, i) < found):
+                best, found = d, (row, i)
+        if found is not None:
+            row, i = found
+            ga, gb = pa[i], pb[i]
+            body = model.geom_bodyid
+            self.minimum = Clearance(
+                float(best),
+                kept[row][0],
+                self._bodies[body[ga]],
+                self._bodies[body[gb]],
+                self._geoms[ga],
+                self._geoms[gb],
+            )
 
     def _start(self, ctx: StepContext) -> None:
         """Leave out the pairs resting at the first observed step, read the fixed geoms'
@@ -348,6 +402,26 @@ class _Bounds:
         if not self._n:
             return np.zeros(0)
         gap: npt.NDArray[np.float64] = np.sqrt(self._squared(xpos))
+        gap -= self._radius
+        return gap
+
+    def lower_many(self, xpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """:meth:`lower` at each of several instants (``xpos``: their ``geom_xpos``, stacked):
+        one row of bounds per instant."""
+        steps = len(xpos)
+        if not self._n:
+            return np.zeros((steps, 0))
+        if self._dense is not None:
+            q = xpos[:, self._span].reshape(steps, -1) @ self._dense.T
+        else:
+            q = np.einsum("pij,spj->spi", self._rot, xpos[:, self._a]).reshape(steps, -1)
+            q -= (xpos[:, self._b] * self._minus[None]).reshape(steps, -1)
+        q += self._offset
+        np.abs(q, out=q)
+        q -= self._half
+        np.maximum(q, 0.0, out=q)
+        q *= q
+        gap: npt.NDArray[np.float64] = np.sqrt(q.reshape(steps, -1, 3) @ self._ones)
         gap -= self._radius
         return gap
 
