@@ -9,7 +9,7 @@ given the robot's :class:`SensorInterfaces` when it is built.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Literal, NamedTuple, Protocol
@@ -79,13 +79,47 @@ class BaseVelocity:
     angular_z: float
 
 
-@dataclass(frozen=True)
 class Publication:
-    """A message to publish on ``topic`` (relative to the controller: ``~/name``)."""
+    """A message to publish on ``topic`` (relative to the controller: ``~/name``): ``msg``,
+    or made by ``build`` when first asked for (:attr:`msg`): a message published at a rate
+    whether or not anyone listens (a controller's state) is then never built for no one."""
 
-    topic: str
-    type: str
-    msg: Mapping[str, Any]
+    __slots__ = ("_build", "_msg", "topic", "type")
+
+    def __init__(
+        self,
+        topic: str,
+        type: str,
+        msg: Mapping[str, Any] | None = None,
+        *,
+        build: Callable[[], Mapping[str, Any]] | None = None,
+    ) -> None:
+        if (msg is None) == (build is None):
+            raise TypeError("Publication takes a msg or a build function (one of them)")
+        self.topic = topic
+        self.type = type
+        self._msg = msg
+        self._build = build
+
+    @property
+    def msg(self) -> Mapping[str, Any]:
+        """The message (built on first use when given as ``build``, then held)."""
+        msg = self._msg
+        if msg is None:
+            assert self._build is not None
+            msg = self._msg = self._build()
+            self._build = None
+        return msg
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Publication):
+            return NotImplemented
+        return (self.topic, self.type, self.msg) == (other.topic, other.type, other.msg)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"Publication(topic={self.topic!r}, type={self.type!r}, msg={self.msg!r})"
 
 
 @dataclass(frozen=True)

@@ -455,7 +455,7 @@ class ControlHost:
             core.publish(
                 robot.resolve(name, pub.topic),
                 pub.type,
-                lambda msg=pub.msg: msg,  # type: ignore[misc]
+                lambda pub=pub: pub.msg,  # type: ignore[misc]
                 record=False,
             )
         if out.feedback or out.results:  # stamped at sim time by the session bridge
