@@ -18,6 +18,7 @@ __all__ = [
     "GOAL_ABORTED",
     "GOAL_CANCELED",
     "GOAL_SUCCEEDED",
+    "NOTHING",
     "ActionEndpoint",
     "BaseVelocity",
     "Command",
@@ -174,6 +175,38 @@ class ControllerOutput:
             self.base = other.base
 
 
+class _Nothing(ControllerOutput):
+    """An output with nothing in it, shared by the calls that produce nothing (a controller's
+    idle update, every cycle): its fields are empty tuples and it refuses any change, so a
+    caller that adds to an output it was given fails loudly instead of changing everyone's."""
+
+    def __init__(self) -> None:
+        for name in ("commands", "publications", "feedback", "results", "logs"):
+            object.__setattr__(self, name, ())
+        object.__setattr__(self, "base", None)
+        object.__setattr__(self, "where", "")
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"NOTHING is shared: make a ControllerOutput to set {name}")
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ControllerOutput):
+            return NotImplemented
+        return not (
+            other.commands or other.publications or other.feedback or other.results or other.logs
+        ) and (other.base, other.where) == (None, "")
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return "NOTHING"
+
+
+NOTHING: ControllerOutput = _Nothing()
+"""The output of a call that produced nothing (equal to an empty :class:`ControllerOutput`;
+shared and unchangeable: return it, never add to it)."""
+
+
 @dataclass(frozen=True)
 class TopicEndpoint:
     """A topic a controller subscribes (``~/name`` relative to the controller); ``node``:
@@ -311,7 +344,7 @@ class ControllerBase:
 
     def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Nothing to do per cycle."""
-        return ControllerOutput()
+        return NOTHING
 
     def taken(self, commands: Sequence[Command], by: str) -> None:
         """A multiplexer's hook: controller ``by`` (another, or this one answering a

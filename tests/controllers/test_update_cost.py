@@ -18,8 +18,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from harness.controllers import ControllerOutput, ControllerSpec, JointReadings
+from harness.controllers import (
+    NOTHING,
+    Command,
+    ControllerOutput,
+    ControllerSpec,
+    JointReadings,
+    make_controller,
+)
 from harness.controllers import joint_trajectory as jtc_module
+from harness.controllers.forward_command import ForwardCommandController
+from harness.controllers.gripper_action import GripperActionController
 from harness.controllers.joint_trajectory import JointTrajectoryController
 from harness.controllers.values import JointIndex
 from harness.session.core.readings import Snapshot
@@ -340,3 +349,38 @@ def test_joint_index_follows_the_names_and_refuses_an_unknown_joint() -> None:
     lacking = Snapshot(("a", "c"), lambda: np.array([1.0, 3.0]))
     with pytest.raises(KeyError, match="'b'"):
         index.take(lacking)
+
+
+# ------------------------------------------------------------------ an idle update's output
+
+
+def test_an_idle_update_gives_the_one_shared_output_which_refuses_changes() -> None:
+    forward = make_controller(
+        ControllerSpec("fwd", "forward_command_controller/ForwardCommandController",
+                       {"joints": list(JOINTS), "interface_name": "position"}),
+        "test", {j: "position" for j in ROBOT}, ROBOT,
+    )  # fmt: skip
+    gripper = make_controller(
+        ControllerSpec("grip", "position_controllers/GripperActionController", {"joint": "a"}),
+        "test", {j: "position" for j in ROBOT}, ROBOT,
+    )  # fmt: skip
+    assert isinstance(forward, ForwardCommandController)
+    assert isinstance(gripper, GripperActionController)
+    state = Plant(_dict).readings(0)
+    gripper.activate(state)
+    for controller in (forward, gripper):
+        out = controller.update(state, PERIOD)
+        assert out is NOTHING
+    assert ControllerOutput() == NOTHING  # it says it is empty (it is a subclass: both ways)
+    assert ControllerOutput(where="x") != NOTHING
+    with pytest.raises(AttributeError):
+        NOTHING.commands.append(Command("a", 1.0))
+    with pytest.raises((AttributeError, TypeError)):
+        NOTHING.commands += [Command("a", 1.0)]
+    with pytest.raises(AttributeError, match="shared"):
+        NOTHING.where = "x"
+    mine = ControllerOutput(commands=[Command("a", 1.0)])
+    mine.extend(NOTHING)
+    assert mine == ControllerOutput(commands=[Command("a", 1.0)])
+    assert not NOTHING.commands
+    assert NOTHING.where == ""
