@@ -58,8 +58,8 @@ __all__ = [
     "FinishedWorld",
     "StagedWorld",
     "finish_world",
+    "home_positions",
     "load_world",
-    "robot_view",
     "stage_world",
 ]
 
@@ -291,7 +291,7 @@ def finish_world(staged: StagedWorld) -> FinishedWorld:
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
     mujoco.mj_saveModel(model, None, buffer)
     views = tuple(
-        robot_view(model, robot, placement or Pose(), sources)
+        _view(model, robot, placement or Pose(), sources)
         for robot, placement in zip(prepared, placements, strict=True)
     )
     control: dict[str, ControlMode] = {}
@@ -435,7 +435,7 @@ def _place_top_bodies(spec: mujoco.MjSpec, pose: Pose) -> None:
         target.quat = list(composed.quat)
 
 
-def robot_view(
+def _view(
     model: mujoco.MjModel, robot: RobotBuild, placement: Pose, sources: Mapping[str, bytes]
 ) -> LoadedRobotView:
     joints: dict[str, JointAddress] = {}
@@ -456,11 +456,7 @@ def robot_view(
         for link in robot.description.links
         if _has_body(model, robot.prefix + link.name)
     }
-    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    qpos = model.key_qpos[key] if key >= 0 else model.qpos0
-    home = {
-        joint: float(qpos[address.qpos]) for joint, address in joints.items() if address.nq == 1
-    }
+    home = home_positions(model, joints)
     mine = {
         f"model/{robot.prefix}{robot.path.name}",
         f"srdf/{robot.prefix}{Path(robot.request.srdf).name}" if robot.request.srdf else "",
@@ -483,6 +479,16 @@ def robot_view(
         self_collision=robot.self_collision,
         base=robot.base,
     )
+
+
+def home_positions(model: mujoco.MjModel, joints: Mapping[str, JointAddress]) -> dict[str, float]:
+    """The ``home`` keyframe's position of each 1-dof joint of ``joints`` (the model's
+    ``qpos0`` without a ``home`` key): a robot view's ``home``."""
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    qpos = model.key_qpos[key] if key >= 0 else model.qpos0
+    return {
+        joint: float(qpos[address.qpos]) for joint, address in joints.items() if address.nq == 1
+    }
 
 
 def _prefixed(sources: Mapping[str, bytes], prefix: str) -> dict[str, bytes]:

@@ -27,6 +27,7 @@ import copy
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
+from types import MappingProxyType
 
 import mujoco
 
@@ -38,7 +39,7 @@ from harness.models.world.build import (
     FinishedWorld,
     StagedWorld,
     finish_world,
-    robot_view,
+    home_positions,
     stage_world,
 )
 from harness.models.world.keyframes import combine_keyframes
@@ -141,12 +142,12 @@ class WorldBuild:
         self.requests = tuple(robots)
 
     def views(self, model: mujoco.MjModel) -> tuple[LoadedRobotView, ...]:
-        """The robots' views of ``model``, compiled from :attr:`world`'s spec (``home`` read
-        from its keyframe; notes and self-collision as the last build found them)."""
-        finished = self._finished
+        """The robots' views of ``model``, compiled from :attr:`world`'s spec: :attr:`world`'s
+        views with ``home`` read from ``model``'s keyframe (the rest does not depend on
+        the initial positions)."""
         return tuple(
-            robot_view(model, robot, placement or Pose(), finished.sources)
-            for robot, placement in zip(finished.prepared, finished.placements, strict=True)
+            replace(view, home=MappingProxyType(home_positions(model, view.joints)))
+            for view in self.world.robots
         )
 
     def _staged_requests(self) -> list[RobotSpec]:
