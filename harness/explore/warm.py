@@ -23,8 +23,10 @@ How values are applied, each as ``load_world`` derives what depends on it
 - a robot's pose: :meth:`harness.models.WorldBuild.place` runs the second half of
   ``load_world`` again (first compile, servo gains, floor placement, self-collision pairs,
   keyframes, final compile) on a copy of the world as staged (robots read and attached),
-  the robots' frames at their new poses and the objects' values set first; about 12 ms for
-  the demo arm instead of a cold build's 25;
+  the robots' frames at their new poses and the objects' values set first: about half a
+  cold build's time for the demo arm (most of it the self-collision pairs sampled again at
+  the new pose, as ``load_world`` samples them: in world coordinates, a pair touching at
+  exactly zero distance may flip with the pose's rounding);
 - a robot's initial positions alone: :meth:`harness.models.WorldBuild.rekey` puts them in
   the combined keyframes (``home``'s ``qpos``, the position servos' ``ctrl`` and command
   filter ``act``), from the same first compile; nothing else depends on them (the servos are
