@@ -84,7 +84,8 @@ class WorldBuild:
 
     @property
     def world(self) -> LoadedWorld:
-        """The world of the last build (:meth:`place`, or the first)."""
+        """The world of the last build (:meth:`place`, or the first); after :meth:`rekey`
+        its spec holds the new keyframes, its model and views are still the build's."""
         return self._finished.world
 
     @property
