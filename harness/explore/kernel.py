@@ -258,15 +258,14 @@ class KernelRunner(EpisodeRunner):
         allowed = tuple(scenario.criteria.allowed_collisions)
         wants_clearance = plan.target == "min_clearance"
         world: LoadedWorld | None = None
+        quiet = False
         try:
             planned, world, timestep = self.worlds.get(scenario, document)
             clearance = allowed if wants_clearance else None
             outcome = self._quiet(document, scenario, planned, world, timestep, clearance)
-            result, margin = (
-                outcome
-                if outcome is not None
-                else run_core(scenario, planned, world, timestep, clearance)
-            )
+            if outcome is None:
+                outcome = run_core(scenario, planned, world, timestep, clearance), False
+            (result, margin), quiet = outcome
         except ScenarioError as exc:
             raise ExploreConfigError(str(exc).splitlines()[0]) from None
         except Exception as exc:  # a failure of the example, not of the search
@@ -284,6 +283,7 @@ class KernelRunner(EpisodeRunner):
             margins=margins_of(result, margin, allowed),
             digest=result.state_digest,
             wall_seconds=time.monotonic() - started,
+            quiet=quiet,
         )
         if keep is None:
             return example
@@ -314,8 +314,8 @@ class KernelRunner(EpisodeRunner):
         world: LoadedWorld,
         timestep: float,
         clearance: tuple[tuple[str, str], ...] | None,
-    ) -> tuple[IterationResult, ClearanceLogger | None] | None:
-        """A quiet run's pass, or None (the example runs in full). The first
+    ) -> tuple[tuple[IterationResult, ClearanceLogger | None], bool] | None:
+        """A quiet run's pass and True, or None (the example runs in full). The first
         :data:`QUIET_CHECKS` quiet passes of a topology also run in full: a difference is a
         :attr:`mismatches` entry and that topology runs in full from then on."""
         if not self.quiet or quiet_blocker(scenario, planned) is not None:
@@ -329,19 +329,19 @@ class KernelRunner(EpisodeRunner):
             return None
         self.quiet_runs += 1
         if checked >= QUIET_CHECKS:
-            return outcome
+            return outcome, True
         full = run_core(scenario, planned, world, timestep, clearance)
         allowed = tuple(scenario.criteria.allowed_collisions)
         seen, expected = _outcome(*outcome, allowed), _outcome(*full, allowed)
         if seen == expected:
             self._quiet_checked[key] = checked + 1
-            return outcome
+            return outcome, True
         self._quiet_checked[key] = -1
         self.mismatches.append(
             f"a quiet run and the full run differ ({seen} vs {expected}); that world now "
             "runs every example in full"
         )
-        return full
+        return full, False
 
 
 def _outcome(

@@ -169,10 +169,13 @@ class _QuietTarget:
         dt_ns = sim.dt_ns
         k = sim.step_index
         busy = quiet_until(k)  # a command may have come since the last step
+        commands = sim.joint_commands()  # changed only by a command or a controller
+        samples = self.samples
         for _ in range(n):
             if k >= busy:  # what SessionCore.advance does before the step, when it does
                 before()
                 busy = quiet_until(k + 1)
+                commands = sim.joint_commands()
             advance()
             k += 1
             get_state(model, data, rows[k - first], spec)
@@ -193,7 +196,7 @@ class _QuietTarget:
                     self._margin_due = (t // period + 1) * period
                     margin.observe(StepContext(k, t, model, data, self._no_contacts, self._robot))
             if k % every == 0:
-                self.samples.append((k - first, sim.sim_time_ns, sim.joint_commands()))
+                samples.append((k - first, k * dt_ns, commands))
         self._last = last
         return k
 

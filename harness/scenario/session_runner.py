@@ -233,11 +233,13 @@ class _Observer:
             np.maximum(self.qmax, q.max(axis=0), out=self.qmax)
             beyond = np.maximum(self.lower - q, q - self.upper)
             self.violations += np.count_nonzero(beyond > self.tolerance, axis=0)
-        for row, sim_time_ns, commands in samples:
-            self.time.append(sim_time_ns / 1e9)
-            self.pos.append(q[row])
-            self.vel.append(states[row, vel_at])
-            self.cmd.append(np.where(self._commanded, commands, np.nan))
+        if samples:
+            rows = np.array([row for row, _, _ in samples], dtype=np.intp)
+            self.time += [sim_time_ns / 1e9 for _, sim_time_ns, _ in samples]
+            self.pos += list(q[rows])
+            self.vel += list(states[np.ix_(rows, vel_at)])
+            commands = np.array([c for _, _, c in samples], dtype=np.float64)
+            self.cmd += list(np.where(self._commanded, commands, np.nan))
         self.step = step
 
     def limits(self) -> tuple[JointLimitSummary, ...]:

@@ -87,6 +87,7 @@ def test_quiet_examples_are_the_full_runs(tmp_path: Path, source: str, failures:
         a, b = quiet.run(values), full.run(values)
         assert _key(a) == _key(b), values
         assert quiet.quiet_runs - before == (1 if b.passed else 0), values  # passes only
+        assert a.quiet == b.passed
         passed += b.passed
         failed += not b.passed
     assert quiet.mismatches == []
@@ -166,6 +167,7 @@ def test_a_quiet_run_unlike_the_full_one_is_an_error(
     assert len(runner.mismatches) == 1
     assert "quiet run and the full run differ" in runner.mismatches[0]
     assert first.digest != "0" * 64  # the full run's answer was used
+    assert not first.quiet
     runner.run(values)  # that world now runs in full: no quiet run, no second mismatch
     assert runner.quiet_runs == 1
     assert len(runner.mismatches) == 1
