@@ -307,6 +307,13 @@ class ControllerBase:
     """Whether the session updates it at every simulation step (a harness-owned controller
     interpolating a command), instead of at its update rate; its :meth:`update` is then
     given the time only (reading a joint raises)."""
+
+    @property
+    def idle(self) -> bool:
+        """Whether its :meth:`update` would return nothing and change nothing now (an
+        every-step controller with nothing in progress; False when it cannot tell)."""
+        return False
+
     notice_key = 0
     """Notices of its cyclic commands (a value clamped, ...) are said once per joint and
     kind for each value of this key (a controller changes it when a new command starts)."""

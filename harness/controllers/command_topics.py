@@ -414,6 +414,11 @@ class RobotCommands(ControllerBase):
         self.trajectory = None
         return ControllerOutput()
 
+    @property
+    def idle(self) -> bool:
+        """No trajectory in progress: :meth:`update` returns nothing."""
+        return self.trajectory is None
+
     # ----------------------------------------------------------------------------- inputs
 
     def on_message(
