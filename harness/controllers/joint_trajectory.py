@@ -413,10 +413,7 @@ class JointTrajectoryController(ControllerBase):
         zeros = self._zeros
         positions = self._index.take(state.position)
         self.holding = Sample(tuple(positions), zeros, zeros, zeros)
-        return [
-            Command(j, position=p, velocity=0.0)
-            for j, p in zip(self.joints, positions, strict=True)
-        ]
+        return [Command(j, p, 0.0) for j, p in zip(self.joints, positions, strict=True)]
 
     def _result(self, goal: int, code: int, text: str, status: int) -> Result:
         return Result(goal, {"error_code": code, "error_string": text}, status)
@@ -506,8 +503,8 @@ class JointTrajectoryController(ControllerBase):
             outside_goal and tol.goal_time != 0.0 and time_difference > tol.goal_time
         )
         if not path_violated and within_goal_time:
-            out.commands += [
-                Command(j, position=p, velocity=v)
+            out.commands += [  # Command(joint, position, velocity)
+                Command(j, p, v)
                 for j, p, v in zip(self.joints, command.positions, command.velocities, strict=True)
             ]
         goal = self.goal

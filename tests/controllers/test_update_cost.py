@@ -30,6 +30,7 @@ from harness.controllers import joint_trajectory as jtc_module
 from harness.controllers.forward_command import ForwardCommandController
 from harness.controllers.gripper_action import GripperActionController
 from harness.controllers.joint_trajectory import JointTrajectoryController
+from harness.controllers.spline import Point, Sample, interpolate
 from harness.controllers.values import JointIndex
 from harness.session.core.readings import Snapshot
 
@@ -384,3 +385,107 @@ def test_an_idle_update_gives_the_one_shared_output_which_refuses_changes() -> N
     assert mine == ControllerOutput(commands=[Command("a", 1.0)])
     assert not NOTHING.commands
     assert NOTHING.where == ""
+
+
+# ------------------------------------------------------------------ interpolation
+
+
+def _reference_interpolate(t_a: int, a: Point, t_b: int, b: Point, t: int) -> Sample:
+    """:func:`interpolate` as it was written before its per-joint locals (verbatim)."""
+    dim = len(a.positions)
+    so_far = (t - t_a) / 1e9
+    between = (t_b - t_a) / 1e9
+    has_vel = bool(a.velocities) and bool(b.velocities)
+    has_acc = bool(a.accelerations) and bool(b.accelerations)
+    has_eff = bool(a.effort) and bool(b.effort)
+    if so_far < 0.0:
+        so_far = 0.0
+        has_vel = has_acc = False
+    if so_far > between:
+        so_far = between
+        has_vel = has_acc = False
+    ts = [1.0]
+    for _ in range(5):
+        ts.append(ts[-1] * so_far)
+    pos = [0.0] * dim
+    vel = [0.0] * dim
+    acc = [0.0] * dim
+    eff = [0.0] * dim
+    if has_eff:
+        for i in range(dim):
+            slope = (b.effort[i] - a.effort[i]) / between if between != 0.0 else 0.0
+            eff[i] = a.effort[i] + ts[1] * slope
+    if has_vel and has_acc:
+        T = [1.0]
+        for _ in range(5):
+            T.append(T[-1] * between)
+        for i in range(dim):
+            p0, v0, a0 = a.positions[i], a.velocities[i], a.accelerations[i]
+            p1, v1, a1 = b.positions[i], b.velocities[i], b.accelerations[i]
+            c = [p0, v0, 0.5 * a0, 0.0, 0.0, 0.0]
+            if between != 0.0:
+                c[3] = (
+                    -20.0 * p0 + 20.0 * p1 - 3.0 * a0 * T[2] + a1 * T[2] - 12.0 * v0 * T[1]
+                    - 8.0 * v1 * T[1]
+                ) / (2.0 * T[3])  # fmt: skip
+                c[4] = (
+                    30.0 * p0 - 30.0 * p1 + 3.0 * a0 * T[2] - 2.0 * a1 * T[2] + 16.0 * v0 * T[1]
+                    + 14.0 * v1 * T[1]
+                ) / (2.0 * T[4])  # fmt: skip
+                c[5] = (
+                    -12.0 * p0 + 12.0 * p1 - a0 * T[2] + a1 * T[2] - 6.0 * v0 * T[1]
+                    - 6.0 * v1 * T[1]
+                ) / (2.0 * T[5])  # fmt: skip
+            pos[i] = sum(ts[k] * c[k] for k in range(6))
+            vel[i] = sum(ts[k - 1] * k * c[k] for k in range(1, 6))
+            acc[i] = 2.0 * c[2] + ts[1] * 6.0 * c[3] + ts[2] * 12.0 * c[4] + ts[3] * 20.0 * c[5]
+    elif has_vel:
+        T = [1.0, between, between * between, between * between * between]
+        for i in range(dim):
+            p0, v0 = a.positions[i], a.velocities[i]
+            p1, v1 = b.positions[i], b.velocities[i]
+            c2 = c3 = 0.0
+            if between != 0.0:
+                c2 = (-3.0 * p0 + 3.0 * p1 - 2.0 * v0 * T[1] - v1 * T[1]) / T[2]
+                c3 = (2.0 * p0 - 2.0 * p1 + v0 * T[1] + v1 * T[1]) / T[3]
+            pos[i] = p0 + ts[1] * v0 + ts[2] * c2 + ts[3] * c3
+            vel[i] = v0 + ts[1] * 2.0 * c2 + ts[2] * 3.0 * c3
+            acc[i] = 2.0 * c2 + ts[1] * 6.0 * c3
+    else:
+        for i in range(dim):
+            slope = (b.positions[i] - a.positions[i]) / between if between != 0.0 else 0.0
+            pos[i] = a.positions[i] + ts[1] * slope
+            vel[i] = slope
+    return Sample(tuple(pos), tuple(vel), tuple(acc), tuple(eff))
+
+
+_VALUE = st.floats(-10.0, 10.0, allow_nan=False) | st.sampled_from([0.0, -0.0])
+
+
+@st.composite
+def _points(draw: st.DrawFn) -> tuple[Point, Point]:
+    dim = draw(st.integers(1, 4))
+    fields = [draw(st.booleans()) for _ in range(6)]  # vel, acc, eff of a, then of b
+
+    def values(given: bool) -> tuple[float, ...]:
+        return tuple(draw(st.lists(_VALUE, min_size=dim, max_size=dim))) if given else ()
+
+    a = Point(0, values(True), values(fields[0]), values(fields[1]), values(fields[2]))
+    b = Point(0, values(True), values(fields[3]), values(fields[4]), values(fields[5]))
+    return a, b
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    ends=_points(),
+    t_a=st.integers(0, 3 * S),
+    span=st.integers(0, 2 * S),
+    at=st.integers(-S, 4 * S),
+)
+def test_interpolation_is_the_formula_bit_for_bit(
+    ends: tuple[Point, Point], t_a: int, span: int, at: int
+) -> None:
+    a, b = ends
+    got = interpolate(t_a, a, t_a + span, b, t_a + at)
+    expected = _reference_interpolate(t_a, a, t_a + span, b, t_a + at)
+    assert repr(got) == repr(expected)
