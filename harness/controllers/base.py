@@ -47,7 +47,9 @@ class JointReadings(NamedTuple):
     """The state interfaces of a robot's joints at one instant (``sim_time_ns``), and the
     value each joint's command interface holds (``command``: what was last commanded, in the
     unit of its mode's field; empty where a caller gives none). A tuple: the session makes
-    one at every step for a controller updated every step."""
+    one at every step for a controller updated every step. The session's mappings also give
+    their whole array (:class:`~harness.controllers.values.JointArray`): a controller over
+    many joints takes them with a :class:`~harness.controllers.values.JointIndex`."""
 
     sim_time_ns: int
     position: Mapping[str, float]
