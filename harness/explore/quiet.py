@@ -162,7 +162,7 @@ class _QuietTarget:
         model, data = sim.model, sim.data
         control = core.control
         before, quiet_until = control.before_step, control.quiet_until
-        advance, get_state = sim.step, mujoco.mj_getState
+        advance, mj_step, get_state = sim.step, mujoco.mj_step, mujoco.mj_getState
         rows, first, spec = self._rows, self._first, self._spec
         clean, last = self._clean, self._last
         margin, period, every = self._margin, self._margin_period, self._every
@@ -171,32 +171,48 @@ class _QuietTarget:
         busy = quiet_until(k)  # a command may have come since the last step
         commands = sim.joint_commands()  # changed only by a command or a controller
         samples = self.samples
-        for _ in range(n):
-            if k >= busy:  # what SessionCore.advance does before the step, when it does
-                before()
-                busy = quiet_until(k + 1)
-                commands = sim.joint_commands()
-            advance()
-            k += 1
-            get_state(model, data, rows[k - first], spec)
-            if data.ncon:
-                key = data.contact.geom.tobytes()
-                if key != last:
-                    if key not in clean:
-                        pairs = np.frombuffer(key, dtype=np.int32)
-                        if self._judged[pairs].any():
-                            raise _Judged(k)
-                        clean.add(key)
-                    last = key
-            elif last:
-                last = b""
-            if margin is not None:
-                t = k * dt_ns
-                if t >= self._margin_due:
-                    self._margin_due = (t // period + 1) * period
-                    margin.observe(StepContext(k, t, model, data, self._no_contacts, self._robot))
-            if k % every == 0:
-                samples.append((k - first, k * dt_ns, commands))
+        plain = 0  # bare mj_step calls not yet told to the simulation
+        try:
+            for _ in range(n):
+                if k >= busy:  # what SessionCore.advance does before the step, when it does
+                    if plain:
+                        sim.stepped(plain)
+                        plain = 0
+                    before()
+                    busy = quiet_until(k + 1)
+                    commands = sim.joint_commands()
+                if sim.plain:
+                    mj_step(model, data)
+                    plain += 1
+                else:
+                    if plain:
+                        sim.stepped(plain)
+                        plain = 0
+                    advance()
+                k += 1
+                get_state(model, data, rows[k - first], spec)
+                if data.ncon:
+                    key = data.contact.geom.tobytes()
+                    if key != last:
+                        if key not in clean:
+                            pairs = np.frombuffer(key, dtype=np.int32)
+                            if self._judged[pairs].any():
+                                raise _Judged(k)
+                            clean.add(key)
+                        last = key
+                elif last:
+                    last = b""
+                if margin is not None:
+                    t = k * dt_ns
+                    if t >= self._margin_due:
+                        self._margin_due = (t // period + 1) * period
+                        context = StepContext(k, t, model, data, self._no_contacts, self._robot)
+                        margin.observe(context)
+                if k % every == 0:
+                    samples.append((k - first, k * dt_ns, commands))
+        finally:
+            if plain:
+                sim.stepped(plain)
         self._last = last
         return k
 
