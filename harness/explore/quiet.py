@@ -3,8 +3,9 @@
 Most examples a search generates pass, and in a passing run of a scripted scenario nothing
 the verdicts read happens at most steps: no robot touches anything, no sink listens, no
 client waits. :func:`quiet_run` runs such an example on a :class:`harness.session.SessionCore`
-as :func:`harness.explore.kernel.run_core` does (the same start, initial publication, script
-commands at their step boundaries, controller updates and ``mj_step``), but at each step it
+as :func:`harness.explore.kernel.run_core` does (the same start, script commands at their step
+boundaries, controller updates and ``mj_step``; not the initial publication of latched
+messages, for subscribers there are none of), but at each step it
 only keeps MuJoCo's state (one ``mj_getState`` row) and looks at the contacts' geom pairs
 (each distinct set classified once); the observer's digest, joint ranges and limit counts
 come from those rows in one pass at the end (:meth:`harness.scenario.IterationObserver.absorb`),
@@ -239,7 +240,8 @@ def quiet_run(
     dt_ns = core.dt_ns
     try:
         core.start()
-        core.publish_initial()
+        # no publish_initial(): it latches the robots' descriptions and static transforms
+        # for subscribers and records step 0, and a quiet run has neither
         margin = None if clearance is None else clearance_logger(world, sim.model, clearance)
         limit = steps_for(scenario.duration, dt_ns)
         first = sim.step_index
