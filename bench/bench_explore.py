@@ -17,7 +17,10 @@ Rows (each measured in this run):
 - examples/s where each example runs the client program, 2 workers (target: >= 5/s), and
   1 worker;
 - examples/s with 2 local Dask workers against 1 (one engine per worker);
-- seconds to find and shrink the planted 2 % region with 2 workers (target: <= 60 s).
+- seconds to find and shrink the planted 2 % region with 2 workers (target: <= 60 s);
+- one passing example's CPU time (its thread's), quiet (:mod:`harness.explore.quiet`) and in
+  full (:func:`harness.explore.kernel.run_core`), against its physics alone: 750 bare
+  ``mj_step`` calls on the same compiled world (the floor any example pays).
 
 Each rate is examples run over a fixed span of search (``--time``), so the benchmark's length
 does not depend on the machine's speed.
@@ -25,6 +28,7 @@ does not depend on the machine's speed.
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 import tempfile
@@ -116,10 +120,61 @@ def _dask_rates(folder: Path, seconds: float) -> tuple[float, float]:
     return rates[0], rates[1]
 
 
+def _example_cpu(reps: int) -> tuple[float, float, float]:
+    """Thread CPU seconds (best of ``reps``) of one passing clear.yaml example quiet, in
+    full, and of its 750 bare ``mj_step`` calls."""
+    import mujoco
+
+    from harness.explore.kernel import run_core
+    from harness.explore.parameters import apply_values
+    from harness.explore.quiet import quiet_run
+    from harness.explore.warm import WarmWorlds
+    from harness.scenario import Scenario
+
+    plan = load_plan(DATA / "clear.yaml")
+    nominal = {p.path: p.nominal for p in plan.parameters}
+    document = apply_values(plan.document, plan.parameters, nominal)
+    scenario = Scenario.from_mapping(document, base_dir=plan.source.parent, source=plan.source)
+    with tempfile.TemporaryDirectory() as tmp:
+        planned, world, timestep = WarmWorlds(Path(tmp)).get(scenario, document)
+        allowed = tuple(scenario.criteria.allowed_collisions)
+        steps = round(scenario.duration / timestep)
+
+        def bare() -> None:
+            model, data = world.model, mujoco.MjData(world.model)
+            for _ in range(steps):
+                mujoco.mj_step(model, data)
+
+        def quiet() -> None:
+            assert quiet_run(scenario, planned, world, timestep, allowed) is not None
+
+        def full() -> None:
+            run_core(scenario, planned, world, timestep, allowed)
+
+        out = []
+        for fn in (quiet, full, bare):
+            fn()
+            best = math.inf
+            for _ in range(reps):
+                start = time.thread_time()
+                fn()
+                best = min(best, time.thread_time() - start)
+            out.append(best)
+    return out[0], out[1], out[2]
+
+
 def run(quick: bool) -> list[Row]:
     span = 8.0 if quick else 30.0  # seconds of search per rate
     budget = 30.0 if quick else 60.0  # the planted failure's --time
     rows: list[Row] = []
+    quiet, full, bare = _example_cpu(5 if quick else 20)
+    rows.append(Row(
+        name="explore: one passing example (clear.yaml, 750 steps), quiet vs its bare mj_step",
+        ours=quiet * 1e3, limit=bare * 1e3, unit="ms CPU", target="(no target; the floor)",
+        passed=True, higher_is_better=False,
+        note=f"in full (every logger every step) {full * 1e3:.1f} ms; "
+        f"quiet {quiet * 1e3:.1f} ms; 750 bare mj_step {bare * 1e3:.1f} ms",
+    ))  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         clear = DATA / "clear.yaml"

@@ -24,6 +24,7 @@ from harness.controllers.base import (
     GOAL_ABORTED,
     GOAL_CANCELED,
     GOAL_SUCCEEDED,
+    NOTHING,
     ActionEndpoint,
     BaseVelocity,
     Command,
@@ -60,6 +61,7 @@ from harness.controllers.manager import SERVICES, ControllerManager, make_contro
 from harness.controllers.planar import TYPE_PLANAR
 from harness.controllers.registry import RobotInterfaces, controller_type, known_types
 from harness.controllers.substitutions import ARG_NAME
+from harness.controllers.values import JointArray, JointIndex
 
 __all__ = [
     "ARG_NAME",
@@ -68,6 +70,7 @@ __all__ = [
     "GOAL_ABORTED",
     "GOAL_CANCELED",
     "GOAL_SUCCEEDED",
+    "NOTHING",
     "SERVICES",
     "TYPE_DIFF_DRIVE",
     "TYPE_PLANAR",
@@ -85,6 +88,8 @@ __all__ = [
     "ControllersConfigError",
     "ControllersWarning",
     "Feedback",
+    "JointArray",
+    "JointIndex",
     "JointReadings",
     "ListedJoints",
     "LogLine",

@@ -9,7 +9,7 @@ given the robot's :class:`SensorInterfaces` when it is built.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Literal, NamedTuple, Protocol
@@ -18,6 +18,7 @@ __all__ = [
     "GOAL_ABORTED",
     "GOAL_CANCELED",
     "GOAL_SUCCEEDED",
+    "NOTHING",
     "ActionEndpoint",
     "BaseVelocity",
     "Command",
@@ -46,7 +47,9 @@ class JointReadings(NamedTuple):
     """The state interfaces of a robot's joints at one instant (``sim_time_ns``), and the
     value each joint's command interface holds (``command``: what was last commanded, in the
     unit of its mode's field; empty where a caller gives none). A tuple: the session makes
-    one at every step for a controller updated every step."""
+    one at every step for a controller updated every step. The session's mappings also give
+    their whole array (:class:`~harness.controllers.values.JointArray`): a controller over
+    many joints takes them with a :class:`~harness.controllers.values.JointIndex`."""
 
     sim_time_ns: int
     position: Mapping[str, float]
@@ -79,13 +82,47 @@ class BaseVelocity:
     angular_z: float
 
 
-@dataclass(frozen=True)
 class Publication:
-    """A message to publish on ``topic`` (relative to the controller: ``~/name``)."""
+    """A message to publish on ``topic`` (relative to the controller: ``~/name``): ``msg``,
+    or made by ``build`` when first asked for (:attr:`msg`): a message published at a rate
+    whether or not anyone listens (a controller's state) is then never built for no one."""
 
-    topic: str
-    type: str
-    msg: Mapping[str, Any]
+    __slots__ = ("_build", "_msg", "topic", "type")
+
+    def __init__(
+        self,
+        topic: str,
+        type: str,
+        msg: Mapping[str, Any] | None = None,
+        *,
+        build: Callable[[], Mapping[str, Any]] | None = None,
+    ) -> None:
+        if (msg is None) == (build is None):
+            raise TypeError("Publication takes a msg or a build function (one of them)")
+        self.topic = topic
+        self.type = type
+        self._msg = msg
+        self._build = build
+
+    @property
+    def msg(self) -> Mapping[str, Any]:
+        """The message (built on first use when given as ``build``, then held)."""
+        msg = self._msg
+        if msg is None:
+            assert self._build is not None
+            msg = self._msg = self._build()
+            self._build = None
+        return msg
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Publication):
+            return NotImplemented
+        return (self.topic, self.type, self.msg) == (other.topic, other.type, other.msg)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"Publication(topic={self.topic!r}, type={self.type!r}, msg={self.msg!r})"
 
 
 @dataclass(frozen=True)
@@ -138,6 +175,38 @@ class ControllerOutput:
         self.logs += other.logs
         if other.base is not None:
             self.base = other.base
+
+
+class _Nothing(ControllerOutput):
+    """An output with nothing in it, shared by the calls that produce nothing (a controller's
+    idle update, every cycle): its fields are empty tuples and it refuses any change, so a
+    caller that adds to an output it was given fails loudly instead of changing everyone's."""
+
+    def __init__(self) -> None:
+        for name in ("commands", "publications", "feedback", "results", "logs"):
+            object.__setattr__(self, name, ())
+        object.__setattr__(self, "base", None)
+        object.__setattr__(self, "where", "")
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"NOTHING is shared: make a ControllerOutput to set {name}")
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ControllerOutput):
+            return NotImplemented
+        return not (
+            other.commands or other.publications or other.feedback or other.results or other.logs
+        ) and (other.base, other.where) == (None, "")
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return "NOTHING"
+
+
+NOTHING: ControllerOutput = _Nothing()
+"""The output of a call that produced nothing (equal to an empty :class:`ControllerOutput`;
+shared and unchangeable: return it, never add to it)."""
 
 
 @dataclass(frozen=True)
@@ -240,6 +309,13 @@ class ControllerBase:
     """Whether the session updates it at every simulation step (a harness-owned controller
     interpolating a command), instead of at its update rate; its :meth:`update` is then
     given the time only (reading a joint raises)."""
+
+    @property
+    def idle(self) -> bool:
+        """Whether its :meth:`update` would return nothing and change nothing now (an
+        every-step controller with nothing in progress; False when it cannot tell)."""
+        return False
+
     notice_key = 0
     """Notices of its cyclic commands (a value clamped, ...) are said once per joint and
     kind for each value of this key (a controller changes it when a new command starts)."""
@@ -277,7 +353,7 @@ class ControllerBase:
 
     def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Nothing to do per cycle."""
-        return ControllerOutput()
+        return NOTHING
 
     def taken(self, commands: Sequence[Command], by: str) -> None:
         """A multiplexer's hook: controller ``by`` (another, or this one answering a

@@ -40,6 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from harness.controllers.base import (
+    NOTHING,
     Command,
     ControllerBase,
     ControllerOutput,
@@ -320,8 +321,6 @@ _FIELD_OF_MODE: Mapping[str, CommandField] = {
     "effort": "effort",
 }
 _FIELDS: tuple[CommandField, ...] = ("position", "velocity", "effort")
-_IDLE = ControllerOutput()
-"""The multiplexer's update without a trajectory (every step: one shared, never changed)."""
 
 
 class _Joints(Protocol):
@@ -414,6 +413,11 @@ class RobotCommands(ControllerBase):
         self.active = False
         self.trajectory = None
         return ControllerOutput()
+
+    @property
+    def idle(self) -> bool:
+        """No trajectory in progress: :meth:`update` returns nothing."""
+        return self.trajectory is None
 
     # ----------------------------------------------------------------------------- inputs
 
@@ -533,7 +537,7 @@ class RobotCommands(ControllerBase):
         is updated every step); its notices are said once per joint and trajectory."""
         trajectory = self.trajectory
         if trajectory is None:
-            return _IDLE
+            return NOTHING  # without a trajectory (every step)
         out = ControllerOutput()
         t_next = state.sim_time_ns + period_ns
         positions, velocities = trajectory.commands(t_next)

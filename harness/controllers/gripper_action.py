@@ -19,6 +19,7 @@ from harness.controllers.base import (
     GOAL_ABORTED,
     GOAL_CANCELED,
     GOAL_SUCCEEDED,
+    NOTHING,
     ActionEndpoint,
     Command,
     Controller,
@@ -115,10 +116,10 @@ class GripperActionController(ControllerBase):
 
     def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """Check the active goal for success or a stall."""
-        out = ControllerOutput()
         goal = self.goal
         if not self.active or goal is None:
-            return out
+            return NOTHING
+        out = ControllerOutput()
         now = state.sim_time_ns
         position = state.position[self.joint]
         if abs(self.target - position) < self.goal_tolerance:

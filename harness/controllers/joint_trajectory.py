@@ -30,9 +30,10 @@ kinematic writes stand for the hardware).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 from harness.controllers.base import (
     GOAL_ABORTED,
@@ -58,10 +59,12 @@ from harness.controllers.spline import (
     Sample,
     SampledTrajectory,
     SegmentTolerances,
+    StateTolerance,
     goal_tolerances,
     params_tolerances,
     within,
 )
+from harness.controllers.values import JointIndex
 
 __all__ = [
     "ACTION_TYPE",
@@ -87,6 +90,27 @@ PATH_TOLERANCE_VIOLATED = -4
 GOAL_TOLERANCE_VIOLATED = -5
 _INTERFACES = ("position", "velocity", "acceleration", "effort")
 _FLOAT_EPS = 1.1920929e-07
+_ZEROS = itertools.repeat(0.0)
+
+
+_Actual = tuple[list[float], list[float]]
+"""The joints' positions and velocities (none without the velocity state interface)."""
+
+
+class _Pending(NamedTuple):
+    """What a feedback message says, kept until it goes out (it is built then)."""
+
+    goal: int
+    now: int
+    desired: Sample
+    actual: _Actual
+    err_pos: list[float]
+    err_vel: list[float]
+
+
+def _enforced(tolerance: StateTolerance) -> bool:
+    """Whether ``tolerance`` checks anything (a tolerance of 0 is not enforced)."""
+    return tolerance.position > 0.0 or tolerance.velocity > 0.0 or tolerance.acceleration > 0.0
 
 
 class InvalidTrajectory(Exception):
@@ -161,9 +185,15 @@ class JointTrajectoryController(ControllerBase):
         self.holding: Sample | None = None
         """The state held when no trajectory runs (the last point reached, or where a
         violation or cancel stopped)."""
-        self._pending_feedback: Feedback | None = None
+        self._pending_feedback: _Pending | None = None
+        """What the next feedback says (built when it goes out, at ``action_monitor_rate``)."""
         self._monitor_next = 0
         self._state_next = 0
+        self._index = JointIndex(self.joints)
+        self._zeros = (0.0,) * len(self.joints)
+        self._tolerances_seen: SegmentTolerances | None = None
+        self._path_enforced = True
+        self._goal_enforced = True
 
     # ----------------------------------------------------------------------------- lifecycle
 
@@ -380,18 +410,18 @@ class JointTrajectoryController(ControllerBase):
 
     def _hold(self, state: JointReadings) -> list[Command]:
         self.trajectory = None
-        zeros = (0.0,) * len(self.joints)
-        self.holding = Sample(tuple(state.position[j] for j in self.joints), zeros, zeros, zeros)
-        return [Command(j, position=state.position[j], velocity=0.0) for j in self.joints]
+        zeros = self._zeros
+        positions = self._index.take(state.position)
+        self.holding = Sample(tuple(positions), zeros, zeros, zeros)
+        return [Command(j, p, 0.0) for j, p in zip(self.joints, positions, strict=True)]
 
     def _result(self, goal: int, code: int, text: str, status: int) -> Result:
         return Result(goal, {"error_code": code, "error_string": text}, status)
 
-    def _actual(self, state: JointReadings) -> Point:
-        velocities = (
-            tuple(state.velocity[j] for j in self.joints) if self.has_velocity_state else ()
-        )
-        return Point(0, tuple(state.position[j] for j in self.joints), velocities)
+    def _actual(self, state: JointReadings) -> _Actual:
+        """The joints' state interfaces now (each array taken at once: :class:`JointIndex`)."""
+        take = self._index.take
+        return take(state.position), take(state.velocity) if self.has_velocity_state else []
 
     def update(self, state: JointReadings, period_ns: int) -> ControllerOutput:
         """One control cycle at ``state.sim_time_ns``."""
@@ -402,11 +432,12 @@ class JointTrajectoryController(ControllerBase):
         actual = self._actual(state)
         desired: Sample | None = None
         error: tuple[list[float], list[float]] | None = None
+        holding = False
         trajectory = self.trajectory
         if trajectory is not None:
             first_sample = not trajectory.sampled
             if first_sample:
-                trajectory.set_point_before(now, actual)
+                trajectory.set_point_before(now, Point(0, tuple(actual[0]), tuple(actual[1])))
             desired, start_index, end_index = trajectory.sample(now)
             command, _, _ = trajectory.sample(now + period_ns)
             if desired is not None and command is not None:
@@ -416,15 +447,19 @@ class JointTrajectoryController(ControllerBase):
                 )  # fmt: skip
         elif self.holding is not None:
             desired = self.holding
-            error = (
-                [d - a for d, a in zip(desired.positions, actual.positions, strict=True)],
-                [0.0] * len(self.joints),
-            )
-        self._flush_feedback(out, now)
+            holding = True  # its error is only said in the state message: made there
+        if self._pending_feedback is not None:
+            self._flush_feedback(out, now)
         if self.state_period_ns == 0 or now >= self._state_next:
             # the first update at or after each period (no drift: the mean rate is the rate)
             self._state_next = (now // max(1, self.state_period_ns) + 1) * self.state_period_ns
-            out.publications.append(self._state_msg(now, actual, desired, error))
+            out.publications.append(
+                Publication(
+                    "~/controller_state",
+                    STATE_TYPE,
+                    build=lambda: self._state_msg(now, actual, desired, error, holding),
+                )
+            )
         return out
 
     def _check(
@@ -432,7 +467,7 @@ class JointTrajectoryController(ControllerBase):
         out: ControllerOutput,
         trajectory: SampledTrajectory,
         state: JointReadings,
-        actual: Point,
+        actual: _Actual,
         desired: Sample,
         command: Sample,
         start_index: int,
@@ -444,45 +479,37 @@ class JointTrajectoryController(ControllerBase):
         segment_t = trajectory.start_ns + trajectory.points[start_index].time_from_start_ns
         time_difference = (now - segment_t) / 1e9
         before_last = end_index != len(trajectory.points)
-        path_violated = False
-        outside_goal = False
-        within_goal_time = True
-        err_pos: list[float] = []
-        err_vel: list[float] = []
-        for i, _joint in enumerate(self.joints):
-            ep = desired.positions[i] - actual.positions[i]
-            ev = (
-                desired.velocities[i] - actual.velocities[i]
-                if self.has_velocity_state and self.has_velocity_command
-                else 0.0
-            )
-            err_pos.append(ep)
-            err_vel.append(ev)
-            if (before_last or first_sample) and not within(tol.state[i], ep, ev, 0.0):
-                path_violated = True
-            if not before_last and not within(tol.goal[i], ep, ev, 0.0):
-                outside_goal = True
-                if tol.goal_time != 0.0 and time_difference > tol.goal_time:
-                    within_goal_time = False
+        err_pos = [d - a for d, a in zip(desired.positions, actual[0], strict=True)]
+        err_vel = (
+            [d - a for d, a in zip(desired.velocities, actual[1], strict=True)]
+            if self.has_velocity_state and self.has_velocity_command
+            else [0.0] * len(self.joints)
+        )
+        if tol is not self._tolerances_seen:  # a tolerance of 0 is not enforced: skip all-0
+            self._tolerances_seen = tol
+            self._path_enforced = any(map(_enforced, tol.state))
+            self._goal_enforced = any(map(_enforced, tol.goal))
+        path_violated = (
+            (before_last or first_sample)
+            and self._path_enforced
+            and not all(map(within, tol.state, err_pos, err_vel, _ZEROS))
+        )
+        outside_goal = (
+            not before_last
+            and self._goal_enforced
+            and not all(map(within, tol.goal, err_pos, err_vel, _ZEROS))
+        )
+        within_goal_time = not (
+            outside_goal and tol.goal_time != 0.0 and time_difference > tol.goal_time
+        )
         if not path_violated and within_goal_time:
-            out.commands += [
-                Command(j, position=command.positions[i], velocity=command.velocities[i])
-                for i, j in enumerate(self.joints)
+            out.commands += [  # Command(joint, position, velocity)
+                Command(j, p, v)
+                for j, p, v in zip(self.joints, command.positions, command.velocities, strict=True)
             ]
         goal = self.goal
         if goal is not None:
-            self._pending_feedback = Feedback(
-                goal,
-                {
-                    "header": {"stamp": stamp(now), "frame_id": ""},
-                    "joint_names": list(self.joints),
-                    "desired": point_msg(
-                        desired.positions, desired.velocities, desired.accelerations
-                    ),
-                    "actual": point_msg(actual.positions, actual.velocities),
-                    "error": point_msg(err_pos, err_vel if self.has_velocity_state else ()),
-                },
-            )
+            self._pending_feedback = _Pending(goal, now, desired, actual, err_pos, err_vel)
             if path_violated:
                 self._end(out, goal, PATH_TOLERANCE_VIOLATED,
                           "Aborted due to path tolerance violation")  # fmt: skip
@@ -524,23 +551,45 @@ class JointTrajectoryController(ControllerBase):
         if pending is None:
             return
         if force or now >= self._monitor_next:
-            out.feedback.append(pending)
+            out.feedback.append(self._feedback(pending))
             self._pending_feedback = None
             if not force:
                 self._monitor_next += self.monitor_period_ns * max(
                     1, (now - self._monitor_next) // self.monitor_period_ns + 1
                 )
 
+    def _feedback(self, pending: _Pending) -> Feedback:
+        """The feedback message of the update ``pending`` holds."""
+        goal, now, desired, actual, err_pos, err_vel = pending
+        return Feedback(
+            goal,
+            {
+                "header": {"stamp": stamp(now), "frame_id": ""},
+                "joint_names": list(self.joints),
+                "desired": point_msg(desired.positions, desired.velocities, desired.accelerations),
+                "actual": point_msg(actual[0], actual[1]),
+                "error": point_msg(err_pos, err_vel if self.has_velocity_state else ()),
+            },
+        )
+
     def _state_msg(
         self,
         now: int,
-        actual: Point,
+        actual: _Actual,
         desired: Sample | None,
         error: tuple[list[float], list[float]] | None,
-    ) -> Publication:
-        actual_msg = point_msg(actual.positions, actual.velocities)
+        holding: bool,
+    ) -> dict[str, Any]:
+        """The ``~/controller_state`` message of an update (``holding``: ``desired`` is the
+        position held, whose error is made here)."""
+        if holding and desired is not None:
+            error = (
+                [d - a for d, a in zip(desired.positions, actual[0], strict=True)],
+                [0.0] * len(self.joints),
+            )
+        actual_msg = point_msg(actual[0], actual[1])
         if desired is None or error is None:
-            desired_msg = point_msg(actual.positions, actual.velocities)
+            desired_msg = point_msg(actual[0], actual[1])
             error_msg = point_msg([0.0] * len(self.joints))
         else:
             desired_msg = point_msg(desired.positions, desired.velocities, desired.accelerations)
@@ -555,7 +604,7 @@ class JointTrajectoryController(ControllerBase):
             "desired": desired_msg,
             "actual": actual_msg,
         }
-        return Publication("~/controller_state", STATE_TYPE, msg)
+        return msg
 
 
 @controller_type(TYPE_JOINT_TRAJECTORY)

@@ -87,32 +87,42 @@ def odometry_publications(
     velocity: tuple[float, float, float],
 ) -> list[Publication]:
     """The publications of a planar ``pose`` (x, y, heading) and body ``velocity`` (vx, vy,
-    wz) at sim time ``now_ns``."""
+    wz) at sim time ``now_ns`` (each message built when it is published: :class:`Publication`)."""
     x, y, heading = pose
     vx, vy, wz = velocity
-    quat = {"x": 0.0, "y": 0.0, "z": math.sin(heading / 2), "w": math.cos(heading / 2)}
-    header = {"stamp": stamp(now_ns), "frame_id": frames.odom_frame}
-    odom = {
-        "header": header,
-        "child_frame_id": frames.base_frame,
-        "pose": {
-            "pose": {"position": {"x": x, "y": y, "z": 0.0}, "orientation": quat},
-            "covariance": [0.0] * 36,
-        },
-        "twist": {
-            "twist": {
-                "linear": {"x": vx, "y": vy, "z": 0.0},
-                "angular": {"x": 0.0, "y": 0.0, "z": wz},
-            },
-            "covariance": [0.0] * 36,
-        },
-    }
-    out = [Publication(frames.topic, "nav_msgs/msg/Odometry", odom)]
-    if frames.tf:
-        transform = {
-            "header": header,
+
+    def quat() -> dict[str, float]:
+        return {"x": 0.0, "y": 0.0, "z": math.sin(heading / 2), "w": math.cos(heading / 2)}
+
+    def header() -> dict[str, Any]:
+        return {"stamp": stamp(now_ns), "frame_id": frames.odom_frame}
+
+    def odom() -> dict[str, Any]:
+        return {
+            "header": header(),
             "child_frame_id": frames.base_frame,
-            "transform": {"translation": {"x": x, "y": y, "z": 0.0}, "rotation": quat},
+            "pose": {
+                "pose": {"position": {"x": x, "y": y, "z": 0.0}, "orientation": quat()},
+                "covariance": [0.0] * 36,
+            },
+            "twist": {
+                "twist": {
+                    "linear": {"x": vx, "y": vy, "z": 0.0},
+                    "angular": {"x": 0.0, "y": 0.0, "z": wz},
+                },
+                "covariance": [0.0] * 36,
+            },
         }
-        out.append(Publication("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [transform]}))
+
+    def tf() -> dict[str, Any]:
+        transform = {
+            "header": header(),
+            "child_frame_id": frames.base_frame,
+            "transform": {"translation": {"x": x, "y": y, "z": 0.0}, "rotation": quat()},
+        }
+        return {"transforms": [transform]}
+
+    out = [Publication(frames.topic, "nav_msgs/msg/Odometry", build=odom)]
+    if frames.tf:
+        out.append(Publication("/tf", "tf2_msgs/msg/TFMessage", build=tf))
     return out

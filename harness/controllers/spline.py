@@ -87,49 +87,61 @@ def interpolate(t_a: int, a: Point, t_b: int, b: Point, t: int) -> Sample:
     vel = [0.0] * dim
     acc = [0.0] * dim
     eff = [0.0] * dim
+    # the arithmetic is written out per joint, each expression as the spline's formula
+    # (same operations in the same order: the same bits), over locals for speed
+    t1, t2, t3 = ts[1], ts[2], ts[3]
     if has_eff:
+        ae, be = a.effort, b.effort
         for i in range(dim):
-            slope = (b.effort[i] - a.effort[i]) / between if between != 0.0 else 0.0
-            eff[i] = a.effort[i] + ts[1] * slope
+            slope = (be[i] - ae[i]) / between if between != 0.0 else 0.0
+            eff[i] = ae[i] + t1 * slope
+    ap, bp = a.positions, b.positions
     if has_vel and has_acc:
         T = _powers(5, between)
+        T1, T2 = T[1], T[2]
+        t0, t4, t5 = ts[0], ts[4], ts[5]
+        av, aa, bv, ba = a.velocities, a.accelerations, b.velocities, b.accelerations
         for i in range(dim):
-            p0, v0, a0 = a.positions[i], a.velocities[i], a.accelerations[i]
-            p1, v1, a1 = b.positions[i], b.velocities[i], b.accelerations[i]
-            c = [p0, v0, 0.5 * a0, 0.0, 0.0, 0.0]
+            p0, v0, a0 = ap[i], av[i], aa[i]
+            p1, v1, a1 = bp[i], bv[i], ba[i]
+            c2 = 0.5 * a0
+            c3 = c4 = c5 = 0.0
             if between != 0.0:
-                c[3] = (
-                    -20.0 * p0 + 20.0 * p1 - 3.0 * a0 * T[2] + a1 * T[2] - 12.0 * v0 * T[1]
-                    - 8.0 * v1 * T[1]
+                c3 = (
+                    -20.0 * p0 + 20.0 * p1 - 3.0 * a0 * T2 + a1 * T2 - 12.0 * v0 * T1
+                    - 8.0 * v1 * T1
                 ) / (2.0 * T[3])  # fmt: skip
-                c[4] = (
-                    30.0 * p0 - 30.0 * p1 + 3.0 * a0 * T[2] - 2.0 * a1 * T[2] + 16.0 * v0 * T[1]
-                    + 14.0 * v1 * T[1]
+                c4 = (
+                    30.0 * p0 - 30.0 * p1 + 3.0 * a0 * T2 - 2.0 * a1 * T2 + 16.0 * v0 * T1
+                    + 14.0 * v1 * T1
                 ) / (2.0 * T[4])  # fmt: skip
-                c[5] = (
-                    -12.0 * p0 + 12.0 * p1 - a0 * T[2] + a1 * T[2] - 6.0 * v0 * T[1]
-                    - 6.0 * v1 * T[1]
+                c5 = (
+                    -12.0 * p0 + 12.0 * p1 - a0 * T2 + a1 * T2 - 6.0 * v0 * T1
+                    - 6.0 * v1 * T1
                 ) / (2.0 * T[5])  # fmt: skip
-            pos[i] = sum(ts[k] * c[k] for k in range(6))
-            vel[i] = sum(ts[k - 1] * k * c[k] for k in range(1, 6))
-            acc[i] = 2.0 * c[2] + ts[1] * 6.0 * c[3] + ts[2] * 12.0 * c[4] + ts[3] * 20.0 * c[5]
+            # sum(ts[k] * c[k]) and sum(ts[k - 1] * k * c[k]) of c = (p0, v0, c2, c3, c4, c5)
+            pos[i] = sum([t0 * p0, t1 * v0, t2 * c2, t3 * c3, t4 * c4, t5 * c5])
+            vel[i] = sum([t0 * 1 * v0, t1 * 2 * c2, t2 * 3 * c3, t3 * 4 * c4, t4 * 5 * c5])
+            acc[i] = 2.0 * c2 + t1 * 6.0 * c3 + t2 * 12.0 * c4 + t3 * 20.0 * c5
     elif has_vel:
         T = _powers(3, between)
+        T1, T2, T3 = T[1], T[2], T[3]
+        av, bv = a.velocities, b.velocities
         for i in range(dim):
-            p0, v0 = a.positions[i], a.velocities[i]
-            p1, v1 = b.positions[i], b.velocities[i]
+            p0, v0 = ap[i], av[i]
+            p1, v1 = bp[i], bv[i]
             c2 = c3 = 0.0
             if between != 0.0:
-                c2 = (-3.0 * p0 + 3.0 * p1 - 2.0 * v0 * T[1] - v1 * T[1]) / T[2]
-                c3 = (2.0 * p0 - 2.0 * p1 + v0 * T[1] + v1 * T[1]) / T[3]
-            pos[i] = p0 + ts[1] * v0 + ts[2] * c2 + ts[3] * c3
-            vel[i] = v0 + ts[1] * 2.0 * c2 + ts[2] * 3.0 * c3
-            acc[i] = 2.0 * c2 + ts[1] * 6.0 * c3
+                c2 = (-3.0 * p0 + 3.0 * p1 - 2.0 * v0 * T1 - v1 * T1) / T2
+                c3 = (2.0 * p0 - 2.0 * p1 + v0 * T1 + v1 * T1) / T3
+            pos[i] = p0 + t1 * v0 + t2 * c2 + t3 * c3
+            vel[i] = v0 + t1 * 2.0 * c2 + t2 * 3.0 * c3
+            acc[i] = 2.0 * c2 + t1 * 6.0 * c3
     else:
         # linear (also when accelerations come without velocities)
         for i in range(dim):
-            slope = (b.positions[i] - a.positions[i]) / between if between != 0.0 else 0.0
-            pos[i] = a.positions[i] + ts[1] * slope
+            slope = (bp[i] - ap[i]) / between if between != 0.0 else 0.0
+            pos[i] = ap[i] + t1 * slope
             vel[i] = slope
     return Sample(tuple(pos), tuple(vel), tuple(acc), tuple(eff))
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Mapping, Sequence
+from functools import partial
 from typing import Any
 
 from harness.controllers.base import (
@@ -54,6 +55,10 @@ _TWIST = "geometry_msgs/msg/TwistStamped"
 _ODOM = "nav_msgs/msg/Odometry"
 _TF = "tf2_msgs/msg/TFMessage"
 _DIAGONAL = (0, 7, 14, 21, 28, 35)
+
+
+def _msg_of(publication: Publication) -> Mapping[str, Any]:
+    return publication.msg
 
 
 class SteeringGeometry:
@@ -273,15 +278,22 @@ class SteeringController(ControllerBase):
 
     def _publications(self, now: int) -> list[Publication]:
         o = self.odometry
+        pose_covariance = list(self.pose_covariance)
+        twist_covariance = list(self.twist_covariance)
+
+        def with_covariances(plain: Publication) -> dict[str, Any]:
+            msg = dict(plain.msg)
+            msg["pose"] = {**msg["pose"], "covariance": pose_covariance}
+            msg["twist"] = {**msg["twist"], "covariance": twist_covariance}
+            return msg
+
         out = []
         for pub in odometry_publications(
             self.frames, now, (o.x, o.y, o.heading), (o.linear, 0.0, o.angular)
         ):
             if pub.type == _ODOM:
-                msg = dict(pub.msg)
-                msg["pose"] = {**msg["pose"], "covariance": list(self.pose_covariance)}
-                msg["twist"] = {**msg["twist"], "covariance": list(self.twist_covariance)}
-                out.append(Publication(pub.topic, pub.type, msg))
-            else:
-                out.append(Publication(self.tf_topic, pub.type, pub.msg))
+                build = partial(with_covariances, pub)
+                out.append(Publication(pub.topic, pub.type, build=build))
+            else:  # built when published
+                out.append(Publication(self.tf_topic, pub.type, build=partial(_msg_of, pub)))
         return out

@@ -54,7 +54,8 @@ class Example:
     ``margins`` (name -> value), the state ``digest``, and ``kept``: its folder when its
     scenario and recording were kept (failures, a sample of passing examples); ``check``:
     for a kept example of the fast path, ``"identical"`` when the product's run computed
-    the same (:mod:`harness.explore.kernel`), else what differed ("" when not checked)."""
+    the same (:mod:`harness.explore.kernel`), else what differed ("" when not checked);
+    ``quiet``: its result came from a quiet run (:mod:`harness.explore.quiet`)."""
 
     worker: int
     index: int
@@ -68,6 +69,7 @@ class Example:
     kept: str | None = None
     phase: str = "generate"
     check: str = ""
+    quiet: bool = False
 
 
 def _allowed_pair(a: str, b: str, allowed: tuple[tuple[str, str], ...]) -> bool:

@@ -30,7 +30,6 @@ import dataclasses
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
@@ -46,7 +45,14 @@ from harness.explore.errors import ExploreConfigError
 from harness.explore.fast import FastRunner
 from harness.explore.parameters import apply_values
 from harness.explore.plan import ExplorePlan
-from harness.explore.warm import WarmWorlds, model_bytes
+from harness.explore.quiet import (
+    TRACE_SAMPLES,
+    CoreHost,
+    core_options,
+    quiet_blocker,
+    quiet_run,
+)
+from harness.explore.warm import WarmWorlds, model_bytes, topology_key
 from harness.models import LoadedWorld
 from harness.scenario import (
     IterationObserver,
@@ -64,20 +70,12 @@ from harness.scenario import (
     steps_for,
     travel_verdict,
 )
-from harness.session import CoreOptions, SessionConfigError, SessionCore, SessionError
+from harness.session import SessionCore, SessionError
 
-__all__ = ["TRACE_SAMPLES", "KernelRunner", "run_core"]
+__all__ = ["QUIET_CHECKS", "TRACE_SAMPLES", "KernelRunner", "run_core"]
 
-TRACE_SAMPLES = 500
-"""About how many joint trace samples an example keeps (the session runner's default)."""
-
-
-@dataclass(frozen=True)
-class _Host:
-    """What the session runner's observer reads of a session: its simulation and world."""
-
-    sim: Any
-    world: LoadedWorld
+QUIET_CHECKS = 2
+"""How many quiet passes of each topology are also run in full and compared."""
 
 
 class _CoreTarget:
@@ -127,12 +125,7 @@ def run_core(
     ``clearance`` (the allowed pairs), a ``min_clearance`` logger too. Raises what the session
     runner raises (a bad ``script`` joint: :class:`harness.scenario.ScenarioError`)."""
     started = time.monotonic()
-    try:  # the values' keys that are session options (harness.explore.warm)
-        options: CoreOptions = dataclasses.replace(
-            planned.options, seed=scenario.seed, sensors=tuple(scenario.sensors)
-        )
-    except SessionConfigError as exc:
-        raise ScenarioError([f"{scenario.source}: {exc}"]) from None
+    options = core_options(scenario, planned)
     hub = EventHub()
     core = SessionCore(world, options, hub=hub)
     collect = CollectingSink(min_level=Level.INFO)
@@ -142,7 +135,7 @@ def run_core(
     every = max(1, math.ceil(expected / TRACE_SAMPLES))
     sim = core.sim
     obs = IterationObserver(
-        cast(Any, _Host(sim, world)), every, scenario.criteria.joint_limit_tolerance
+        cast(Any, CoreHost(sim, world)), every, scenario.criteria.joint_limit_tolerance
     )
     hub.add_logger(obs)
     margin: ClearanceLogger | None = None
@@ -230,11 +223,18 @@ class KernelRunner(EpisodeRunner):
     others and for kept examples. ``mismatches``: kept examples whose kernel result differed
     from the product's, one line each."""
 
-    def __init__(self, plan: ExplorePlan, scratch: Path, *, worker: int = 0) -> None:
+    def __init__(
+        self, plan: ExplorePlan, scratch: Path, *, worker: int = 0, quiet: bool = True
+    ) -> None:
         super().__init__(plan, scratch, worker=worker, runner=FastRunner())
         self.worlds = WarmWorlds(scratch / "worlds")
         self.mismatches: list[str] = []
         self.kernel_runs = 0
+        self.quiet = quiet
+        """Whether passing examples may run quiet (:mod:`harness.explore.quiet`)."""
+        self.quiet_runs = 0
+        """Examples whose result came from a quiet run."""
+        self._quiet_checked: dict[str, int] = {}
 
     def run(self, values: Mapping[str, Any], *, keep: Path | None = None) -> Example:
         """Run one example (see the class docstring); ``keep``: a folder for its scenario
@@ -258,11 +258,14 @@ class KernelRunner(EpisodeRunner):
         allowed = tuple(scenario.criteria.allowed_collisions)
         wants_clearance = plan.target == "min_clearance"
         world: LoadedWorld | None = None
+        quiet = False
         try:
             planned, world, timestep = self.worlds.get(scenario, document)
-            result, margin = run_core(
-                scenario, planned, world, timestep, allowed if wants_clearance else None
-            )
+            clearance = allowed if wants_clearance else None
+            outcome = self._quiet(document, scenario, planned, world, timestep, clearance)
+            if outcome is None:
+                outcome = run_core(scenario, planned, world, timestep, clearance), False
+            (result, margin), quiet = outcome
         except ScenarioError as exc:
             raise ExploreConfigError(str(exc).splitlines()[0]) from None
         except Exception as exc:  # a failure of the example, not of the search
@@ -280,6 +283,7 @@ class KernelRunner(EpisodeRunner):
             margins=margins_of(result, margin, allowed),
             digest=result.state_digest,
             wall_seconds=time.monotonic() - started,
+            quiet=quiet,
         )
         if keep is None:
             return example
@@ -301,6 +305,56 @@ class KernelRunner(EpisodeRunner):
             wall_seconds=time.monotonic() - started,
             check="differs: " + ", ".join(problems) if problems else "identical",
         )
+
+    def _quiet(
+        self,
+        document: Mapping[str, Any],
+        scenario: Scenario,
+        planned: ScenarioSession,
+        world: LoadedWorld,
+        timestep: float,
+        clearance: tuple[tuple[str, str], ...] | None,
+    ) -> tuple[tuple[IterationResult, ClearanceLogger | None], bool] | None:
+        """A quiet run's pass and True, or None (the example runs in full). The first
+        :data:`QUIET_CHECKS` quiet passes of a topology also run in full: a difference is a
+        :attr:`mismatches` entry and that topology runs in full from then on."""
+        if not self.quiet or quiet_blocker(scenario, planned) is not None:
+            return None
+        key = topology_key(document)
+        checked = self._quiet_checked.get(key, 0)
+        if checked < 0:
+            return None
+        outcome = quiet_run(scenario, planned, world, timestep, clearance)
+        if outcome is None:
+            return None
+        self.quiet_runs += 1
+        if checked >= QUIET_CHECKS:
+            return outcome, True
+        full = run_core(scenario, planned, world, timestep, clearance)
+        allowed = tuple(scenario.criteria.allowed_collisions)
+        seen, expected = _outcome(*outcome, allowed), _outcome(*full, allowed)
+        if seen == expected:
+            self._quiet_checked[key] = checked + 1
+            return outcome, True
+        self._quiet_checked[key] = -1
+        self.mismatches.append(
+            f"a quiet run and the full run differ ({seen} vs {expected}); that world now "
+            "runs every example in full"
+        )
+        return full, False
+
+
+def _outcome(
+    result: IterationResult, margin: ClearanceLogger | None, allowed: tuple[tuple[str, str], ...]
+) -> tuple[Any, ...]:
+    """What an :class:`~harness.explore.episode.Example` takes from a run."""
+    return (
+        result.passed,
+        signature_of(result, allowed) if not result.passed else "",
+        result.reason or "",
+        margins_of(result, margin, allowed),
+        result.state_digest,
+    )
 
 
 def _differences(fast: Example, product: Example) -> list[str]:

@@ -53,6 +53,7 @@ from harness.models.files.xmlsafe import parse_xml
 from harness.models.mjcf.files import check_mjcf_files, generated_from
 from harness.models.sdf.worldfile import is_sdf_world, load_world_file, world_timestep
 from harness.models.urdf.ros2_control import HardwareReplacedWarning, Ros2Control
+from harness.models.world.rebuild import WorldBuild
 from harness.models.world.records import (
     OBJECT_SIZES,
     BaseKind,
@@ -108,6 +109,7 @@ __all__ = [
     "SelfCollision",
     "Shape",
     "UnusedRobotArgWarning",
+    "WorldBuild",
     "WorldObject",
     "XacroError",
     "XacroOrigin",

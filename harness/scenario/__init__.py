@@ -58,7 +58,7 @@ from harness.scenario.session_runner import _collisions as collision_summaries
 from harness.scenario.session_runner import _Observer as IterationObserver
 from harness.scenario.session_runner import check_script, robot_links, steps_for
 from harness.scenario.travel import travel_verdict
-from harness.scenario.world import effective_timestep
+from harness.scenario.world import effective_timestep, robot_pose
 
 __all__ = [
     "BLOB_KEY_PREFIX",
@@ -106,6 +106,7 @@ __all__ = [
     "mirror",
     "render_html",
     "robot_links",
+    "robot_pose",
     "run_client",
     "run_iterations",
     "run_scenarios",

@@ -42,7 +42,7 @@ import hashlib
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from urllib.parse import urlsplit
 
@@ -202,6 +202,45 @@ class _Observer:
 
     def finish(self, ctx: StepContext) -> list[Event]:
         return []
+
+    def state_columns(self) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+        """Where the observed joints' positions and velocities are in a row of the states
+        :meth:`absorb` takes (``mj_getState`` with the simulation's state spec)."""
+        model, spec = self._sim.model, self._spec
+        qpos = mujoco.mj_stateSize(model, spec & (mujoco.mjtState.mjSTATE_QPOS - 1))
+        qvel = mujoco.mj_stateSize(model, spec & (mujoco.mjtState.mjSTATE_QVEL - 1))
+        return (
+            np.asarray(self._qadr + qpos, dtype=np.intp),
+            np.asarray(self._dadr + qvel, dtype=np.intp),
+        )
+
+    def absorb(
+        self,
+        states: F64,
+        step: int,
+        samples: Sequence[tuple[int, int, F64]] = (),
+    ) -> None:
+        """What :meth:`observe` does at each of the steps ending at ``step``, from their
+        states (one row per step, in order: what ``mj_getState`` with the simulation's state
+        spec gave after each): the digest, the range seen, the steps beyond a limit, and the
+        trace ``samples`` (row, simulation time, the joints' commands then: each taken when
+        :meth:`observe` would take it, ``step % every == 0``)."""
+        self.digest.update(np.ascontiguousarray(states).data)
+        pos_at, vel_at = self.state_columns()
+        q = states[:, pos_at]
+        if len(q):
+            np.minimum(self.qmin, q.min(axis=0), out=self.qmin)
+            np.maximum(self.qmax, q.max(axis=0), out=self.qmax)
+            beyond = np.maximum(self.lower - q, q - self.upper)
+            self.violations += np.count_nonzero(beyond > self.tolerance, axis=0)
+        if samples:
+            rows = np.array([row for row, _, _ in samples], dtype=np.intp)
+            self.time += [sim_time_ns / 1e9 for _, sim_time_ns, _ in samples]
+            self.pos += list(q[rows])
+            self.vel += list(states[np.ix_(rows, vel_at)])
+            commands = np.array([c for _, _, c in samples], dtype=np.float64)
+            self.cmd += list(np.where(self._commanded, commands, np.nan))
+        self.step = step
 
     def limits(self) -> tuple[JointLimitSummary, ...]:
         excess = self.excess

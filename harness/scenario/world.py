@@ -72,6 +72,7 @@ __all__ = [
     "plan_world",
     "require_runnable",
     "robot_namespaces",
+    "robot_pose",
     "scene_for",
 ]
 
@@ -362,12 +363,11 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
             if name not in joints
         ]
         problems += _object_clashes(scenario, description, namespace, index, where)
-        posed = robot.position != (0.0, 0.0, 0.0) or robot.orientation != (0.0, 0.0, 0.0)
         robots.append(
             WorldRobot(
                 robot.robot,
                 namespace=namespace,
-                pose=[*robot.position, *robot.orientation] if posed else None,
+                pose=robot_pose(robot),
                 control=modes,
                 initial_positions=dict(robot.initial_joint_positions),
                 robot_args=dict(robot.robot_args),
@@ -384,6 +384,13 @@ def plan_world(scenario: Scenario, folder: Path) -> WorldPlan:
         for robot, namespace in zip(scenario.robots, namespaces, strict=True)
     }
     return WorldPlan(tuple(robots), scene_for(scenario, folder), topics)
+
+
+def robot_pose(robot: ScenarioRobot) -> list[float] | None:
+    """A robot's ``pose`` as its :class:`harness.models.RobotSpec` gets it: x y z, then roll
+    pitch yaw; None (no placement) when the file leaves the robot at the origin."""
+    posed = robot.position != (0.0, 0.0, 0.0) or robot.orientation != (0.0, 0.0, 0.0)
+    return [*robot.position, *robot.orientation] if posed else None
 
 
 def build_world(scenario: Scenario, folder: Path) -> LoadedWorld:

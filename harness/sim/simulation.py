@@ -294,6 +294,26 @@ class Simulation:
 
         return remove
 
+    @property
+    def plain(self) -> bool:
+        """Whether the next :meth:`step` is a bare ``mj_step`` (dynamic joints only, no
+        observer, no input pending): a caller's tight loop may call ``mj_step`` itself, then
+        :meth:`stepped`."""
+        return self._fast
+
+    def stepped(self, n: int) -> None:
+        """Account for ``n`` bare ``mj_step`` calls a caller made on :attr:`data` while
+        :attr:`plain` held: the step count, then :meth:`step`'s checks once (MuJoCo's
+        warnings, time = steps x dt; a failure names the last of the ``n`` steps, not the
+        first that went wrong: step one at a time to find it)."""
+        step = self._step = self._step + n
+        self._changed = False
+        if (
+            self._warnings.tobytes() != self._no_warnings
+            or abs(self.data.time - step * self._dt) > self._half_dt
+        ):
+            self._fail(step)
+
     def step(self, n: int = 1) -> None:
         """Take ``n`` steps. Raises :class:`~harness.sim.errors.InstabilityError` naming the step
         when MuJoCo warns (BADQACC, ...) or time does not match ``step * dt``."""

@@ -107,3 +107,31 @@ def test_bad_states_are_refused(arm):
     sim.set_state(state, 10)
     assert sim.step_index == 10
     assert int(mujoco.mjtState.mjSTATE_INTEGRATION) == sim.state_spec
+
+
+def test_bare_steps_told_with_stepped_are_steps_and_are_checked(arm):
+    """A caller's own ``mj_step`` calls while ``plain`` holds, then ``stepped(n)``: the same
+    state and count as ``step``; a failure among them is raised then (naming the last)."""
+    ours = Simulation.from_model(arm.build("position"), control={"j1": "position"})
+    theirs = Simulation.from_model(arm.build("position"), control={"j1": "position"})
+    for sim in (ours, theirs):
+        sim.set_positions({"j1": 0.3})
+        sim.step()  # the command's step: not a bare one
+    assert ours.plain
+    for _ in range(50):
+        mujoco.mj_step(ours.model, ours.data)
+    ours.stepped(50)
+    theirs.step(50)
+    assert ours.step_index == theirs.step_index == 51
+    assert np.array_equal(ours.get_state(), theirs.get_state())
+    ours.set_positions({"j1": 0.0})
+    assert not ours.plain  # a command is pending: step() prepares it
+
+    sim = _unstable(arm)
+    sim.step()
+    assert sim.plain
+    for _ in range(2000):
+        mujoco.mj_step(sim.model, sim.data)
+    with pytest.raises(InstabilityError) as info:
+        sim.stepped(2000)
+    assert info.value.step == 2001

@@ -1,5 +1,6 @@
 """A world of robots, objects and a map: its records, its build into one compiled MuJoCo model,
-keyframes and placement on the floor.
+keyframes and placement on the floor, and a build kept open to place its robots again
+(``rebuild.py``: :class:`harness.models.WorldBuild`).
 """
 
 from harness.models.world.records import (

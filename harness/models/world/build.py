@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -53,7 +54,14 @@ from harness.models.world.records import (
     placement_pose,
 )
 
-__all__ = ["load_world"]
+__all__ = [
+    "FinishedWorld",
+    "StagedWorld",
+    "finish_world",
+    "home_positions",
+    "load_world",
+    "stage_world",
+]
 
 
 def load_world(
@@ -87,6 +95,51 @@ def load_world(
     Errors: :class:`DuplicateNamespaceError`, :class:`InvalidNamespaceError` and the other
     :class:`ModelError` of :func:`load_robot`, naming ``robots[i]``.
     """
+    return finish_world(
+        stage_world(robots, scene, objects, timestep, cache_dir, mesh_collision)
+    ).world
+
+
+@dataclass
+class StagedWorld:
+    """A world up to its first compile (what :func:`load_world` reads and attaches): the
+    ``spec`` with the robots attached (each at its ``frame``), the robots being built
+    (``prepared``) with their ``placements``, and what the rest of the load needs."""
+
+    spec: mujoco.MjSpec
+    prepared: list[RobotBuild]
+    placements: list[Pose | None]
+    several: bool
+    world_source: str
+    sources: dict[str, bytes]
+    mesh_collision: MeshCollision
+    own_world: bool
+
+
+@dataclass
+class FinishedWorld:
+    """A world :func:`finish_world` compiled: the :class:`LoadedWorld`, the first compile
+    the servo gains, placement and keyframes were derived from (``first``), the robots as
+    built (``prepared``) and their placements on the floor."""
+
+    world: LoadedWorld
+    first: mujoco.MjModel
+    prepared: list[RobotBuild]
+    placements: list[Pose | None]
+    several: bool
+    sources: dict[str, bytes]
+
+
+def stage_world(
+    robots: Sequence[RobotSpec],
+    scene: str | Path | None,
+    objects: Sequence[WorldObject],
+    timestep: float | None,
+    cache_dir: str | Path | None,
+    mesh_collision: MeshCollision,
+) -> StagedWorld:
+    """The first part of :func:`load_world`: every robot read and built, the scene read, the
+    objects added and the robots attached (nothing compiled yet)."""
     if not robots:
         raise ModelStructureError("load_world: no robots given")
     mesh_collision = check_mesh_collision(mesh_collision, "load_world")
@@ -164,7 +217,18 @@ def load_world(
         spec.option.timestep = timestep
     spec.modelname = first_robot.description.name if not several else "world"
     sources.update(decomposed)
+    return StagedWorld(
+        spec, prepared, placements, several, world_source, sources, mesh_collision, own_world
+    )
 
+
+def finish_world(staged: StagedWorld) -> FinishedWorld:
+    """The rest of :func:`load_world` on a staged world (changed in place): the first
+    compile, each robot's control, drives, self-collision and placement on the floor derived
+    from it, the combined keyframes, the final compile and the per-robot views."""
+    spec, prepared, placements = staged.spec, staged.prepared, staged.placements
+    several, world_source, sources = staged.several, staged.world_source, staged.sources
+    mesh_collision = staged.mesh_collision
     first = compile_lenient(
         spec,
         world_source,
@@ -238,7 +302,7 @@ def load_world(
         for a in range(model.nu)
         if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
     )
-    return LoadedWorld(
+    world = LoadedWorld(
         name=str(spec.modelname),
         spec=spec,
         model=model,
@@ -252,6 +316,7 @@ def load_world(
         sha256=hashlib.sha256(mjcf.encode()).hexdigest(),
         mesh_collision=mesh_collision,
     )
+    return FinishedWorld(world, first, prepared, placements, several, sources)
 
 
 def _locate_srdf(srdf: str | Path, packages: Any) -> Path:
@@ -391,11 +456,7 @@ def _view(
         for link in robot.description.links
         if _has_body(model, robot.prefix + link.name)
     }
-    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-    qpos = model.key_qpos[key] if key >= 0 else model.qpos0
-    home = {
-        joint: float(qpos[address.qpos]) for joint, address in joints.items() if address.nq == 1
-    }
+    home = home_positions(model, joints)
     mine = {
         f"model/{robot.prefix}{robot.path.name}",
         f"srdf/{robot.prefix}{Path(robot.request.srdf).name}" if robot.request.srdf else "",
@@ -418,6 +479,16 @@ def _view(
         self_collision=robot.self_collision,
         base=robot.base,
     )
+
+
+def home_positions(model: mujoco.MjModel, joints: Mapping[str, JointAddress]) -> dict[str, float]:
+    """The ``home`` keyframe's position of each 1-dof joint of ``joints`` (the model's
+    ``qpos0`` without a ``home`` key): a robot view's ``home``."""
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+    qpos = model.key_qpos[key] if key >= 0 else model.qpos0
+    return {
+        joint: float(qpos[address.qpos]) for joint, address in joints.items() if address.nq == 1
+    }
 
 
 def _prefixed(sources: Mapping[str, bytes], prefix: str) -> dict[str, bytes]:

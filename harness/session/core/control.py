@@ -359,6 +359,29 @@ class ControlHost:
                 if out.commands or out.logs or out.publications or out.base is not None:
                     self._apply(robot, out, controller, cycle=True)
 
+    def quiet_until(self, k: int) -> int:
+        """The first step boundary at or after ``k`` at which :meth:`before_step` may do
+        anything, as things stand (an input or a controller's output can change it: ask
+        again after one): ``k`` while an every-step controller is busy or a robot's
+        controllers have different rates, else its next update cycle."""
+        until: int | None = None
+        for robot in self.robots:
+            for controller in robot.steps:
+                entry = robot.manager.loaded.get(controller.name)
+                if (
+                    entry is not None
+                    and entry.state == "active"
+                    and not getattr(controller, "idle", False)
+                ):
+                    return k
+            if not robot.periods:
+                continue
+            if not robot.uniform:
+                return k
+            due = -(-k // robot.every) * robot.every
+            until = due if until is None else min(until, due)
+        return k + (1 << 62) if until is None else until
+
     def reset(self) -> None:
         """After a reset to the initial state: every active controller restarts (goals end)."""
         for robot in self.robots:
@@ -455,7 +478,7 @@ class ControlHost:
             core.publish(
                 robot.resolve(name, pub.topic),
                 pub.type,
-                lambda msg=pub.msg: msg,  # type: ignore[misc]
+                lambda pub=pub: pub.msg,  # type: ignore[misc]
                 record=False,
             )
         if out.feedback or out.results:  # stamped at sim time by the session bridge

@@ -13,19 +13,30 @@ __all__ = ["UNREAD", "Snapshot"]
 
 class Snapshot(Mapping[str, float]):
     """Joint name -> value of an array read on first use (then held: the same values a dict
-    built at once would hold)."""
+    built at once would hold). It also gives the whole array (:meth:`array`, in the order of
+    :attr:`names`: a :class:`harness.controllers.JointArray`), so that a controller over many
+    joints takes them in one go instead of one look per joint."""
 
-    __slots__ = ("_dict", "_names", "_read")
+    __slots__ = ("_array", "_dict", "_read", "names")
 
     def __init__(self, names: Sequence[str], read: Callable[[], npt.NDArray[np.float64]]) -> None:
-        self._names = names
+        self.names = names
+        """The joints, in the order of :meth:`array`."""
         self._read = read
+        self._array: npt.NDArray[np.float64] | None = None
         self._dict: dict[str, float] | None = None
+
+    def array(self) -> npt.NDArray[np.float64]:
+        """Every joint's value (read on first use, then held: read it, never write it)."""
+        a = self._array
+        if a is None:
+            a = self._array = self._read()
+        return a
 
     def _get(self) -> dict[str, float]:
         d = self._dict
         if d is None:
-            d = self._dict = dict(zip(self._names, self._read().tolist(), strict=True))
+            d = self._dict = dict(zip(self.names, self.array().tolist(), strict=True))
         return d
 
     def __getitem__(self, key: str) -> float:
