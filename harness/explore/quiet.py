@@ -9,8 +9,9 @@ messages, for subscribers there are none of), but at each step it
 only keeps MuJoCo's state (one ``mj_getState`` row) and looks at the contacts' geom pairs
 (each distinct set classified once); the observer's digest, joint ranges and limit counts
 come from those rows in one pass at the end (:meth:`harness.scenario.IterationObserver.absorb`),
-its trace samples and the ``min_clearance`` margin are taken at their steps as the session's
-hub takes them.
+its trace samples are taken at their steps, and the ``min_clearance`` margin's geom poses at
+the steps the session's hub would measure them, all measured in one pass at the end
+(:meth:`harness.events.ClearanceLogger.keep`).
 
 It answers only for a run that passes:
 
@@ -208,7 +209,7 @@ class _QuietTarget:
                     if t >= self._margin_due:
                         self._margin_due = (t // period + 1) * period
                         context = StepContext(k, t, model, data, self._no_contacts, self._robot)
-                        margin.observe(context)
+                        margin.keep(context)
                 if k % every == 0:
                     samples.append((k - first, k * dt_ns, commands))
         finally:
@@ -261,6 +262,8 @@ def quiet_run(
             return None
         steps = sim.step_index - first
         observer.absorb(rows[:steps], sim.step_index, target.samples)
+        if margin is not None:
+            margin.settle(sim.model)
     finally:
         core.record_close()
         core.finish()
