@@ -33,7 +33,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, cast
 
-from harness.events import ClearanceLogger, CollectingSink, EventHub, Level, velocity_limits
+from harness.events import (
+    ClearanceLogger,
+    CollectingSink,
+    Event,
+    EventHub,
+    Level,
+    StepContext,
+    velocity_limits,
+)
 from harness.explore.episode import (
     EpisodeRunner,
     Example,
@@ -113,6 +121,23 @@ class _CoreTarget:
         return int(self._core.sim.step_index)
 
 
+class _Kept:
+    """The ``min_clearance`` logger on the hub, its steps measured at the end
+    (:meth:`harness.events.ClearanceLogger.keep`: the same minimum, in one pass)."""
+
+    def __init__(self, margin: ClearanceLogger) -> None:
+        self._margin = margin
+        self.name = margin.name
+        self.period_ns = margin.period_ns
+
+    def observe(self, ctx: StepContext) -> list[Event]:
+        self._margin.keep(ctx)
+        return []
+
+    def finish(self, ctx: StepContext) -> list[Event]:
+        return []
+
+
 def run_core(
     scenario: Scenario,
     planned: ScenarioSession,
@@ -148,7 +173,7 @@ def run_core(
             hub.add_logger(logger)
         if clearance is not None:
             margin = clearance_logger(world, sim.model, clearance)
-            hub.add_logger(margin)
+            hub.add_logger(_Kept(margin))
         limit = steps_for(scenario.duration, dt_ns)
         target = _CoreTarget(core)
         try:
@@ -170,6 +195,8 @@ def run_core(
     finally:
         core.record_close()
         reports = core.finish()
+    if margin is not None:
+        margin.settle(sim.model)
     collisions = collision_summaries(
         collect.events, dt_ns, robot_links(world), obs.first, sim.model
     )
