@@ -262,6 +262,7 @@ class KernelRunner(EpisodeRunner):
         self.quiet_runs = 0
         """Examples whose result came from a quiet run."""
         self._quiet_checked: dict[str, int] = {}
+        self._failed = False  # the last example failed: the next likely does too (shrinking)
 
     def run(self, values: Mapping[str, Any], *, keep: Path | None = None) -> Example:
         """Run one example (see the class docstring); ``keep``: a folder for its scenario
@@ -298,6 +299,7 @@ class KernelRunner(EpisodeRunner):
         except Exception as exc:  # a failure of the example, not of the search
             result, margin = _error_result(scenario, exc), None
         self.kernel_runs += 1
+        self._failed = not result.passed
         self.mismatches += [f"example {dict(values)!r}: {note}" for note in self.worlds.notes]
         self.worlds.notes.clear()
         example = Example(
@@ -342,10 +344,12 @@ class KernelRunner(EpisodeRunner):
         timestep: float,
         clearance: tuple[tuple[str, str], ...] | None,
     ) -> tuple[tuple[IterationResult, ClearanceLogger | None], bool] | None:
-        """A quiet run's pass and True, or None (the example runs in full). The first
+        """A quiet run's pass and True, or None (the example runs in full; so does the
+        example after a failure, without a quiet try: while a failure is shrunk most
+        examples fail, and a quiet run that ends at a contact is time lost). The first
         :data:`QUIET_CHECKS` quiet passes of a topology also run in full: a difference is a
         :attr:`mismatches` entry and that topology runs in full from then on."""
-        if not self.quiet or quiet_blocker(scenario, planned) is not None:
+        if self._failed or not self.quiet or quiet_blocker(scenario, planned) is not None:
             return None
         key = topology_key(document)
         checked = self._quiet_checked.get(key, 0)

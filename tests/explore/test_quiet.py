@@ -1,10 +1,10 @@
 """The quiet run (harness.explore.quiet): a passing example's result without the loggers'
 per-step work is the full run's result, and only a pass is ever taken from it.
 
-- Over the sweep's obstacle box (passes and collisions) and a free ball the arm knocks (world
-  contacts of the ball on the table all along, a robot contact for some values): every
-  example's verdict, signature, reason, margins and state digest are the full kernel's; the
-  passes ran quiet, the failures did not.
+- Over the sweep's obstacle box (passes and collisions) and a free ball dropped by the table
+  (world contacts all along): every example's verdict, signature, reason, margins and state
+  digest are the full kernel's; the passes ran quiet (but for one right after a failure),
+  the failures did not.
 - A step with a contact the verdicts judge ends the quiet run (None); with
   ``criteria.world_collisions`` a world objects' contact does too.
 - What the quiet run does not cover is named (sensors, logging destinations,
@@ -81,13 +81,16 @@ def test_quiet_examples_are_the_full_runs(tmp_path: Path, source: str, failures:
     full = KernelRunner(plan, tmp_path / "full", quiet=False)
     rng = random.Random(5)
     passed = failed = 0
+    after_failure = False
     for _ in range(16):
         values = _values(plan, rng)
         before = quiet.quiet_runs
         a, b = quiet.run(values), full.run(values)
         assert _key(a) == _key(b), values
-        assert quiet.quiet_runs - before == (1 if b.passed else 0), values  # passes only
-        assert a.quiet == b.passed
+        # passes only, and not right after a failure (while shrinking most examples fail)
+        assert a.quiet == (b.passed and not after_failure), values
+        assert quiet.quiet_runs - before == int(a.quiet)
+        after_failure = not b.passed
         passed += b.passed
         failed += not b.passed
     assert quiet.mismatches == []
