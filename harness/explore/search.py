@@ -9,7 +9,11 @@ and by the first engine that finds a failure: the others stop generating, it shr
 With local processes, worker 0 runs in this process while the others start: this process has
 its imports done already, and a spawned worker spends seconds importing before its first
 example (time the ``--time`` budget counts). Worker 0 reads the plan from the file as a
-spawned worker does, so where an engine runs does not change what it draws.
+spawned worker does. (hypothesis also draws, now and then, a constant found in the local
+modules its process has imported: worker 0 draws with the caller's modules, as the one-worker
+search always did. Under ``harness explore`` the caller holds two modules a spawned worker
+does not, ``harness.explore._cli`` and ``report``, whose only constant the others lack is the
+integer 2000.)
 """
 
 from __future__ import annotations
