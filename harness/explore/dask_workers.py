@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib
+import math
 import os
 import shlex
 import shutil
@@ -41,23 +42,39 @@ from harness.explore.engine import EngineOutcome
 from harness.explore.episode import Example
 from harness.explore.errors import ExploreError
 
-__all__ = ["DaskFlag", "Shipment", "dask_search", "run_dask_engine"]
+__all__ = ["POLL_SECONDS", "DaskFlag", "Shipment", "dask_search", "run_dask_engine"]
 
 _ENV = threading.Lock()  # one engine per worker process sets the package search variables
 
 
-class DaskFlag:
-    """A :class:`~harness.explore.engine.StopFlag` over a ``distributed.Event``."""
+POLL_SECONDS = 0.1
+"""How often an engine asks the scheduler whether the stop flag is set (at most)."""
 
-    def __init__(self, name: str) -> None:
+
+class DaskFlag:
+    """A :class:`~harness.explore.engine.StopFlag` over a ``distributed.Event``. Asking the
+    scheduler is a round trip (about a millisecond, and the scheduler's time): an engine
+    asks at most every ``poll`` seconds and, once it has seen the flag set, never again;
+    another engine's stop reaches it within ``poll`` seconds."""
+
+    def __init__(self, name: str, poll: float = POLL_SECONDS) -> None:
         distributed: Any = importlib.import_module("distributed")
         self._event: Any = distributed.Event(name)
+        self._poll = poll
+        self._next = -math.inf
+        self._seen = False
 
     def is_set(self) -> bool:
-        return bool(self._event.is_set())
+        if not self._seen:
+            now = time.monotonic()
+            if now >= self._next:
+                self._seen = bool(self._event.is_set())
+                self._next = now + self._poll
+        return self._seen
 
     def set(self) -> None:
         self._event.set()
+        self._seen = True
 
 
 @dataclass(frozen=True)

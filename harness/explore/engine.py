@@ -19,6 +19,7 @@ Where hypothesis falls short:
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -109,6 +110,8 @@ class EngineOutcome:
     failures: dict[str, FailureTrack] = field(default_factory=dict)
     stopped: str = "budget"
     wall_seconds: float = 0.0
+    process: int = field(default_factory=os.getpid)
+    """The id of the process the engine ran in."""
     mismatches: list[str] = field(default_factory=list)
     """Kept examples whose fast-path result differed from ``harness run``'s (one line each:
     :attr:`harness.explore.kernel.KernelRunner.mismatches`)."""
@@ -141,9 +144,12 @@ def run_engine(
     kept_passing = 0
     kept_values: set[str] = set()
     keep_root = episodes.scratch / "kept"
+    shrinks = 0
 
     def record(example: Example) -> Example:
+        nonlocal shrinks
         outcome.examples.append(example)
+        shrinks += example.phase == "shrink"
         if on_example is not None:
             on_example(example)
         return example
@@ -151,7 +157,7 @@ def run_engine(
     def prop(deltas: dict[str, Any]) -> None:
         nonlocal kept_passing
         shrinking = bool(outcome.failures)
-        if shrinking and sum(e.phase == "shrink" for e in outcome.examples) >= options.max_shrinks:
+        if shrinking and shrinks >= options.max_shrinks:
             outcome.stopped = "shrink limit"
             raise _Stop
         if not shrinking:
@@ -163,9 +169,11 @@ def run_engine(
                 raise _Stop
         values = to_values(plan, deltas)
         keep = None
-        key = repr(sorted(values.items()))
-        if kept_passing < options.keep_passing and not shrinking and key not in kept_values:
-            keep = keep_root / f"w{episodes.worker}-{episodes.count:05d}"
+        key = ""
+        if kept_passing < options.keep_passing and not shrinking:
+            key = repr(sorted(values.items()))
+            if key not in kept_values:
+                keep = keep_root / f"w{episodes.worker}-{episodes.count:05d}"
         example = episodes.run(values, keep=keep)
         example = replace(example, phase="shrink" if shrinking else "generate")
         if keep is not None and example.passed:

@@ -14,6 +14,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,8 @@ import yaml  # type: ignore[import-untyped,unused-ignore]
 
 from harness.explore.errors import ExploreConfigError
 from harness.explore.parameters import Parameter, apply_values, parse_parameters
-from harness.scenario import Scenario, ScenarioError
+from harness.explore.valuecheck import ValueChecker
+from harness.scenario import Scenario, ScenarioError, schema_validator
 
 __all__ = ["TARGETS", "ExplorePlan", "load_plan"]
 
@@ -96,6 +98,36 @@ class ExplorePlan:
         )
         body: str = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=100)
         return header + body
+
+    def concrete(self, values: Mapping[str, Any]) -> tuple[dict[str, Any], Scenario]:
+        """The concrete document for ``values`` (:func:`apply_values`) and its
+        :class:`~harness.scenario.Scenario`: what :meth:`Scenario.from_mapping` makes of the
+        document, the same problems raised, but with the scenario schema checked at the
+        parameters' places only where that gives the same verdict
+        (:class:`~harness.explore.valuecheck.ValueChecker`: an example's cost)."""
+        document = apply_values(self.document, self.parameters, values)
+        scenario = Scenario.from_mapping(
+            document,
+            base_dir=self.source.parent,
+            source=self.source,
+            schema=self.value_checker is None or not self.value_checker.valid(values),
+        )
+        return document, scenario
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("value_checker", None)  # a jsonschema validator: found again where used
+        return state
+
+    @cached_property
+    def value_checker(self) -> ValueChecker | None:
+        """The schema at the parameters' places in the nominal document, found once per plan
+        (None: the nominal document is not schema-valid; every example is checked in full)."""
+        template = apply_values(self.document, self.parameters, self.nominal())
+        validator = schema_validator("scenario")
+        if not validator.is_valid(template):
+            return None
+        return ValueChecker(validator, template, self.parameters)
 
     def check(self, values: Mapping[str, Any], file: Path) -> Scenario:
         """The concrete scenario for ``values``, validated (written to ``file``)."""

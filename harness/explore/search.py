@@ -5,6 +5,15 @@ process for one worker, else one process each (``spawn``), or one Dask task each
 (:mod:`harness.explore.dask_workers`). Worker ``i`` seeds its engine with ``seed + i``; all
 share the example database and a stop flag (set by ``--time`` through each engine's deadline,
 and by the first engine that finds a failure: the others stop generating, it shrinks).
+
+With local processes, worker 0 runs in this process while the others start: this process has
+its imports done already, and a spawned worker spends seconds importing before its first
+example (time the ``--time`` budget counts). Worker 0 reads the plan from the file as a
+spawned worker does. (hypothesis also draws, now and then, a constant found in the local
+modules its process has imported: worker 0 draws with the caller's modules, as the one-worker
+search always did. Under ``harness explore`` the caller holds two modules a spawned worker
+does not, ``harness.explore._cli`` and ``report``, whose only constant the others lack is the
+integer 2000.)
 """
 
 from __future__ import annotations
@@ -113,13 +122,19 @@ def search(
         context = multiprocessing.get_context("spawn")
         stop = context.Event()
         with ProcessPoolExecutor(
-            options.workers, mp_context=context, initializer=_init_worker, initargs=(stop,)
+            options.workers - 1, mp_context=context, initializer=_init_worker, initargs=(stop,)
         ) as pool:
             futures = [
                 pool.submit(_process_worker, plan.source, options, i, deadline)
-                for i in range(options.workers)
+                for i in range(1, options.workers)
             ]
-            outcomes = [f.result() for f in futures]
+            try:
+                with warm_clients(options.fast):
+                    first = run_worker(plan.source, options, 0, deadline, stop)
+            except BaseException:
+                stop.set()  # the others stop generating: the pool's exit waits for them
+                raise
+            outcomes = [first, *(f.result() for f in futures)]
     result = SearchResult(plan, outcomes, time.monotonic() - started)
     for outcome in outcomes:
         for signature, track in outcome.failures.items():

@@ -7,6 +7,7 @@ The runner machinery talks to whatever runs one iteration through :class:`Iterat
 (:mod:`harness.scenario.session_runner`, imported when used).
 """
 
+from harness.scenario._validation import validator as schema_validator
 from harness.scenario.bundle import BlobStore, Bundle, bundle_env, collect_bundle, mirror
 from harness.scenario.client import BridgeHost, run_client, stop_group
 from harness.scenario.client_warm import WarmPool, warm_clients
@@ -112,6 +113,7 @@ __all__ = [
     "run_scenarios",
     "run_script",
     "scenario_session",
+    "schema_validator",
     "session_iteration_runner",
     "steps_for",
     "stop_group",

@@ -331,11 +331,18 @@ class Scenario:
 
     @classmethod
     def from_mapping(
-        cls, data: Any, *, base_dir: Path | None = None, source: Path | None = None
+        cls,
+        data: Any,
+        *,
+        base_dir: Path | None = None,
+        source: Path | None = None,
+        schema: bool = True,
     ) -> Scenario:
-        """Validate an already parsed document; relative paths resolve against ``base_dir``."""
+        """Validate an already parsed document; relative paths resolve against ``base_dir``.
+        ``schema=False``: the caller has checked ``data`` against the scenario schema (the
+        semantic checks still run)."""
         where = str(source) if source is not None else "<scenario>"
-        problems = schema_problems(data, "scenario", where)
+        problems = schema_problems(data, "scenario", where) if schema else []
         builder = _Builder(where, base_dir or Path.cwd())
         if problems:
             # Still report the missing files and unknown names, so one pass shows everything.
