@@ -51,7 +51,6 @@ from harness.explore.episode import (
 )
 from harness.explore.errors import ExploreConfigError
 from harness.explore.fast import FastRunner
-from harness.explore.parameters import apply_values
 from harness.explore.plan import ExplorePlan
 from harness.explore.quiet import (
     TRACE_SAMPLES,
@@ -269,11 +268,8 @@ class KernelRunner(EpisodeRunner):
         and recording (the product's run, checked against the kernel's)."""
         started = time.monotonic()
         plan = self.plan
-        document = apply_values(plan.document, plan.parameters, values)
         try:
-            scenario = Scenario.from_mapping(
-                document, base_dir=plan.source.parent, source=plan.source
-            )
+            document, scenario = plan.concrete(values)
         except ScenarioError as exc:
             raise ExploreConfigError(
                 f"{plan.source}: explore: values {dict(values)!r} make the scenario invalid: "
