@@ -176,8 +176,10 @@ class ClearanceLogger:
             data = ctx.data
             self._kept.append((ctx.step, data.geom_xpos.copy(), data.geom_xmat.copy()))
 
-    def settle(self, model: mujoco.MjModel) -> None:
-        """Measure the steps :meth:`keep` kept (see there); ``model``: the run's."""
+    def settle(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Measure the steps :meth:`keep` kept (see there); ``model``, ``data``: the run's
+        (each pair is measured at its kept poses in ``data``, whose geom poses are put back
+        after)."""
         kept, self._kept = self._kept, []
         if not kept or not self._a:
             return
@@ -186,23 +188,25 @@ class ClearanceLogger:
         best = self.minimum.distance
         order = np.argsort(low, axis=None, kind="stable")  # by bound, then step, then pair
         bounds = low.reshape(-1)[order].tolist()
-        scratch = mujoco.MjData(model)
+        saved_xpos, saved_xmat = data.geom_xpos.copy(), data.geom_xmat.copy()
         pa, pb, distmax = self._a, self._b, self.distmax
         npairs = len(pa)
         found: tuple[int, int] | None = None
-        for bound, flat in zip(bounds, order.tolist(), strict=True):
-            if bound > best + _SLACK and bound > 0.0:
-                break
-            row, i = divmod(flat, npairs)
-            _, positions, frames = kept[row]
-            ga, gb = pa[i], pb[i]
-            scratch.geom_xpos[ga] = positions[ga]
-            scratch.geom_xpos[gb] = positions[gb]
-            scratch.geom_xmat[ga] = frames[ga]
-            scratch.geom_xmat[gb] = frames[gb]
-            d = mujoco.mj_geomDistance(model, scratch, ga, gb, distmax, None)
-            if d < best or (d == best and found is not None and (row, i) < found):
-                best, found = d, (row, i)
+        xpos, xmat = data.geom_xpos, data.geom_xmat
+        try:
+            for bound, flat in zip(bounds, order.tolist(), strict=True):
+                if bound > best + _SLACK and bound > 0.0:
+                    break
+                row, i = divmod(flat, npairs)
+                _, positions, frames = kept[row]
+                ga, gb = pa[i], pb[i]
+                xpos[ga], xpos[gb] = positions[ga], positions[gb]
+                xmat[ga], xmat[gb] = frames[ga], frames[gb]
+                d = mujoco.mj_geomDistance(model, data, ga, gb, distmax, None)
+                if d < best or (d == best and found is not None and (row, i) < found):
+                    best, found = d, (row, i)
+        finally:
+            xpos[:], xmat[:] = saved_xpos, saved_xmat
         if found is not None:
             row, i = found
             ga, gb = pa[i], pb[i]

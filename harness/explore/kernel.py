@@ -195,7 +195,7 @@ def run_core(
         core.record_close()
         reports = core.finish()
     if margin is not None:
-        margin.settle(sim.model)
+        margin.settle(sim.model, sim.data)
     collisions = collision_summaries(
         collect.events, dt_ns, robot_links(world), obs.first, sim.model
     )

@@ -263,7 +263,7 @@ def quiet_run(
         steps = sim.step_index - first
         observer.absorb(rows[:steps], sim.step_index, target.samples)
         if margin is not None:
-            margin.settle(sim.model)
+            margin.settle(sim.model, sim.data)
     finally:
         core.record_close()
         core.finish()

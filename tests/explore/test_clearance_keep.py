@@ -64,6 +64,8 @@ def test_kept_steps_settle_to_the_minimum_observed_at_each(
             context = StepContext(sim.step_index, t, sim.model, sim.data, empty, "arm")
             observed.observe(context)
             kept.keep(context)
-    kept.settle(sim.model)
+    before = sim.data.geom_xpos.copy()
+    kept.settle(sim.model, sim.data)
+    assert (sim.data.geom_xpos == before).all()  # the run's poses put back
     assert kept.minimum == observed.minimum
     assert observed.minimum.step > 0
