@@ -416,7 +416,9 @@ class _Bounds:
         if not self._n:
             return np.zeros((steps, 0))
         if self._dense is not None:
-            q = xpos[:, self._span].reshape(steps, -1) @ self._dense.T
+            # einsum, not a matrix product: a product this size runs on BLAS threads, which
+            # spin on the cores parallel workers run on
+            q = np.einsum("sj,ij->si", xpos[:, self._span].reshape(steps, -1), self._dense)
         else:
             q = np.einsum("pij,spj->spi", self._rot, xpos[:, self._a]).reshape(steps, -1)
             q -= (xpos[:, self._b] * self._minus[None]).reshape(steps, -1)
@@ -425,7 +427,7 @@ class _Bounds:
         q -= self._half
         np.maximum(q, 0.0, out=q)
         q *= q
-        gap: npt.NDArray[np.float64] = np.sqrt(q.reshape(steps, -1, 3) @ self._ones)
+        gap: npt.NDArray[np.float64] = np.sqrt(q.reshape(steps, -1, 3).sum(axis=2))
         gap -= self._radius
         return gap
 
