@@ -186,18 +186,21 @@ class ClearanceLogger:
         xpos = np.stack([x for _, x, _ in kept])
         low = self._bounds.lower_many(xpos)  # steps x pairs
         best = self.minimum.distance
-        order = np.argsort(low, axis=None, kind="stable")  # by bound, then step, then pair
-        bounds = low.reshape(-1)[order].tolist()
+        flat = low.reshape(-1)
+        # only what could beat the minimum so far, by bound, then step, then pair
+        maybe = np.flatnonzero((flat <= best + _SLACK) | (flat <= 0.0))
+        order = maybe[np.argsort(flat[maybe], kind="stable")]
+        bounds = flat[order].tolist()
         saved_xpos, saved_xmat = data.geom_xpos.copy(), data.geom_xmat.copy()
         pa, pb, distmax = self._a, self._b, self.distmax
         npairs = len(pa)
         found: tuple[int, int] | None = None
         xpos, xmat = data.geom_xpos, data.geom_xmat
         try:
-            for bound, flat in zip(bounds, order.tolist(), strict=True):
+            for bound, index in zip(bounds, order.tolist(), strict=True):
                 if bound > best + _SLACK and bound > 0.0:
                     break
-                row, i = divmod(flat, npairs)
+                row, i = divmod(index, npairs)
                 _, positions, frames = kept[row]
                 ga, gb = pa[i], pb[i]
                 xpos[ga], xpos[gb] = positions[ga], positions[gb]
