@@ -125,7 +125,7 @@ class _QuietTarget:
         model = sim.model
         self.samples: list[tuple[int, int, npt.NDArray[np.float64]]] = []
         """The observer's trace samples: row, simulation time, the joints' commands."""
-        self._rows = rows
+        self._rows = list(rows)  # one view per step, made once
         self._first = sim.step_index + 1
         self._every = every
         self._spec = sim.state_spec
@@ -192,7 +192,7 @@ class _QuietTarget:
                         plain = 0
                     advance()
                 k += 1
-                get_state(model, data, rows[k - first], spec)
+                get_state(model, data, rows[k - first], spec)  # a list's item: no new view
                 if data.ncon:
                     key = data.contact.geom.tobytes()
                     if key != last:
