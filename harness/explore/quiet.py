@@ -107,6 +107,10 @@ class _Judged(Exception):
     """A step had a contact the verdicts could judge: the quiet run stops."""
 
 
+class _Moved(Exception):
+    """The contacts were not where their view looked: the quiet run stops."""
+
+
 class _QuietTarget:
     """A :class:`harness.scenario.ScriptCommand` target that steps a core quietly (see the
     module docstring)."""
@@ -140,6 +144,7 @@ class _QuietTarget:
         self._margin_due = 0  # the hub's next due time (EventHub.observe)
         self._robot = core.robot_name
         self._no_contacts = ContactSet.empty()
+        self._contacts_at: int | None = None
 
     @property
     def step_index(self) -> int:
@@ -167,6 +172,8 @@ class _QuietTarget:
         advance, mj_step, get_state = sim.step, mujoco.mj_step, mujoco.mj_getState
         rows, first, spec = self._rows, self._first, self._spec
         clean, last = self._clean, self._last
+        seen = 0  # the number of contacts ``geoms`` views
+        geoms = np.zeros((0, 2), dtype=np.int32)
         margin, period, every = self._margin, self._margin_period, self._every
         dt_ns = sim.dt_ns
         k = sim.step_index
@@ -193,8 +200,11 @@ class _QuietTarget:
                     advance()
                 k += 1
                 get_state(model, data, rows[k - first], spec)  # a list's item: no new view
-                if data.ncon:
-                    key = data.contact.geom.tobytes()
+                ncon = data.ncon
+                if ncon:
+                    if ncon != seen:
+                        geoms, seen = self._contact_geoms(data), ncon
+                    key = geoms.tobytes()
                     if key != last:
                         if key not in clean:
                             pairs = np.frombuffer(key, dtype=np.int32)
@@ -215,8 +225,22 @@ class _QuietTarget:
         finally:
             if plain:
                 sim.stepped(plain)
+        if seen and data.ncon == seen and geoms.tobytes() != data.contact.geom.tobytes():
+            raise _Moved  # the view was not the live contacts (checked once a call)
         self._last = last
         return k
+
+    def _contact_geoms(self, data: mujoco.MjData) -> npt.NDArray[np.int32]:
+        """The contacts' geom ids, a view that stays the live one while their number does:
+        MuJoCo keeps the contacts at the start of its arena (checked: a view at another
+        address, or one that differs from the contacts, ends the quiet run)."""
+        geoms: npt.NDArray[np.int32] = data.contact.geom
+        address = geoms.__array_interface__["data"][0]
+        if self._contacts_at is None:
+            self._contacts_at = address
+        elif address != self._contacts_at:
+            raise _Moved
+        return geoms
 
 
 def quiet_run(
@@ -254,7 +278,7 @@ def quiet_run(
                 run_script(target, scenario.script, dt_ns, limit, limit + 1)
             else:
                 target.step(max(0, limit - first))
-        except _Judged:
+        except (_Judged, _Moved):
             return None
         except ScenarioError:
             raise

@@ -241,3 +241,35 @@ def test_quiet_until_skips_only_what_does_nothing() -> None:
     assert control.quiet_until(400) % every == 0  # idle again after its end
     assert np.array_equal(every_step.sim.get_state(), quiet.sim.get_state())
     assert np.array_equal(every_step.sim.data.qpos, quiet.sim.data.qpos)
+
+
+def test_mujoco_keeps_the_contacts_where_the_quiet_run_looks(tmp_path: Path) -> None:
+    """What the quiet run's contact check relies on (a MuJoCo upgrade that breaks it fails
+    here, and the quiet run then ends on its own guard): the contacts' geom ids stay at one
+    address through a run whose contacts come and go, and a view made earlier reads the
+    current contacts while their number is the same."""
+    plan = load_plan(DATA / "sweep.yaml")
+    scenario, document = _scenario(plan, {"objects.obstacle.position": [0.3, -0.5, 0.5]})
+    _, world, _ = WarmWorlds(tmp_path).get(scenario, document)
+    core = SessionCore(world, CoreOptions(clock="lockstep"))
+    core.start()
+    core.set_positions({"joint1": -1.2, "joint2": 0.2, "joint4": -1.6})
+    sim = core.sim
+    addresses, counts, live = set(), set(), 0
+    view = sim.data.contact.geom
+    for k in range(750):
+        if k == 250:
+            core.set_positions({"joint1": 0.0})
+        core.control.before_step()
+        sim.step()
+        current = sim.data.contact.geom
+        if sim.data.ncon:
+            addresses.add(current.__array_interface__["data"][0])
+        if len(view) == len(current) and len(current):
+            assert view.tobytes() == current.tobytes()
+            live += 1
+        counts.add(sim.data.ncon)
+        view = current
+    assert len(addresses) == 1
+    assert len(counts) >= 3  # contacts came and went (the arm hits the post)
+    assert live > 500
