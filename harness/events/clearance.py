@@ -380,15 +380,14 @@ class _Bounds:
         used = np.concatenate([a, b[moving]])
         first, end = int(used.min()), int(used.max()) + 1
         self._span = slice(first, end)
+        self._a, self._b = a, b
+        self._rot = rot
+        self._minus = (~fixed).astype(np.float64)[:, None]
         if 9 * n * (end - first) <= _DENSE_LIMIT:
             dense = np.zeros((n, 3, end - first, 3))
             dense[np.arange(n), :, a - first, :] = rot
             dense[moving, :, b[moving] - first, :] = -np.eye(3)
             self._dense = dense.reshape(3 * n, 3 * (end - first))
-        else:
-            self._a, self._b = a, b
-            self._rot = rot
-            self._minus = (~fixed).astype(np.float64)[:, None]
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> _Bounds:
         """These bounds of the pairs ``keep`` selects."""
@@ -397,11 +396,10 @@ class _Bounds:
         out._offset, out._half = self._offset[rows], self._half[rows]
         out._radius, out._ones = self._radius[keep], self._ones
         out._span = self._span
+        out._a, out._b = self._a[keep], self._b[keep]
+        out._rot, out._minus = self._rot[keep], self._minus[keep]
         if self._dense is not None:
             out._dense = self._dense[rows]
-        else:
-            out._a, out._b = self._a[keep], self._b[keep]
-            out._rot, out._minus = self._rot[keep], self._minus[keep]
         return out
 
     def lower(self, xpos: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -418,13 +416,16 @@ class _Bounds:
         steps = len(xpos)
         if not self._n:
             return np.zeros((steps, 0))
-        if self._dense is not None:
-            # einsum, not a matrix product: a product this size runs on BLAS threads, which
-            # spin on the cores parallel workers run on
-            q = np.einsum("sj,ij->si", xpos[:, self._span].reshape(steps, -1), self._dense)
-        else:
-            q = np.einsum("pij,spj->spi", self._rot, xpos[:, self._a]).reshape(steps, -1)
-            q -= (xpos[:, self._b] * self._minus[None]).reshape(steps, -1)
+        # per pair (not the one matrix: at this size a matrix product runs on BLAS threads,
+        # which spin on the cores parallel workers run on, and is mostly zeros)
+        x, rot = xpos[:, self._a], self._rot  # steps x pairs x 3
+        moved: npt.NDArray[np.float64] = np.empty(x.shape)
+        for i in range(3):  # the 3x3 product written out: ~5x an einsum's pace here
+            moved[..., i] = (
+                rot[:, i, 0] * x[..., 0] + rot[:, i, 1] * x[..., 1] + rot[:, i, 2] * x[..., 2]
+            )
+        moved -= xpos[:, self._b] * self._minus[None]
+        q = moved.reshape(steps, -1)
         q += self._offset
         np.abs(q, out=q)
         q -= self._half
