@@ -429,12 +429,13 @@ class JointTrajectoryController(ControllerBase):
         if not self.active:
             return out
         now = state.sim_time_ns
-        actual = self._actual(state)
+        actual: _Actual | None = None  # read when a trajectory or the state message needs it
         desired: Sample | None = None
         error: tuple[list[float], list[float]] | None = None
         holding = False
         trajectory = self.trajectory
         if trajectory is not None:
+            actual = self._actual(state)
             first_sample = not trajectory.sampled
             if first_sample:
                 trajectory.set_point_before(now, Point(0, tuple(actual[0]), tuple(actual[1])))
@@ -453,11 +454,15 @@ class JointTrajectoryController(ControllerBase):
         if self.state_period_ns == 0 or now >= self._state_next:
             # the first update at or after each period (no drift: the mean rate is the rate)
             self._state_next = (now // max(1, self.state_period_ns) + 1) * self.state_period_ns
+            read = actual
             out.publications.append(
                 Publication(
                     "~/controller_state",
                     STATE_TYPE,
-                    build=lambda: self._state_msg(now, actual, desired, error, holding),
+                    # built in this cycle or not at all: the readings are this cycle's
+                    build=lambda: self._state_msg(
+                        now, self._actual(state) if read is None else read, desired, error, holding
+                    ),
                 )
             )
         return out
