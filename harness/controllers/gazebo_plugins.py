@@ -30,7 +30,6 @@ import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import replace
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +44,7 @@ from harness.controllers.config import (
 from harness.controllers.diff_drive import TYPE_DIFF_DRIVE
 from harness.controllers.errors import ControllersConfigError, ControllersWarning
 from harness.controllers.planar import TYPE_PLANAR
-from harness.models import drive_plugin_elements, parse_xml
+from harness.models import drive_plugin_elements, parse_xml_kept
 
 __all__ = ["BASE_CONTROLLER_TYPES", "ROS2_CONTROL_PLUGINS", "drive_plugins", "robot_controllers"]
 
@@ -268,14 +267,6 @@ def _plugin_remaps(config: ControllersConfig, plugin: etree._Element) -> Control
     return replace(config, controllers=tuple(specs))
 
 
-@lru_cache(maxsize=16)
-def _parsed(data: bytes, source: str) -> etree._Element:
-    """``parse_xml(data, source)``, kept for the next session of the same robot (every
-    session and ``harness explore`` example reads its robot's files again, twice). The tree
-    is only read here, never changed; a document that does not parse is not kept."""
-    return parse_xml(data, source)
-
-
 def robot_controllers(
     default: ControllersConfig, sources: Mapping[str, bytes]
 ) -> ControllersConfig:
@@ -289,7 +280,7 @@ def robot_controllers(
     named: list[str] = []
     for name, data in sources.items():
         if name.startswith("model/") and name.endswith(_MODEL_SUFFIXES):
-            root = _parsed(bytes(data), name)
+            root = parse_xml_kept(bytes(data), name)
             files += _parameter_files(root, name)
             found = drive_plugins(root, name)
             if found:

@@ -27,11 +27,10 @@ the signature, the margins, the state digest, and the compiled model (the record
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 from harness.events import (
     ClearanceLogger,
@@ -40,7 +39,13 @@ from harness.events import (
     EventHub,
     Level,
     StepContext,
-    velocity_limits,
+)
+from harness.explore.core import (
+    TRACE_SAMPLES,
+    CoreTarget,
+    core_options,
+    example_observer,
+    example_result,
 )
 from harness.explore.episode import (
     EpisodeRunner,
@@ -52,30 +57,21 @@ from harness.explore.episode import (
 from harness.explore.errors import ExploreConfigError
 from harness.explore.fast import FastRunner
 from harness.explore.plan import ExplorePlan
-from harness.explore.quiet import (
-    TRACE_SAMPLES,
-    CoreHost,
-    core_options,
-    quiet_blocker,
-    quiet_run,
-)
+from harness.explore.quiet import quiet_blocker, quiet_run
 from harness.explore.warm import WarmWorlds, model_bytes, topology_key
 from harness.models import LoadedWorld
 from harness.scenario import (
-    IterationObserver,
     IterationResult,
     Scenario,
     ScenarioError,
     ScenarioSession,
-    Verdict,
     check_script,
     collision_summaries,
-    criteria_settings,
-    judge,
     robot_links,
     run_script,
+    run_verdicts,
+    sink_notes,
     steps_for,
-    travel_verdict,
 )
 from harness.session import SessionCore, SessionError
 
@@ -85,13 +81,10 @@ QUIET_CHECKS = 2
 """How many quiet passes of each topology are also run in full and compared."""
 
 
-class _CoreTarget:
+class _CoreTarget(CoreTarget):
     """A :class:`harness.scenario.ScriptCommand` target over a core: what
     :meth:`harness.session.Session.step` and its Python commands do, without the shell (no
     frames wait at a boundary: nothing is connected)."""
-
-    def __init__(self, core: SessionCore) -> None:
-        self._core = core
 
     def step(self, n: int = 1) -> int:
         core = self._core
@@ -101,23 +94,6 @@ class _CoreTarget:
             core.check_running()
             core.advance()
         return core.sim.step_index
-
-    def set_positions(self, positions: Mapping[str, float]) -> Any:
-        return self._core.set_positions(dict(positions))
-
-    def command(
-        self,
-        joint: str,
-        *,
-        position: float | None = None,
-        velocity: float | None = None,
-        effort: float | None = None,
-    ) -> Any:
-        return self._core.command(joint, position=position, velocity=velocity, effort=effort)
-
-    @property
-    def step_index(self) -> int:
-        return int(self._core.sim.step_index)
 
 
 class _Kept:
@@ -155,12 +131,8 @@ def run_core(
     collect = CollectingSink(min_level=Level.INFO)
     for sink in [*planned.sinks(), collect]:
         hub.add_sink(sink)
-    expected = steps_for(scenario.duration, round(timestep * 1e9))
-    every = max(1, math.ceil(expected / TRACE_SAMPLES))
     sim = core.sim
-    obs = IterationObserver(
-        cast(Any, CoreHost(sim, world)), every, scenario.criteria.joint_limit_tolerance
-    )
+    obs = example_observer(scenario, core, world, timestep)
     hub.add_logger(obs)
     margin: ClearanceLogger | None = None
     stepper_error: BaseException | None = None
@@ -200,35 +172,11 @@ def run_core(
         collect.events, dt_ns, robot_links(world), obs.first, sim.model
     )
     limits = obs.limits()
-    verdicts = list(judge(scenario.criteria, None, collisions, limits))
-    if scenario.criteria.returns_to_start is not None:
-        travels = obs.bases.travels(sim.data)
-        verdicts.append(travel_verdict(scenario.criteria.returns_to_start, travels))
     problem = failure or stepper_error
-    if problem is not None:
-        verdicts.append(Verdict("simulation", False, f"the simulation stopped: {problem}"))
-    notes = tuple(
-        f"log sink {r.name}: {r.delivered} delivered, {r.dropped} dropped"
-        + (f" ({r.note})" if r.note else "")
-        for r in reports
-        if r.dropped or r.note
-    )
-    result = IterationResult(
-        simulation=scenario.name,
-        iteration=1,
-        verdicts=tuple(verdicts),
-        sim_time=obs.step * dt_ns / 1e9,
-        steps=obs.step,
-        recording=None,
-        collisions=collisions,
-        joint_limits=limits,
-        traces=obs.traces(velocity_limits(world.combined_description())),
-        state_digest=obs.digest.hexdigest(),
-        client=None,
-        port=0,
-        wall_seconds=time.monotonic() - started,
-        notes=notes,
-        settings=criteria_settings(scenario.criteria),
+    verdicts = run_verdicts(scenario, None, collisions, limits, obs, sim.data, problem)
+    notes = sink_notes(reports)
+    result = example_result(
+        scenario, obs, world, dt_ns, verdicts, collisions, limits, notes, started
     )
     return result, margin
 

@@ -33,59 +33,31 @@ topology in full as well and compares the examples.
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Any, cast
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from harness.events import ClearanceLogger, EventHub, StepContext, velocity_limits
+from harness.events import ClearanceLogger, EventHub, StepContext
+from harness.explore.core import CoreTarget, core_options, example_observer, example_result
 from harness.explore.episode import clearance_logger
 from harness.models import LoadedWorld
 from harness.scenario import (
-    IterationObserver,
     IterationResult,
     Scenario,
     ScenarioError,
     ScenarioSession,
     check_script,
-    criteria_settings,
-    judge,
     robot_links,
     run_script,
+    run_verdicts,
     steps_for,
 )
-from harness.session import CoreOptions, SessionConfigError, SessionCore
+from harness.session import SessionCore
 from harness.sim import ContactSet
 
-__all__ = ["TRACE_SAMPLES", "CoreHost", "core_options", "quiet_blocker", "quiet_run"]
-
-TRACE_SAMPLES = 500
-"""About how many joint trace samples an example keeps (the session runner's default)."""
-
-
-@dataclass(frozen=True)
-class CoreHost:
-    """What the session runner's observer reads of a session: its simulation and world."""
-
-    sim: Any
-    world: LoadedWorld
-
-
-def core_options(scenario: Scenario, planned: ScenarioSession) -> CoreOptions:
-    """The session options of an example: the plan's, with the example's seed and sensors
-    (values of a warm world: :mod:`harness.explore.warm`)."""
-    try:
-        return dataclasses.replace(
-            planned.options, seed=scenario.seed, sensors=tuple(scenario.sensors)
-        )
-    except SessionConfigError as exc:
-        raise ScenarioError([f"{scenario.source}: {exc}"]) from None
+__all__ = ["quiet_blocker", "quiet_run"]
 
 
 def quiet_blocker(scenario: Scenario, planned: ScenarioSession) -> str | None:
@@ -111,7 +83,7 @@ class _Moved(Exception):
     """The contacts were not where their view looked: the quiet run stops."""
 
 
-class _QuietTarget:
+class _QuietTarget(CoreTarget):
     """A :class:`harness.scenario.ScriptCommand` target that steps a core quietly (see the
     module docstring)."""
 
@@ -124,7 +96,7 @@ class _QuietTarget:
         judge_world: bool,
         margin: ClearanceLogger | None,
     ) -> None:
-        self._core = core
+        super().__init__(core)
         sim = core.sim
         model = sim.model
         self.samples: list[tuple[int, int, npt.NDArray[np.float64]]] = []
@@ -145,23 +117,6 @@ class _QuietTarget:
         self._robot = core.robot_name
         self._no_contacts = ContactSet.empty()
         self._contacts_at: int | None = None
-
-    @property
-    def step_index(self) -> int:
-        return int(self._core.sim.step_index)
-
-    def set_positions(self, positions: Mapping[str, float]) -> Any:
-        return self._core.set_positions(dict(positions))
-
-    def command(
-        self,
-        joint: str,
-        *,
-        position: float | None = None,
-        velocity: float | None = None,
-        effort: float | None = None,
-    ) -> Any:
-        return self._core.command(joint, position=position, velocity=velocity, effort=effort)
 
     def step(self, n: int = 1) -> int:
         core = self._core
@@ -255,13 +210,10 @@ def quiet_run(
     full). ``scenario`` must have no :func:`quiet_blocker`. Arguments: those of
     :func:`harness.explore.kernel.run_core`."""
     started = time.monotonic()
-    options = core_options(scenario, planned)
-    core = SessionCore(world, options, hub=EventHub())
+    core = SessionCore(world, core_options(scenario, planned), hub=EventHub())
     sim = core.sim
-    expected = steps_for(scenario.duration, round(timestep * 1e9))
-    every = max(1, math.ceil(expected / TRACE_SAMPLES))
-    tolerance = scenario.criteria.joint_limit_tolerance
-    observer = IterationObserver(cast(Any, CoreHost(sim, world)), every, tolerance)
+    observer = example_observer(scenario, core, world, timestep)
+    every = observer.every
     dt_ns = core.dt_ns
     try:
         core.start()
@@ -292,24 +244,8 @@ def quiet_run(
         core.record_close()
         core.finish()
     limits = observer.limits()
-    verdicts = judge(scenario.criteria, None, (), limits)
+    verdicts = run_verdicts(scenario, None, (), limits, observer, sim.data, None)
     if not all(v.passed for v in verdicts):
         return None
-    result = IterationResult(
-        simulation=scenario.name,
-        iteration=1,
-        verdicts=verdicts,
-        sim_time=observer.step * dt_ns / 1e9,
-        steps=observer.step,
-        recording=None,
-        collisions=(),
-        joint_limits=limits,
-        traces=observer.traces(velocity_limits(world.combined_description())),
-        state_digest=observer.digest.hexdigest(),
-        client=None,
-        port=0,
-        wall_seconds=time.monotonic() - started,
-        notes=(),
-        settings=criteria_settings(scenario.criteria),
-    )
+    result = example_result(scenario, observer, world, dt_ns, verdicts, (), limits, (), started)
     return result, margin

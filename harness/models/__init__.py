@@ -49,7 +49,7 @@ from harness.models.files.confine import confined_to
 from harness.models.files.limits import ModelLimitError, check_model_limits, check_spec
 from harness.models.files.meshes import mesh_cache_dir
 from harness.models.files.resolve import MODEL_PATH_VARIABLES, resolve_uri
-from harness.models.files.xmlsafe import parse_xml
+from harness.models.files.xmlsafe import parse_xml, parse_xml_kept
 from harness.models.mjcf.files import check_mjcf_files, generated_from
 from harness.models.sdf.worldfile import is_sdf_world, load_world_file, world_timestep
 from harness.models.urdf.ros2_control import HardwareReplacedWarning, Ros2Control
@@ -133,6 +133,7 @@ __all__ = [
     "mesh_cache_dir",
     "object_friction",
     "parse_xml",
+    "parse_xml_kept",
     "resolve_uri",
     "robot_args",
     "set_object_values",

@@ -57,7 +57,13 @@ from harness.scenario.script import ScriptCommand, run_script
 from harness.scenario.session_options import ScenarioSession, scenario_session
 from harness.scenario.session_runner import _collisions as collision_summaries
 from harness.scenario.session_runner import _Observer as IterationObserver
-from harness.scenario.session_runner import check_script, robot_links, steps_for
+from harness.scenario.session_runner import (
+    check_script,
+    robot_links,
+    run_verdicts,
+    sink_notes,
+    steps_for,
+)
 from harness.scenario.travel import travel_verdict
 from harness.scenario.world import effective_timestep, robot_pose
 
@@ -112,9 +118,11 @@ __all__ = [
     "run_iterations",
     "run_scenarios",
     "run_script",
+    "run_verdicts",
     "scenario_session",
     "schema_validator",
     "session_iteration_runner",
+    "sink_notes",
     "steps_for",
     "stop_group",
     "travel_verdict",

@@ -42,7 +42,7 @@ import hashlib
 import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from urllib.parse import urlsplit
 
@@ -59,6 +59,7 @@ from harness.events import (
     Level,
     Logger,
     Sink,
+    SinkReport,
     StepContext,
     index_of,
     solver_limit_tolerance,
@@ -424,19 +425,10 @@ class SessionIterationRunner:
             collect.events, dt_ns, robot_links(session.world), obs.first, session.model
         )
         limits = obs.limits()
-        verdicts = list(judge(scenario.criteria, outcome, collisions, limits))
-        if scenario.criteria.returns_to_start is not None:
-            travels = obs.bases.travels(session.sim.data)
-            verdicts.append(travel_verdict(scenario.criteria.returns_to_start, travels))
-        problem = failure or stepper_error
-        if problem is not None:
-            verdicts.append(Verdict("simulation", False, f"the simulation stopped: {problem}"))
-        notes = tuple(
-            f"log sink {r.name}: {r.delivered} delivered, {r.dropped} dropped"
-            + (f" ({r.note})" if r.note else "")
-            for r in session.sink_reports
-            if r.dropped or r.note
+        verdicts = run_verdicts(
+            scenario, outcome, collisions, limits, obs, session.sim.data, failure or stepper_error
         )
+        notes = sink_notes(session.sink_reports)
         return IterationResult(
             simulation=spec.simulation,
             iteration=spec.iteration,
@@ -454,6 +446,37 @@ class SessionIterationRunner:
             notes=notes,
             settings=criteria_settings(scenario.criteria),
         )
+
+
+def run_verdicts(
+    scenario: Scenario,
+    client: ClientOutcome | None,
+    collisions: tuple[CollisionSummary, ...],
+    limits: tuple[JointLimitSummary, ...],
+    observer: _Observer,
+    data: mujoco.MjData,
+    problem: BaseException | None,
+) -> list[Verdict]:
+    """The verdicts of one run: the criteria's (:func:`judge`), ``returns_to_start``'s
+    travel (from ``observer`` and the run's last ``data``) and, when the run stopped on
+    ``problem``, the simulation's."""
+    verdicts = list(judge(scenario.criteria, client, collisions, limits))
+    if scenario.criteria.returns_to_start is not None:
+        travels = observer.bases.travels(data)
+        verdicts.append(travel_verdict(scenario.criteria.returns_to_start, travels))
+    if problem is not None:
+        verdicts.append(Verdict("simulation", False, f"the simulation stopped: {problem}"))
+    return verdicts
+
+
+def sink_notes(reports: Iterable[SinkReport]) -> tuple[str, ...]:
+    """One line per log sink that dropped events or has a note."""
+    return tuple(
+        f"log sink {r.name}: {r.delivered} delivered, {r.dropped} dropped"
+        + (f" ({r.note})" if r.note else "")
+        for r in reports
+        if r.dropped or r.note
+    )
 
 
 def check_script(scenario: Scenario, joints: tuple[str, ...]) -> None:

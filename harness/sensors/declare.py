@@ -26,26 +26,17 @@ else ``<gz_frame_id>``, else the sensor name.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from functools import lru_cache
 from typing import Any
 
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
-from harness.models import ModelError, parse_xml
+from harness.models import ModelError, parse_xml_kept
 from harness.sensors.errors import SensorConfigError
 from harness.sensors.registry import gazebo_kind
 from harness.sensors.sdf_values import element_number, element_text
 from harness.sensors.spec import SensorSpec, sensor_token
 
 __all__ = ["declared_in_sources", "sensors_from_sdf", "sensors_from_urdf"]
-
-
-@lru_cache(maxsize=16)
-def _parsed(data: bytes, source: str) -> etree._Element:
-    """``parse_xml(data, source)``, kept for the next session of the same robot (every
-    session and ``harness explore`` example reads its robot's files again). The tree is only
-    read here, never changed; a document that does not parse is not kept."""
-    return parse_xml(data, source)
 
 
 _URDF_SUFFIXES = (".urdf", ".xacro")
@@ -239,7 +230,7 @@ def sensors_from_urdf(
 ) -> list[SensorSpec]:
     """The sensors of the URDF ``<gazebo reference>`` blocks in ``data`` (``plugins``: and its
     ground truth plugins)."""
-    root = _parsed(bytes(data), source)
+    root = parse_xml_kept(bytes(data), source)
     out: list[SensorSpec] = []
     # Gazebo force-torque sensors reference a joint: they sit on its child link.
     children = {j.get("name", ""): element_text(j, "child") or "" for j in root.iter("joint")}
@@ -272,7 +263,7 @@ def sensors_from_sdf(
 ) -> list[SensorSpec]:
     """The sensors of the SDF ``<link>`` and ``<joint>`` elements in ``data`` (``plugins``: and
     its ground truth plugins)."""
-    root = _parsed(bytes(data), source)
+    root = parse_xml_kept(bytes(data), source)
     out: list[SensorSpec] = []
     for link in root.iter("link"):
         for sensor in link.findall("sensor"):

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 import harness.controllers.gazebo_plugins as gazebo_plugins
+import harness.models.files.xmlsafe as xmlsafe
 import harness.sensors.declare as declare
 from harness.controllers import ControllersWarning, default_controllers, robot_controllers
 from harness.sensors import declared_in_sources
@@ -20,8 +21,12 @@ SENSORS = Path(__file__).resolve().parents[1] / "data" / "sensors" / "sensor_bot
 
 
 def _counting(monkeypatch: pytest.MonkeyPatch, module: object) -> list[str]:
+    """Counts the parses behind ``module``'s robot file reads (``parse_xml_kept`` parses
+    through ``harness.models.files.xmlsafe.parse_xml``)."""
+    assert module.parse_xml_kept is xmlsafe.parse_xml_kept  # type: ignore[attr-defined]
+    module = xmlsafe
     parsed: list[str] = []
-    real = module.parse_xml  # type: ignore[attr-defined]
+    real = module.parse_xml
 
     def parse_xml(data: bytes, source: str) -> object:
         parsed.append(source)

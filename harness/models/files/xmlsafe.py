@@ -8,13 +8,21 @@ than :data:`MAX_XML_BYTES` are refused before they are read.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 
 from lxml import etree  # type: ignore[import-untyped,unused-ignore]
 
 from harness.models.errors import XMLError
 
-__all__ = ["MAX_XML_BYTES", "check_size", "describe", "parse_xml", "read_xml_file"]
+__all__ = [
+    "MAX_XML_BYTES",
+    "check_size",
+    "describe",
+    "parse_xml",
+    "parse_xml_kept",
+    "read_xml_file",
+]
 
 MAX_XML_BYTES = 32 * 2**20
 """The largest robot, world or mesh XML file read (32 MiB; real URDF/SDF files are far
@@ -48,6 +56,14 @@ def parse_xml(data: bytes, source: str) -> etree._Element:
     if dtd is not None and any(True for _ in dtd.iterentities()):
         raise XMLError(f"{source}: entity declarations are not allowed (unsafe XML refused)")
     return root
+
+
+@lru_cache(maxsize=32)
+def parse_xml_kept(data: bytes, source: str) -> etree._Element:
+    """:func:`parse_xml`, kept per content and name for the next reader of the same robot
+    (every session and ``harness explore`` example reads its robot's files again). For
+    readers that never change the tree; a document that does not parse is not kept."""
+    return parse_xml(data, source)
 
 
 def read_xml_file(path: str | Path) -> tuple[etree._Element, bytes]:
